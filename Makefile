@@ -1,0 +1,46 @@
+# aquaspec: make setup | make test | make demo | make bench
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+DEBS   := mesa-vulkan-drivers libvulkan1
+EXTRAS := test,exr,validation
+export XDG_RUNTIME_DIR ?= $(CURDIR)/.xdg-runtime
+
+.PHONY: setup debs test demo bench clean
+
+setup: debs $(VENV)/.installed
+
+# Installs the Debian packages wgpu needs on a machine without a GPU (Mesa's
+# lavapipe Vulkan driver) when they are missing and we are root; otherwise
+# prints the exact command to run.
+debs:
+	@missing=""; for p in $(DEBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "installing Debian packages:$$missing"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	  else \
+	    echo "missing Debian packages:$$missing"; \
+	    echo "run: sudo apt-get install -y$$missing"; \
+	  fi; \
+	fi
+
+$(VENV)/.installed: pyproject.toml
+	test -x $(PY) || python3 -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e ".[$(EXTRAS)]"
+	touch $@
+
+test: setup
+	@mkdir -p $(XDG_RUNTIME_DIR)
+	$(PY) -m pytest -q
+
+demo: setup
+	@mkdir -p $(XDG_RUNTIME_DIR)
+	$(VENV)/bin/aquaspec render --water IB --depth 5 --size 1280x720 --bands 16 -o demo.png
+
+bench: setup
+	@mkdir -p $(XDG_RUNTIME_DIR)
+	$(VENV)/bin/aquaspec bench
+
+clean:
+	rm -rf $(VENV) .pytest_cache .xdg-runtime
