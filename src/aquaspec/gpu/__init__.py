@@ -1,0 +1,1 @@
+"""GPU layer: wgpu device selection, WGSL loading, uniform layouts, passes."""

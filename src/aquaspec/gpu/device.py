@@ -1,0 +1,84 @@
+"""Choosing a wgpu adapter and device.
+
+A real GPU is used when present; on machines without one, Mesa's lavapipe
+Vulkan driver runs the same WGSL on the CPU. ``AQUASPEC_ADAPTER`` forces a
+choice: ``gpu`` (a discrete or integrated GPU), ``cpu`` (a software adapter
+such as lavapipe), or a substring of the adapter's device name.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import tempfile
+
+from ..errors import GPUUnavailableError
+
+ADAPTER_ENV = "AQUASPEC_ADAPTER"
+_DEBIAN_HINT = ("install a Vulkan driver; on Debian/Ubuntu without a GPU: "
+                "sudo apt-get install -y mesa-vulkan-drivers libvulkan1")
+
+
+def _ensure_runtime_dir():
+    # wgpu's Vulkan loader warns when XDG_RUNTIME_DIR is unset or unwritable.
+    d = os.environ.get("XDG_RUNTIME_DIR")
+    if not d or not os.access(d, os.W_OK):
+        d = os.path.join(tempfile.gettempdir(), f"aquaspec-xdg-{os.getuid()}")
+        os.makedirs(d, mode=0o700, exist_ok=True)
+        os.environ["XDG_RUNTIME_DIR"] = d
+
+
+def _choose(adapters, want: str | None):
+    vulkan_first = sorted(adapters, key=lambda a: a.info.get("backend_type") != "Vulkan")
+    if not want:
+        hw = [a for a in vulkan_first if a.info.get("adapter_type") in
+              ("DiscreteGPU", "IntegratedGPU")]
+        return (hw or vulkan_first)[0]
+    w = want.lower()
+    if w == "gpu":
+        picked = [a for a in vulkan_first if a.info.get("adapter_type") in
+                  ("DiscreteGPU", "IntegratedGPU")]
+    elif w == "cpu":
+        picked = [a for a in vulkan_first if a.info.get("adapter_type") == "CPU"]
+    else:
+        picked = [a for a in vulkan_first if w in a.info.get("device", "").lower()]
+    if not picked:
+        names = ", ".join(f"{a.info.get('device')} ({a.info.get('adapter_type')})"
+                          for a in adapters) or "none"
+        raise GPUUnavailableError(
+            f"{ADAPTER_ENV}={want!r} matches no adapter; accepted: 'gpu', 'cpu' "
+            f"or part of a device name; available: {names}")
+    return picked[0]
+
+
+@functools.lru_cache(maxsize=1)
+def get_device():
+    """The shared ``(adapter, device)`` pair, created on first use."""
+    _ensure_runtime_dir()
+    try:
+        import wgpu
+    except ImportError as exc:  # pragma: no cover - wgpu is a dependency
+        raise GPUUnavailableError(f"wgpu is not installed ({exc}); pip install wgpu") from exc
+    try:
+        adapters = wgpu.gpu.enumerate_adapters_sync()
+    except Exception as exc:  # the native library raises various types
+        raise GPUUnavailableError(f"no wgpu adapter could be listed ({exc}); {_DEBIAN_HINT}") from exc
+    if not adapters:
+        raise GPUUnavailableError(f"no wgpu adapter found; {_DEBIAN_HINT}")
+    adapter = _choose(adapters, os.environ.get(ADAPTER_ENV))
+    limits = {}
+    for key in ("max-storage-buffer-binding-size", "max-buffer-size",
+                "max-texture-dimension-2d", "max-storage-buffers-per-shader-stage"):
+        if key in adapter.limits:
+            limits[key] = adapter.limits[key]
+    features = [f for f in ("timestamp-query",) if f in adapter.features]
+    device = adapter.request_device_sync(required_limits=limits,
+                                         required_features=features)
+    return adapter, device
+
+
+def adapter_info() -> dict:
+    """Name, type and backend of the adapter in use (for sidecars and bench)."""
+    adapter, _ = get_device()
+    info = adapter.info
+    return {k: info.get(k) for k in ("device", "adapter_type", "backend_type", "description")}
