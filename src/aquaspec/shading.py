@@ -1,0 +1,228 @@
+"""Deferred spectral shading of a G-buffer in NumPy (float64): the reference.
+
+:func:`shade_gbuffer` turns a :class:`~aquaspec.gbuffer.GBuffer` into linear
+camera RGB with the analytic model of :mod:`aquaspec.model`. It is the oracle
+the GPU pass :class:`aquaspec.gpu.deferred.DeferredPass` (WGSL:
+``shaders/deferred.wgsl`` and ``shaders/common.wgsl``) is tested against; the
+two follow the same formulas and the same branches, so change them together.
+
+Conventions
+-----------
+World units are metres, y is up, the water surface is y = 0 and the depth of
+a point p is ``-p.y``. The camera sits at depth ``d_o = -camera.position.y``
+(>= 0); pixel ray ``v`` is :meth:`Camera.ray_directions`. Per pixel:
+
+- open water (``distance = inf``): the ray runs to infinity, or, going up,
+  to the water surface at ``S = d_o / v_y``, where the sky is seen through
+  Snell's window (:func:`aquaspec.model.surface_from_below`);
+- a hit at distance ``S``: a Lambertian surface at depth
+  ``-(o_y + S v_y)`` with normal ``n``, lit by the ambient irradiance
+  (:func:`aquaspec.model.ambient_irradiance`, model ``ambient``).
+  A hit *beyond* the water surface (an up ray with ``S > d_o / v_y``, e.g. a
+  rock sticking out of the water) is not reached: the ray ends at the
+  surface, and the pixel is shaded as open water looking up.
+
+Band radiance ``L = T(S) L_surf + L_MS`` (:func:`aquaspec.model.pixel_radiance`)
+becomes camera RGB as ``sum_i w_i L_i R_c,i`` with ``response_weights``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import model
+from .errors import AquaspecError
+from .gbuffer import PER_PIXEL, GBuffer
+
+#: Per-ray sigmoid polynomial values are clamped to +-SIGMOID_X_MAX before
+#: ``x / sqrt(1 + x^2)``: beyond it the reflectance is 0 or 1 to 1e-12, and
+#: the clamp keeps ``x^2`` finite in float32 on the GPU (same clamp there).
+SIGMOID_X_MAX = 1.0e6
+
+#: Upper bound on float64 elements of one row chunk per band array.
+_CHUNK_ELEMENTS = 1 << 20
+
+
+def sigmoid_reflectance(coeffs, t):
+    """Jakob-Hanika (2019) sigmoid reflectance at normalised wavelengths ``t``.
+
+    ``rho = 0.5 + x / (2 sqrt(1 + x^2))``, ``x = c0 t^2 + c1 t + c2``,
+    ``t = (lambda_nm - 550) / 100``. ``coeffs`` is (..., 3), ``t`` is (n,);
+    the result is (..., n). WGSL twin: ``sigmoid_reflectance`` in
+    ``shaders/common.wgsl``.
+
+    References
+    ----------
+    .. [Jakob2019] W. Jakob, J. Hanika, "A low-dimensional function space for
+       efficient spectral upsampling", Computer Graphics Forum 38(2), 2019.
+    """
+    c = np.asarray(coeffs, dtype=float)
+    t = np.asarray(t, dtype=float)
+    x = (c[..., 0:1] * t + c[..., 1:2]) * t + c[..., 2:3]
+    x = np.clip(x, -SIGMOID_X_MAX, SIGMOID_X_MAX)
+    return 0.5 + 0.5 * x / np.sqrt(1.0 + x * x)
+
+
+def _band_array(name, value, n, *, unit, minimum=0.0):
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (n,):
+        raise AquaspecError(f"{name} has shape {arr.shape}; expected ({n},), one value "
+                            f"per band in {unit}")
+    if not np.all(np.isfinite(arr)):
+        raise AquaspecError(f"{name} contains NaN or infinity; expected finite {unit}")
+    if minimum is not None and np.any(arr < minimum):
+        i = int(np.argmax(arr < minimum))
+        raise AquaspecError(f"{name}[{i}] = {arr[i]:g} is negative; accepted: >= 0 {unit}")
+    return arr
+
+
+def check_medium(a, b, kd, e0, response_weights, material_bands, sigmoid_centers_t,
+                 ambient, n_materials=None):
+    """Validate the per-band inputs of the shading; returns them as float64 arrays.
+
+    Shared by :func:`shade_gbuffer` and the GPU pass so both accept and
+    reject the same inputs. ``n_materials``, when given, is the number of
+    materials the G-buffer defines.
+    """
+    a_arr = np.asarray(a, dtype=float)
+    if a_arr.ndim != 1 or a_arr.size < 1:
+        raise AquaspecError(f"a has shape {a_arr.shape}; expected (n,) with n >= 1 bands")
+    n = a_arr.size
+    a_arr = _band_array("a", a_arr, n, unit="1/m")
+    b_arr = _band_array("b", b, n, unit="1/m")
+    kd_arr = _band_array("kd", kd, n, unit="1/m")
+    e0_arr = _band_array("e0", e0, n, unit="W m^-2 nm^-1")
+    c = a_arr + b_arr
+    if np.any(c <= 0):
+        i = int(np.argmax(c <= 0))
+        raise AquaspecError(f"extinction a + b is {c[i]:g} in band {i}; it must be > 0 1/m "
+                            "(open-water rays would never end)")
+    w = np.asarray(response_weights, dtype=float)
+    if w.shape != (n, 3):
+        raise AquaspecError(f"response_weights has shape {w.shape}; expected ({n}, 3)")
+    if not np.all(np.isfinite(w)):
+        raise AquaspecError("response_weights contains NaN or infinity")
+    mb = np.zeros((0, n)) if material_bands is None else np.asarray(material_bands, dtype=float)
+    if mb.ndim != 2 or mb.shape[1] != n:
+        raise AquaspecError(f"material_bands has shape {mb.shape}; expected (M, {n}): "
+                            "one band reflectance per material")
+    if n_materials is not None and mb.shape[0] != n_materials:
+        raise AquaspecError(f"material_bands has {mb.shape[0]} rows but the G-buffer defines "
+                            f"{n_materials} materials")
+    if not np.all(np.isfinite(mb)) or np.any(mb < 0):
+        raise AquaspecError("material_bands must be finite and >= 0")
+    t = _band_array("sigmoid_centers_t", sigmoid_centers_t, n, unit="(lambda - 550)/100",
+                    minimum=None)
+    if ambient not in model.AMBIENT_MODELS:
+        raise AquaspecError(f"unknown ambient model {ambient!r}; known: "
+                            f"{', '.join(model.AMBIENT_MODELS)}")
+    return a_arr, b_arr, kd_arr, e0_arr, w, mb, t
+
+
+def camera_depth(camera) -> float:
+    """Camera depth ``-position.y`` in m; raises if the camera is above the water."""
+    d_o = float(-camera.position[1])
+    if d_o < 0:
+        raise AquaspecError(f"camera is {-d_o:g} m above the water surface (position y = "
+                            f"{camera.position[1]:g}); the shading needs y <= 0")
+    return d_o
+
+
+def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_bands,
+                  sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
+                  return_radiance: bool = False) -> dict:
+    """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
+
+    Parameters
+    ----------
+    gbuffer : GBuffer
+        Distance, normal, material and sigmoid coefficients per pixel.
+    a, b, kd : array_like, shape (n,)
+        Band absorption, scattering and diffuse attenuation in 1/m.
+    e0 : array_like, shape (n,)
+        Downwelling irradiance just below the surface, W m^-2 nm^-1.
+    response_weights : array_like, shape (n, 3)
+        Band-averaged camera response times band width
+        (see :func:`aquaspec.model.radiance_to_rgb`).
+    material_bands : array_like, shape (M, n)
+        Band reflectances of ``gbuffer.materials`` (M = their number; may be
+        ``None`` when there are none).
+    sigmoid_centers_t : array_like, shape (n,)
+        Normalised band-centre wavelengths ``(lambda - 550) / 100`` at which
+        per-pixel sigmoid reflectances are evaluated.
+    ambient : str
+        Ambient irradiance model, a key of :data:`aquaspec.model.AMBIENT_MODELS`.
+    return_radiance : bool
+        Also return the band radiance.
+
+    Returns
+    -------
+    dict
+        ``"camera_rgb"``: (H, W, 3) float64 linear camera RGB; with
+        ``return_radiance``, also ``"radiance"``: (H, W, n) float64 in
+        W m^-2 sr^-1 nm^-1.
+
+    Notes
+    -----
+    Rows are shaded in chunks so that 1920x1080 at 64 bands stays within a
+    few hundred MB. GPU twin: ``shaders/deferred.wgsl``.
+    """
+    if not isinstance(gbuffer, GBuffer):
+        raise AquaspecError(f"gbuffer must be an aquaspec.gbuffer.GBuffer, got "
+                            f"{type(gbuffer).__name__}")
+    a, b, kd, e0, w, mb, t = check_medium(a, b, kd, e0, response_weights, material_bands,
+                                          sigmoid_centers_t, ambient,
+                                          n_materials=len(gbuffer.materials))
+    cam = gbuffer.camera
+    d_o = camera_depth(cam)
+    o_y = float(cam.position[1])
+    hgt, wid, n = cam.height, cam.width, a.size
+    per_pixel = gbuffer.material == PER_PIXEL
+    bad = gbuffer.hit & per_pixel & ~np.all(np.isfinite(gbuffer.sigmoid), axis=-1)
+    if np.any(bad):
+        i, j = np.argwhere(bad)[0]
+        raise AquaspecError(f"G-buffer sigmoid coefficients at pixel ({i}, {j}) are "
+                            f"{gbuffer.sigmoid[i, j].tolist()}; they must be finite")
+
+    rgb = np.empty((hgt, wid, 3))
+    radiance = np.empty((hgt, wid, n)) if return_radiance else None
+    dirs = cam.ray_directions()
+    rows = max(1, _CHUNK_ELEMENTS // max(1, wid * n))
+    for r0 in range(0, hgt, rows):
+        r1 = min(hgt, r0 + rows)
+        v_y = dirs[r0:r1, :, 1].reshape(-1)
+        s = gbuffer.distance[r0:r1].reshape(-1).astype(float)
+        mat = gbuffer.material[r0:r1].reshape(-1)
+        n_y = gbuffer.normal[r0:r1, :, 1].reshape(-1).astype(float)
+        sig = gbuffer.sigmoid[r0:r1].reshape(-1, 3)
+        # A hit counts only if the ray reaches it before the water surface.
+        to_surface = np.where(v_y > 0, d_o / np.where(v_y > 0, v_y, 1.0), np.inf)
+        hit = np.isfinite(s) & (s <= to_surface)
+        s = np.where(hit, s, np.inf)
+
+        lrad = np.empty((v_y.size, n))
+        ow = ~hit
+        if np.any(ow):
+            lrad[ow] = model.pixel_radiance(a=a, b=b, kd=kd, e0=e0, depth_o=d_o,
+                                            v_y=v_y[ow, None], s=s[ow, None])
+        if np.any(hit):
+            m = mat[hit]
+            pp = m == PER_PIXEL
+            rho = np.empty((m.size, n))
+            rho[pp] = sigmoid_reflectance(sig[hit][pp], t)
+            rho[~pp] = mb[m[~pp]]
+            surface_depth = -(o_y + s[hit] * v_y[hit])
+            lrad[hit] = model.pixel_radiance(
+                a=a, b=b, kd=kd, e0=e0, depth_o=d_o, v_y=v_y[hit, None], s=s[hit, None],
+                rho=rho, surface_depth=surface_depth[:, None], n_y=n_y[hit, None],
+                ambient=ambient)
+        if not np.all(np.isfinite(lrad)):
+            raise AquaspecError("shading produced a non-finite radiance; check the water "
+                                "coefficients and the G-buffer")
+        rgb[r0:r1] = model.radiance_to_rgb(lrad, w).reshape(r1 - r0, wid, 3)
+        if radiance is not None:
+            radiance[r0:r1] = lrad.reshape(r1 - r0, wid, n)
+    out = {"camera_rgb": rgb}
+    if radiance is not None:
+        out["radiance"] = radiance
+    return out
