@@ -1,0 +1,225 @@
+"""Sensors: three spectral response curves and their wavelength range.
+
+A sensor maps band radiance to three values: ``RGB_c = sum_i w_i L_i R_c,i``
+(thesis Eq. 4.8) with ``R_c,i`` the response averaged over band ``i`` and
+``w_i`` the band width in nm (:meth:`Sensor.band_weights`).
+
+Built in:
+
+- ``human``: the CIE 1931 2-degree colour-matching functions (CIE 015:2018)
+  followed by the XYZ to linear sRGB matrix (IEC 61966-2-1, D65 white), so
+  the three values are linear sRGB of the radiance (Y normalised so that
+  ``int ybar = 1`` per nm-weighted unit, i.e. no 683 lm/W factor).
+- ``nikon5100-npl`` and ``sigma-sdmerrill-npl``: the two DSLRs measured by
+  the UK National Physical Laboratory, as shipped by colour-science
+  (``colour.MSDS_CAMERA_SENSITIVITIES``).
+
+Loaders: plain CSV (``wavelength_nm,r,g,b``) and the camspec database format
+of J. Jiang, D. Liu, J. Gu, S. Susstrunk, "What is the space of spectral
+sensitivity functions for digital color cameras?", WACV 2013 (28 cameras,
+400-720 nm in 10 nm steps; a header, then per camera a name line and three
+lines R, G, B). That file may not be redistributed: aquaspec reads it from a
+path the user gives.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .bands import Bands
+from .errors import AquaspecError, DataRangeError
+from .water import read_csv_columns
+
+#: XYZ (D65) to linear sRGB, IEC 61966-2-1:1999.
+XYZ_TO_SRGB = np.array([[3.2406, -1.5372, -0.4986],
+                        [-0.9689, 1.8758, 0.0415],
+                        [0.0557, -0.2040, 1.0570]])
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """Three response curves sampled at ``wavelength_nm``.
+
+    Attributes
+    ----------
+    name : str
+    wavelength_nm : ndarray (m,)
+    response : ndarray (3, m)
+        R, G, B responses (dimensionless; the human sensor's may be negative).
+    source : str
+        Where the curves came from.
+    """
+
+    name: str
+    wavelength_nm: np.ndarray
+    response: np.ndarray
+    source: str = ""
+
+    def __post_init__(self):
+        wl = np.asarray(self.wavelength_nm, dtype=float)
+        r = np.asarray(self.response, dtype=float)
+        if r.shape != (3, wl.size):
+            raise AquaspecError(f"sensor {self.name!r}: response must be 3 curves of "
+                                f"{wl.size} values, got shape {r.shape}")
+        if not np.all(np.isfinite(r)):
+            raise AquaspecError(f"sensor {self.name!r}: response contains NaN or infinity")
+        if wl.size < 2 or np.any(np.diff(wl) <= 0):
+            raise AquaspecError(f"sensor {self.name!r}: wavelengths must strictly ascend")
+        object.__setattr__(self, "wavelength_nm", wl)
+        object.__setattr__(self, "response", r)
+
+    @property
+    def range_nm(self) -> tuple[float, float]:
+        return float(self.wavelength_nm[0]), float(self.wavelength_nm[-1])
+
+    def on_bands(self, bands: Bands, *, outside: str = "error") -> np.ndarray:
+        """Band-averaged responses, shape (n, 3).
+
+        ``outside="error"`` raises when a band lies outside the sensor's
+        range; ``"zero"`` takes the response as zero there.
+        """
+        lo, hi = self.range_nm
+        if outside == "error" and (bands.lo_nm < lo or bands.hi_nm > hi):
+            raise DataRangeError(
+                f"sensor {self.name!r} covers {lo:g}-{hi:g} nm, but the bands span "
+                f"{bands.lo_nm:g}-{bands.hi_nm:g} nm; choose a range inside {lo:g}-{hi:g} nm "
+                "or ask for zero response outside it (--outside-zero)")
+        return bands.average(self.wavelength_nm, self.response,
+                             name=f"sensor {self.name}", outside=outside).T
+
+    def band_weights(self, bands: Bands, *, outside: str = "error") -> np.ndarray:
+        """``w_i R_c,i``, shape (n, 3): band radiance @ weights = camera RGB."""
+        return self.on_bands(bands, outside=outside) * bands.width_nm
+
+    def describe(self) -> dict:
+        return {"name": self.name, "source": self.source, "range_nm": list(self.range_nm)}
+
+
+def _slug(name: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "-", name.lower()).strip("-")
+
+
+def human_sensor() -> Sensor:
+    """CIE 1931 2-degree observer followed by XYZ -> linear sRGB."""
+    import colour
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    xyz = np.asarray(cmfs.values, dtype=float).T
+    return Sensor("human", np.asarray(cmfs.wavelengths, dtype=float), XYZ_TO_SRGB @ xyz,
+                  source="CIE 1931 2-degree observer (colour-science) -> linear sRGB "
+                         "(IEC 61966-2-1)")
+
+
+def _npl_sensors() -> dict:
+    import colour
+    out = {}
+    for key, msds in colour.MSDS_CAMERA_SENSITIVITIES.items():
+        out[_slug(key)] = Sensor(_slug(key), np.asarray(msds.wavelengths, dtype=float),
+                                 np.asarray(msds.values, dtype=float).T,
+                                 source=f"{key}, colour-science MSDS_CAMERA_SENSITIVITIES")
+    return out
+
+
+def builtin_sensors() -> dict:
+    """Name -> Sensor for the built-in sensors."""
+    return {"human": human_sensor(), **_npl_sensors()}
+
+
+_HEADER_RANGE = re.compile(r"(\d+(?:\.\d+)?)\s*nm\s*-\s*(\d+(?:\.\d+)?)\s*nm\s*,\s*step\s*"
+                           r"(\d+(?:\.\d+)?)\s*nm", re.IGNORECASE)
+
+
+def _numeric(line: str):
+    parts = line.split()
+    if not parts:
+        return None
+    try:
+        return [float(p) for p in parts]
+    except ValueError:
+        return None
+
+
+def load_camspec(path) -> dict:
+    """Cameras from a file in the camspec database format (Jiang et al. 2013).
+
+    Returns name -> Sensor. The header line ``400nm-720nm, step 10nm`` gives
+    the wavelengths when present (otherwise 400-720 nm in 10 nm steps).
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise AquaspecError(f"camspec file {str(path)!r} does not exist")
+    lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
+    lo, hi, step = 400.0, 720.0, 10.0
+    for line in lines[:10]:
+        m = _HEADER_RANGE.search(line)
+        if m:
+            lo, hi, step = (float(g) for g in m.groups())
+            break
+    wl = np.arange(lo, hi + step / 2, step)
+    cams, i = {}, 0
+    while i < len(lines):
+        line = lines[i].strip()
+        if not line or _numeric(line) is not None:
+            i += 1
+            continue
+        rows = [_numeric(lines[i + k]) if i + k < len(lines) else None for k in (1, 2, 3)]
+        if all(r is not None for r in rows):
+            for k, r in enumerate(rows):
+                if len(r) != wl.size:
+                    raise AquaspecError(
+                        f"{path}: camera {line!r}, line {i + k + 2}: {len(r)} values, expected "
+                        f"{wl.size} ({lo:g}-{hi:g} nm in {step:g} nm steps)")
+            cams[line] = Sensor(line, wl, np.array(rows), source=f"camspec file {p.name}")
+            i += 4
+        else:
+            i += 1
+    if not cams:
+        raise AquaspecError(
+            f"{path}: no cameras found; expected the camspec format (Jiang et al. 2013): a "
+            "header, then for each camera a name line followed by three lines of numbers (R, G, B)")
+    return cams
+
+
+def sensor_from_csv(path, name: str | None = None) -> Sensor:
+    """A sensor from a CSV with columns ``wavelength_nm,r,g,b``."""
+    cols = read_csv_columns(path, ("wavelength_nm", "r", "g", "b"), what="sensor")
+    return Sensor(name or Path(path).stem, cols["wavelength_nm"],
+                  np.stack([cols["r"], cols["g"], cols["b"]]), source=f"csv:{path}")
+
+
+def _match_key(name: str) -> str:
+    return re.sub(r"[^a-z0-9]", "", name.lower())
+
+
+def list_sensors(camspec=None) -> list[str]:
+    names = list(builtin_sensors())
+    if camspec:
+        names += list(load_camspec(camspec))
+    return names
+
+
+def get_sensor(name: str = "human", camspec=None) -> Sensor:
+    """A sensor by name: built-in, a camera of ``camspec``, or a CSV path.
+
+    Camera names match case-insensitively, ignoring spaces and punctuation
+    (``"Canon 5DMarkII"`` = ``canon-5d-mark-ii``).
+    """
+    if str(name).lower().endswith(".csv"):
+        return sensor_from_csv(name)
+    builtin = builtin_sensors()
+    key = _match_key(str(name))
+    by_key = {_match_key(k): v for k, v in builtin.items()}
+    if key in by_key:
+        return by_key[key]
+    known = list(builtin)
+    if camspec:
+        cams = load_camspec(camspec)
+        by_key = {_match_key(k): v for k, v in cams.items()}
+        if key in by_key:
+            return by_key[key]
+        known += list(cams)
+    hint = "" if camspec else " (give --camspec PATH to use the cameras of a camspec file)"
+    raise AquaspecError(f"unknown sensor {name!r}; known: {', '.join(known)}{hint}")
