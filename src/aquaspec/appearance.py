@@ -1,0 +1,79 @@
+"""Everyday answers without rendering an image.
+
+"What colour is water X at depth Y for camera Z?": the camera RGB of open
+water seen horizontally and of a grey card facing the camera, from the
+NumPy model (:mod:`aquaspec.model`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import model
+from .bands import Bands
+from .errors import AquaspecError
+from .light import SurfaceLight, surface_light
+from .sensors import Sensor
+from .water import Water
+
+GREY_CARD_REFLECTANCE = 0.18
+
+
+def check_depth(depth_m, name="depth"):
+    """Validate a depth below the surface in metres (>= 0, finite)."""
+    try:
+        d = float(depth_m)
+    except (TypeError, ValueError):
+        raise AquaspecError(f"{name} {depth_m!r} is not a number; give metres below the "
+                            "surface (>= 0)") from None
+    if not np.isfinite(d) or d < 0:
+        raise AquaspecError(f"{name} {depth_m!r} m is not accepted; give metres below the "
+                            "surface, >= 0 and finite")
+    return d
+
+
+def check_distance(distance_m):
+    d = check_depth(distance_m, "distance")
+    if d <= 0:
+        raise AquaspecError(f"distance {distance_m!r} m must be > 0")
+    return d
+
+
+def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
+                 distance_m: float, light: SurfaceLight | None = None,
+                 ambient: str = model.DEFAULT_AMBIENT, outside: str = "error") -> dict:
+    """Camera RGB of open water (horizontal view) and of a grey card at ``distance_m``.
+
+    Returns a dict with ``water_rgb``, ``grey_card_rgb`` (linear camera RGB,
+    lists of 3 floats) and every parameter used.
+    """
+    depth = check_depth(depth_m)
+    dist = check_distance(distance_m)
+    light = light or surface_light("overcast")
+    bw = water.on_bands(bands)
+    e0 = light.on_bands(bands)
+    weights = sensor.band_weights(bands, outside=outside)
+    water_l = model.pixel_radiance(a=bw.a, b=bw.b, kd=bw.kd, e0=e0, depth_o=depth, v_y=0.0,
+                                   s=np.inf)
+    card_l = model.pixel_radiance(a=bw.a, b=bw.b, kd=bw.kd, e0=e0, depth_o=depth, v_y=0.0,
+                                  s=dist, rho=GREY_CARD_REFLECTANCE, surface_depth=depth,
+                                  n_y=0.0, ambient=ambient)
+    out = {
+        "water_rgb": model.radiance_to_rgb(water_l, weights).tolist(),
+        "grey_card_rgb": model.radiance_to_rgb(card_l, weights).tolist(),
+        "units": "linear camera RGB: sum over bands of width_nm * radiance (W m^-2 sr^-1 nm^-1)"
+                 " * band-averaged response",
+        "water": water.describe(),
+        "depth_m": depth,
+        "distance_m": dist,
+        "view": "horizontal",
+        "grey_card_reflectance": GREY_CARD_REFLECTANCE,
+        "sensor": sensor.describe(),
+        "bands": bands.describe(),
+        "light": light.describe(),
+        "ms_model": "seeds",
+        "ambient_model": ambient,
+    }
+    if not all(np.isfinite(out["water_rgb"]) & np.isfinite(out["grey_card_rgb"])):
+        raise AquaspecError("the model produced a non-finite colour; please report this input")
+    return out

@@ -1,0 +1,73 @@
+"""Options shared by several commands, and turning them into objects."""
+
+from __future__ import annotations
+
+from ..bands import Bands
+from ..light import LIGHTS, surface_light
+from ..model import AMBIENT_MODELS, DEFAULT_AMBIENT
+from ..sensors import get_sensor
+from ..water import DEFAULT_SOURCE, SOURCES, get_water
+
+
+def add_water_options(p, *, required=True):
+    p.add_argument("--water", required=required, metavar="TYPE|FILE.csv",
+                   help="Jerlov water type (I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C) or a CSV "
+                        "with columns wavelength_nm,a,b[,Kd] in 1/m")
+    p.add_argument("--source", default=DEFAULT_SOURCE, choices=SOURCES,
+                   help=f"published data set for Jerlov types (default {DEFAULT_SOURCE})")
+
+
+def add_sensor_options(p):
+    p.add_argument("--sensor", default="human", metavar="NAME|FILE.csv",
+                   help="camera response: 'human' (CIE 1931 -> linear sRGB), a built-in camera, "
+                        "a camera of --camspec, or a CSV wavelength_nm,r,g,b (default human)")
+    p.add_argument("--camspec", metavar="PATH",
+                   help="a camspec_database.txt (Jiang et al. 2013) whose cameras --sensor can name")
+    p.add_argument("--outside-zero", action="store_true",
+                   help="take the sensor's response as zero outside its wavelength range "
+                        "instead of refusing such bands")
+
+
+def add_band_options(p, default=16):
+    p.add_argument("--bands", type=int, default=default, metavar="N",
+                   help=f"number of wavelength bands (default {default}; 3 = RGB-like)")
+    p.add_argument("--range", default="400-700", metavar="MIN-MAX",
+                   help="wavelength range in nm (default 400-700)")
+
+
+def add_light_options(p):
+    p.add_argument("--light", default="overcast", choices=LIGHTS,
+                   help="light at the surface (default overcast: equal energy)")
+    p.add_argument("--irradiance", type=float, default=None, metavar="W_M2",
+                   help="total surface irradiance over 400-700 nm, W/m^2 (default 100)")
+    p.add_argument("--sun-elevation", type=float, default=60.0, metavar="DEG",
+                   help="sun elevation for --light sun-sky (default 60)")
+    p.add_argument("--ambient", default=DEFAULT_AMBIENT, choices=list(AMBIENT_MODELS),
+                   help=f"how surface irradiance depends on the normal (default {DEFAULT_AMBIENT})")
+
+
+def parse_range(text):
+    from ..errors import AquaspecError
+    try:
+        lo, hi = (float(x) for x in str(text).split("-"))
+    except ValueError:
+        raise AquaspecError(f"wavelength range {text!r} is not MIN-MAX in nm, e.g. 400-700") from None
+    return lo, hi
+
+
+def bands_from(args) -> Bands:
+    lo, hi = parse_range(args.range)
+    return Bands(args.bands, lo, hi)
+
+
+def water_from(args):
+    return get_water(args.water, args.source)
+
+
+def sensor_from(args):
+    return get_sensor(args.sensor, args.camspec)
+
+
+def light_from(args):
+    return surface_light(args.light, total_w_m2=args.irradiance,
+                         sun_elevation_deg=args.sun_elevation)

@@ -1,0 +1,35 @@
+"""``aquaspec list waters|sensors``."""
+
+from __future__ import annotations
+
+
+def register(sub):
+    p = sub.add_parser("list", help="list water types or sensors",
+                       description="List the built-in water types (by data source) or sensors.")
+    p.add_argument("what", choices=("waters", "sensors"))
+    p.add_argument("--camspec", metavar="PATH", help="also list the cameras of this camspec file")
+    p.set_defaults(func=run)
+
+
+def run(args):
+    if args.what == "waters":
+        from ..water import DEFAULT_SOURCE, list_waters
+        import jerlov
+        by_source = {}
+        for source, wtype in list_waters():
+            by_source.setdefault(source, []).append(wtype)
+        for source, types in by_source.items():
+            mark = " (default)" if source == DEFAULT_SOURCE else ""
+            print(f"{source}{mark}: {' '.join(types)}")
+            print(f"    {jerlov.get_source(source).citation}")
+        print("or your own: --water FILE.csv with columns wavelength_nm,a,b[,Kd]")
+    else:
+        from ..sensors import builtin_sensors, load_camspec
+        for name, s in builtin_sensors().items():
+            print(f"{name:24s} {s.range_nm[0]:g}-{s.range_nm[1]:g} nm  {s.source}")
+        if args.camspec:
+            for name, s in load_camspec(args.camspec).items():
+                print(f"{name:24s} {s.range_nm[0]:g}-{s.range_nm[1]:g} nm  {s.source}")
+        else:
+            print("(add --camspec PATH to list the cameras of a camspec_database.txt)")
+    return 0
