@@ -1,7 +1,7 @@
 # aquaspec: make setup | make test | make demo | make bench
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
-DEBS   := mesa-vulkan-drivers libvulkan1
+DEBS   := mesa-vulkan-drivers libvulkan1 libllvm19
 EXTRAS := test,exr,validation
 export XDG_RUNTIME_DIR ?= $(CURDIR)/.xdg-runtime
 
@@ -9,9 +9,10 @@ export XDG_RUNTIME_DIR ?= $(CURDIR)/.xdg-runtime
 
 setup: debs $(VENV)/.installed
 
-# Installs the Debian packages wgpu needs on a machine without a GPU (Mesa's
-# lavapipe Vulkan driver) when they are missing and we are root; otherwise
-# prints the exact command to run.
+# Installs the Debian packages when they are missing and we are root (otherwise
+# prints the exact command): Mesa's lavapipe Vulkan driver, so wgpu runs on
+# machines without a GPU, and LLVM 19 for Mitsuba's llvm_ad_spectral variant
+# (the validation's path tracer).
 debs:
 	@missing=""; for p in $(DEBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
 	if [ -n "$$missing" ]; then \
