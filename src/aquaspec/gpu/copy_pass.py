@@ -1,0 +1,77 @@
+"""The "memory floor" pass: read the G-buffer, write the output, no shading.
+
+It binds the same camera uniform, G-buffer buffers and output buffer as a
+:class:`~aquaspec.gpu.deferred.DeferredPass` and dispatches the same grid, so
+``aquaspec bench`` can report how much of the deferred pass's time is memory
+traffic (the floor) and how much is the per-band arithmetic. WGSL:
+``shaders/copy.wgsl``; each output pixel is
+``(distance, normal.y, sigmoid.z, f32(material))`` of its input.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .buffers import read_buffer
+from .deferred import (B_CAMERA, B_DISTANCE, B_RGB, B_SIGMOID, B_SURFACE, DeferredPass,
+                       bind_group_layout, shader_source)
+
+
+class CopyPass:
+    """Copy pass sharing the inputs and output of ``deferred``.
+
+    Parameters
+    ----------
+    deferred : DeferredPass
+        Its G-buffer buffers (including ones handed over with
+        ``use_gbuffer_buffers``), camera uniform and RGB output are used.
+    """
+
+    def __init__(self, deferred: DeferredPass):
+        self.deferred = deferred
+        device = deferred.device
+        self._layout = bind_group_layout(device, {
+            B_CAMERA: "uniform", B_DISTANCE: "read", B_SURFACE: "read", B_SIGMOID: "read",
+            B_RGB: "write"})
+        module = device.create_shader_module(label="copy.wgsl", code=shader_source("copy.wgsl"))
+        self._pipeline = device.create_compute_pipeline(
+            label="copy",
+            layout=device.create_pipeline_layout(bind_group_layouts=[self._layout]),
+            compute={"module": module, "entry_point": "main"})
+        self._bind_group = None
+        self._version = None
+
+    def _get_bind_group(self):
+        d = self.deferred
+        if self._bind_group is None or self._version != d.bindings_version:
+            gb = d.gbuffer_buffers
+            resources = {B_CAMERA: d._uniform, B_DISTANCE: gb["distance"],
+                         B_SURFACE: gb["surface"], B_SIGMOID: gb["sigmoid"],
+                         B_RGB: d.rgb_buffer}
+            self._bind_group = d.device.create_bind_group(layout=self._layout, entries=[
+                {"binding": k, "resource": {"buffer": v, "offset": 0, "size": v.size}}
+                for k, v in resources.items()])
+            self._version = d.bindings_version
+        return self._bind_group
+
+    def encode(self, encoder, timestamp_writes=None) -> None:
+        """Record the copy into ``encoder`` (needs the deferred pass's camera)."""
+        self.deferred.upload_uniforms()
+        kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
+        cp = encoder.begin_compute_pass(**kwargs)
+        cp.set_pipeline(self._pipeline)
+        cp.set_bind_group(0, self._get_bind_group())
+        cp.dispatch_workgroups(*self.deferred.workgroups())
+        cp.end()
+
+    def run(self) -> None:
+        """Dispatch the copy (submits; does not wait)."""
+        d = self.deferred
+        enc = d.device.create_command_encoder()
+        self.encode(enc)
+        d.device.queue.submit([enc.finish()])
+
+    def read(self) -> np.ndarray:
+        """The output buffer as (H, W, 4) float32: distance, normal.y, sigmoid.z, material."""
+        d = self.deferred
+        return read_buffer(d.device, d.rgb_buffer, np.float32, (d.height, d.width, 4))

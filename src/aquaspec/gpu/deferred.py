@@ -1,0 +1,380 @@
+"""The deferred spectral shading pass: G-buffer -> linear camera RGB on the GPU.
+
+One compute invocation per pixel evaluates the analytic model of
+:mod:`aquaspec.model` band by band (WGSL: ``shaders/deferred.wgsl`` with the
+model functions in ``shaders/common.wgsl``) and sums the bands into camera
+RGB. Its NumPy reference is :func:`aquaspec.shading.shade_gbuffer`; the test
+``tests/test_gpu_deferred.py`` holds the two together.
+
+Conventions: metres, y up, water surface y = 0, depth ``-p.y``; a, b, Kd in
+1/m; E0 in W m^-2 nm^-1; output radiance-weighted camera RGB, linear, f32.
+
+G-buffer layout (GPU-resident)
+------------------------------
+The G-buffer lives in three storage buffers, one element per pixel, pixel
+``p = row * width + column`` (row 0 at the top, as in
+:meth:`aquaspec.camera.Camera.ray_directions`). A raster pass can write into
+them directly (:attr:`DeferredPass.gbuffer_buffers`, usage ``STORAGE |
+COPY_DST | COPY_SRC``) or hand over its own buffers of the same layout
+(:meth:`DeferredPass.use_gbuffer_buffers`):
+
+==========  =====================  ===============================================
+binding     WGSL type              contents
+==========  =====================  ===============================================
+1 distance  ``array<f32>``         distance S in m from the camera centre along the
+                                   pixel's ray; :data:`OPEN_WATER_DISTANCE` (any
+                                   negative value) where the ray sees open water
+2 surface   ``array<vec4<u32>>``   ``xyz``: unit world normal as f32 bits
+                                   (``bitcast<vec3<u32>>(n)``), ``w``: material
+                                   index, or ``0xffffffff`` (gbuffer.PER_PIXEL)
+                                   for the pixel's own sigmoid coefficients
+3 sigmoid   ``array<vec4<f32>>``   ``xyz``: Jakob-Hanika coefficients (c0, c1, c2)
+                                   in t = (lambda - 550) / 100; ``w`` unused
+==========  =====================  ===============================================
+
+Storing the material as an integer (rather than a float bit pattern) keeps
+``0xffffffff`` from ever passing through a float register, where a NaN
+payload is not guaranteed to survive.
+
+Per-band inputs (:meth:`DeferredPass.set_medium`): binding 4 is
+``array<Band>`` with ``Band = {c, b, kd, e0, w_r, w_g, w_b, t}`` (8 f32 per
+band, :data:`BAND_FIELDS`), binding 5 ``array<f32>`` of material band
+reflectances, ``material * n_bands + band``. Outputs: binding 6
+``array<vec4<f32>>`` RGB (w = 1), binding 7 ``array<f32>`` band radiance
+``p * n_bands + band`` (debug mode only), binding 8 a status counter of
+pixels with a material index out of range.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import model
+from ..bands import MAX_BANDS
+from ..camera import check_size
+from ..errors import AquaspecError
+from ..gbuffer import PER_PIXEL, GBuffer
+from ..shading import camera_depth, check_medium
+from .buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
+                      upload_buffer)
+from .layout import UniformLayout
+from .shaders import load_wgsl
+
+#: Value written to the distance buffer where a pixel's ray sees open water.
+OPEN_WATER_DISTANCE = -1.0
+
+#: Ambient models of :data:`aquaspec.model.AMBIENT_MODELS` by WGSL id
+#: (``ambient_factor`` in ``shaders/common.wgsl``).
+AMBIENT_MODEL_IDS = {"uniform": 0, "cosine": 1}
+
+#: Fields of the WGSL ``Band`` struct, in order (all f32).
+BAND_FIELDS = ("c", "b", "kd", "e0", "w_r", "w_g", "w_b", "t")
+
+#: Camera and frame uniforms shared by deferred.wgsl and copy.wgsl.
+CAMERA_LAYOUT = UniformLayout("DeferredCamera", [
+    ("position", "vec3<f32>"), ("fx", "f32"),
+    ("right", "vec3<f32>"), ("fy", "f32"),
+    ("up", "vec3<f32>"), ("cx", "f32"),
+    ("forward", "vec3<f32>"), ("cy", "f32"),
+    ("width", "u32"), ("height", "u32"), ("n_bands", "u32"), ("ambient_model", "u32"),
+    ("n_materials", "u32"), ("write_radiance", "u32"),
+    ("snell_cos", "f32"), ("window_factor", "f32"),
+])
+
+#: Compute workgroup size (x, y) of both shaders.
+WORKGROUP = (8, 8)
+
+# Binding numbers (also in the WGSL files).
+B_CAMERA, B_DISTANCE, B_SURFACE, B_SIGMOID = 0, 1, 2, 3
+B_BANDS, B_MATERIALS, B_RGB, B_RADIANCE, B_STATUS = 4, 5, 6, 7, 8
+GBUFFER_BINDINGS = {"distance": B_DISTANCE, "surface": B_SURFACE, "sigmoid": B_SIGMOID}
+
+
+def shader_source(name: str) -> str:
+    """WGSL of ``deferred.wgsl`` or ``copy.wgsl`` with the camera struct filled in."""
+    return load_wgsl(name, camera_struct=CAMERA_LAYOUT.wgsl(),
+                     camera_struct_name=CAMERA_LAYOUT.name)
+
+
+def pack_gbuffer(gbuffer: GBuffer) -> dict:
+    """Host arrays in the GPU G-buffer layout (see the module docstring).
+
+    Returns ``{"distance": (H*W,) f32, "surface": (H*W, 4) u32,
+    "sigmoid": (H*W, 4) f32}``.
+    """
+    dist = np.where(np.isfinite(gbuffer.distance), gbuffer.distance,
+                    np.float32(OPEN_WATER_DISTANCE)).astype(np.float32).reshape(-1)
+    surface = np.empty(dist.shape + (4,), dtype=np.uint32)
+    surface[:, :3] = np.ascontiguousarray(gbuffer.normal, dtype=np.float32).reshape(
+        -1, 3).view(np.uint32)
+    surface[:, 3] = gbuffer.material.reshape(-1)
+    sigmoid = np.zeros(dist.shape + (4,), dtype=np.float32)
+    sigmoid[:, :3] = gbuffer.sigmoid.reshape(-1, 3)
+    return {"distance": dist, "surface": surface, "sigmoid": sigmoid}
+
+
+def bind_group_layout(device, bindings):
+    """Compute-stage layout for ``bindings``: {binding: "uniform"|"read"|"write"}."""
+    import wgpu
+    kinds = {"uniform": wgpu.BufferBindingType.uniform,
+             "read": wgpu.BufferBindingType.read_only_storage,
+             "write": wgpu.BufferBindingType.storage}
+    return device.create_bind_group_layout(entries=[
+        {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
+         "buffer": {"type": kinds[k]}} for b, k in sorted(bindings.items())])
+
+
+class DeferredPass:
+    """Deferred spectral shading of a ``width`` x ``height`` G-buffer with ``n_bands`` bands.
+
+    Create it once per image size and band count; then per frame
+    :meth:`set_gbuffer` (or let a raster pass write :attr:`gbuffer_buffers`
+    and call :meth:`set_camera`), :meth:`set_medium` when the water, light or
+    sensor change, :meth:`run`, :meth:`read_rgb`.
+
+    Parameters
+    ----------
+    width, height : int
+        Image size in pixels.
+    n_bands : int
+        Number of wavelength bands (1 to 1024).
+    device : wgpu.GPUDevice, optional
+        Default: :func:`aquaspec.gpu.device.get_device`.
+    debug_radiance : bool
+        Also write the band radiance per pixel (``read_radiance``); needs
+        ``width * height * n_bands * 4`` bytes within the device's storage
+        binding limit.
+    """
+
+    def __init__(self, width: int, height: int, n_bands: int, *, device=None,
+                 debug_radiance: bool = False):
+        import wgpu
+        self.width, self.height = check_size(width, height)
+        if isinstance(n_bands, bool) or not isinstance(n_bands, (int, np.integer)) \
+                or not 1 <= n_bands <= MAX_BANDS:
+            raise AquaspecError(f"n_bands={n_bands!r}; accepted: an integer from 1 to {MAX_BANDS}")
+        self.n_bands = int(n_bands)
+        if device is None:
+            from .device import get_device
+            _, device = get_device()
+        self.device = device
+        self.debug_radiance = bool(debug_radiance)
+        npix = self.width * self.height
+        if self.debug_radiance:
+            need = npix * self.n_bands * 4
+            limit = device.limits.get("max-storage-buffer-binding-size", 2 ** 27)
+            if need > limit:
+                raise AquaspecError(
+                    f"debug radiance for {self.width}x{self.height} x {self.n_bands} bands "
+                    f"needs {need} bytes; this device binds at most {limit}; use a "
+                    "smaller image or fewer bands")
+
+        self._uniform = create_uniform_buffer(device, CAMERA_LAYOUT, label="deferred camera")
+        self._gbuffer = {
+            "distance": create_storage_buffer(device, npix * 4, label="gbuffer distance"),
+            "surface": create_storage_buffer(device, npix * 16, label="gbuffer surface"),
+            "sigmoid": create_storage_buffer(device, npix * 16, label="gbuffer sigmoid"),
+        }
+        self._bands = create_storage_buffer(device, self.n_bands * len(BAND_FIELDS) * 4,
+                                            label="deferred bands")
+        self._materials = create_storage_buffer(device, self.n_bands * 4,
+                                                label="deferred material bands")
+        self.rgb_buffer = create_storage_buffer(device, npix * 16, label="deferred rgb")
+        self._radiance = create_storage_buffer(
+            device, npix * self.n_bands * 4 if self.debug_radiance else 4,
+            label="deferred radiance")
+        self._status = create_storage_buffer(device, 16, label="deferred status")
+
+        self._layout = bind_group_layout(device, {
+            B_CAMERA: "uniform", B_DISTANCE: "read", B_SURFACE: "read", B_SIGMOID: "read",
+            B_BANDS: "read", B_MATERIALS: "read", B_RGB: "write", B_RADIANCE: "write",
+            B_STATUS: "write"})
+        module = device.create_shader_module(label="deferred.wgsl",
+                                             code=shader_source("deferred.wgsl"))
+        self._pipeline = device.create_compute_pipeline(
+            label="deferred",
+            layout=device.create_pipeline_layout(bind_group_layouts=[self._layout]),
+            compute={"module": module, "entry_point": "main"})
+        self._bind_group = None
+        #: Incremented whenever a bound buffer is replaced (CopyPass rebinds then).
+        self.bindings_version = 0
+        self.camera = None
+        self._n_materials = None
+        self._ambient_id = None
+        self._uniform_dirty = True
+        self._wgpu_usage_storage = wgpu.BufferUsage.STORAGE
+
+    # ---------------------------------------------------------------- inputs
+    @property
+    def gbuffer_buffers(self) -> dict:
+        """The G-buffer storage buffers ``{"distance", "surface", "sigmoid"}`` read by the pass."""
+        return dict(self._gbuffer)
+
+    def set_camera(self, camera) -> None:
+        """Set the camera whose rays the G-buffer was made with (size must match)."""
+        if (camera.width, camera.height) != (self.width, self.height):
+            raise AquaspecError(f"camera is {camera.width}x{camera.height} but this pass was "
+                                f"created for {self.width}x{self.height}")
+        camera_depth(camera)
+        self.camera = camera
+        self._uniform_dirty = True
+
+    def set_gbuffer(self, gbuffer: GBuffer) -> None:
+        """Upload a host G-buffer (and its camera) into :attr:`gbuffer_buffers`."""
+        if not isinstance(gbuffer, GBuffer):
+            raise AquaspecError(f"gbuffer must be an aquaspec.gbuffer.GBuffer, got "
+                                f"{type(gbuffer).__name__}")
+        self.set_camera(gbuffer.camera)
+        per_pixel = gbuffer.hit & (gbuffer.material == PER_PIXEL)
+        if not np.all(np.isfinite(gbuffer.sigmoid[per_pixel])):
+            raise AquaspecError("G-buffer sigmoid coefficients of per-pixel materials "
+                                "must be finite")
+        for name, arr in pack_gbuffer(gbuffer).items():
+            upload_buffer(self.device, self._gbuffer[name], arr)
+
+    def use_gbuffer_buffers(self, camera, **buffers) -> None:
+        """Read the G-buffer from GPU buffers made elsewhere (e.g. a raster pass).
+
+        Parameters
+        ----------
+        camera : Camera
+            The camera the G-buffer was rendered with.
+        distance, surface, sigmoid : wgpu.GPUBuffer, optional
+            Storage buffers in the layout of the module docstring; those not
+            given stay as they are.
+        """
+        for name, buf in buffers.items():
+            if name not in self._gbuffer:
+                raise AquaspecError(f"unknown G-buffer buffer {name!r}; accepted: "
+                                    f"{', '.join(self._gbuffer)}")
+            need = self.width * self.height * (4 if name == "distance" else 16)
+            if buf.size < need:
+                raise AquaspecError(f"G-buffer {name} buffer has {buf.size} bytes; "
+                                    f"{self.width}x{self.height} needs {need}")
+            if not buf.usage & self._wgpu_usage_storage:
+                raise AquaspecError(f"G-buffer {name} buffer lacks STORAGE usage")
+        self.set_camera(camera)
+        if buffers:
+            self._gbuffer.update(buffers)
+            self._bind_group = None
+            self.bindings_version += 1
+
+    def set_medium(self, a, b, kd, e0, response_weights, material_bands=None,
+                   sigmoid_centers_t=None, ambient: str = model.DEFAULT_AMBIENT) -> None:
+        """Upload the per-band water, light, sensor and material data.
+
+        Same arguments and checks as :func:`aquaspec.shading.shade_gbuffer`
+        (``a, b, kd, e0, sigmoid_centers_t`` (n,), ``response_weights``
+        (n, 3), ``material_bands`` (M, n)); ``sigmoid_centers_t`` defaults to
+        zeros only when no pixel uses per-pixel sigmoids.
+        """
+        n = self.n_bands
+        if sigmoid_centers_t is None:
+            sigmoid_centers_t = np.zeros(n)
+        a, b, kd, e0, w, mb, t = check_medium(a, b, kd, e0, response_weights, material_bands,
+                                              sigmoid_centers_t, ambient)
+        if a.size != n:
+            raise AquaspecError(f"medium has {a.size} bands; this pass was created for {n}")
+        if ambient not in AMBIENT_MODEL_IDS:
+            raise AquaspecError(f"ambient model {ambient!r} has no GPU implementation; "
+                                f"accepted: {', '.join(AMBIENT_MODEL_IDS)}")
+        table = np.stack([a + b, b, kd, e0, w[:, 0], w[:, 1], w[:, 2], t], axis=1)
+        upload_buffer(self.device, self._bands, table.astype(np.float32))
+        flat = mb.astype(np.float32).reshape(-1)
+        if flat.nbytes > self._materials.size:
+            self._materials = create_storage_buffer(self.device, flat.nbytes,
+                                                    label="deferred material bands")
+            self._bind_group = None
+            self.bindings_version += 1
+        if flat.size:
+            upload_buffer(self.device, self._materials, flat)
+        self._n_materials = mb.shape[0]
+        self._ambient_id = AMBIENT_MODEL_IDS[ambient]
+        self._uniform_dirty = True
+
+    # ------------------------------------------------------------- dispatch
+    def upload_uniforms(self) -> None:
+        """Write the camera/frame uniforms if they changed (needs a camera)."""
+        if self.camera is None:
+            raise AquaspecError("no camera: call set_gbuffer() or set_camera() before running")
+        if not self._uniform_dirty:
+            return
+        cam = self.camera
+        data = CAMERA_LAYOUT.pack(
+            position=cam.position, right=cam.right, up=cam.true_up, forward=cam.forward,
+            fx=cam.fx, fy=cam.fy, cx=cam.cx, cy=cam.cy, width=self.width, height=self.height,
+            n_bands=self.n_bands, ambient_model=self._ambient_id or 0,
+            n_materials=self._n_materials or 0, write_radiance=int(self.debug_radiance),
+            snell_cos=model.snell_window_cos(model.N_WATER),
+            window_factor=model.N_WATER ** 2 / np.pi)
+        upload_buffer(self.device, self._uniform, data)
+        self._uniform_dirty = False
+
+    def _get_bind_group(self):
+        if self._bind_group is None:
+            resources = {B_CAMERA: self._uniform, B_DISTANCE: self._gbuffer["distance"],
+                         B_SURFACE: self._gbuffer["surface"],
+                         B_SIGMOID: self._gbuffer["sigmoid"], B_BANDS: self._bands,
+                         B_MATERIALS: self._materials, B_RGB: self.rgb_buffer,
+                         B_RADIANCE: self._radiance, B_STATUS: self._status}
+            self._bind_group = self.device.create_bind_group(layout=self._layout, entries=[
+                {"binding": k, "resource": {"buffer": v, "offset": 0, "size": v.size}}
+                for k, v in resources.items()])
+        return self._bind_group
+
+    def workgroups(self) -> tuple[int, int, int]:
+        """Dispatch size covering the image."""
+        return (-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]), 1)
+
+    def encode(self, encoder, timestamp_writes=None) -> None:
+        """Record the shading into ``encoder`` (uniforms are uploaded first)."""
+        if self._n_materials is None:
+            raise AquaspecError("no medium: call set_medium() before running")
+        self.upload_uniforms()
+        encoder.clear_buffer(self._status, 0, self._status.size)
+        kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
+        cp = encoder.begin_compute_pass(**kwargs)
+        cp.set_pipeline(self._pipeline)
+        cp.set_bind_group(0, self._get_bind_group())
+        cp.dispatch_workgroups(*self.workgroups())
+        cp.end()
+
+    def run(self) -> None:
+        """Shade the current G-buffer (submits; does not wait)."""
+        enc = self.device.create_command_encoder()
+        self.encode(enc)
+        self.device.queue.submit([enc.finish()])
+
+    # ------------------------------------------------------------- outputs
+    def _check_status(self):
+        bad = int(read_buffer(self.device, self._status, np.uint32, (4,))[0])
+        if bad:
+            raise AquaspecError(f"{bad} G-buffer pixels use a material index >= "
+                                f"{self._n_materials}, the number of material_bands rows")
+
+    def read_rgb(self) -> np.ndarray:
+        """Linear camera RGB of the last run, (H, W, 3) float32.
+
+        Raises :class:`AquaspecError` if a pixel referenced an undefined
+        material or a value is not finite.
+        """
+        self._check_status()
+        rgba = read_buffer(self.device, self.rgb_buffer, np.float32,
+                           (self.height, self.width, 4))
+        rgb = rgba[..., :3]
+        if not np.all(np.isfinite(rgb)):
+            i, j = np.argwhere(~np.all(np.isfinite(rgb), axis=-1))[0]
+            raise AquaspecError(f"deferred shading produced a non-finite value at pixel "
+                                f"({i}, {j}); check the water coefficients and G-buffer")
+        return np.ascontiguousarray(rgb)
+
+    def read_radiance(self) -> np.ndarray:
+        """Band radiance of the last run, (H, W, n) float32 (debug mode only)."""
+        if not self.debug_radiance:
+            raise AquaspecError("read_radiance() needs DeferredPass(..., debug_radiance=True)")
+        self._check_status()
+        rad = read_buffer(self.device, self._radiance, np.float32,
+                          (self.height, self.width, self.n_bands))
+        if not np.all(np.isfinite(rad)):
+            raise AquaspecError("deferred shading produced a non-finite band radiance")
+        return rad

@@ -1,0 +1,138 @@
+// The analytic underwater light model in WGSL (f32), one band at a time.
+//
+// Twin of aquaspec/model.py (float64 NumPy reference) and of
+// aquaspec/shading.py: same formulas, same branches, so change them together.
+// Conventions: metres, y up, water surface y = 0, depth d = -p.y; a, b, c, Kd
+// in 1/m; the camera ray starts at depth depth_o with unit direction v.
+// WGSL has no expm1/log1p: expm1_f32 below uses a series near 0 where
+// exp(x) - 1 would cancel in f32.
+
+const PI: f32 = 3.14159265358979;
+const FOUR_PI: f32 = 12.5663706143592;
+// aquaspec.shading.SIGMOID_X_MAX.
+const SIGMOID_X_MAX: f32 = 1.0e6;
+
+// +infinity, for the same (impossible for valid input) case where NumPy
+// returns inf; the host rejects non-finite output.
+fn f32_inf() -> f32 {
+    return bitcast<f32>(0x7f800000u);
+}
+
+// exp(x) - 1 (NumPy np.expm1). Below |x| = 0.1 a 5-term Taylor series
+// (truncation error x^5 / 720 relative, < 2e-8), above it exp(x) - 1 (whose
+// f32 rounding error, a few ulp of exp(x), is then < 1e-5 of the result).
+fn expm1_f32(x: f32) -> f32 {
+    if (abs(x) < 0.1) {
+        return x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0)))));
+    }
+    return exp(x) - 1.0;
+}
+
+// model._phi: (1 - exp(-x)) / x for x >= 0, limit 1 at x = 0.
+fn phi(x: f32) -> f32 {
+    if (abs(x) < 1.0e-8) {
+        return 1.0 - 0.5 * x;
+    }
+    return -expm1_f32(-x) / x;
+}
+
+// model._log_psi: log((exp(y) - 1) / y) for y > 0, without overflow.
+fn log_psi(y: f32) -> f32 {
+    if (y < 1.0e-8) {
+        return 0.5 * y;
+    }
+    if (y > 1.0) {
+        return y + log(1.0 - exp(-y)) - log(y);
+    }
+    return log(expm1_f32(y) / y);
+}
+
+// model.ray_length: length of the ray under water. `s_finite` false means
+// S = inf (open water); rays going up end at the surface, d_o / v_y.
+// Returns (S_eff, 1.0 if S_eff is finite else 0.0).
+fn ray_length(s: f32, s_finite: bool, depth_o: f32, v_y: f32) -> vec2<f32> {
+    if (v_y > 0.0) {
+        let to_surface = depth_o / v_y;
+        if (!s_finite) {
+            return vec2<f32>(to_surface, 1.0);
+        }
+        return vec2<f32>(min(s, to_surface), 1.0);
+    }
+    if (!s_finite) {
+        return vec2<f32>(0.0, 0.0);
+    }
+    return vec2<f32>(s, 1.0);
+}
+
+// model.transmittance: exp(-c S), 0 for S = inf.
+fn transmittance(c: f32, s: f32, s_finite: bool) -> f32 {
+    if (!s_finite) {
+        return 0.0;
+    }
+    return exp(-c * s);
+}
+
+// model.ms_path_integral: int_0^S exp(-c t) exp(-Kd d(t)) dt, d(t) = d_o - t v_y,
+// for S already cut by ray_length. Closed form exp(-Kd d_o) (1 - exp(-k S)) / k,
+// k = c - Kd v_y, stable for k -> 0, k < 0 and S = inf (needs k > 0).
+fn ms_path_integral(c: f32, kd: f32, depth_o: f32, v_y: f32, s: f32, s_finite: bool) -> f32 {
+    let k = c - kd * v_y;
+    let base = -kd * depth_o;
+    if (!s_finite) {
+        if (k > 0.0) {
+            return exp(base) / k;
+        }
+        return f32_inf();
+    }
+    let x = k * s;
+    if (x >= 0.0) {
+        // exp(-Kd d_o) * S * (1 - e^-x) / x.
+        return exp(base) * s * phi(x);
+    }
+    // exp(-Kd d_o) * S * (e^y - 1) / y with y = -x; the exponent
+    // -Kd d_o + y = -Kd d(S) - c S stays <= 0 for rays under water.
+    return s * exp(base + log_psi(-x));
+}
+
+// model.l_ms_seeds: b E0 / (4 pi) * ms_path_integral (thesis Eq. 4.7).
+fn l_ms_seeds(b: f32, c: f32, kd: f32, e0: f32, depth_o: f32, v_y: f32, s: f32,
+              s_finite: bool) -> f32 {
+    return b * e0 / FOUR_PI * ms_path_integral(c, kd, depth_o, v_y, s, s_finite);
+}
+
+// model.AMBIENT_MODELS, by id (aquaspec.gpu.deferred.AMBIENT_MODEL_IDS):
+// 0 "uniform": g = 1 (thesis Eq. 4.2); 1 "cosine": g = (1 + n_y) / 2.
+fn ambient_factor(model_id: u32, n_y: f32) -> f32 {
+    let ny = clamp(n_y, -1.0, 1.0);
+    switch model_id {
+        case 0u: { return 1.0; }
+        default: { return 0.5 * (1.0 + ny); }
+    }
+}
+
+// model.ambient_irradiance: E0 exp(-Kd d) g(n_y).
+fn ambient_irradiance(e0: f32, kd: f32, depth: f32, n_y: f32, model_id: u32) -> f32 {
+    return e0 * exp(-kd * depth) * ambient_factor(model_id, n_y);
+}
+
+// model.lambertian_radiance: rho E / pi.
+fn lambertian_radiance(rho: f32, irradiance: f32) -> f32 {
+    return rho * irradiance / PI;
+}
+
+// model.surface_from_below: E0 n^2 / pi inside Snell's window (v_y > cos of
+// the critical angle), 0 outside. window_factor = n^2 / pi, snell_cos from
+// the host (model.N_WATER, model.snell_window_cos).
+fn surface_from_below(e0: f32, v_y: f32, snell_cos: f32, window_factor: f32) -> f32 {
+    if (v_y > snell_cos) {
+        return e0 * window_factor;
+    }
+    return 0.0;
+}
+
+// shading.sigmoid_reflectance: Jakob-Hanika sigmoid 0.5 + x / (2 sqrt(1 + x^2)),
+// x = c0 t^2 + c1 t + c2, clamped to +-SIGMOID_X_MAX so x^2 stays finite.
+fn sigmoid_reflectance(coeffs: vec3<f32>, t: f32) -> f32 {
+    let x = clamp((coeffs.x * t + coeffs.y) * t + coeffs.z, -SIGMOID_X_MAX, SIGMOID_X_MAX);
+    return 0.5 + 0.5 * x / sqrt(1.0 + x * x);
+}

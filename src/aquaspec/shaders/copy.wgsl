@@ -1,0 +1,25 @@
+// The "memory floor" pass for benchmarks: reads every G-buffer input of one
+// pixel and writes one vec4 to the output, with the same bindings and output
+// size as deferred.wgsl but no shading. The deferred pass cannot be faster
+// than this on the same device; aquaspec.gpu.copy_pass.CopyPass runs it.
+//
+// Output: (distance, normal.y, sigmoid.z, f32(material)) so a test can check
+// that what was read is what was written.
+
+{{ camera_struct }}
+
+@group(0) @binding(0) var<uniform> cam: {{ camera_struct_name }};
+@group(0) @binding(1) var<storage, read> gb_distance: array<f32>;
+@group(0) @binding(2) var<storage, read> gb_surface: array<vec4<u32>>;
+@group(0) @binding(3) var<storage, read> gb_sigmoid: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= cam.width || gid.y >= cam.height) {
+        return;
+    }
+    let p = gid.y * cam.width + gid.x;
+    let surf = gb_surface[p];
+    rgb_out[p] = vec4<f32>(gb_distance[p], bitcast<f32>(surf.y), gb_sigmoid[p].z, f32(surf.w));
+}
