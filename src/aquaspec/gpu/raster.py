@@ -1,0 +1,365 @@
+"""The geometry pass: meshes -> G-buffer, on the GPU, and its NumPy reference.
+
+:class:`RasterPass` rasterises a :class:`~aquaspec.scene.Scene` from a
+:class:`~aquaspec.camera.Camera` with a wgpu render pipeline and a depth
+buffer (shader ``shaders/gbuffer.wgsl``). Per pixel it writes
+
+- the distance ``S`` in metres from the camera centre to the surface point
+  (the length of the camera-relative position, *not* the z-depth), ``inf``
+  where the ray sees open water;
+- the world normal, turned to the camera's side of the triangle (the
+  interpolated vertex normal is flipped when it points to the far side of
+  its triangle, so the mesh's winding does not matter);
+- the material index, or :data:`~aquaspec.gbuffer.PER_PIXEL` for textured
+  and vertex-coloured meshes, whose Jakob-Hanika sigmoid coefficients are
+  fitted once per texel / vertex and interpolated (bilinearly between
+  texels, repeat wrapping; barycentrically between vertices).
+
+GPU-resident layout (:attr:`RasterPass.targets`, valid after
+:meth:`RasterPass.encode`): ``"geometry"`` rgba32float (normal xyz, S) and
+``"material"`` rgba32uint (the three coefficients' float32 bits, material
+index). 32 bytes per pixel, WebGPU's default colour-attachment budget.
+
+:func:`raycast_gbuffer` computes the same G-buffer by brute-force ray-triangle
+intersection in float64 (vectorised; meant for small images and scenes) and
+is what the tests compare :class:`RasterPass` against.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..camera import Camera
+from ..errors import AquaspecError
+from ..gbuffer import PER_PIXEL, GBuffer
+from ..scene.mesh import Mesh, Scene
+from .layout import UniformLayout
+from .shaders import load_wgsl
+
+CAMERA_LAYOUT = UniformLayout("RasterCamera", [("view_proj", "mat4x4<f32>"),
+                                               ("position", "vec3<f32>")])
+DRAW_LAYOUT = UniformLayout("RasterDraw", [("material", "u32"), ("mode", "u32")])
+
+#: ``RasterDraw.mode`` values (the shader's MODE_* constants).
+MODE_MATERIAL, MODE_TEXTURE, MODE_VERTEX = 0, 1, 2
+
+# Interleaved vertex: position (3), normal (3), uv (2), sigmoid coefficients (3).
+_VERTEX_FLOATS = 11
+
+
+def _mode(mesh: Mesh) -> int:
+    if mesh.texture is not None:
+        return MODE_TEXTURE
+    if mesh.vertex_rgb is not None:
+        return MODE_VERTEX
+    return MODE_MATERIAL
+
+
+def _vertex_data(mesh: Mesh) -> np.ndarray:
+    data = np.zeros((len(mesh.vertices), _VERTEX_FLOATS), dtype=np.float32)
+    data[:, 0:3] = mesh.vertices
+    data[:, 3:6] = mesh.normals
+    if mesh.uv is not None:
+        data[:, 6:8] = mesh.uv
+    if mesh.vertex_rgb is not None:
+        data[:, 8:11] = mesh.vertex_sigmoid()
+    return data
+
+
+def _check_inputs(scene, camera):
+    if not isinstance(scene, Scene):
+        raise AquaspecError(f"expected an aquaspec.scene.Scene, got {type(scene).__name__}")
+    if not isinstance(camera, Camera):
+        raise AquaspecError(f"expected an aquaspec.camera.Camera, got {type(camera).__name__}")
+    scene.validate()
+
+
+class _GpuMesh:
+    """A mesh's GPU resources: vertex/index buffers and its bind group."""
+
+    def __init__(self, device, pipeline_layout_group, mesh: Mesh, dummy_view):
+        import wgpu
+        self.vertex = device.create_buffer_with_data(
+            data=_vertex_data(mesh).tobytes(), usage=wgpu.BufferUsage.VERTEX)
+        self.index = device.create_buffer_with_data(
+            data=mesh.faces.astype(np.uint32).tobytes(), usage=wgpu.BufferUsage.INDEX)
+        self.count = int(mesh.faces.size)
+        mode = _mode(mesh)
+        uniform = device.create_buffer_with_data(
+            data=DRAW_LAYOUT.pack(material=mesh.material, mode=mode),
+            usage=wgpu.BufferUsage.UNIFORM)
+        view = dummy_view
+        if mode == MODE_TEXTURE:
+            coeffs = mesh.texture_sigmoid()
+            h, w = coeffs.shape[:2]
+            limit = device.limits["max-texture-dimension-2d"]
+            if max(h, w) > limit:
+                raise AquaspecError(f"texture of mesh {mesh.name!r} is {w}x{h}; this GPU "
+                                    f"accepts textures up to {limit} pixels a side")
+            rgba = np.zeros((h, w, 4), np.float32)
+            rgba[..., :3] = coeffs
+            tex = device.create_texture(size=(w, h, 1), format=wgpu.TextureFormat.rgba32float,
+                                        usage=wgpu.TextureUsage.TEXTURE_BINDING
+                                        | wgpu.TextureUsage.COPY_DST)
+            device.queue.write_texture({"texture": tex, "mip_level": 0, "origin": (0, 0, 0)},
+                                       rgba, {"offset": 0, "bytes_per_row": 16 * w,
+                                              "rows_per_image": h}, (w, h, 1))
+            view = tex.create_view()
+        self.bind_group = device.create_bind_group(layout=pipeline_layout_group, entries=[
+            {"binding": 0, "resource": {"buffer": uniform, "offset": 0,
+                                        "size": DRAW_LAYOUT.size}},
+            {"binding": 1, "resource": view}])
+
+
+class RasterPass:
+    """Rasterise a scene into a G-buffer with wgpu.
+
+    Parameters
+    ----------
+    device : wgpu.GPUDevice, optional
+        Defaults to :func:`aquaspec.gpu.device.get_device`.
+
+    Notes
+    -----
+    Scene uploads are cached by scene object: rendering the same
+    :class:`Scene` from many cameras uploads its meshes once. After changing
+    a scene's meshes in place, call :meth:`invalidate`.
+    """
+
+    def __init__(self, device=None):
+        import wgpu
+        if device is None:
+            from .device import get_device
+            _, device = get_device()
+        self.device = device
+        src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl(),
+                        draw_struct=DRAW_LAYOUT.wgsl())
+        module = device.create_shader_module(code=src)
+        self._cam_layout = device.create_bind_group_layout(entries=[
+            {"binding": 0, "visibility": wgpu.ShaderStage.VERTEX | wgpu.ShaderStage.FRAGMENT,
+             "buffer": {"type": wgpu.BufferBindingType.uniform}}])
+        self._draw_layout = device.create_bind_group_layout(entries=[
+            {"binding": 0, "visibility": wgpu.ShaderStage.FRAGMENT,
+             "buffer": {"type": wgpu.BufferBindingType.uniform}},
+            {"binding": 1, "visibility": wgpu.ShaderStage.FRAGMENT,
+             "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float,
+                         "view_dimension": wgpu.TextureViewDimension.d2}}])
+        layout = device.create_pipeline_layout(
+            bind_group_layouts=[self._cam_layout, self._draw_layout])
+        f32x3, f32x2 = wgpu.VertexFormat.float32x3, wgpu.VertexFormat.float32x2
+        self._pipeline = device.create_render_pipeline(
+            layout=layout,
+            vertex={"module": module, "entry_point": "vs_main", "buffers": [{
+                "array_stride": 4 * _VERTEX_FLOATS,
+                "step_mode": wgpu.VertexStepMode.vertex,
+                "attributes": [
+                    {"format": f32x3, "offset": 0, "shader_location": 0},
+                    {"format": f32x3, "offset": 12, "shader_location": 1},
+                    {"format": f32x2, "offset": 24, "shader_location": 2},
+                    {"format": f32x3, "offset": 32, "shader_location": 3}]}]},
+            primitive={"topology": wgpu.PrimitiveTopology.triangle_list,
+                       "cull_mode": wgpu.CullMode.none},
+            depth_stencil={"format": wgpu.TextureFormat.depth32float,
+                           "depth_write_enabled": True,
+                           "depth_compare": wgpu.CompareFunction.less},
+            multisample={"count": 1},
+            fragment={"module": module, "entry_point": "fs_main", "targets": [
+                {"format": wgpu.TextureFormat.rgba32float},
+                {"format": wgpu.TextureFormat.rgba32uint}]})
+        self._cam_buffer = device.create_buffer(
+            size=CAMERA_LAYOUT.size, usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        self._cam_group = device.create_bind_group(layout=self._cam_layout, entries=[
+            {"binding": 0, "resource": {"buffer": self._cam_buffer, "offset": 0,
+                                        "size": CAMERA_LAYOUT.size}}])
+        dummy = device.create_texture(size=(1, 1, 1), format=wgpu.TextureFormat.rgba32float,
+                                      usage=wgpu.TextureUsage.TEXTURE_BINDING)
+        self._dummy_view = dummy.create_view()
+        self._scene = None
+        self._meshes = []
+        self._size = None
+        self.targets = {}
+
+    def invalidate(self):
+        """Forget the uploaded scene (call after editing its meshes in place)."""
+        self._scene = None
+        self._meshes = []
+
+    def _upload(self, scene: Scene):
+        if scene is not self._scene:
+            self._meshes = [_GpuMesh(self.device, self._draw_layout, m, self._dummy_view)
+                            for m in scene.meshes]
+            self._scene = scene
+
+    def _ensure_targets(self, width, height):
+        import wgpu
+        if self._size == (width, height):
+            return
+        usage = (wgpu.TextureUsage.RENDER_ATTACHMENT | wgpu.TextureUsage.COPY_SRC
+                 | wgpu.TextureUsage.TEXTURE_BINDING)
+        self.targets = {
+            "geometry": self.device.create_texture(
+                size=(width, height, 1), format=wgpu.TextureFormat.rgba32float, usage=usage),
+            "material": self.device.create_texture(
+                size=(width, height, 1), format=wgpu.TextureFormat.rgba32uint, usage=usage),
+            "depth": self.device.create_texture(
+                size=(width, height, 1), format=wgpu.TextureFormat.depth32float,
+                usage=wgpu.TextureUsage.RENDER_ATTACHMENT),
+        }
+        self._size = (width, height)
+
+    def encode(self, encoder, scene: Scene, camera: Camera):
+        """Record the geometry pass into ``encoder``; results land in :attr:`targets`."""
+        import wgpu
+        _check_inputs(scene, camera)
+        self._upload(scene)
+        self._ensure_targets(camera.width, camera.height)
+        view_proj = camera.projection_matrix() @ camera.view_matrix()
+        self.device.queue.write_buffer(self._cam_buffer, 0, CAMERA_LAYOUT.pack(
+            view_proj=np.asarray(view_proj.T, np.float32).reshape(-1),
+            position=camera.position))
+        rp = encoder.begin_render_pass(
+            color_attachments=[
+                {"view": self.targets["geometry"].create_view(),
+                 "clear_value": (0.0, 0.0, 0.0, float("inf")),
+                 "load_op": wgpu.LoadOp.clear, "store_op": wgpu.StoreOp.store},
+                {"view": self.targets["material"].create_view(),
+                 "clear_value": (0, 0, 0, 0),
+                 "load_op": wgpu.LoadOp.clear, "store_op": wgpu.StoreOp.store}],
+            depth_stencil_attachment={
+                "view": self.targets["depth"].create_view(), "depth_clear_value": 1.0,
+                "depth_load_op": wgpu.LoadOp.clear, "depth_store_op": wgpu.StoreOp.store})
+        rp.set_pipeline(self._pipeline)
+        rp.set_bind_group(0, self._cam_group)
+        for m in self._meshes:
+            rp.set_bind_group(1, m.bind_group)
+            rp.set_vertex_buffer(0, m.vertex)
+            rp.set_index_buffer(m.index, wgpu.IndexFormat.uint32)
+            rp.draw_indexed(m.count)
+        rp.end()
+
+    def render(self, scene: Scene, camera: Camera) -> GBuffer:
+        """Rasterise ``scene`` seen by ``camera`` and read the G-buffer back.
+
+        Raises
+        ------
+        AquaspecError
+            A scene without meshes, a mesh whose material index is not in
+            ``scene.materials``, or a texture larger than the GPU accepts.
+        """
+        encoder = self.device.create_command_encoder()
+        self.encode(encoder, scene, camera)
+        self.device.queue.submit([encoder.finish()])
+        w, h = camera.width, camera.height
+        geom = self._read(self.targets["geometry"], np.float32, w, h)
+        mat = self._read(self.targets["material"], np.uint32, w, h)
+        distance = geom[..., 3]
+        hit = np.isfinite(distance)
+        normal = np.where(hit[..., None], geom[..., :3], 0.0)
+        return GBuffer(camera, np.where(hit, distance, np.inf), normal, mat[..., 3],
+                       mat[..., :3].copy().view(np.float32), list(scene.materials))
+
+    def _read(self, texture, dtype, w, h):
+        data = self.device.queue.read_texture(
+            {"texture": texture, "mip_level": 0, "origin": (0, 0, 0)},
+            {"offset": 0, "bytes_per_row": 16 * w}, (w, h, 1))
+        return np.frombuffer(data, dtype=dtype).reshape(h, w, 4)
+
+
+# ---------------------------------------------------------------------------
+# NumPy reference
+
+
+def _bilinear_repeat(image, uv):
+    """Bilinear sample of ``image`` (H, W, C) at ``uv`` (N, 2), as the shader does."""
+    h, w = image.shape[:2]
+    px = uv[:, 0] * w - 0.5
+    py = (1.0 - uv[:, 1]) * h - 0.5
+    x0 = np.floor(px)
+    y0 = np.floor(py)
+    fx = (px - x0)[:, None]
+    fy = (py - y0)[:, None]
+    x0 = x0.astype(np.int64)
+    y0 = y0.astype(np.int64)
+    xa, xb = x0 % w, (x0 + 1) % w
+    ya, yb = y0 % h, (y0 + 1) % h
+    top = image[ya, xa] * (1 - fx) + image[ya, xb] * fx
+    bottom = image[yb, xa] * (1 - fx) + image[yb, xb] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def raycast_gbuffer(scene: Scene, camera: Camera, *, max_elements: int = 2_000_000) -> GBuffer:
+    """G-buffer by brute-force ray-triangle intersection (float64 reference).
+
+    Every pixel-centre ray is tested against every triangle (Moller-Trumbore),
+    in chunks of at most ``max_elements`` ray-triangle pairs. The per-pixel
+    quantities follow the same rules as :class:`RasterPass`.
+    """
+    _check_inputs(scene, camera)
+    dirs = camera.ray_directions().reshape(-1, 3)
+    o = camera.position
+    n_rays = len(dirs)
+    best_t = np.full(n_rays, np.inf)
+    best_mesh = np.full(n_rays, -1)
+    best_face = np.zeros(n_rays, dtype=np.int64)
+    best_uv = np.zeros((n_rays, 2))
+    chunk = max(1, max_elements // n_rays)
+    eps = 1e-12
+    for mi, mesh in enumerate(scene.meshes):
+        tri = mesh.vertices[mesh.faces]
+        for start in range(0, len(tri), chunk):
+            t3 = tri[start:start + chunk]                        # (T, 3, 3)
+            e1 = t3[:, 1] - t3[:, 0]
+            e2 = t3[:, 2] - t3[:, 0]
+            p = np.cross(dirs[:, None, :], e2[None])             # (N, T, 3)
+            det = np.einsum("ntk,tk->nt", p, e1)
+            ok = np.abs(det) > eps
+            inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+            s = o - t3[:, 0]                                     # (T, 3)
+            u = np.einsum("ntk,tk->nt", p, s) * inv
+            q = np.cross(s, e1)                                  # (T, 3)
+            v = (dirs @ q.T) * inv
+            t = (e2 * q).sum(axis=1)[None, :] * inv
+            valid = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > camera.near)
+            t = np.where(valid, t, np.inf)
+            k = np.argmin(t, axis=1)
+            tk = t[np.arange(n_rays), k]
+            closer = tk < best_t
+            best_t = np.where(closer, tk, best_t)
+            best_mesh = np.where(closer, mi, best_mesh)
+            best_face = np.where(closer, start + k, best_face)
+            best_uv[closer] = np.stack([u[closer, k[closer]], v[closer, k[closer]]], 1)
+
+    normal = np.zeros((n_rays, 3))
+    material = np.zeros(n_rays, dtype=np.uint32)
+    sigmoid = np.zeros((n_rays, 3))
+    for mi, mesh in enumerate(scene.meshes):
+        sel = np.nonzero(best_mesh == mi)[0]
+        if sel.size == 0:
+            continue
+        f = mesh.faces[best_face[sel]]
+        b1, b2 = best_uv[sel, 0:1], best_uv[sel, 1:2]
+        b0 = 1.0 - b1 - b2
+
+        def interp(attr):
+            return b0 * attr[f[:, 0]] + b1 * attr[f[:, 1]] + b2 * attr[f[:, 2]]
+
+        n = interp(mesh.normals)
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        tri = mesh.vertices[f]
+        g = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        g = np.where((np.einsum("ij,ij->i", g, dirs[sel]) > 0)[:, None], -g, g)
+        n = np.where((np.einsum("ij,ij->i", n, g) < 0)[:, None], -n, n)
+        normal[sel] = n
+        mode = _mode(mesh)
+        if mode == MODE_MATERIAL:
+            material[sel] = mesh.material
+        else:
+            material[sel] = PER_PIXEL
+            if mode == MODE_TEXTURE:
+                sigmoid[sel] = _bilinear_repeat(mesh.texture_sigmoid().astype(np.float64),
+                                                interp(mesh.uv))
+            else:
+                sigmoid[sel] = interp(mesh.vertex_sigmoid().astype(np.float64))
+    h, w = camera.height, camera.width
+    return GBuffer(camera, best_t.reshape(h, w), normal.reshape(h, w, 3),
+                   material.reshape(h, w), sigmoid.reshape(h, w, 3), list(scene.materials))

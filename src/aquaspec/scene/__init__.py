@@ -1,0 +1,11 @@
+"""Scenes: triangle meshes with materials, the built-in seabed scene, mesh loading.
+
+World units are metres, y is up, the water surface is y = 0.
+"""
+
+from .builtin import builtin_scene
+from .load import MESH_FORMATS, load_mesh, place_in_front
+from .mesh import Mesh, Scene, image_to_linear_rgb, srgb_to_linear
+
+__all__ = ["Mesh", "Scene", "builtin_scene", "load_mesh", "place_in_front", "MESH_FORMATS",
+           "image_to_linear_rgb", "srgb_to_linear"]

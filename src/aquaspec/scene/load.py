@@ -1,0 +1,206 @@
+"""Loading user meshes (OBJ, PLY, glTF/GLB, STL, OFF) with trimesh.
+
+Convention: a loaded file is taken to be in **metres, in world coordinates,
+y up**, with the water surface at y = 0 (glTF's own convention is metres and
+y up; OBJ/PLY/STL carry no units, so metres are assumed). Node transforms in
+the file are baked into the vertices. A model authored elsewhere (at the
+origin, in centimetres, ...) can be put in front of a camera with
+:func:`place_in_front`, which scales and moves it and returns a scene with a
+camera.
+
+Colours: a texture image (sRGB-encoded, as in OBJ/MTL and glTF) is decoded
+to linear RGB; glTF's ``baseColorFactor`` and an MTL ``Kd`` are reflectances
+and are taken as linear; PLY/OBJ vertex colours and face colours (8-bit,
+sRGB-encoded by habit of scanners and viewers) are decoded to linear.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..camera import Camera
+from ..errors import AquaspecError
+from .mesh import Mesh, Scene, image_to_linear_rgb, srgb_to_linear
+
+#: File suffixes :func:`load_mesh` accepts.
+MESH_FORMATS = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
+
+#: Albedo of meshes whose file gives no colour (a mid grey).
+DEFAULT_ALBEDO = (0.5, 0.5, 0.5)
+
+
+def rgb_material(rgb, name: str):
+    """A reflectance object for a linear albedo triple (via aquaspec.reflectance)."""
+    from ..reflectance import Reflectance  # imported late: it depends on colour data
+    return Reflectance.from_rgb(tuple(float(c) for c in rgb), name=name)
+
+
+def _check_albedo(albedo):
+    a = np.asarray(albedo, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a < 0) or np.any(a > 1):
+        raise AquaspecError(f"albedo {albedo!r} must be a linear RGB triple in [0, 1]")
+    return a
+
+
+def _formats_text():
+    return ", ".join(MESH_FORMATS)
+
+
+def _texture_of(material):
+    """(image, linear factor) of a trimesh material; image may be None."""
+    image = getattr(material, "baseColorTexture", None)
+    if image is None:
+        image = getattr(material, "image", None)
+    factor = getattr(material, "baseColorFactor", None)
+    if factor is None:
+        factor = getattr(material, "diffuse", None)
+    factor = None if factor is None else np.asarray(factor, dtype=float)[:3] / 255.0
+    return image, factor
+
+
+def _mesh_from_trimesh(geom, transform, name, scene: Scene, albedo):
+    vertices = np.asarray(geom.vertices, dtype=float)
+    faces = np.asarray(geom.faces, dtype=np.int64)
+    normals = np.asarray(geom.vertex_normals, dtype=float)
+    # Degenerate faces can leave a vertex with a zero normal; recompute there.
+    if not np.all(np.linalg.norm(normals, axis=1) > 0):
+        normals = None
+    visual = getattr(geom, "visual", None)
+    kind = getattr(visual, "kind", None)
+    kwargs = {}
+    colour = None
+    if albedo is not None:
+        colour = albedo
+    elif kind == "texture":
+        image, factor = _texture_of(visual.material)
+        uv = getattr(visual, "uv", None)
+        if image is not None and uv is not None and len(uv) == len(vertices):
+            tex = image_to_linear_rgb(np.asarray(image.convert("RGB")), is_srgb=True,
+                                      what=f"texture of {name!r}")
+            if factor is not None and np.any(factor != 1):
+                tex = tex * factor.astype(np.float32)
+            kwargs.update(uv=np.asarray(uv, dtype=float), texture=tex)
+        else:
+            colour = factor
+    elif kind == "vertex":
+        kwargs["vertex_rgb"] = srgb_to_linear(np.asarray(visual.vertex_colors)[:, :3] / 255.0)
+    elif kind == "face":
+        # Faceted per-face colours: split vertices so each face owns its colour.
+        fc = srgb_to_linear(np.asarray(visual.face_colors)[:, :3] / 255.0)
+        idx = faces.reshape(-1)
+        return Mesh(vertices[idx], np.arange(len(idx)).reshape(-1, 3),
+                    None if normals is None else normals[idx],
+                    vertex_rgb=np.repeat(fc, 3, axis=0), name=name).transformed(transform)
+    if not kwargs:
+        colour = DEFAULT_ALBEDO if colour is None else colour
+        kwargs["material"] = scene.add_material(rgb_material(colour, name))
+    return Mesh(vertices, faces, normals, name=name, **kwargs).transformed(transform)
+
+
+def load_mesh(path, *, albedo=None) -> Scene:
+    """Load a mesh file into a :class:`Scene` (metres, world coordinates, y up).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An OBJ, PLY, glTF/GLB, STL or OFF file. All triangle meshes in the
+        file are loaded, with their node transforms applied.
+    albedo : (3,) float, optional
+        A linear RGB albedo in [0, 1] that replaces every colour and texture
+        in the file.
+
+    Returns
+    -------
+    Scene
+        One :class:`Mesh` per geometry; textured and vertex-coloured meshes
+        are per-pixel, the others get a material built from their colour
+        (:data:`DEFAULT_ALBEDO` when the file gives none). No camera is set:
+        see :func:`place_in_front`.
+
+    Raises
+    ------
+    AquaspecError
+        Missing file, unsupported suffix, unreadable or corrupt file, or a
+        file without triangles; the message names the path and the formats.
+    """
+    import trimesh
+
+    path = os.fspath(path)
+    if albedo is not None:
+        albedo = _check_albedo(albedo)
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix not in MESH_FORMATS:
+        raise AquaspecError(f"mesh file {path!r} has suffix {suffix!r}; accepted formats: "
+                            f"{_formats_text()}")
+    if not os.path.isfile(path):
+        raise AquaspecError(f"mesh file {path!r} does not exist; accepted formats: "
+                            f"{_formats_text()}")
+    try:
+        # process=False keeps the file's vertex split (hard edges keep their
+        # own normals) instead of merging duplicate vertices.
+        loaded = trimesh.load(path, force="scene", process=False)
+    except Exception as exc:  # trimesh raises many types for corrupt files
+        raise AquaspecError(f"could not read mesh file {path!r} ({type(exc).__name__}: "
+                            f"{exc}); accepted formats: {_formats_text()}") from exc
+    scene = Scene()
+    for node in loaded.graph.nodes_geometry:
+        transform, geom_name = loaded.graph[node]
+        geom = loaded.geometry.get(geom_name)
+        faces = getattr(geom, "faces", None)
+        if faces is None or len(faces) == 0:
+            continue
+        scene.add(_mesh_from_trimesh(geom, transform, str(node), scene, albedo))
+    if not scene.meshes:
+        raise AquaspecError(f"mesh file {path!r} contains no triangles; accepted formats "
+                            f"with triangle meshes: {_formats_text()}")
+    return scene
+
+
+def place_in_front(scene: Scene, *, depth_m: float, distance_m: float = 3.0,
+                   size_m: float | None = None, width: int = 1280, height: int = 720,
+                   fov_y_deg: float = 60.0) -> Scene:
+    """Move (and optionally scale) a scene in front of a camera at a depth.
+
+    The camera is put at ``(0, -depth_m, 0)`` looking along -z; the scene's
+    bounding-box centre is moved to ``distance_m`` in front of it, at the
+    camera's depth. With ``size_m`` the scene is first scaled uniformly so
+    that its largest bounding-box side is ``size_m`` metres.
+
+    Returns
+    -------
+    Scene
+        A new scene (same materials) whose ``camera`` is that camera.
+
+    Raises
+    ------
+    AquaspecError
+        Bad depth, distance or size, or when the placed object would reach
+        above the water surface (y > 0).
+    """
+    for name, v in (("depth_m", depth_m), ("distance_m", distance_m)):
+        if not (np.isfinite(v) and v >= 0):
+            raise AquaspecError(f"{name}={v!r} must be a finite number >= 0")
+    if size_m is not None and not (np.isfinite(size_m) and size_m > 0):
+        raise AquaspecError(f"size_m={size_m!r} must be a positive number of metres")
+    lo, hi = scene.bounds()
+    scale = 1.0
+    if size_m is not None:
+        extent = float(np.max(hi - lo))
+        if extent <= 0:
+            raise AquaspecError("scene has zero size; it cannot be scaled to size_m")
+        scale = size_m / extent
+    centre = 0.5 * (lo + hi)
+    target = np.array([0.0, -depth_m, -distance_m])
+    m = np.eye(4)
+    m[:3, :3] *= scale
+    m[:3, 3] = target - scale * centre
+    placed = scene.transformed(m)
+    top = placed.bounds()[1, 1]
+    if top > 0:
+        raise AquaspecError(f"placed at depth {depth_m} m the object reaches {top:.3g} m "
+                            "above the water surface; use a larger depth_m or a smaller size_m")
+    placed.camera = Camera.look_at((0.0, -depth_m, 0.0), target, width=width, height=height,
+                                   fov_y_deg=fov_y_deg)
+    return placed

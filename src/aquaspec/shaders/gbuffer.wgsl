@@ -1,0 +1,103 @@
+// Geometry pass: rasterise meshes into the G-buffer (see aquaspec/gpu/raster.py).
+//
+// Targets (32 bytes per pixel, the WebGPU default limit):
+//   0 rgba32float: world normal xyz (facing the camera), distance S in metres
+//                  from the camera centre (not z-depth; inf where cleared)
+//   1 rgba32uint:  bitcast sigmoid coefficients c0, c1, c2 and the material
+//                  index (PER_PIXEL for textured / vertex-coloured meshes)
+
+{{ camera_struct }}
+{{ draw_struct }}
+
+const PER_PIXEL: u32 = 0xFFFFFFFFu;
+const MODE_MATERIAL: u32 = 0u;
+const MODE_TEXTURE: u32 = 1u;
+const MODE_VERTEX: u32 = 2u;
+
+@group(0) @binding(0) var<uniform> cam: RasterCamera;
+@group(1) @binding(0) var<uniform> draw: RasterDraw;
+// Per-texel sigmoid coefficients (rgba32float is not filterable, so the
+// bilinear filter is done here with textureLoad).
+@group(1) @binding(1) var coeff_tex: texture_2d<f32>;
+
+struct VsIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) coeff: vec3<f32>,
+};
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    // Camera-relative position: S = length(rel) without cancellation.
+    @location(0) rel: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) coeff: vec3<f32>,
+};
+
+struct FsOut {
+    @location(0) geometry: vec4<f32>,
+    @location(1) material: vec4<u32>,
+};
+
+@vertex
+fn vs_main(v: VsIn) -> VsOut {
+    var out: VsOut;
+    out.clip = cam.view_proj * vec4<f32>(v.position, 1.0);
+    out.rel = v.position - cam.position;
+    out.normal = v.normal;
+    out.uv = v.uv;
+    out.coeff = v.coeff;
+    return out;
+}
+
+fn wrap(i: i32, n: i32) -> i32 {
+    return ((i % n) + n) % n;
+}
+
+// Bilinear, repeat-wrapped; uv origin at the bottom-left, texel row 0 at the top.
+fn sample_coeff(uv: vec2<f32>) -> vec3<f32> {
+    let size = vec2<i32>(textureDimensions(coeff_tex));
+    let p = vec2<f32>(uv.x, 1.0 - uv.y) * vec2<f32>(size) - 0.5;
+    let p0 = floor(p);
+    let f = p - p0;
+    let i0 = vec2<i32>(p0);
+    let x0 = wrap(i0.x, size.x);
+    let x1 = wrap(i0.x + 1, size.x);
+    let y0 = wrap(i0.y, size.y);
+    let y1 = wrap(i0.y + 1, size.y);
+    let a = textureLoad(coeff_tex, vec2<i32>(x0, y0), 0).xyz;
+    let b = textureLoad(coeff_tex, vec2<i32>(x1, y0), 0).xyz;
+    let c = textureLoad(coeff_tex, vec2<i32>(x0, y1), 0).xyz;
+    let d = textureLoad(coeff_tex, vec2<i32>(x1, y1), 0).xyz;
+    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}
+
+@fragment
+fn fs_main(in: VsOut) -> FsOut {
+    // The triangle's own plane, from screen-space derivatives, oriented
+    // towards the camera: the shading normal is put on that side, which
+    // works whatever the mesh's winding.
+    var g = cross(dpdx(in.rel), dpdy(in.rel));
+    if (dot(g, in.rel) > 0.0) {
+        g = -g;
+    }
+    var n = normalize(in.normal);
+    if (dot(n, g) < 0.0) {
+        n = -n;
+    }
+    var coeff = vec3<f32>(0.0);
+    var material = draw.material;
+    if (draw.mode == MODE_TEXTURE) {
+        coeff = sample_coeff(in.uv);
+        material = PER_PIXEL;
+    } else if (draw.mode == MODE_VERTEX) {
+        coeff = in.coeff;
+        material = PER_PIXEL;
+    }
+    var out: FsOut;
+    out.geometry = vec4<f32>(n, length(in.rel));
+    out.material = vec4<u32>(bitcast<vec3<u32>>(coeff), material);
+    return out;
+}
