@@ -399,6 +399,49 @@ def quantize(encoded, bit_depth=8) -> np.ndarray:
 # the whole chain
 # ---------------------------------------------------------------------------
 
+def display_settings(rgb, *, exposure="auto", white_balance="none", reference_rgb=None,
+                     matrix=None, key=DEFAULT_KEY, percentile=DEFAULT_PERCENTILE) -> dict:
+    """Resolve the image-dependent settings of :func:`to_display`.
+
+    Computes the white-balance gains and the exposure (automatic exposure is
+    measured on the white-balanced, matrixed image, as :func:`to_display`
+    applies them) without producing pixels, so that another implementation
+    of the same chain (the GPU display pass) can use exactly these numbers.
+    Arguments as in :func:`to_display`.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``exposure_mode``, ``exposure_ev``, ``exposure_scale``,
+        ``white_balance``, ``white_balance_gains`` (3 floats),
+        ``reference_rgb``, ``matrix`` (3x3 list or None) and, for automatic
+        exposure, ``auto_key`` and ``auto_percentile``.
+    """
+    rgb = _as_rgb(rgb)
+    auto = isinstance(exposure, str)
+    if auto and exposure != "auto":
+        raise AquaspecError(f"exposure {exposure!r} is not accepted; accepted: 'auto' "
+                            f"or a number of stops (EV) in [-{EV_LIMIT:g}, {EV_LIMIT:g}]")
+    manual_ev = None if auto else _check_ev(exposure)
+    rgb = np.maximum(rgb, 0.0)
+    gains = white_balance_gains(rgb, white_balance, reference_rgb=reference_rgb)
+    x = apply_matrix(rgb * gains, matrix)
+    ev = auto_exposure(x, key, percentile) if auto else manual_ev
+    settings = {
+        "exposure_mode": "auto" if auto else "manual",
+        "exposure_ev": float(ev),
+        "exposure_scale": float(2.0 ** ev),
+        "white_balance": white_balance,
+        "white_balance_gains": [float(g) for g in gains],
+        "reference_rgb": None if reference_rgb is None else [float(v) for v in reference_rgb],
+        "matrix": None if matrix is None else np.asarray(matrix, float).tolist(),
+    }
+    if auto:
+        settings["auto_key"] = float(key)
+        settings["auto_percentile"] = float(percentile)
+    return settings
+
+
 def to_display(rgb, *, exposure="auto", white_balance="none", reference_rgb=None,
                tonemap="filmic", matrix=None, key=DEFAULT_KEY,
                percentile=DEFAULT_PERCENTILE, bit_depth=8):
@@ -431,12 +474,13 @@ def to_display(rgb, *, exposure="auto", white_balance="none", reference_rgb=None
     -------
     image : ndarray, shape (H, W, 3), uint8 or uint16
     info : dict
-        What was done, JSON-ready: ``exposure_mode``, ``exposure_ev``,
-        ``exposure_scale``, ``auto_key`` / ``auto_percentile`` (auto only),
-        ``white_balance``, ``white_balance_gains``, ``reference_rgb``,
-        ``matrix``, ``tonemap``, ``encoding``, ``bit_depth``,
-        ``negative_values`` (count set to 0), ``saturated_fraction`` (fraction
-        of channel values at the top code), ``size`` ([width, height]).
+        What was done, JSON-ready: the :func:`display_settings` entries
+        (``exposure_mode``, ``exposure_ev``, ``exposure_scale``,
+        ``auto_key`` / ``auto_percentile`` (auto only), ``white_balance``,
+        ``white_balance_gains``, ``reference_rgb``, ``matrix``) plus
+        ``tonemap``, ``encoding``, ``bit_depth``, ``negative_values`` (count
+        set to 0), ``saturated_fraction`` (fraction of channel values at the
+        top code) and ``size`` ([width, height]).
     """
     rgb = _as_rgb(rgb)
     if rgb.ndim != 3:
@@ -444,40 +488,24 @@ def to_display(rgb, *, exposure="auto", white_balance="none", reference_rgb=None
     _lookup(TONEMAPS, tonemap, "tone map")
     if bit_depth not in BIT_DEPTHS or isinstance(bit_depth, bool):
         raise AquaspecError(f"bit depth {bit_depth!r} is not accepted; accepted: 8, 16")
-    auto = isinstance(exposure, str)
-    if auto and exposure != "auto":
-        raise AquaspecError(f"exposure {exposure!r} is not accepted; accepted: 'auto' "
-                            f"or a number of stops (EV) in [-{EV_LIMIT:g}, {EV_LIMIT:g}]")
-    manual_ev = None if auto else _check_ev(exposure)
+    info = display_settings(rgb, exposure=exposure, white_balance=white_balance,
+                            reference_rgb=reference_rgb, matrix=matrix, key=key,
+                            percentile=percentile)
 
     n_negative = int(np.count_nonzero(rgb < 0.0))
-    rgb = np.maximum(rgb, 0.0)
-    gains = white_balance_gains(rgb, white_balance, reference_rgb=reference_rgb)
-    x = apply_matrix(rgb * gains, matrix)
-    ev = auto_exposure(x, key, percentile) if auto else manual_ev
-    scale = 2.0 ** ev
+    x = apply_matrix(np.maximum(rgb, 0.0) * info["white_balance_gains"], matrix)
     with np.errstate(over="ignore"):   # overflow is reported just below
-        x = x * scale
-    check_finite(x, f"image after exposure EV {ev:g}")
+        x = x * info["exposure_scale"]
+    check_finite(x, f"image after exposure EV {info['exposure_ev']:g}")
     top = 2 ** bit_depth - 1
     image = quantize(srgb_encode(TONEMAPS[tonemap](x)), bit_depth)
 
-    info = {
-        "exposure_mode": "auto" if auto else "manual",
-        "exposure_ev": float(ev),
-        "exposure_scale": float(scale),
-        "white_balance": white_balance,
-        "white_balance_gains": [float(g) for g in gains],
-        "reference_rgb": None if reference_rgb is None else [float(v) for v in reference_rgb],
-        "matrix": None if matrix is None else np.asarray(matrix, float).tolist(),
+    info.update({
         "tonemap": tonemap,
         "encoding": "sRGB (IEC 61966-2-1)",
         "bit_depth": int(bit_depth),
         "negative_values": n_negative,
         "saturated_fraction": float(np.count_nonzero(image == top) / image.size),
         "size": [int(image.shape[1]), int(image.shape[0])],
-    }
-    if auto:
-        info["auto_key"] = float(key)
-        info["auto_percentile"] = float(percentile)
+    })
     return image, info

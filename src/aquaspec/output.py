@@ -39,7 +39,6 @@ import secrets
 import struct
 import warnings
 import zlib
-from importlib import metadata as _metadata
 from pathlib import Path
 
 import numpy as np
@@ -217,11 +216,9 @@ def to_jsonable(value, where="metadata"):
 
 
 def aquaspec_version() -> str:
-    """Installed aquaspec version, or ``"unknown"`` when run from a bare tree."""
-    try:
-        return _metadata.version("aquaspec")
-    except _metadata.PackageNotFoundError:
-        return "unknown"
+    """The running aquaspec's version (``aquaspec.__version__``)."""
+    from . import __version__
+    return __version__
 
 
 def _stamped(params) -> dict:
