@@ -23,6 +23,10 @@ index). 32 bytes per pixel, WebGPU's default colour-attachment budget.
 :func:`raycast_gbuffer` computes the same G-buffer by brute-force ray-triangle
 intersection in float64 (vectorised; meant for small images and scenes) and
 is what the tests compare :class:`RasterPass` against.
+
+:meth:`RasterPass.render_to` writes into a
+:class:`~aquaspec.gpu.deferred.DeferredPass`'s storage-buffer G-buffer on
+the GPU (a compute repack of the targets; no read-back).
 """
 
 from __future__ import annotations
@@ -132,9 +136,13 @@ class RasterPass:
             from .device import get_device
             _, device = get_device()
         self.device = device
+        from .deferred import OPEN_WATER_DISTANCE
         src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl(),
-                        draw_struct=DRAW_LAYOUT.wgsl())
-        module = device.create_shader_module(code=src)
+                        draw_struct=DRAW_LAYOUT.wgsl(),
+                        open_water_distance=repr(float(OPEN_WATER_DISTANCE)))
+        module = device.create_shader_module(label="gbuffer.wgsl", code=src)
+        self._module = module
+        self._pack_pipeline = None
         self._cam_layout = device.create_bind_group_layout(entries=[
             {"binding": 0, "visibility": wgpu.ShaderStage.VERTEX | wgpu.ShaderStage.FRAGMENT,
              "buffer": {"type": wgpu.BufferBindingType.uniform}}])
@@ -236,6 +244,45 @@ class RasterPass:
             rp.set_index_buffer(m.index, wgpu.IndexFormat.uint32)
             rp.draw_indexed(m.count)
         rp.end()
+
+    def render_to(self, deferred_pass, scene: Scene, camera: Camera, encoder=None):
+        """Rasterise straight into a :class:`~aquaspec.gpu.deferred.DeferredPass`'s G-buffer.
+
+        Records the geometry pass and a compute pass that repacks its targets
+        into ``deferred_pass.gbuffer_buffers`` (nothing is read back), and
+        sets the deferred pass's camera. With ``encoder`` the commands are
+        only recorded; without, they are submitted.
+        """
+        if (camera.width, camera.height) != (deferred_pass.width, deferred_pass.height):
+            raise AquaspecError(f"camera is {camera.width}x{camera.height} but the deferred "
+                                f"pass is {deferred_pass.width}x{deferred_pass.height}")
+        own = encoder is None
+        if own:
+            encoder = self.device.create_command_encoder()
+        self.encode(encoder, scene, camera)
+        bufs = deferred_pass.gbuffer_buffers
+        group = self.device.create_bind_group(
+            layout=self._get_pack_pipeline().get_bind_group_layout(0), entries=[
+                {"binding": 10, "resource": self.targets["geometry"].create_view()},
+                {"binding": 11, "resource": self.targets["material"].create_view()}] + [
+                {"binding": b, "resource": {"buffer": bufs[name], "offset": 0,
+                                            "size": bufs[name].size}}
+                for b, name in ((12, "distance"), (13, "surface"), (14, "sigmoid"))])
+        cp = encoder.begin_compute_pass()
+        cp.set_pipeline(self._pack_pipeline)
+        cp.set_bind_group(0, group)
+        cp.dispatch_workgroups(-(-camera.width // 8), -(-camera.height // 8), 1)
+        cp.end()
+        deferred_pass.set_camera(camera)
+        if own:
+            self.device.queue.submit([encoder.finish()])
+
+    def _get_pack_pipeline(self):
+        if self._pack_pipeline is None:
+            self._pack_pipeline = self.device.create_compute_pipeline(
+                label="gbuffer pack", layout="auto",
+                compute={"module": self._module, "entry_point": "pack_main"})
+        return self._pack_pipeline
 
     def render(self, scene: Scene, camera: Camera) -> GBuffer:
         """Rasterise ``scene`` seen by ``camera`` and read the G-buffer back.

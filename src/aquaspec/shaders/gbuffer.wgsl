@@ -101,3 +101,33 @@ fn fs_main(in: VsOut) -> FsOut {
     out.material = vec4<u32>(bitcast<vec3<u32>>(coeff), material);
     return out;
 }
+
+// ---------------------------------------------------------------------------
+// Repack the render targets into the storage-buffer G-buffer read by the
+// deferred shading pass (layout: aquaspec/gpu/deferred.py docstring). Its
+// bindings live in group 0 at numbers the render entry points do not use.
+
+const OPEN_WATER_DISTANCE: f32 = {{ open_water_distance }};
+
+@group(0) @binding(10) var geometry_in: texture_2d<f32>;
+@group(0) @binding(11) var material_in: texture_2d<u32>;
+@group(0) @binding(12) var<storage, read_write> distance_out: array<f32>;
+@group(0) @binding(13) var<storage, read_write> surface_out: array<vec4<u32>>;
+@group(0) @binding(14) var<storage, read_write> sigmoid_out: array<vec4<f32>>;
+
+@compute @workgroup_size(8, 8, 1)
+fn pack_main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(geometry_in);
+    if (id.x >= size.x || id.y >= size.y) {
+        return;
+    }
+    let p = id.y * size.x + id.x;
+    let g = textureLoad(geometry_in, vec2<u32>(id.xy), 0);
+    let m = textureLoad(material_in, vec2<u32>(id.xy), 0);
+    // The targets are cleared to S = inf; WGSL has no isinf, and no finite
+    // f32 exceeds 3.4e38.
+    let open_water = g.w > 3.0e38;
+    distance_out[p] = select(g.w, OPEN_WATER_DISTANCE, open_water);
+    surface_out[p] = vec4<u32>(bitcast<vec3<u32>>(g.xyz), m.w);
+    sigmoid_out[p] = vec4<f32>(bitcast<vec3<f32>>(m.xyz), 0.0);
+}
