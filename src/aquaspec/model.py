@@ -66,7 +66,8 @@ def ray_length(s, depth_o, v_y):
     depth_o = np.asarray(depth_o, dtype=float)
     v_y = np.asarray(v_y, dtype=float)
     up = v_y > 0
-    to_surface = np.where(up, depth_o / np.where(up, v_y, 1.0), np.inf)
+    with np.errstate(over="ignore"):  # a grazing up-ray reaches the surface at inf
+        to_surface = np.where(up, depth_o / np.where(up, v_y, 1.0), np.inf)
     return np.minimum(s, to_surface)
 
 
