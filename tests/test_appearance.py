@@ -107,3 +107,18 @@ class TestCli:
         with pytest.raises(SystemExit):
             main(["--help"])
         assert "aquaspec colour" in capsys.readouterr().out
+
+
+class TestSpectraCommand:
+    def test_table_and_plot(self, tmp_path, capsys):
+        out = tmp_path / "sp.png"
+        assert main(["spectra", "--water", "IB", "--sensor", "nikon-5100-npl", "--bands", "8",
+                     "--plot", str(out)]) == 0
+        text = capsys.readouterr().out
+        assert "Kd" in text and "400.0- 437.5" in text and "nikon-5100-npl" in text
+        assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    def test_unwritable_plot_fails_before_work(self, tmp_path, capsys):
+        assert main(["spectra", "--water", "IB", "--plot", str(tmp_path / "no" / "x.png")]) == 2
+        captured = capsys.readouterr()
+        assert "does not exist" in captured.err and "band_nm" not in captured.out

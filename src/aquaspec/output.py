@@ -535,3 +535,13 @@ def save_image(path, display_image, linear_rgb=None, params=None, *, linear_path
     jobs.append((side, _sidecar_writer(doc)))
     _write_atomically(jobs)
     return result
+
+
+def write_file_atomically(path, writer) -> Path:
+    """Write one file through ``writer(tmp_path)``, then rename it to ``path``.
+
+    Nothing is left at ``path`` (or beside it) if ``writer`` fails.
+    """
+    final = check_writable(path)
+    _write_atomically([(final, writer)])
+    return final
