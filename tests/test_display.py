@@ -315,3 +315,24 @@ class TestToDisplay:
             display.to_display(np.zeros((4, 4)))
         with pytest.raises(AquaspecError, match="height, width, 3"):
             display.to_display(np.zeros((4, 3)))
+
+
+class TestDisplaySettings:
+    def test_settings_are_what_to_display_uses(self):
+        img = _scene()
+        s = display.display_settings(img, white_balance="grey-world")
+        out, info = display.to_display(img, white_balance="grey-world", tonemap="reinhard")
+        for k, v in s.items():
+            assert info[k] == v
+        # Applying the settings by hand gives the same pixels.
+        x = display.white_balance(img, "grey-world") * s["exposure_scale"]
+        expect = display.quantize(display.srgb_encode(display.tonemap(x, "reinhard")))
+        np.testing.assert_array_equal(out, expect)
+
+    def test_auto_exposure_measured_after_white_balance(self):
+        img = np.ones((4, 4, 3)) * [0.01, 0.1, 0.19]     # mean 0.1
+        ref = [0.01, 0.1, 0.19]
+        s = display.display_settings(img, white_balance="white-patch", reference_rgb=ref)
+        # White-patch keeps the reference's channel mean, so the level stays 0.1.
+        assert s["exposure_ev"] == pytest.approx(math.log2(0.18 / 0.1), rel=1e-12)
+        assert "auto_key" in s and s["exposure_mode"] == "auto"
