@@ -1,0 +1,101 @@
+"""``aquaspec render``: one image of the built-in scene, a mesh, or an RGB-D photo."""
+
+from __future__ import annotations
+
+import sys
+
+from .common import (add_band_options, add_light_options, add_sensor_options,
+                     add_water_options, parse_range)
+
+
+def register(sub):
+    from ..display import TONEMAPS, WHITE_BALANCE_METHODS
+    p = sub.add_parser(
+        "render", help="render an image (PNG + JSON sidecar, optional linear EXR/NPY)",
+        description="Render the built-in seabed scene (or your mesh, or an RGB-D photograph) "
+                    "seen through a water type at a depth by a camera, spectrally.",
+        epilog="example: aquaspec render --water IB --depth 5 --size 320x180 --bands 8 -o x.png")
+    add_water_options(p, required=False)
+    p.set_defaults(water="IB")
+    p.add_argument("--depth", type=float, default=5.0, metavar="M",
+                   help="camera depth below the surface, metres (default 5)")
+    add_sensor_options(p)
+    add_band_options(p)
+    add_light_options(p)
+    p.add_argument("--size", default="1280x720", metavar="WxH", help="image size (default 1280x720)")
+    p.add_argument("--exposure", default="auto", metavar="auto|EV",
+                   help="exposure: 'auto' or a value in stops (default auto)")
+    p.add_argument("--tonemap", default="filmic", choices=list(TONEMAPS),
+                   help="tone curve (default filmic)")
+    p.add_argument("--white-balance", default="none", choices=list(WHITE_BALANCE_METHODS),
+                   help="white balance (default none)")
+    p.add_argument("--mesh", metavar="FILE", help="render this OBJ/PLY/glTF/GLB instead of the "
+                                                   "built-in scene (placed 3 m in front)")
+    p.add_argument("--albedo", metavar="R,G,B", help="linear RGB albedo for --mesh, e.g. 0.5,0.4,0.3")
+    p.add_argument("--rgbd", nargs=2, metavar=("IMAGE", "DEPTH"),
+                   help="an RGB image and its metric depth map (16-bit PNG in mm, .npy or .exr "
+                        "in m): the photograph is seen through the water")
+    p.add_argument("--intrinsics", metavar="fx,fy,cx,cy", help="pinhole intrinsics for --rgbd, pixels")
+    p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
+                   help="gpu (WGSL through wgpu) or numpy (the slow reference)")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")
+    p.add_argument("--linear", metavar="OUT.exr|OUT.npy",
+                   help="also write linear camera RGB (float32 EXR, or NPY)")
+    p.set_defaults(func=run, command="render")
+
+
+def _floats(text, n, what):
+    from ..errors import AquaspecError
+    try:
+        vals = tuple(float(x) for x in str(text).split(","))
+    except ValueError:
+        vals = ()
+    if len(vals) != n:
+        raise AquaspecError(f"{what} {text!r} must be {n} comma-separated numbers")
+    return vals
+
+
+def run(args):
+    from ..errors import AquaspecError
+    from ..output import LINEAR_SUFFIXES, PNG_SUFFIXES, check_writable, save_image
+    from ..renderer import parse_size, render
+    check_writable(args.output, suffixes=PNG_SUFFIXES)
+    if args.linear:
+        check_writable(args.linear, suffixes=LINEAR_SUFFIXES)
+    size = parse_size(args.size)
+    exposure = args.exposure
+    if exposure != "auto":
+        try:
+            exposure = float(exposure)
+        except ValueError:
+            raise AquaspecError(f"exposure {args.exposure!r} must be 'auto' or a number of "
+                                "stops (EV)") from None
+    rgbd = None
+    if args.rgbd:
+        if not args.intrinsics:
+            raise AquaspecError("--rgbd needs --intrinsics fx,fy,cx,cy (pixels)")
+        rgbd = (args.rgbd[0], args.rgbd[1], _floats(args.intrinsics, 4, "--intrinsics"))
+    elif args.intrinsics:
+        raise AquaspecError("--intrinsics is only used with --rgbd")
+    albedo = _floats(args.albedo, 3, "--albedo") if args.albedo else None
+    if albedo and not args.mesh:
+        raise AquaspecError("--albedo is only used with --mesh")
+
+    def progress(msg):
+        print(f"aquaspec render: {msg}", file=sys.stderr, flush=True)
+
+    res = render(water=args.water, source=args.source, depth_m=args.depth, sensor=args.sensor,
+                 camspec=args.camspec, bands=args.bands, wavelength_range=parse_range(args.range),
+                 size=size, mesh=args.mesh, albedo=albedo, rgbd=rgbd, light=args.light,
+                 irradiance_w_m2=args.irradiance, sun_elevation_deg=args.sun_elevation,
+                 ambient=args.ambient, outside="zero" if args.outside_zero else "error",
+                 exposure=exposure, white_balance=args.white_balance, tonemap=args.tonemap,
+                 backend=args.backend, progress=progress)
+    files = save_image(args.output, res.display, res.linear_rgb if args.linear else None,
+                       res.params, linear_path=args.linear)
+    for w in files.get("warnings", []):
+        progress(f"warning: {w}")
+    print(f"wrote {files['png']} and {files['sidecar']}"
+          + (f" and {files['linear']}" if files.get("linear") else "")
+          + f" ({res.params['render_seconds']:.2f} s)")
+    return 0

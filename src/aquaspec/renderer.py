@@ -1,0 +1,293 @@
+"""The rendering API: scene or RGB-D image -> G-buffer -> spectral shading -> images.
+
+Data flows one way: spectral data (water, light, sensor, bands) -> scene ->
+G-buffer (GPU rasteriser, or an RGB-D image) -> deferred spectral pass (GPU,
+or its NumPy reference) -> linear camera RGB -> display.
+
+:func:`render` is the one-call entry point; :class:`Renderer` keeps the GPU
+passes alive for many frames (the interactive viewer and ``aquaspec bench``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import model
+from .appearance import check_depth
+from .bands import Bands
+from .camera import Camera, check_size
+from .errors import AquaspecError
+from .gbuffer import GBuffer
+from .light import SurfaceLight, surface_light
+from .reflectance import normalised_wavelength
+from .sensors import Sensor, get_sensor
+from .water import DEFAULT_SOURCE, Water, get_water
+
+BACKENDS = ("gpu", "numpy")
+
+
+@dataclass(frozen=True)
+class SpectralSetup:
+    """Everything per band the shading needs: water, light, sensor on ``bands``."""
+
+    water: Water
+    sensor: Sensor
+    light: SurfaceLight
+    bands: Bands
+    ambient: str = model.DEFAULT_AMBIENT
+    outside: str = "error"
+
+    def medium(self, materials) -> dict:
+        """Keyword arguments of ``shade_gbuffer`` / ``DeferredPass.set_medium``."""
+        bw = self.water.on_bands(self.bands)
+        mb = (np.stack([m.on_bands(self.bands) for m in materials]) if materials
+              else np.zeros((0, self.bands.n)))
+        return dict(a=bw.a, b=bw.b, kd=bw.kd, e0=self.light.on_bands(self.bands),
+                    response_weights=self.sensor.band_weights(self.bands, outside=self.outside),
+                    material_bands=mb,
+                    sigmoid_centers_t=normalised_wavelength(self.bands.centers_nm),
+                    ambient=self.ambient)
+
+    def describe(self) -> dict:
+        return {"water": self.water.describe(), "sensor": self.sensor.describe(),
+                "light": self.light.describe(), "bands": self.bands.describe(),
+                "ambient_model": self.ambient, "ms_model": "seeds",
+                "sensor_outside_range": self.outside}
+
+
+class Renderer:
+    """GPU passes for one image size and band count, reused across frames.
+
+    Parameters
+    ----------
+    width, height : int
+    n_bands : int
+    debug_radiance : bool
+        Keep per-band radiance on the GPU so :meth:`read_radiance` works.
+    """
+
+    def __init__(self, width: int, height: int, n_bands: int, *, debug_radiance=False):
+        from .gpu.deferred import DeferredPass
+        from .gpu.raster import RasterPass
+        self.width, self.height = check_size(width, height)
+        self.deferred = DeferredPass(self.width, self.height, n_bands,
+                                     debug_radiance=debug_radiance)
+        self.raster = RasterPass(self.deferred.device)
+        self._medium_key = None
+
+    def set_spectral(self, setup: SpectralSetup, materials) -> None:
+        key = (id(setup), tuple(id(m) for m in materials))
+        if key != self._medium_key:
+            self.deferred.set_medium(**setup.medium(materials))
+            self._medium_key = key
+
+    def render_scene(self, scene, camera: Camera, setup: SpectralSetup) -> np.ndarray:
+        """Rasterise and shade on the GPU; returns linear camera RGB (H, W, 3) float32."""
+        self._check_camera(camera)
+        self.set_spectral(setup, scene.materials)
+        enc = self.deferred.device.create_command_encoder()
+        self.raster.render_to(self.deferred, scene, camera, encoder=enc)
+        self.deferred.upload_uniforms()
+        self.deferred.encode(enc)
+        self.deferred.device.queue.submit([enc.finish()])
+        return self.deferred.read_rgb()
+
+    def render_gbuffer(self, gbuffer: GBuffer, setup: SpectralSetup) -> np.ndarray:
+        """Shade a G-buffer made elsewhere (e.g. RGB-D) on the GPU."""
+        self._check_camera(gbuffer.camera)
+        self.set_spectral(setup, gbuffer.materials)
+        self.deferred.set_gbuffer(gbuffer)
+        self.deferred.run()
+        return self.deferred.read_rgb()
+
+    def read_radiance(self) -> np.ndarray:
+        return self.deferred.read_radiance()
+
+    def _check_camera(self, camera):
+        if (camera.width, camera.height) != (self.width, self.height):
+            raise AquaspecError(f"camera is {camera.width}x{camera.height}; this renderer "
+                                f"was made for {self.width}x{self.height}")
+
+
+@dataclass
+class RenderResult:
+    """What :func:`render` returns.
+
+    Attributes
+    ----------
+    display : ndarray (H, W, 3) uint8
+        sRGB-encoded, exposed and tone-mapped image.
+    linear_rgb : ndarray (H, W, 3) float
+        Linear camera RGB (see :func:`aquaspec.model.radiance_to_rgb`).
+    radiance : ndarray (H, W, n) or None
+        Band radiance, W m^-2 sr^-1 nm^-1, when asked for.
+    gbuffer : GBuffer
+    params : dict
+        Every parameter of the render (for sidecars).
+    """
+
+    display: np.ndarray
+    linear_rgb: np.ndarray
+    radiance: np.ndarray | None
+    gbuffer: GBuffer | None
+    params: dict = field(default_factory=dict)
+
+
+def parse_size(text) -> tuple[int, int]:
+    """``"WxH"`` -> (W, H), validated (1 to 8192)."""
+    if isinstance(text, (tuple, list)) and len(text) == 2:
+        return check_size(*text)
+    try:
+        w, h = (int(x) for x in str(text).lower().split("x"))
+    except ValueError:
+        raise AquaspecError(f"image size {text!r} is not WIDTHxHEIGHT, e.g. 1280x720") from None
+    return check_size(w, h)
+
+
+def _scene_for(mesh, depth_m, width, height, albedo):
+    from .scene.builtin import builtin_scene
+    if mesh is None:
+        return builtin_scene(depth_m, width=width, height=height)
+    from .scene.load import load_mesh, place_in_front
+    scene = load_mesh(mesh, albedo=albedo)
+    scene = place_in_front(scene, depth_m=depth_m, width=width, height=height)
+    return scene, scene.camera
+
+
+def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
+           sensor="human", camspec=None, bands: int = 16, wavelength_range=(400.0, 700.0),
+           size=(1280, 720), scene=None, camera: Camera | None = None, mesh=None, albedo=None,
+           rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
+           ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
+           exposure="auto", white_balance="none", tonemap="filmic",
+           return_radiance: bool = False, backend: str = "gpu",
+           progress=None) -> RenderResult:
+    """Render one image.
+
+    Parameters
+    ----------
+    water : str or Water
+        Jerlov type (``"IB"``), a CSV path, or a :class:`Water`.
+    source : str
+        Data set for Jerlov types.
+    depth_m : float
+        Camera depth below the surface, m (built-in scene and meshes).
+    sensor : str or Sensor
+        ``"human"``, a built-in camera, a camera of ``camspec``, or a CSV.
+    bands : int
+        Number of wavelength bands over ``wavelength_range`` (nm).
+    size : (int, int) or "WxH"
+    scene, camera : Scene and Camera, optional
+        Your own scene; otherwise the built-in one (or ``mesh``).
+    mesh : path, optional
+        An OBJ/PLY/glTF/GLB placed in front of the camera at ``depth_m``.
+    albedo : 3 floats, optional
+        Linear RGB albedo replacing the mesh's colours.
+    rgbd : (image, depth, intrinsics), optional
+        An RGB image (path or array), a metric depth map (path or array, m)
+        and pinhole intrinsics ``(fx, fy, cx, cy)``: a photograph becomes an
+        underwater one with the camera at ``depth_m``.
+    light : str or SurfaceLight
+        ``overcast``, ``d65`` or ``sun-sky`` (see :mod:`aquaspec.light`).
+    ambient : str
+        Ambient irradiance model (:data:`aquaspec.model.AMBIENT_MODELS`).
+    outside : {"error", "zero"}
+        Sensor response outside its range.
+    exposure : "auto" or float EV; white_balance, tonemap : str
+        Display settings (:func:`aquaspec.display.to_display`).
+    return_radiance : bool
+        Also return the per-band radiance.
+    backend : {"gpu", "numpy"}
+        The WGSL passes through wgpu, or the NumPy reference.
+    progress : callable, optional
+        Called with a short message at each stage.
+    """
+    from .display import to_display
+    say = progress or (lambda msg: None)
+    if backend not in BACKENDS:
+        raise AquaspecError(f"backend {backend!r} is unknown; accepted: {', '.join(BACKENDS)}")
+    depth = check_depth(depth_m)
+    width, height = parse_size(size)
+    t0 = time.perf_counter()
+    water_obj = water if isinstance(water, Water) else get_water(water, source)
+    sensor_obj = sensor if isinstance(sensor, Sensor) else get_sensor(sensor, camspec)
+    light_obj = light if isinstance(light, SurfaceLight) else surface_light(
+        light, total_w_m2=irradiance_w_m2, sun_elevation_deg=sun_elevation_deg)
+    setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
+                          ambient, outside)
+    medium_check = setup.medium([])  # fail early on ranges before any geometry work
+    del medium_check
+
+    gbuffer = None
+    source_desc = {}
+    if rgbd is not None:
+        from .rgbd import gbuffer_from_rgbd, load_rgbd
+        image, depth_map, intrinsics = rgbd
+        if isinstance(image, (str,)) or hasattr(image, "__fspath__"):
+            source_desc = {"rgbd_image": str(image), "rgbd_depth": str(depth_map)}
+            image, depth_map = load_rgbd(image, depth_map)
+        say("building the G-buffer from the RGB-D image")
+        gbuffer = gbuffer_from_rgbd(image, depth_map, intrinsics, camera_depth_m=depth)
+        camera = gbuffer.camera
+        scene_desc = {"kind": "rgbd", "intrinsics": list(map(float, intrinsics)), **source_desc}
+    else:
+        if scene is None:
+            say("building the scene")
+            scene, default_cam = _scene_for(mesh, depth, width, height, albedo)
+            camera = camera or default_cam
+            scene_desc = {"kind": "builtin" if mesh is None else "mesh",
+                          **({"mesh": str(mesh)} if mesh is not None else {})}
+        else:
+            camera = camera or scene.camera
+            if camera is None:
+                raise AquaspecError("a user scene needs a camera (scene.camera or camera=)")
+            scene_desc = {"kind": "user", "meshes": len(scene.meshes)}
+
+    n = setup.bands.n
+    radiance = None
+    if backend == "gpu":
+        say(f"shading {camera.width}x{camera.height} pixels x {n} bands on the GPU")
+        r = Renderer(camera.width, camera.height, n, debug_radiance=return_radiance)
+        if gbuffer is None:
+            linear = r.render_scene(scene, camera, setup).astype(np.float64)
+            if return_radiance:
+                radiance = r.read_radiance()
+            gbuffer = None
+        else:
+            linear = r.render_gbuffer(gbuffer, setup).astype(np.float64)
+            if return_radiance:
+                radiance = r.read_radiance()
+    else:
+        from .gpu.raster import raycast_gbuffer
+        from .shading import shade_gbuffer
+        if gbuffer is None:
+            say("ray casting the G-buffer (NumPy)")
+            gbuffer = raycast_gbuffer(scene, camera)
+        say(f"shading {camera.width}x{camera.height} pixels x {n} bands in NumPy")
+        out = shade_gbuffer(gbuffer, **setup.medium(gbuffer.materials),
+                            return_radiance=return_radiance)
+        linear, radiance = out["camera_rgb"], out.get("radiance")
+    bad = ~np.isfinite(linear)
+    if bad.any():
+        i, j = np.argwhere(bad.any(axis=-1))[0]
+        raise AquaspecError(f"{int(bad.any(axis=-1).sum())} pixels came out NaN or infinite "
+                            f"(first at row {i}, column {j}); this is a bug, please report it "
+                            "with the parameters")
+    display, info = to_display(linear, exposure=exposure, white_balance=white_balance,
+                               tonemap=tonemap)
+    params = {
+        **setup.describe(),
+        "depth_m": depth,
+        "camera": camera.describe(),
+        "scene": scene_desc,
+        "backend": backend,
+        "display": info,
+        "render_seconds": time.perf_counter() - t0,
+    }
+    if backend == "gpu":
+        from .gpu.device import adapter_info
+        params["adapter"] = adapter_info()
+    return RenderResult(display, linear, radiance, gbuffer, params)
