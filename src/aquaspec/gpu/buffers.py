@@ -206,6 +206,12 @@ def _time_timestamps(device, passes, frames, warmup):
 
 
 def _time_wall_clock(device, passes, frames, warmup):
+    wgpu = _wgpu()
+    # Waiting on a tiny readback: queue.on_submitted_work_done_sync() fails
+    # inside wgpu-py 0.32's callback binding, and a readback is ordered after
+    # every earlier submission anyway.
+    fence = device.create_buffer(label="aquaspec timing fence", size=BUFFER_ALIGN,
+                                 usage=wgpu.BufferUsage.COPY_SRC)
     samples = {k: [] for k in passes}
     for f in range(warmup + frames):
         for name, p in passes.items():
@@ -213,7 +219,7 @@ def _time_wall_clock(device, passes, frames, warmup):
             p.encode(enc)
             t0 = time.perf_counter()
             device.queue.submit([enc.finish()])
-            device.queue.on_submitted_work_done_sync()
+            device.queue.read_buffer(fence)
             dt = (time.perf_counter() - t0) * 1e3
             if f >= warmup:
                 samples[name].append(dt)

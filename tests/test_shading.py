@@ -1,0 +1,203 @@
+"""shade_gbuffer, the NumPy reference of the deferred pass: against closed
+forms, against per-ray model.pixel_radiance, and its input checks."""
+
+import numpy as np
+import pytest
+
+from aquaspec import model, shading
+from aquaspec.camera import Camera
+from aquaspec.errors import AquaspecError
+from aquaspec.gbuffer import PER_PIXEL, GBuffer
+from aquaspec.shading import shade_gbuffer, sigmoid_reflectance
+
+#: Both sides are float64; only rounding separates them.
+RTOL = 1e-12
+
+N = 5
+A = np.array([0.02, 0.03, 0.06, 0.25, 0.45])
+B = np.array([0.06, 0.05, 0.045, 0.04, 0.035])
+KD = np.array([0.04, 0.035, 0.07, 0.27, 0.48])
+E0 = np.array([0.9, 1.1, 1.2, 1.0, 0.8])
+RESP = np.array([[0.0, 0.1, 2.0], [0.1, 1.5, 0.5], [0.4, 2.0, 0.1], [1.8, 0.3, 0.0],
+                 [1.0, 0.0, 0.0]])
+T_CENTRES = np.linspace(-1.2, 1.2, N)
+MATS = np.array([np.full(N, 0.18), np.linspace(0.05, 0.6, N)])
+
+
+def medium(**over):
+    m = dict(a=A, b=B, kd=KD, e0=E0, response_weights=RESP, material_bands=MATS,
+             sigmoid_centers_t=T_CENTRES, ambient="cosine")
+    m.update(over)
+    return m
+
+
+def one_ray(position, forward, up=(0.0, 0.0, 1.0), *, distance=np.inf, normal=(0, 0, 0),
+            material=0, sigmoid=(0, 0, 0)):
+    """A 1x1 G-buffer whose single ray is exactly ``forward``."""
+    cam = Camera(position, forward, up, 1, 1, 1.0, 1.0, 0.5, 0.5)
+    return GBuffer(cam, [[distance]], [[normal]], [[material]], [[sigmoid]],
+                   materials=["grey", "ramp"])
+
+
+class TestSigmoidReflectance:
+    def test_known_values(self):
+        t = np.array([-1.0, 0.0, 2.0])
+        # x = t^2 - t + 0.5 -> 2.5, 0.5, 2.5
+        x = np.array([2.5, 0.5, 2.5])
+        np.testing.assert_allclose(sigmoid_reflectance([1.0, -1.0, 0.5], t),
+                                   0.5 + x / (2 * np.sqrt(1 + x * x)), rtol=RTOL)
+
+    def test_limits_and_shape(self):
+        c = np.array([[0, 0, 0], [0, 0, 1e30], [0, 0, -1e30]], dtype=float)
+        r = sigmoid_reflectance(c, T_CENTRES)
+        assert r.shape == (3, N)
+        np.testing.assert_allclose(r[0], 0.5)
+        np.testing.assert_allclose(r[1], 1.0, atol=1e-12)
+        np.testing.assert_allclose(r[2], 0.0, atol=1e-12)
+
+
+class TestClosedForms:
+    def test_open_water_horizontal(self):
+        """L = b E0 / (4 pi) e^{-Kd d} / c for a horizontal ray to infinity."""
+        d = 7.0
+        gb = one_ray((0.0, -d, 0.0), (1.0, 0.0, 0.0), up=(0.0, 1.0, 0.0))
+        out = shade_gbuffer(gb, **medium(), return_radiance=True)
+        expect = B * E0 / (4 * np.pi) * np.exp(-KD * d) / (A + B)
+        np.testing.assert_allclose(out["radiance"][0, 0], expect, rtol=RTOL)
+        np.testing.assert_allclose(out["camera_rgb"][0, 0], expect @ RESP, rtol=RTOL)
+
+    @pytest.mark.parametrize("ambient, g", [("cosine", 1.0), ("uniform", 1.0)])
+    def test_looking_down_at_seabed(self, ambient, g):
+        d, h = 4.0, 3.0
+        gb = one_ray((0.0, -d, 0.0), (0.0, -1.0, 0.0), distance=h, normal=(0, 1, 0),
+                     material=1)
+        out = shade_gbuffer(gb, **medium(ambient=ambient), return_radiance=True)
+        c = A + B
+        l_surf = MATS[1] * E0 * np.exp(-KD * (d + h)) * g / np.pi
+        l_ms = B * E0 / (4 * np.pi) * np.exp(-KD * d) * (1 - np.exp(-(c + KD) * h)) / (c + KD)
+        np.testing.assert_allclose(out["radiance"][0, 0], np.exp(-c * h) * l_surf + l_ms,
+                                   rtol=RTOL)
+
+    @pytest.mark.parametrize("kd_scale", [0.5, 2.0])   # k > 0 and k < 0
+    def test_looking_up_into_snells_window(self, kd_scale):
+        d = 5.0
+        kd = (A + B) * kd_scale
+        gb = one_ray((0.0, -d, 0.0), (0.0, 1.0, 0.0))
+        out = shade_gbuffer(gb, **medium(kd=kd), return_radiance=True)
+        c = A + B
+        k = c - kd
+        l_sky = E0 * model.N_WATER ** 2 / np.pi
+        l_ms = B * E0 / (4 * np.pi) * np.exp(-kd * d) * (1 - np.exp(-k * d)) / k
+        np.testing.assert_allclose(out["radiance"][0, 0], np.exp(-c * d) * l_sky + l_ms,
+                                   rtol=1e-10)
+
+    def test_down_facing_surface_is_dark_with_cosine_ambient(self):
+        gb = one_ray((0.0, -6.0, 0.0), (0.0, 1.0, 0.0), distance=2.0, normal=(0, -1, 0),
+                     material=0)
+        out = shade_gbuffer(gb, **medium(), return_radiance=True)
+        l_ms = model.l_ms_seeds(B, A + B, KD, E0, 6.0, 1.0, 2.0)
+        np.testing.assert_allclose(out["radiance"][0, 0], l_ms, rtol=RTOL)
+
+    def test_hit_beyond_the_surface_is_open_water(self):
+        """An up ray cannot reach a hit above the water: it ends at the surface."""
+        beyond = one_ray((0.0, -2.0, 0.0), (0.0, 1.0, 0.0), distance=3.0, normal=(0, -1, 0))
+        open_water = one_ray((0.0, -2.0, 0.0), (0.0, 1.0, 0.0))
+        np.testing.assert_allclose(shade_gbuffer(beyond, **medium())["camera_rgb"],
+                                   shade_gbuffer(open_water, **medium())["camera_rgb"],
+                                   rtol=RTOL)
+
+
+def random_gbuffer(rng, width=7, height=5):
+    cam = Camera.look_at((0.3, -6.0, 0.0), (1.0, -4.0, 5.0), width=width, height=height,
+                         fov_y_deg=120.0)
+    shape = (height, width)
+    dist = rng.uniform(0.5, 20.0, shape)
+    dist[rng.random(shape) < 0.3] = np.inf
+    nrm = rng.normal(size=shape + (3,))
+    nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
+    mat = rng.integers(0, 2, shape).astype(np.uint32)
+    mat[rng.random(shape) < 0.4] = PER_PIXEL
+    sig = rng.normal(size=shape + (3,))
+    return GBuffer(cam, dist, nrm, mat, sig, materials=["grey", "ramp"])
+
+
+class TestAgainstPixelRadiance:
+    """Each pixel, one call of model.pixel_radiance with scalars per ray."""
+
+    @pytest.mark.parametrize("ambient", list(model.AMBIENT_MODELS))
+    @pytest.mark.parametrize("seed", [0, 1])
+    def test_per_pixel(self, seed, ambient):
+        gb = random_gbuffer(np.random.default_rng(seed))
+        out = shade_gbuffer(gb, **medium(ambient=ambient), return_radiance=True)
+        cam = gb.camera
+        dirs = cam.ray_directions()
+        d_o = -cam.position[1]
+        for i in range(cam.height):
+            for j in range(cam.width):
+                v = dirs[i, j]
+                s = float(gb.distance[i, j])
+                reaches = np.isfinite(s) and (v[1] <= 0 or s <= d_o / v[1])
+                if reaches:
+                    m = int(gb.material[i, j])
+                    if m == PER_PIXEL:
+                        c0, c1, c2 = gb.sigmoid[i, j].astype(float)
+                        x = c0 * T_CENTRES ** 2 + c1 * T_CENTRES + c2
+                        rho = 0.5 + x / (2 * np.sqrt(1 + x * x))
+                    else:
+                        rho = MATS[m]
+                    expect = model.pixel_radiance(
+                        a=A, b=B, kd=KD, e0=E0, depth_o=d_o, v_y=v[1], s=s, rho=rho,
+                        surface_depth=-(cam.position[1] + s * v[1]),
+                        n_y=float(gb.normal[i, j, 1]), ambient=ambient)
+                else:
+                    expect = model.pixel_radiance(a=A, b=B, kd=KD, e0=E0, depth_o=d_o,
+                                                  v_y=v[1], s=np.inf)
+                np.testing.assert_allclose(out["radiance"][i, j], expect, rtol=RTOL)
+                np.testing.assert_allclose(out["camera_rgb"][i, j], expect @ RESP, rtol=RTOL)
+
+    def test_chunking_does_not_change_the_result(self, monkeypatch):
+        gb = random_gbuffer(np.random.default_rng(3), width=9, height=11)
+        whole = shade_gbuffer(gb, **medium())["camera_rgb"]
+        monkeypatch.setattr(shading, "_CHUNK_ELEMENTS", 2 * 9 * N)   # two rows per chunk
+        np.testing.assert_array_equal(shade_gbuffer(gb, **medium())["camera_rgb"], whole)
+
+    def test_output_is_finite_and_positive(self):
+        out = shade_gbuffer(random_gbuffer(np.random.default_rng(4)), **medium())
+        assert np.all(np.isfinite(out["camera_rgb"]))
+        assert np.all(out["camera_rgb"] > 0)
+        assert "radiance" not in out
+
+
+class TestInputErrors:
+    def gb(self):
+        return random_gbuffer(np.random.default_rng(0))
+
+    @pytest.mark.parametrize("over, match", [
+        (dict(b=B[:3]), "b has shape \\(3,\\); expected \\(5,\\)"),
+        (dict(b=-B), "negative"),
+        (dict(e0=np.where(np.arange(N) == 2, np.nan, E0)), "NaN"),
+        (dict(a=np.zeros(N), b=np.zeros(N)), "extinction"),
+        (dict(response_weights=RESP[:, :2]), "response_weights"),
+        (dict(material_bands=MATS[:1]), "2 materials"),
+        (dict(material_bands=MATS[:, :3]), "material_bands"),
+        (dict(ambient="hemisphere"), "unknown ambient model 'hemisphere'"),
+        (dict(sigmoid_centers_t=T_CENTRES[:2]), "sigmoid_centers_t"),
+    ])
+    def test_bad_medium(self, over, match):
+        with pytest.raises(AquaspecError, match=match):
+            shade_gbuffer(self.gb(), **medium(**over))
+
+    def test_camera_above_water(self):
+        gb = one_ray((0.0, 0.5, 0.0), (1.0, 0.0, 0.0), up=(0.0, 1.0, 0.0))
+        with pytest.raises(AquaspecError, match="above the water"):
+            shade_gbuffer(gb, **medium())
+
+    def test_non_finite_sigmoid(self):
+        gb = one_ray((0.0, -3.0, 0.0), (0.0, -1.0, 0.0), distance=1.0, normal=(0, 1, 0),
+                     material=PER_PIXEL, sigmoid=(np.nan, 0.0, 0.0))
+        with pytest.raises(AquaspecError, match="sigmoid"):
+            shade_gbuffer(gb, **medium())
+
+    def test_not_a_gbuffer(self):
+        with pytest.raises(AquaspecError, match="GBuffer"):
+            shade_gbuffer({"distance": 1}, **medium())
