@@ -215,7 +215,7 @@ class RasterPass:
         }
         self._size = (width, height)
 
-    def encode(self, encoder, scene: Scene, camera: Camera):
+    def encode(self, encoder, scene: Scene, camera: Camera, timestamp_writes=None):
         """Record the geometry pass into ``encoder``; results land in :attr:`targets`."""
         import wgpu
         _check_inputs(scene, camera)
@@ -235,7 +235,8 @@ class RasterPass:
                  "load_op": wgpu.LoadOp.clear, "store_op": wgpu.StoreOp.store}],
             depth_stencil_attachment={
                 "view": self.targets["depth"].create_view(), "depth_clear_value": 1.0,
-                "depth_load_op": wgpu.LoadOp.clear, "depth_store_op": wgpu.StoreOp.store})
+                "depth_load_op": wgpu.LoadOp.clear, "depth_store_op": wgpu.StoreOp.store},
+            **({} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}))
         rp.set_pipeline(self._pipeline)
         rp.set_bind_group(0, self._cam_group)
         for m in self._meshes:
@@ -245,13 +246,16 @@ class RasterPass:
             rp.draw_indexed(m.count)
         rp.end()
 
-    def render_to(self, deferred_pass, scene: Scene, camera: Camera, encoder=None):
+    def render_to(self, deferred_pass, scene: Scene, camera: Camera, encoder=None,
+                  timestamp_writes=None):
         """Rasterise straight into a :class:`~aquaspec.gpu.deferred.DeferredPass`'s G-buffer.
 
         Records the geometry pass and a compute pass that repacks its targets
         into ``deferred_pass.gbuffer_buffers`` (nothing is read back), and
         sets the deferred pass's camera. With ``encoder`` the commands are
-        only recorded; without, they are submitted.
+        only recorded; without, they are submitted. ``timestamp_writes``
+        brackets both passes (its beginning index on the geometry pass, its
+        end index on the repacking pass).
         """
         if (camera.width, camera.height) != (deferred_pass.width, deferred_pass.height):
             raise AquaspecError(f"camera is {camera.width}x{camera.height} but the deferred "
@@ -259,7 +263,14 @@ class RasterPass:
         own = encoder is None
         if own:
             encoder = self.device.create_command_encoder()
-        self.encode(encoder, scene, camera)
+        begin = end = None
+        if timestamp_writes is not None:
+            qs = timestamp_writes["query_set"]
+            begin = {"query_set": qs, "beginning_of_pass_write_index":
+                     timestamp_writes["beginning_of_pass_write_index"]}
+            end = {"query_set": qs, "end_of_pass_write_index":
+                   timestamp_writes["end_of_pass_write_index"]}
+        self.encode(encoder, scene, camera, timestamp_writes=begin)
         bufs = deferred_pass.gbuffer_buffers
         group = self.device.create_bind_group(
             layout=self._get_pack_pipeline().get_bind_group_layout(0), entries=[
@@ -268,7 +279,7 @@ class RasterPass:
                 {"binding": b, "resource": {"buffer": bufs[name], "offset": 0,
                                             "size": bufs[name].size}}
                 for b, name in ((12, "distance"), (13, "surface"), (14, "sigmoid"))])
-        cp = encoder.begin_compute_pass()
+        cp = encoder.begin_compute_pass(**({} if end is None else {"timestamp_writes": end}))
         cp.set_pipeline(self._pack_pipeline)
         cp.set_bind_group(0, group)
         cp.dispatch_workgroups(-(-camera.width // 8), -(-camera.height // 8), 1)
