@@ -49,13 +49,20 @@ def _formats_text():
 
 
 def _texture_of(material):
-    """(image, linear factor) of a trimesh material; image may be None."""
-    image = getattr(material, "baseColorTexture", None)
-    if image is None:
-        image = getattr(material, "image", None)
-    factor = getattr(material, "baseColorFactor", None)
-    if factor is None:
+    """(image, linear colour factor) of a trimesh material; either may be None.
+
+    glTF multiplies its base-colour texture by ``baseColorFactor`` (glTF 2.0
+    specification, "metallic-roughness material"); for MTL the texture is
+    used alone, as common viewers do, and ``Kd`` only colours untextured
+    meshes.
+    """
+    pbr_image = getattr(material, "baseColorTexture", None)
+    if hasattr(material, "baseColorFactor"):
+        factor = material.baseColorFactor
+        image = pbr_image
+    else:
         factor = getattr(material, "diffuse", None)
+        image = getattr(material, "image", None)
     factor = None if factor is None else np.asarray(factor, dtype=float)[:3] / 255.0
     return image, factor
 
@@ -79,7 +86,7 @@ def _mesh_from_trimesh(geom, transform, name, scene: Scene, albedo):
         if image is not None and uv is not None and len(uv) == len(vertices):
             tex = image_to_linear_rgb(np.asarray(image.convert("RGB")), is_srgb=True,
                                       what=f"texture of {name!r}")
-            if factor is not None and np.any(factor != 1):
+            if factor is not None and hasattr(visual.material, "baseColorFactor"):
                 tex = tex * factor.astype(np.float32)
             kwargs.update(uv=np.asarray(uv, dtype=float), texture=tex)
         else:
