@@ -259,18 +259,17 @@ class DeferredPass:
             self._bind_group = None
             self.bindings_version += 1
 
-    def set_medium(self, a, b, kd, e0, response_weights, material_bands=None,
-                   sigmoid_centers_t=None, ambient: str = model.DEFAULT_AMBIENT) -> None:
+    def set_medium(self, a, b, kd, e0, response_weights, material_bands, sigmoid_centers_t,
+                   ambient: str = model.DEFAULT_AMBIENT) -> None:
         """Upload the per-band water, light, sensor and material data.
 
-        Same arguments and checks as :func:`aquaspec.shading.shade_gbuffer`
-        (``a, b, kd, e0, sigmoid_centers_t`` (n,), ``response_weights``
-        (n, 3), ``material_bands`` (M, n)); ``sigmoid_centers_t`` defaults to
-        zeros only when no pixel uses per-pixel sigmoids.
+        Same arguments and checks as :func:`aquaspec.shading.shade_gbuffer`:
+        ``a, b, kd`` (n,) in 1/m, ``e0`` (n,) in W m^-2 nm^-1,
+        ``response_weights`` (n, 3), ``material_bands`` (M, n) or None,
+        ``sigmoid_centers_t`` (n,), ``ambient`` a key of
+        :data:`AMBIENT_MODEL_IDS`.
         """
         n = self.n_bands
-        if sigmoid_centers_t is None:
-            sigmoid_centers_t = np.zeros(n)
         a, b, kd, e0, w, mb, t = check_medium(a, b, kd, e0, response_weights, material_bands,
                                               sigmoid_centers_t, ambient)
         if a.size != n:
