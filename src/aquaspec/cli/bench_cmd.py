@@ -1,0 +1,51 @@
+"""``aquaspec bench``: frame times per pass against the number of bands."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+
+def register(sub):
+    p = sub.add_parser(
+        "bench", help="cost study: frame time per pass vs number of bands, and ratios",
+        description="Time every GPU pass of the built-in scene for several image sizes and band "
+                    "counts, fit t(n) = t0 + n t1, and report ratios measured in the same run "
+                    "(NumPy reference / GPU, n=8 / n=3, deferred / memory-floor copy).")
+    p.add_argument("--sizes", default="1280x720,1920x1080", metavar="WxH,...")
+    p.add_argument("--bands", default="3,8,16,32,64", metavar="N,...")
+    p.add_argument("--frames", type=int, default=20, help="timed frames per point (default 20)")
+    p.add_argument("--warmup", type=int, default=3, help="untimed frames first (default 3)")
+    p.add_argument("--water", default="IB")
+    p.add_argument("--depth", type=float, default=5.0)
+    p.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference ratio")
+    p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
+    p.add_argument("--plot", metavar="OUT.png", help="plot t(n)")
+    p.set_defaults(func=run, command="bench")
+
+
+def run(args):
+    from ..bench import format_table, plot, run_bench
+    from ..errors import AquaspecError
+    from ..output import check_writable, write_file_atomically
+    from ..renderer import parse_size
+    if args.json:
+        check_writable(args.json, suffixes=(".json",))
+    if args.plot:
+        check_writable(args.plot, suffixes=(".png",))
+    sizes = [parse_size(s) for s in args.sizes.split(",") if s]
+    try:
+        bands = [int(b) for b in args.bands.split(",") if b]
+    except ValueError:
+        raise AquaspecError(f"--bands {args.bands!r} must be comma-separated integers") from None
+    result = run_bench(sizes=sizes, bands=bands, frames=args.frames, warmup=args.warmup,
+                       water=args.water, depth_m=args.depth, numpy_reference=not args.no_numpy,
+                       progress=lambda m: print(m, file=sys.stderr, flush=True))
+    print(format_table(result))
+    if args.json:
+        text = json.dumps(result, indent=2)
+        write_file_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
+    if args.plot:
+        plot(result, args.plot)
+    return 0
