@@ -27,6 +27,8 @@ from .sensors import Sensor, get_sensor
 from .water import DEFAULT_SOURCE, Water, get_water
 
 BACKENDS = ("gpu", "numpy")
+#: Distance of the grey card used as reference by ``white_balance="white-patch"``.
+WHITE_CARD_DISTANCE_M = 1.0
 
 
 @dataclass(frozen=True)
@@ -198,6 +200,9 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         Sensor response outside its range.
     exposure : "auto" or float EV; white_balance, tonemap : str
         Display settings (:func:`aquaspec.display.to_display`).
+        ``white_balance="white-patch"`` neutralises an 18 % grey card held
+        1 m in front of the camera at its depth (a diver's custom white
+        balance); ``"grey-world"`` equalises the image's channel means.
     return_radiance : bool
         Also return the per-band radiance.
     backend : {"gpu", "numpy"}
@@ -276,8 +281,16 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         raise AquaspecError(f"{int(bad.any(axis=-1).sum())} pixels came out NaN or infinite "
                             f"(first at row {i}, column {j}); this is a bug, please report it "
                             "with the parameters")
+    reference = None
+    if white_balance == "white-patch":
+        # The diver's custom white balance: a grey card held 1 m in front of
+        # the camera at its depth, facing it.
+        from .appearance import water_colour
+        reference = water_colour(water_obj, sensor_obj, setup.bands, depth_m=depth,
+                                 distance_m=WHITE_CARD_DISTANCE_M, light=light_obj,
+                                 ambient=ambient, outside=outside)["grey_card_rgb"]
     display, info = to_display(linear, exposure=exposure, white_balance=white_balance,
-                               tonemap=tonemap)
+                               reference_rgb=reference, tonemap=tonemap)
     params = {
         **setup.describe(),
         "depth_m": depth,
