@@ -40,9 +40,15 @@ SIGMOID_SCALE_NM = 100.0
 _FIT_WL = np.arange(380.0, 731.0, 5.0)
 
 
+#: Sigmoid polynomial values are clamped to +-SIGMOID_X_MAX before
+#: ``x / sqrt(1 + x^2)``: beyond it the reflectance is 0 or 1 to 1e-12, and
+#: the clamp keeps ``x^2`` finite in float32 on the GPU (same clamp there).
+SIGMOID_X_MAX = 1.0e6
+
+
 def sigmoid(x):
     """``1/2 + x / (2 sqrt(1 + x^2))``, the Jakob-Hanika sigmoid (in (0, 1))."""
-    x = np.asarray(x, dtype=float)
+    x = np.clip(np.asarray(x, dtype=float), -SIGMOID_X_MAX, SIGMOID_X_MAX)
     return 0.5 + 0.5 * x / np.sqrt(1.0 + x * x)
 
 
@@ -51,12 +57,20 @@ def normalised_wavelength(wavelength_nm):
     return (np.asarray(wavelength_nm, dtype=float) - SIGMOID_CENTER_NM) / SIGMOID_SCALE_NM
 
 
+def sigmoid_at(coeffs, t):
+    """Reflectance of sigmoid coefficients ``(..., 3)`` at normalised wavelengths ``t`` (n,).
+
+    Returns ``(..., n)``. WGSL twin: ``sigmoid_reflectance`` in
+    ``shaders/common.wgsl`` (same Horner form and clamp).
+    """
+    c = np.asarray(coeffs, dtype=float)
+    t = np.asarray(t, dtype=float)
+    return sigmoid((c[..., 0:1] * t + c[..., 1:2]) * t + c[..., 2:3])
+
+
 def sigmoid_spectrum(coeffs, wavelength_nm):
     """Reflectance of sigmoid coefficients ``(..., 3)`` at wavelengths ``(m,)`` -> ``(..., m)``."""
-    c = np.asarray(coeffs, dtype=float)
-    t = normalised_wavelength(wavelength_nm)
-    x = c[..., 0:1] * t * t + c[..., 1:2] * t + c[..., 2:3]
-    return sigmoid(x)
+    return sigmoid_at(coeffs, normalised_wavelength(wavelength_nm))
 
 
 def sigmoid_band_values(coeffs, bands: Bands):

@@ -33,34 +33,11 @@ import numpy as np
 from . import model
 from .errors import AquaspecError
 from .gbuffer import PER_PIXEL, GBuffer
-
-#: Per-ray sigmoid polynomial values are clamped to +-SIGMOID_X_MAX before
-#: ``x / sqrt(1 + x^2)``: beyond it the reflectance is 0 or 1 to 1e-12, and
-#: the clamp keeps ``x^2`` finite in float32 on the GPU (same clamp there).
-SIGMOID_X_MAX = 1.0e6
+# The Jakob-Hanika sigmoid at normalised wavelengths (reflectance.py holds it).
+from .reflectance import SIGMOID_X_MAX, sigmoid_at as sigmoid_reflectance  # noqa: F401
 
 #: Upper bound on float64 elements of one row chunk per band array.
 _CHUNK_ELEMENTS = 1 << 20
-
-
-def sigmoid_reflectance(coeffs, t):
-    """Jakob-Hanika (2019) sigmoid reflectance at normalised wavelengths ``t``.
-
-    ``rho = 0.5 + x / (2 sqrt(1 + x^2))``, ``x = c0 t^2 + c1 t + c2``,
-    ``t = (lambda_nm - 550) / 100``. ``coeffs`` is (..., 3), ``t`` is (n,);
-    the result is (..., n). WGSL twin: ``sigmoid_reflectance`` in
-    ``shaders/common.wgsl``.
-
-    References
-    ----------
-    .. [Jakob2019] W. Jakob, J. Hanika, "A low-dimensional function space for
-       efficient spectral upsampling", Computer Graphics Forum 38(2), 2019.
-    """
-    c = np.asarray(coeffs, dtype=float)
-    t = np.asarray(t, dtype=float)
-    x = (c[..., 0:1] * t + c[..., 1:2]) * t + c[..., 2:3]
-    x = np.clip(x, -SIGMOID_X_MAX, SIGMOID_X_MAX)
-    return 0.5 + 0.5 * x / np.sqrt(1.0 + x * x)
 
 
 def _band_array(name, value, n, *, unit, minimum=0.0):
