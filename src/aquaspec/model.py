@@ -2,6 +2,8 @@
 
 This module is the oracle the GPU passes are tested against. Everything is
 vectorised: arrays broadcast against each other, with the band axis last.
+Its WGSL twin is ``shaders/common.wgsl`` (same formulas, same branches); the
+G-buffer-level reference built on it is :mod:`aquaspec.shading`.
 
 Conventions (also in ``docs`` of every function below)
 ------------------------------------------------------
