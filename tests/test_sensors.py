@@ -78,3 +78,27 @@ class TestCsv:
         q.write_text("wavelength_nm,r,g\n400,0,0\n700,1,0\n")
         with pytest.raises(AquaspecError, match="missing column.*b"):
             get_sensor(str(q))
+
+
+class TestSrgbMatrix:
+    def test_human_is_identity(self):
+        np.testing.assert_array_equal(get_sensor("human").srgb_matrix(), np.eye(3))
+
+    def test_camera_matrix_reproduces_colorchecker(self):
+        # After the fit, the camera sees the chart about as the CIE observer
+        # does: far closer than raw camera RGB read as sRGB.
+        import colour
+        from aquaspec.reflectance import colorchecker
+        s = get_sensor("nikon-5100-npl")
+        b = Bands(60)
+        d65 = colour.SDS_ILLUMINANTS["D65"]
+        e = b.average(d65.wavelengths, d65.values)
+        refl = np.stack([r.on_bands(b) for r in colorchecker()])
+        cam = (refl * e) @ s.band_weights(b)
+        ref = (refl * e) @ human_sensor().band_weights(b)
+        raw = cam * ref[18].mean() / cam[18].mean()
+        fitted = cam @ s.srgb_matrix().T
+        err_fit = np.linalg.norm(fitted - ref, axis=1).mean()
+        err_raw = np.linalg.norm(raw - ref, axis=1).mean()
+        assert err_fit < 0.25 * err_raw
+        assert np.linalg.norm(fitted[18] - ref[18]) < 0.05 * ref[18].mean()

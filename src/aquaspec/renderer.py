@@ -164,7 +164,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            size=(1280, 720), scene=None, camera: Camera | None = None, mesh=None, albedo=None,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
-           exposure="auto", white_balance="none", tonemap="filmic",
+           exposure="auto", white_balance="none", tonemap="filmic", colour_matrix="auto",
            return_radiance: bool = False, backend: str = "gpu",
            progress=None) -> RenderResult:
     """Render one image.
@@ -203,6 +203,11 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         ``white_balance="white-patch"`` neutralises an 18 % grey card held
         1 m in front of the camera at its depth (a diver's custom white
         balance); ``"grey-world"`` equalises the image's channel means.
+    colour_matrix : "auto", None or (3, 3)
+        Camera RGB -> linear sRGB for display: ``"auto"`` fits one on the
+        ColorChecker under D65 (:meth:`aquaspec.sensors.Sensor.srgb_matrix`;
+        identity for the human sensor); None shows camera RGB as it is. The
+        linear output stays camera RGB either way.
     return_radiance : bool
         Also return the per-band radiance.
     backend : {"gpu", "numpy"}
@@ -289,8 +294,13 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         reference = water_colour(water_obj, sensor_obj, setup.bands, depth_m=depth,
                                  distance_m=WHITE_CARD_DISTANCE_M, light=light_obj,
                                  ambient=ambient, outside=outside)["grey_card_rgb"]
+    if isinstance(colour_matrix, str):
+        if colour_matrix != "auto":
+            raise AquaspecError(f"colour_matrix {colour_matrix!r} is not accepted; use 'auto', "
+                                "None or a 3x3 matrix")
+        colour_matrix = sensor_obj.srgb_matrix()
     display, info = to_display(linear, exposure=exposure, white_balance=white_balance,
-                               reference_rgb=reference, tonemap=tonemap)
+                               reference_rgb=reference, tonemap=tonemap, matrix=colour_matrix)
     params = {
         **setup.describe(),
         "depth_m": depth,

@@ -98,6 +98,39 @@ class Sensor:
     def describe(self) -> dict:
         return {"name": self.name, "source": self.source, "range_nm": list(self.range_nm)}
 
+    def srgb_matrix(self) -> np.ndarray:
+        """3x3 matrix from this sensor's RGB to linear sRGB, fitted on the ColorChecker.
+
+        As a camera pipeline (or pbrt-v4's ``PixelSensor``) does: the 24
+        ColorChecker patches under D65 are seen by this sensor and by the
+        CIE 1931 observer (-> linear sRGB); ``M`` minimises the squared
+        error of ``M @ rgb_sensor`` against the sRGB values, then is scaled
+        so the white patch keeps its mean level. Fitted over 400-700 nm (or
+        the sensor's range inside it). The human sensor gets the identity.
+        """
+        if self.name == "human":
+            return np.eye(3)
+        return _fit_srgb_matrix(self)
+
+
+def _fit_srgb_matrix(sensor: Sensor) -> np.ndarray:
+    import colour
+    from .reflectance import colorchecker
+    lo, hi = max(400.0, sensor.range_nm[0]), min(700.0, sensor.range_nm[1])
+    bands = Bands(int(round(hi - lo)), lo, hi)
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    e = bands.average(d65.wavelengths, d65.values)
+    refl = np.stack([r.on_bands(bands) for r in colorchecker()])        # (24, n)
+    cam = (refl * e) @ sensor.band_weights(bands)                         # (24, 3)
+    ref = (refl * e) @ human_sensor().band_weights(bands)
+    m, *_ = np.linalg.lstsq(cam, ref, rcond=None)
+    m = m.T
+    # Keep the white patch's level: scale so M maps its camera RGB to the
+    # same mean as its sRGB.
+    white = 18
+    m *= ref[white].mean() / (m @ cam[white]).mean()
+    return m
+
 
 def _slug(name: str) -> str:
     return re.sub(r"[^a-z0-9]+", "-", name.lower()).strip("-")

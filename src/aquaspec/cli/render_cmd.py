@@ -29,6 +29,9 @@ def register(sub):
                    help="tone curve (default filmic)")
     p.add_argument("--white-balance", default="none", choices=list(WHITE_BALANCE_METHODS),
                    help="white balance (default none)")
+    p.add_argument("--colour-matrix", default="auto", choices=("auto", "none"),
+                   help="display: 'auto' maps camera RGB to sRGB with a matrix fitted on the "
+                        "ColorChecker (identity for 'human'); 'none' shows raw camera RGB")
     p.add_argument("--mesh", metavar="FILE", help="render this OBJ/PLY/glTF/GLB instead of the "
                                                    "built-in scene (placed 3 m in front)")
     p.add_argument("--albedo", metavar="R,G,B", help="linear RGB albedo for --mesh, e.g. 0.5,0.4,0.3")
@@ -90,6 +93,7 @@ def run(args):
                  irradiance_w_m2=args.irradiance, sun_elevation_deg=args.sun_elevation,
                  ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                  exposure=exposure, white_balance=args.white_balance, tonemap=args.tonemap,
+                 colour_matrix=None if args.colour_matrix == "none" else "auto",
                  backend=args.backend, progress=progress)
     files = save_image(args.output, res.display, res.linear_rgb if args.linear else None,
                        res.params, linear_path=args.linear)
