@@ -44,8 +44,11 @@ CAMERA_LAYOUT = UniformLayout("RasterCamera", [("view_proj", "mat4x4<f32>"),
                                                ("position", "vec3<f32>")])
 DRAW_LAYOUT = UniformLayout("RasterDraw", [("material", "u32"), ("mode", "u32")])
 
-#: ``RasterDraw.mode`` values (the shader's MODE_* constants).
+#: ``RasterDraw.mode`` values; each mode has its own fragment entry point
+#: (and pipeline), :data:`_FRAGMENT_ENTRY`.
 MODE_MATERIAL, MODE_TEXTURE, MODE_VERTEX = 0, 1, 2
+_FRAGMENT_ENTRY = {MODE_MATERIAL: "fs_material", MODE_TEXTURE: "fs_texture",
+                   MODE_VERTEX: "fs_vertex"}
 
 # Interleaved vertex: position (3), normal (3), uv (2), sigmoid coefficients (3).
 _VERTEX_FLOATS = 11
@@ -88,7 +91,7 @@ class _GpuMesh:
         self.index = device.create_buffer_with_data(
             data=mesh.faces.astype(np.uint32).tobytes(), usage=wgpu.BufferUsage.INDEX)
         self.count = int(mesh.faces.size)
-        mode = _mode(mesh)
+        self.mode = mode = _mode(mesh)
         uniform = device.create_buffer_with_data(
             data=DRAW_LAYOUT.pack(material=mesh.material, mode=mode),
             usage=wgpu.BufferUsage.UNIFORM)
@@ -152,11 +155,32 @@ class RasterPass:
             {"binding": 1, "visibility": wgpu.ShaderStage.FRAGMENT,
              "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float,
                          "view_dimension": wgpu.TextureViewDimension.d2}}])
-        layout = device.create_pipeline_layout(
+        self._pipeline_layout = device.create_pipeline_layout(
             bind_group_layouts=[self._cam_layout, self._draw_layout])
+        # Render pipelines by mode, made when a scene first needs them.
+        self._pipelines = {}
+        self._cam_buffer = device.create_buffer(
+            size=CAMERA_LAYOUT.size, usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        self._cam_group = device.create_bind_group(layout=self._cam_layout, entries=[
+            {"binding": 0, "resource": {"buffer": self._cam_buffer, "offset": 0,
+                                        "size": CAMERA_LAYOUT.size}}])
+        dummy = device.create_texture(size=(1, 1, 1), format=wgpu.TextureFormat.rgba32float,
+                                      usage=wgpu.TextureUsage.TEXTURE_BINDING)
+        self._dummy_view = dummy.create_view()
+        self._scene = None
+        self._meshes = []
+        self._size = None
+        self.targets = {}
+
+    def _pipeline(self, mode):
+        import wgpu
+        if mode in self._pipelines:
+            return self._pipelines[mode]
+        module = self._module
         f32x3, f32x2 = wgpu.VertexFormat.float32x3, wgpu.VertexFormat.float32x2
-        self._pipeline = device.create_render_pipeline(
-            layout=layout,
+        pipe = self.device.create_render_pipeline(
+            label=f"gbuffer {_FRAGMENT_ENTRY[mode]}",
+            layout=self._pipeline_layout,
             vertex={"module": module, "entry_point": "vs_main", "buffers": [{
                 "array_stride": 4 * _VERTEX_FLOATS,
                 "step_mode": wgpu.VertexStepMode.vertex,
@@ -171,21 +195,11 @@ class RasterPass:
                            "depth_write_enabled": True,
                            "depth_compare": wgpu.CompareFunction.less},
             multisample={"count": 1},
-            fragment={"module": module, "entry_point": "fs_main", "targets": [
+            fragment={"module": module, "entry_point": _FRAGMENT_ENTRY[mode], "targets": [
                 {"format": wgpu.TextureFormat.rgba32float},
                 {"format": wgpu.TextureFormat.rgba32uint}]})
-        self._cam_buffer = device.create_buffer(
-            size=CAMERA_LAYOUT.size, usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
-        self._cam_group = device.create_bind_group(layout=self._cam_layout, entries=[
-            {"binding": 0, "resource": {"buffer": self._cam_buffer, "offset": 0,
-                                        "size": CAMERA_LAYOUT.size}}])
-        dummy = device.create_texture(size=(1, 1, 1), format=wgpu.TextureFormat.rgba32float,
-                                      usage=wgpu.TextureUsage.TEXTURE_BINDING)
-        self._dummy_view = dummy.create_view()
-        self._scene = None
-        self._meshes = []
-        self._size = None
-        self.targets = {}
+        self._pipelines[mode] = pipe
+        return pipe
 
     def invalidate(self):
         """Forget the uploaded scene (call after editing its meshes in place)."""
@@ -194,8 +208,11 @@ class RasterPass:
 
     def _upload(self, scene: Scene):
         if scene is not self._scene:
-            self._meshes = [_GpuMesh(self.device, self._draw_layout, m, self._dummy_view)
-                            for m in scene.meshes]
+            meshes = [_GpuMesh(self.device, self._draw_layout, m, self._dummy_view)
+                      for m in scene.meshes]
+            # Drawn grouped by mode, one pipeline switch per mode (a stable
+            # sort; the depth test decides what is seen, exact ties aside).
+            self._meshes = sorted(meshes, key=lambda m: m.mode)
             self._scene = scene
 
     def _ensure_targets(self, width, height):
@@ -237,9 +254,12 @@ class RasterPass:
                 "view": self.targets["depth"].create_view(), "depth_clear_value": 1.0,
                 "depth_load_op": wgpu.LoadOp.clear, "depth_store_op": wgpu.StoreOp.store},
             **({} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}))
-        rp.set_pipeline(self._pipeline)
         rp.set_bind_group(0, self._cam_group)
+        mode = None
         for m in self._meshes:
+            if m.mode != mode:
+                mode = m.mode
+                rp.set_pipeline(self._pipeline(mode))
             rp.set_bind_group(1, m.bind_group)
             rp.set_vertex_buffer(0, m.vertex)
             rp.set_index_buffer(m.index, wgpu.IndexFormat.uint32)
