@@ -13,7 +13,7 @@ import warnings
 
 from ..errors import AquaspecError, GPUUnavailableError
 
-COMMANDS = ("list", "spectra", "colour", "render", "bench", "validate")
+COMMANDS = ("list", "spectra", "colour", "render", "view", "bench", "validate")
 
 DESCRIPTION = """\
 aquaspec renders underwater scenes spectrally: light is carried in n

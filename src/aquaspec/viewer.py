@@ -1,0 +1,142 @@
+"""The interactive viewer: the built-in scene with live controls.
+
+A matplotlib window (any interactive backend: Qt, Tk, GTK, macOS) with
+sliders for depth, number of bands and exposure, and choices of water type
+and sensor. Every change re-renders the frame on the GPU through one
+:class:`aquaspec.renderer.Renderer`, which is rebuilt only when the band
+count changes, so a new depth or water costs one frame.
+
+:class:`Viewer` does not open a window by itself (it takes a matplotlib
+figure), so it can be driven and tested headless.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .bands import Bands
+from .display import to_display
+from .errors import AquaspecError
+from .light import surface_light
+from .renderer import Renderer, SpectralSetup
+from .scene.builtin import builtin_scene
+from .sensors import builtin_sensors, get_sensor
+from .water import JERLOV_TYPES, load_water
+
+
+class Viewer:
+    """State and rendering of the interactive view.
+
+    Parameters
+    ----------
+    width, height : int
+        Frame size in pixels.
+    water, depth_m, bands, sensor, exposure : initial settings
+        ``exposure`` is ``"auto"`` or EV.
+    camspec : path, optional
+        Makes the cameras of a camspec file selectable.
+    """
+
+    def __init__(self, width=640, height=360, *, water="IB", depth_m=5.0, bands=8,
+                 sensor="human", exposure="auto", camspec=None):
+        self.width, self.height = width, height
+        self.camspec = camspec
+        self.state = {"water": water, "depth_m": float(depth_m), "bands": int(bands),
+                      "sensor": sensor, "exposure": exposure}
+        self._renderer = None
+        self._scene_depth = None
+        self.last_frame_ms = None
+        self.image = None
+        self.linear = None
+
+    def sensors(self) -> list[str]:
+        names = list(builtin_sensors())
+        if self.camspec:
+            from .sensors import load_camspec
+            names += list(load_camspec(self.camspec))
+        return names
+
+    def update(self, **changes) -> np.ndarray:
+        """Apply setting changes and render; returns the display image (H, W, 3) uint8."""
+        unknown = set(changes) - set(self.state)
+        if unknown:
+            raise AquaspecError(f"unknown viewer setting(s) {sorted(unknown)}; accepted: "
+                                f"{', '.join(self.state)}")
+        self.state.update(changes)
+        s = self.state
+        t0 = time.perf_counter()
+        if self._renderer is None or self._renderer.deferred.n_bands != s["bands"]:
+            self._renderer = Renderer(self.width, self.height, s["bands"])
+        if self._scene_depth != s["depth_m"]:
+            self._scene, self._camera = builtin_scene(s["depth_m"], width=self.width,
+                                                      height=self.height)
+            self._scene_depth = s["depth_m"]
+        sensor = get_sensor(s["sensor"], self.camspec)
+        setup = SpectralSetup(load_water(s["water"]), sensor, surface_light("overcast"),
+                              Bands(s["bands"]))
+        self.linear = self._renderer.render_scene(self._scene, self._camera, setup)
+        self.image, _ = to_display(self.linear, exposure=s["exposure"],
+                                   matrix=sensor.srgb_matrix())
+        self.last_frame_ms = (time.perf_counter() - t0) * 1e3
+        return self.image
+
+    def title(self) -> str:
+        s = self.state
+        return (f"Jerlov {s['water']}, {s['depth_m']:.1f} m, {s['bands']} bands, "
+                f"{s['sensor']}, {self.last_frame_ms:.0f} ms")
+
+    def attach(self, fig):
+        """Build the image and the controls in a matplotlib figure."""
+        from matplotlib.widgets import RadioButtons, Slider
+        self.update()
+        ax = fig.add_axes([0.22, 0.25, 0.76, 0.72])
+        ax.set_axis_off()
+        self._im = ax.imshow(self.image)
+        self._ax = ax
+        ax.set_title(self.title(), fontsize=9)
+        self.controls = {
+            "depth": Slider(fig.add_axes([0.3, 0.15, 0.6, 0.03]), "depth (m)", 0.0, 40.0,
+                            valinit=self.state["depth_m"]),
+            "bands": Slider(fig.add_axes([0.3, 0.10, 0.6, 0.03]), "bands", 3, 64,
+                            valinit=self.state["bands"], valstep=1),
+            "exposure": Slider(fig.add_axes([0.3, 0.05, 0.6, 0.03]), "EV (0 = auto)", -6, 6,
+                               valinit=0.0),
+            "water": RadioButtons(fig.add_axes([0.01, 0.45, 0.12, 0.5]), JERLOV_TYPES,
+                                  active=JERLOV_TYPES.index(self.state["water"])),
+            "sensor": RadioButtons(fig.add_axes([0.01, 0.05, 0.19, 0.35]), self.sensors()[:12],
+                                   active=0),
+        }
+        c = self.controls
+        c["depth"].on_changed(lambda v: self._changed(depth_m=float(v)))
+        c["bands"].on_changed(lambda v: self._changed(bands=int(v)))
+        c["exposure"].on_changed(lambda v: self._changed(exposure="auto" if v == 0 else float(v)))
+        c["water"].on_clicked(lambda label: self._changed(water=label))
+        c["sensor"].on_clicked(lambda label: self._changed(sensor=label))
+        return self
+
+    def _changed(self, **changes):
+        try:
+            self.update(**changes)
+        except AquaspecError as exc:
+            self._ax.set_title(f"error: {exc}", fontsize=8, color="red")
+        else:
+            self._im.set_data(self.image)
+            self._ax.set_title(self.title(), fontsize=9, color="black")
+        self._ax.figure.canvas.draw_idle()
+
+
+def run_viewer(**kwargs) -> None:
+    """Open the interactive window (needs a display and a GUI backend)."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+    if matplotlib.get_backend().lower() in ("agg", "pdf", "svg", "ps", "template"):
+        raise AquaspecError(
+            f"matplotlib's backend {matplotlib.get_backend()!r} cannot open a window; run on a "
+            "machine with a display, install a GUI toolkit (e.g. pip install PySide6), or set "
+            "MPLBACKEND=QtAgg / TkAgg")
+    fig = plt.figure(figsize=(11, 6))
+    fig.canvas.manager.set_window_title("aquaspec view")
+    Viewer(**kwargs).attach(fig)
+    plt.show()

@@ -1,0 +1,42 @@
+"""The interactive viewer, driven headless."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from aquaspec.cli import main  # noqa: E402
+from aquaspec.errors import AquaspecError  # noqa: E402
+from aquaspec.viewer import Viewer  # noqa: E402
+
+pytestmark = pytest.mark.gpu
+
+
+def test_controls_re_render():
+    import matplotlib.pyplot as plt
+    fig = plt.figure()
+    v = Viewer(96, 54, water="IB", depth_m=5.0, bands=4).attach(fig)
+    first = v.linear.copy()
+    v.controls["depth"].set_val(20.0)
+    assert v.state["depth_m"] == 20.0 and v.linear.mean() < first.mean()
+    v.controls["bands"].set_val(8)
+    assert v._renderer.deferred.n_bands == 8
+    v.controls["water"].set_active(list(v.controls["water"].labels).index(
+        next(t for t in v.controls["water"].labels if t.get_text() == "9C")))
+    assert v.state["water"] == "9C"
+    assert "9C" in v.title() and np.all(np.isfinite(v.linear))
+    plt.close(fig)
+
+
+def test_unknown_setting():
+    with pytest.raises(AquaspecError, match="unknown viewer setting"):
+        Viewer(32, 18).update(colour="red")
+
+
+def test_no_display_is_a_clear_error(capsys):
+    assert main(["view", "--size", "64x36"]) == 2
+    assert "cannot open a window" in capsys.readouterr().err
