@@ -36,10 +36,11 @@ Storing the material as an integer (rather than a float bit pattern) keeps
 ``0xffffffff`` from ever passing through a float register, where a NaN
 payload is not guaranteed to survive.
 
-Per-band inputs (:meth:`DeferredPass.set_medium`): binding 4 is
-``array<Band>`` with ``Band = {c, b, kd, e0, w_r, w_g, w_b, t}`` (8 f32 per
-band, :data:`BAND_FIELDS`), binding 5 ``array<f32>`` of material band
-reflectances, ``material * n_bands + band``. Outputs: binding 6
+Per-band inputs (:meth:`DeferredPass.set_medium`): binding 4 is a uniform
+``array<vec4<f32>, 3 n>``, :func:`band_table` (the per-band factors that do
+not depend on the pixel, precomputed in float64 for the camera's depth; 12
+f32 per band, :data:`BAND_FIELDS`), binding 5 ``array<f32>`` of material
+band reflectances, ``material * n_bands + band``. Outputs: binding 6
 ``array<vec4<f32>>`` RGB (w = 1), binding 7 ``array<f32>`` band radiance
 ``p * n_bands + band`` (debug mode only), binding 8 a status counter of
 pixels with a material index out of range.
@@ -67,8 +68,9 @@ OPEN_WATER_DISTANCE = -1.0
 #: (``ambient_factor`` in ``shaders/common.wgsl``).
 AMBIENT_MODEL_IDS = {"uniform": 0, "cosine": 1}
 
-#: Fields of the WGSL ``Band`` struct, in order (all f32).
-BAND_FIELDS = ("c", "b", "kd", "e0", "w_r", "w_g", "w_b", "t")
+#: Per-band fields of the band table (binding 4), in order: three vec4 per band.
+BAND_FIELDS = ("c", "kd", "t", "ms_scale", "w_r", "w_g", "w_b", "e0_over_pi",
+               "be0", "base", "e0_window", "unused")
 
 #: Camera and frame uniforms shared by deferred.wgsl and copy.wgsl.
 CAMERA_LAYOUT = UniformLayout("DeferredCamera", [
@@ -90,10 +92,38 @@ B_BANDS, B_MATERIALS, B_RGB, B_RADIANCE, B_STATUS = 4, 5, 6, 7, 8
 GBUFFER_BINDINGS = {"distance": B_DISTANCE, "surface": B_SURFACE, "sigmoid": B_SIGMOID}
 
 
-def shader_source(name: str) -> str:
-    """WGSL of ``deferred.wgsl`` or ``copy.wgsl`` with the camera struct filled in."""
+def shader_source(name: str, n_bands: int = 1, write_radiance: bool = False) -> str:
+    """WGSL of ``deferred.wgsl`` or ``copy.wgsl`` with the camera struct filled in.
+
+    The band count and the debug-radiance switch are compile-time constants
+    of ``deferred.wgsl`` (a constant trip count and uniform-array band table
+    made the band loop about 4x faster on lavapipe).
+    """
     return load_wgsl(name, camera_struct=CAMERA_LAYOUT.wgsl(),
-                     camera_struct_name=CAMERA_LAYOUT.name)
+                     camera_struct_name=CAMERA_LAYOUT.name, n_bands=int(n_bands),
+                     band_table_len=len(BAND_FIELDS) // 4 * int(n_bands),
+                     write_radiance="true" if write_radiance else "false",
+                     workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
+
+
+def band_table(a, b, kd, e0, response_weights, sigmoid_centers_t, depth_o) -> np.ndarray:
+    """The deferred pass's band table (binding 4): (n, 12) float64, :data:`BAND_FIELDS`.
+
+    The per-band factors of the model that do not depend on the pixel, for a
+    camera at depth ``depth_o`` (m): ``c = a + b``; ``ms_scale = b E0 / (4 pi)
+    exp(-Kd d_o)`` and ``be0 = b E0 / (4 pi)``, ``base = -Kd d_o`` (the
+    seeds' multiple scattering, :func:`aquaspec.model.l_ms_seeds`);
+    ``e0_over_pi = E0 / pi`` (:func:`aquaspec.model.lambertian_radiance` of
+    :func:`aquaspec.model.ambient_irradiance`); ``e0_window = E0 n^2 / pi``
+    (:func:`aquaspec.model.surface_from_below`).
+    """
+    a, b, kd, e0, t = (np.asarray(x, dtype=np.float64) for x in (a, b, kd, e0, sigmoid_centers_t))
+    w = np.asarray(response_weights, dtype=np.float64)
+    be0 = b * e0 / (4.0 * np.pi)
+    base = -kd * float(depth_o)
+    return np.stack([a + b, kd, t, be0 * np.exp(base),
+                     w[:, 0], w[:, 1], w[:, 2], e0 / np.pi,
+                     be0, base, e0 * model.N_WATER ** 2 / np.pi, np.zeros_like(a)], axis=1)
 
 
 def pack_gbuffer(gbuffer: GBuffer) -> dict:
@@ -175,8 +205,13 @@ class DeferredPass:
             "surface": create_storage_buffer(device, npix * 16, label="gbuffer surface"),
             "sigmoid": create_storage_buffer(device, npix * 16, label="gbuffer sigmoid"),
         }
-        self._bands = create_storage_buffer(device, self.n_bands * len(BAND_FIELDS) * 4,
-                                            label="deferred bands")
+        self._bands = device.create_buffer(
+            label="deferred band table", size=self.n_bands * len(BAND_FIELDS) * 4,
+            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        limit = device.limits.get("max-uniform-buffer-binding-size", 65536)
+        if self._bands.size > limit:
+            raise AquaspecError(f"{self.n_bands} bands need a {self._bands.size}-byte band "
+                                f"table; this device binds at most {limit}")
         self._materials = create_storage_buffer(device, self.n_bands * 4,
                                                 label="deferred material bands")
         self.rgb_buffer = create_storage_buffer(device, npix * 16, label="deferred rgb")
@@ -187,10 +222,11 @@ class DeferredPass:
 
         self._layout = bind_group_layout(device, {
             B_CAMERA: "uniform", B_DISTANCE: "read", B_SURFACE: "read", B_SIGMOID: "read",
-            B_BANDS: "read", B_MATERIALS: "read", B_RGB: "write", B_RADIANCE: "write",
+            B_BANDS: "uniform", B_MATERIALS: "read", B_RGB: "write", B_RADIANCE: "write",
             B_STATUS: "write"})
         module = device.create_shader_module(label="deferred.wgsl",
-                                             code=shader_source("deferred.wgsl"))
+                                             code=shader_source("deferred.wgsl", self.n_bands,
+                                                                self.debug_radiance))
         self._pipeline = device.create_compute_pipeline(
             label="deferred",
             layout=device.create_pipeline_layout(bind_group_layouts=[self._layout]),
@@ -201,6 +237,7 @@ class DeferredPass:
         self.camera = None
         self._n_materials = None
         self._ambient_id = None
+        self._medium_bands = None
         self._uniform_dirty = True
         self._wgpu_usage_storage = wgpu.BufferUsage.STORAGE
 
@@ -277,8 +314,8 @@ class DeferredPass:
         if ambient not in AMBIENT_MODEL_IDS:
             raise AquaspecError(f"ambient model {ambient!r} has no GPU implementation; "
                                 f"accepted: {', '.join(AMBIENT_MODEL_IDS)}")
-        table = np.stack([a + b, b, kd, e0, w[:, 0], w[:, 1], w[:, 2], t], axis=1)
-        upload_buffer(self.device, self._bands, table.astype(np.float32))
+        # The band table also depends on the camera depth: built in upload_uniforms.
+        self._medium_bands = (a, b, kd, e0, w, t)
         flat = mb.astype(np.float32).reshape(-1)
         if flat.nbytes > self._materials.size:
             self._materials = create_storage_buffer(self.device, flat.nbytes,
@@ -307,6 +344,9 @@ class DeferredPass:
             snell_cos=model.snell_window_cos(model.N_WATER),
             window_factor=model.N_WATER ** 2 / np.pi)
         upload_buffer(self.device, self._uniform, data)
+        if self._medium_bands is not None:
+            table = band_table(*self._medium_bands, depth_o=camera_depth(cam))
+            upload_buffer(self.device, self._bands, table.astype(np.float32))
         self._uniform_dirty = False
 
     def _get_bind_group(self):

@@ -28,12 +28,16 @@ fn expm1_f32(x: f32) -> f32 {
     return exp(x) - 1.0;
 }
 
-// model._phi: (1 - exp(-x)) / x for x >= 0, limit 1 at x = 0.
+// model._phi: (1 - exp(-x)) / x for x >= 0, limit 1 at x = 0. Branchless
+// (SIMD lanes on lavapipe run both sides of a divergent branch anyway):
+// below x = 0.1 the Taylor series of (1 - e^-x) / x (the series of
+// expm1_f32 divided by x analytically; truncation x^5 / 720 relative,
+// < 2e-8), above it the closed form, whose f32 rounding error is then
+// < 1e-5 of the result. max() keeps the unused closed form finite at x = 0.
 fn phi(x: f32) -> f32 {
-    if (abs(x) < 1.0e-8) {
-        return 1.0 - 0.5 * x;
-    }
-    return -expm1_f32(-x) / x;
+    let series = 1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0))));
+    let closed = (1.0 - exp(-x)) / max(x, 0.1);
+    return select(closed, series, x < 0.1);
 }
 
 // model._log_psi: log((exp(y) - 1) / y) for y > 0, without overflow.
@@ -66,38 +70,27 @@ fn ray_length(s: f32, s_finite: bool, depth_o: f32, v_y: f32) -> vec2<f32> {
 
 // model.transmittance: exp(-c S), 0 for S = inf.
 fn transmittance(c: f32, s: f32, s_finite: bool) -> f32 {
-    if (!s_finite) {
-        return 0.0;
-    }
-    return exp(-c * s);
+    return select(0.0, exp(-c * s), s_finite);
 }
 
-// model.ms_path_integral: int_0^S exp(-c t) exp(-Kd d(t)) dt, d(t) = d_o - t v_y,
-// for S already cut by ray_length. Closed form exp(-Kd d_o) (1 - exp(-k S)) / k,
-// k = c - Kd v_y, stable for k -> 0, k < 0 and S = inf (needs k > 0).
-fn ms_path_integral(c: f32, kd: f32, depth_o: f32, v_y: f32, s: f32, s_finite: bool) -> f32 {
-    let k = c - kd * v_y;
-    let base = -kd * depth_o;
-    if (!s_finite) {
-        if (k > 0.0) {
-            return exp(base) / k;
-        }
-        return f32_inf();
-    }
+// model.l_ms_seeds = b E0 / (4 pi) * model.ms_path_integral (thesis Eq. 4.7):
+// b E0 / (4 pi) int_0^S exp(-c t) exp(-Kd d(t)) dt, d(t) = d_o - t v_y, for S
+// already cut by ray_length. Closed form b E0 / (4 pi) exp(-Kd d_o)
+// (1 - exp(-k S)) / k, k = c - Kd v_y, stable for k -> 0, k < 0 and S = inf
+// (needs k > 0). The factors that do not depend on the pixel come per band
+// from the host (aquaspec.gpu.deferred.band_table, float64):
+// ms_scale = b E0 / (4 pi) exp(-Kd d_o), be0 = b E0 / (4 pi), base = -Kd d_o.
+fn l_ms_seeds(k: f32, s: f32, s_finite: bool, ms_scale: f32, be0: f32, base: f32) -> f32 {
+    // x >= 0: ms_scale * S * (1 - e^-x) / x; S = inf: ms_scale / k (inf if k <= 0).
     let x = k * s;
-    if (x >= 0.0) {
-        // exp(-Kd d_o) * S * (1 - e^-x) / x.
-        return exp(base) * s * phi(x);
+    var l = select(select(f32_inf(), ms_scale / k, k > 0.0), ms_scale * s * phi(x), s_finite);
+    if (s_finite && x < 0.0) {
+        // b E0 / (4 pi) exp(-Kd d_o) S (e^y - 1) / y with y = -x; the exponent
+        // -Kd d_o + y = -Kd d(S) - c S stays <= 0 for rays under water. Rare
+        // (only up-rays with Kd v_y > c), so a real branch.
+        l = s * be0 * exp(base + log_psi(-x));
     }
-    // exp(-Kd d_o) * S * (e^y - 1) / y with y = -x; the exponent
-    // -Kd d_o + y = -Kd d(S) - c S stays <= 0 for rays under water.
-    return s * exp(base + log_psi(-x));
-}
-
-// model.l_ms_seeds: b E0 / (4 pi) * ms_path_integral (thesis Eq. 4.7).
-fn l_ms_seeds(b: f32, c: f32, kd: f32, e0: f32, depth_o: f32, v_y: f32, s: f32,
-              s_finite: bool) -> f32 {
-    return b * e0 / FOUR_PI * ms_path_integral(c, kd, depth_o, v_y, s, s_finite);
+    return l;
 }
 
 // model.AMBIENT_MODELS, by id (aquaspec.gpu.deferred.AMBIENT_MODEL_IDS):
@@ -110,24 +103,24 @@ fn ambient_factor(model_id: u32, n_y: f32) -> f32 {
     }
 }
 
-// model.ambient_irradiance: E0 exp(-Kd d) g(n_y).
-fn ambient_irradiance(e0: f32, kd: f32, depth: f32, n_y: f32, model_id: u32) -> f32 {
-    return e0 * exp(-kd * depth) * ambient_factor(model_id, n_y);
+// model.ambient_irradiance / pi: E0 exp(-Kd d) g(n_y) / pi, with the factor
+// g = ambient_factor(model, n_y) computed once per pixel and e0_over_pi = E0 / pi
+// per band from the host (the 1 / pi of lambertian_radiance moved here).
+fn ambient_irradiance_over_pi(e0_over_pi: f32, kd: f32, depth: f32, g: f32) -> f32 {
+    return e0_over_pi * exp(-kd * depth) * g;
 }
 
-// model.lambertian_radiance: rho E / pi.
-fn lambertian_radiance(rho: f32, irradiance: f32) -> f32 {
-    return rho * irradiance / PI;
+// model.lambertian_radiance: rho E / pi (E / pi from ambient_irradiance_over_pi).
+fn lambertian_radiance(rho: f32, irradiance_over_pi: f32) -> f32 {
+    return rho * irradiance_over_pi;
 }
 
 // model.surface_from_below: E0 n^2 / pi inside Snell's window (v_y > cos of
-// the critical angle), 0 outside. window_factor = n^2 / pi, snell_cos from
-// the host (model.N_WATER, model.snell_window_cos).
-fn surface_from_below(e0: f32, v_y: f32, snell_cos: f32, window_factor: f32) -> f32 {
-    if (v_y > snell_cos) {
-        return e0 * window_factor;
-    }
-    return 0.0;
+// the critical angle), 0 outside. e0_window = E0 n^2 / pi per band from the
+// host (model.N_WATER); in_window = v_y > snell_cos per pixel
+// (model.snell_window_cos).
+fn surface_from_below(e0_window: f32, in_window: bool) -> f32 {
+    return select(0.0, e0_window, in_window);
 }
 
 // shading.sigmoid_reflectance: Jakob-Hanika sigmoid 0.5 + x / (2 sqrt(1 + x^2)),

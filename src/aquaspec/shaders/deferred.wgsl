@@ -1,27 +1,27 @@
 // Deferred spectral shading: G-buffer -> linear camera RGB (one invocation per pixel).
 //
 // Twin of aquaspec/shading.py (shade_gbuffer, float64 NumPy reference): same
-// per-pixel branches (hit before the water surface / open water), same model
+// per-pixel cases (hit before the water surface / open water), same model
 // functions (common.wgsl <-> aquaspec/model.py). Buffer layouts are
 // documented in aquaspec/gpu/deferred.py.
 //
-// The per-band loop reads the band storage buffers directly: passing arrays
-// by value into functions made 32 bands 20x slower on lavapipe.
+// Written for lavapipe (SIMD over 8 pixels on the CPU), measured there:
+// - everything that does not depend on the pixel is computed per band on the
+//   host in float64 (band_table: exp(-Kd d_o), b E0 / (4 pi), E0 / pi, ...)
+//   and everything that does not depend on the band once per pixel, outside
+//   the band loop;
+// - the band table is a uniform array of vec4 and the band count a
+//   compile-time constant: per-band scalar loads from a storage buffer were
+//   half of the pass's time;
+// - the cases are selects, not branches, where both sides are cheap: SIMD
+//   lanes run both sides of a divergent branch anyway.
 
 #include "common.wgsl"
 
 {{ camera_struct }}
 
-struct Band {
-    c: f32,        // extinction a + b, 1/m
-    b: f32,        // scattering, 1/m
-    kd: f32,       // diffuse downwelling attenuation, 1/m
-    e0: f32,       // downwelling irradiance below the surface, W m^-2 nm^-1
-    w_r: f32,      // camera response weights (response x band width)
-    w_g: f32,
-    w_b: f32,
-    t: f32,        // normalised band-centre wavelength (lambda - 550) / 100
-};
+const N_BANDS: u32 = {{ n_bands }}u;
+const WRITE_RADIANCE: bool = {{ write_radiance }};
 
 // Material index meaning "use this pixel's sigmoid coefficients" (gbuffer.PER_PIXEL).
 const PER_PIXEL: u32 = 0xffffffffu;
@@ -30,7 +30,11 @@ const PER_PIXEL: u32 = 0xffffffffu;
 @group(0) @binding(1) var<storage, read> gb_distance: array<f32>;
 @group(0) @binding(2) var<storage, read> gb_surface: array<vec4<u32>>;
 @group(0) @binding(3) var<storage, read> gb_sigmoid: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> bands: array<Band>;
+// Three vec4 per band i (aquaspec.gpu.deferred.BAND_FIELDS):
+//   [3i]     c, kd, t, ms_scale = b E0 / (4 pi) exp(-Kd d_o)
+//   [3i + 1] w_r, w_g, w_b, e0_over_pi = E0 / pi
+//   [3i + 2] be0 = b E0 / (4 pi), base = -Kd d_o, e0_window = E0 n^2 / pi, 0
+@group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
 @group(0) @binding(5) var<storage, read> material_bands: array<f32>;
 @group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> radiance_out: array<f32>;
@@ -43,7 +47,7 @@ fn ray_direction(j: u32, i: u32) -> vec3<f32> {
     return normalize(cam.right * x - cam.up * y + cam.forward);
 }
 
-@compute @workgroup_size(8, 8)
+@compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= cam.width || gid.y >= cam.height) {
         return;
@@ -64,52 +68,52 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let s = rl.x;
     let s_finite = rl.y > 0.0;
 
+    // Per pixel, outside the band loop: the surface's depth and ambient
+    // factor g(n_y), its reflectance source, and Snell's window.
     var surface_depth = 0.0;
-    var n_y = 0.0;
+    var g = 0.0;
     var material = 0u;
     var sig = vec3<f32>(0.0);
     var use_sigmoid = false;
+    var use_material = false;
     if (hit) {
         surface_depth = -(cam.position.y + s * v_y);
-        n_y = bitcast<f32>(surf.y);
+        g = ambient_factor(cam.ambient_model, bitcast<f32>(surf.y));
         material = surf.w;
         use_sigmoid = material == PER_PIXEL;
+        use_material = !use_sigmoid && material < cam.n_materials;
         if (use_sigmoid) {
             sig = gb_sigmoid[p].xyz;
-        } else if (material >= cam.n_materials) {
+        } else if (!use_material) {
             // Reported to the host, which raises; the pixel gets rho = 0.
             atomicAdd(&status[0], 1u);
         }
     }
-    let sees_surface = !hit && s_finite && v_y > 0.0;
+    let in_window = !hit && s_finite && v_y > cam.snell_cos;
+    let material_row = material * N_BANDS;
 
     var rgb = vec3<f32>(0.0);
-    for (var i = 0u; i < cam.n_bands; i = i + 1u) {
-        let c = bands[i].c;
-        let kd = bands[i].kd;
-        let e0 = bands[i].e0;
-        let l_ms = l_ms_seeds(bands[i].b, c, kd, e0, depth_o, v_y, s, s_finite);
-        var l_surf = 0.0;
-        if (hit) {
-            var rho = 0.0;
-            if (use_sigmoid) {
-                rho = sigmoid_reflectance(sig, bands[i].t);
-            } else if (material < cam.n_materials) {
-                rho = material_bands[material * cam.n_bands + i];
-            }
-            l_surf = lambertian_radiance(
-                rho, ambient_irradiance(e0, kd, surface_depth, n_y, cam.ambient_model));
-        } else if (sees_surface) {
-            l_surf = surface_from_below(e0, v_y, cam.snell_cos, cam.window_factor);
+    for (var i = 0u; i < N_BANDS; i = i + 1u) {
+        let q0 = band_table[3u * i];
+        let q1 = band_table[3u * i + 1u];
+        let q2 = band_table[3u * i + 2u];
+        let c = q0.x;
+        let kd = q0.y;
+        let l_ms = l_ms_seeds(c - kd * v_y, s, s_finite, q0.w, q2.x, q2.y);
+        var rho = 0.0;
+        if (use_material) {
+            rho = material_bands[material_row + i];
         }
+        rho = select(rho, sigmoid_reflectance(sig, q0.z), use_sigmoid);
+        let l_surf = select(
+            surface_from_below(q2.z, in_window),
+            lambertian_radiance(rho, ambient_irradiance_over_pi(q1.w, kd, surface_depth, g)),
+            hit);
         let tr = transmittance(c, s, s_finite);
-        var l = l_ms;
-        if (tr > 0.0) {
-            l = tr * l_surf + l_ms;
-        }
-        rgb = rgb + l * vec3<f32>(bands[i].w_r, bands[i].w_g, bands[i].w_b);
-        if (cam.write_radiance != 0u) {
-            radiance_out[p * cam.n_bands + i] = l;
+        let l = select(l_ms, tr * l_surf + l_ms, tr > 0.0);
+        rgb = rgb + l * q1.xyz;
+        if (WRITE_RADIANCE) {
+            radiance_out[p * N_BANDS + i] = l;
         }
     }
     rgb_out[p] = vec4<f32>(rgb, 1.0);
