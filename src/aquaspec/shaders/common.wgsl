@@ -1,11 +1,13 @@
 // The analytic underwater light model in WGSL (f32), one band at a time.
 //
 // Twin of aquaspec/model.py (float64 NumPy reference) and of
-// aquaspec/shading.py: same formulas, same branches, so change them together.
+// aquaspec/shading.py: same formulas and cases, so change them together (the
+// cases are mostly selects here, branches there; per-band factors that do not
+// depend on the pixel come precomputed from aquaspec.gpu.deferred.band_table).
 // Conventions: metres, y up, water surface y = 0, depth d = -p.y; a, b, c, Kd
 // in 1/m; the camera ray starts at depth depth_o with unit direction v.
-// WGSL has no expm1/log1p: expm1_f32 below uses a series near 0 where
-// exp(x) - 1 would cancel in f32.
+// WGSL has no expm1/log1p: phi below uses a series near 0 where
+// 1 - exp(-x) would cancel in f32.
 
 const PI: f32 = 3.14159265358979;
 const FOUR_PI: f32 = 12.5663706143592;
@@ -18,37 +20,15 @@ fn f32_inf() -> f32 {
     return bitcast<f32>(0x7f800000u);
 }
 
-// exp(x) - 1 (NumPy np.expm1). Below |x| = 0.1 a 5-term Taylor series
-// (truncation error x^5 / 720 relative, < 2e-8), above it exp(x) - 1 (whose
-// f32 rounding error, a few ulp of exp(x), is then < 1e-5 of the result).
-fn expm1_f32(x: f32) -> f32 {
-    if (abs(x) < 0.1) {
-        return x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (1.0 / 120.0)))));
-    }
-    return exp(x) - 1.0;
-}
-
 // model._phi: (1 - exp(-x)) / x for x >= 0, limit 1 at x = 0. Branchless
 // (SIMD lanes on lavapipe run both sides of a divergent branch anyway):
-// below x = 0.1 the Taylor series of (1 - e^-x) / x (the series of
-// expm1_f32 divided by x analytically; truncation x^5 / 720 relative,
-// < 2e-8), above it the closed form, whose f32 rounding error is then
+// below x = 0.1 the Taylor series of (1 - e^-x) / x (truncation x^5 / 720
+// relative, < 2e-8), above it the closed form, whose f32 rounding error is then
 // < 1e-5 of the result. max() keeps the unused closed form finite at x = 0.
 fn phi(x: f32) -> f32 {
     let series = 1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0))));
     let closed = (1.0 - exp(-x)) / max(x, 0.1);
     return select(closed, series, x < 0.1);
-}
-
-// model._log_psi: log((exp(y) - 1) / y) for y > 0, without overflow.
-fn log_psi(y: f32) -> f32 {
-    if (y < 1.0e-8) {
-        return 0.5 * y;
-    }
-    if (y > 1.0) {
-        return y + log(1.0 - exp(-y)) - log(y);
-    }
-    return log(expm1_f32(y) / y);
 }
 
 // model.ray_length: length of the ray under water. `s_finite` false means
@@ -81,16 +61,18 @@ fn transmittance(c: f32, s: f32, s_finite: bool) -> f32 {
 // from the host (aquaspec.gpu.deferred.band_table, float64):
 // ms_scale = b E0 / (4 pi) exp(-Kd d_o), be0 = b E0 / (4 pi), base = -Kd d_o.
 fn l_ms_seeds(k: f32, s: f32, s_finite: bool, ms_scale: f32, be0: f32, base: f32) -> f32 {
-    // x >= 0: ms_scale * S * (1 - e^-x) / x; S = inf: ms_scale / k (inf if k <= 0).
     let x = k * s;
-    var l = select(select(f32_inf(), ms_scale / k, k > 0.0), ms_scale * s * phi(x), s_finite);
-    if (s_finite && x < 0.0) {
-        // b E0 / (4 pi) exp(-Kd d_o) S (e^y - 1) / y with y = -x; the exponent
-        // -Kd d_o + y = -Kd d(S) - c S stays <= 0 for rays under water. Rare
-        // (only up-rays with Kd v_y > c), so a real branch.
-        l = s * be0 * exp(base + log_psi(-x));
-    }
-    return l;
+    // x >= 0: ms_scale * S * (1 - e^-x) / x.
+    // x < 0 (up-rays with Kd v_y > c): with y = -x, exp(-Kd d_o) S (e^y - 1) / y
+    // = exp(-Kd d_o + y) S (1 - e^-y) / y, whose exponent -Kd d_o + y =
+    // -Kd d(S) - c S stays <= 0 for rays under water (no overflow); model.py
+    // writes it exp(-Kd d_o + log_psi(y)). Both cases are then
+    // scale * S * phi(|x|), with a select rather than a branch (a branch
+    // around the rare case still cost a third of the pass on lavapipe).
+    let scale = select(ms_scale, be0 * exp(base - x), x < 0.0);
+    let finite = scale * s * phi(abs(x));
+    // S = inf: ms_scale / k (inf if k <= 0).
+    return select(select(f32_inf(), ms_scale / k, k > 0.0), finite, s_finite);
 }
 
 // model.AMBIENT_MODELS, by id (aquaspec.gpu.deferred.AMBIENT_MODEL_IDS):
