@@ -1,7 +1,7 @@
 """The "memory floor" pass: read the G-buffer, write the output, no shading.
 
 It binds the same camera uniform, G-buffer buffers and output buffer as a
-:class:`~aquaspec.gpu.deferred.DeferredPass` and dispatches the same grid, so
+:class:`~aquaspec.gpu.deferred.DeferredPass` and covers the same pixels, so
 ``aquaspec bench`` can report how much of the deferred pass's time is memory
 traffic (the floor) and how much is the per-band arithmetic. WGSL:
 ``shaders/copy.wgsl``; each output pixel is
@@ -54,6 +54,11 @@ class CopyPass:
             self._version = d.bindings_version
         return self._bind_group
 
+    def workgroups(self) -> tuple[int, int, int]:
+        """Dispatch size covering the image: one pixel per invocation, 8x8 workgroups."""
+        d = self.deferred
+        return (-(-d.width // 8), -(-d.height // 8), 1)
+
     def encode(self, encoder, timestamp_writes=None) -> None:
         """Record the copy into ``encoder`` (needs the deferred pass's camera)."""
         self.deferred.upload_uniforms()
@@ -61,7 +66,7 @@ class CopyPass:
         cp = encoder.begin_compute_pass(**kwargs)
         cp.set_pipeline(self._pipeline)
         cp.set_bind_group(0, self._get_bind_group())
-        cp.dispatch_workgroups(*self.deferred.workgroups())
+        cp.dispatch_workgroups(*self.workgroups())
         cp.end()
 
     def run(self) -> None:

@@ -83,8 +83,10 @@ CAMERA_LAYOUT = UniformLayout("DeferredCamera", [
     ("snell_cos", "f32"), ("window_factor", "f32"),
 ])
 
-#: Compute workgroup size (x, y) of both shaders.
+#: Compute workgroup size (x, y) of deferred.wgsl, in invocations.
 WORKGROUP = (8, 8)
+#: Adjacent pixels of a row shaded by one invocation of deferred.wgsl.
+PIXELS_PER_INVOCATION = 4
 
 # Binding numbers (also in the WGSL files).
 B_CAMERA, B_DISTANCE, B_SURFACE, B_SIGMOID = 0, 1, 2, 3
@@ -363,7 +365,8 @@ class DeferredPass:
 
     def workgroups(self) -> tuple[int, int, int]:
         """Dispatch size covering the image."""
-        return (-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]), 1)
+        per_x = WORKGROUP[0] * PIXELS_PER_INVOCATION
+        return (-(-self.width // per_x), -(-self.height // WORKGROUP[1]), 1)
 
     def encode(self, encoder, timestamp_writes=None) -> None:
         """Record the shading into ``encoder`` (uniforms are uploaded first)."""

@@ -14,7 +14,9 @@
 //   compile-time constant: per-band scalar loads from a storage buffer were
 //   half of the pass's time;
 // - the cases are selects, not branches, where both sides are cheap: SIMD
-//   lanes run both sides of a divergent branch anyway.
+//   lanes run both sides of a divergent branch anyway;
+// - one invocation shades four adjacent pixels (vec4 lanes), so each band's
+//   table entries are loaded once per four pixels.
 
 #include "common.wgsl"
 
@@ -40,59 +42,83 @@ const PER_PIXEL: u32 = 0xffffffffu;
 @group(0) @binding(7) var<storage, read_write> radiance_out: array<f32>;
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 
-// Camera.ray_directions: through the pixel centre (j + 0.5, i + 0.5).
-fn ray_direction(j: u32, i: u32) -> vec3<f32> {
-    let x = (f32(j) + 0.5 - cam.cx) / cam.fx;
+// Camera.ray_directions: the up component of the unit ray through the pixel
+// centres (j + 0.5, i + 0.5) of four pixels j = j0 .. j0 + 3 in row i.
+fn ray_direction_y(j0: u32, i: u32) -> vec4<f32> {
+    let x = (vec4<f32>(f32(j0)) + vec4<f32>(0.5, 1.5, 2.5, 3.5) - cam.cx) / cam.fx;
     let y = (f32(i) + 0.5 - cam.cy) / cam.fy;
-    return normalize(cam.right * x - cam.up * y + cam.forward);
+    let dx = cam.right.x * x + (cam.forward.x - cam.up.x * y);
+    let dy = cam.right.y * x + (cam.forward.y - cam.up.y * y);
+    let dz = cam.right.z * x + (cam.forward.z - cam.up.z * y);
+    return dy * inverseSqrt(dx * dx + dy * dy + dz * dz);
 }
 
+// Each invocation shades four horizontally adjacent pixels, as vec4 lanes:
+// the per-band loads are shared by four pixels, and they were the larger
+// part of the band loop's cost.
 @compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (gid.x >= cam.width || gid.y >= cam.height) {
+    let j0 = 4u * gid.x;
+    if (j0 >= cam.width || gid.y >= cam.height) {
         return;
     }
-    let p = gid.y * cam.width + gid.x;
-    let v = ray_direction(gid.x, gid.y);
-    let v_y = v.y;
+    let row_start = gid.y * cam.width;
+    let last = cam.width * cam.height - 1u;
+    let v_y = ray_direction_y(j0, gid.y);
     let depth_o = -cam.position.y;
 
-    let s_gb = gb_distance[p];
-    let surf = gb_surface[p];
-    // A hit counts only if the ray reaches it before the water surface.
-    var hit = s_gb >= 0.0;
-    if (hit && v_y > 0.0) {
-        hit = s_gb <= depth_o / v_y;
+    var s_gb: vec4<f32>;
+    var n_y: vec4<f32>;
+    var material: vec4<u32>;
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let p = min(row_start + j0 + k, last);
+        s_gb[k] = gb_distance[p];
+        let surf = gb_surface[p];
+        n_y[k] = bitcast<f32>(surf.y);
+        material[k] = surf.w;
     }
+    // A hit counts only if the ray reaches it before the water surface.
+    let up = v_y > vec4<f32>(0.0);
+    let hit = (s_gb >= vec4<f32>(0.0))
+        & (!up | (s_gb <= depth_o / select(vec4<f32>(1.0), v_y, up)));
     let rl = ray_length(s_gb, hit, depth_o, v_y);
-    let s = rl.x;
-    let s_finite = rl.y > 0.0;
+    let s = rl.s;
+    let s_finite = rl.finite;
 
     // Per pixel, outside the band loop: the surface's depth and ambient
     // factor g(n_y), its reflectance source, and Snell's window.
-    var surface_depth = 0.0;
-    var g = 0.0;
-    var material = 0u;
-    var sig = vec3<f32>(0.0);
-    var use_sigmoid = false;
-    var use_material = false;
-    if (hit) {
-        surface_depth = -(cam.position.y + s * v_y);
-        g = ambient_factor(cam.ambient_model, bitcast<f32>(surf.y));
-        material = surf.w;
-        use_sigmoid = material == PER_PIXEL;
-        use_material = !use_sigmoid && material < cam.n_materials;
-        if (use_sigmoid) {
-            sig = gb_sigmoid[p].xyz;
-        } else if (!use_material) {
-            // Reported to the host, which raises; the pixel gets rho = 0.
-            atomicAdd(&status[0], 1u);
+    let surface_depth = select(vec4<f32>(0.0), -(cam.position.y + s * v_y), hit);
+    let g = select(vec4<f32>(0.0), ambient_factor(cam.ambient_model, n_y), hit);
+    let use_sigmoid = hit & (material == vec4<u32>(PER_PIXEL));
+    let use_material = hit & !use_sigmoid & (material < vec4<u32>(cam.n_materials));
+    var c0 = vec4<f32>(0.0);
+    var c1 = vec4<f32>(0.0);
+    var c2 = vec4<f32>(0.0);
+    var bad = 0u;
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let valid = j0 + k < cam.width;
+        if (valid && use_sigmoid[k]) {
+            let sig = gb_sigmoid[row_start + j0 + k];
+            c0[k] = sig.x;
+            c1[k] = sig.y;
+            c2[k] = sig.z;
+        }
+        if (valid && hit[k] && !use_sigmoid[k] && !use_material[k]) {
+            bad = bad + 1u;
         }
     }
-    let in_window = !hit && s_finite && v_y > cam.snell_cos;
-    let material_row = material * N_BANDS;
+    if (bad > 0u) {
+        // Reported to the host, which raises; those pixels get rho = 0.
+        atomicAdd(&status[0], bad);
+    }
+    let in_window = !hit & s_finite & (v_y > vec4<f32>(cam.snell_cos));
+    // Row of each pixel's material in material_bands (row 0 where unused:
+    // it exists, and the select below drops it).
+    let mrow = select(vec4<u32>(0u), material * N_BANDS, use_material);
 
-    var rgb = vec3<f32>(0.0);
+    var r = vec4<f32>(0.0);
+    var gr = vec4<f32>(0.0);
+    var b = vec4<f32>(0.0);
     for (var i = 0u; i < N_BANDS; i = i + 1u) {
         let q0 = band_table[3u * i];
         let q1 = band_table[3u * i + 1u];
@@ -100,21 +126,30 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let c = q0.x;
         let kd = q0.y;
         let l_ms = l_ms_seeds(c - kd * v_y, s, s_finite, q0.w, q2.x, q2.y);
-        var rho = 0.0;
-        if (use_material) {
-            rho = material_bands[material_row + i];
-        }
-        rho = select(rho, sigmoid_reflectance(sig, q0.z), use_sigmoid);
+        let mrho = vec4<f32>(material_bands[mrow.x + i], material_bands[mrow.y + i],
+                             material_bands[mrow.z + i], material_bands[mrow.w + i]);
+        let rho = select(select(vec4<f32>(0.0), mrho, use_material),
+                         sigmoid_reflectance(c0, c1, c2, q0.z), use_sigmoid);
         let l_surf = select(
             surface_from_below(q2.z, in_window),
             lambertian_radiance(rho, ambient_irradiance_over_pi(q1.w, kd, surface_depth, g)),
             hit);
         let tr = transmittance(c, s, s_finite);
-        let l = select(l_ms, tr * l_surf + l_ms, tr > 0.0);
-        rgb = rgb + l * q1.xyz;
+        let l = select(l_ms, tr * l_surf + l_ms, tr > vec4<f32>(0.0));
+        r = r + l * q1.x;
+        gr = gr + l * q1.y;
+        b = b + l * q1.z;
         if (WRITE_RADIANCE) {
-            radiance_out[p * N_BANDS + i] = l;
+            for (var k = 0u; k < 4u; k = k + 1u) {
+                if (j0 + k < cam.width) {
+                    radiance_out[(row_start + j0 + k) * N_BANDS + i] = l[k];
+                }
+            }
         }
     }
-    rgb_out[p] = vec4<f32>(rgb, 1.0);
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        if (j0 + k < cam.width) {
+            rgb_out[row_start + j0 + k] = vec4<f32>(r[k], gr[k], b[k], 1.0);
+        }
+    }
 }
