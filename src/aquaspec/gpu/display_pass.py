@@ -42,10 +42,10 @@ WORKGROUP = (8, 8)
 B_PARAMS, B_RGB_IN, B_RGBA_OUT, B_STATUS = 0, 1, 2, 3
 
 
-def shader_source() -> str:
-    """WGSL of ``display.wgsl`` with the uniform struct filled in."""
+def shader_source(tonemap: str = "filmic") -> str:
+    """WGSL of ``display.wgsl`` with the uniform struct and tone map filled in."""
     return load_wgsl("display.wgsl", display_struct=DISPLAY_LAYOUT.wgsl(),
-                     display_struct_name=DISPLAY_LAYOUT.name)
+                     display_struct_name=DISPLAY_LAYOUT.name, tonemap_id=TONEMAP_IDS[tonemap])
 
 
 def folded_matrix(exposure_ev, gains=(1.0, 1.0, 1.0), matrix=None) -> np.ndarray:
@@ -91,11 +91,9 @@ class DisplayPass:
         self._status = create_storage_buffer(device, 16, label="display status")
         self._layout = bind_group_layout(device, {
             B_PARAMS: "uniform", B_RGB_IN: "read", B_RGBA_OUT: "write", B_STATUS: "write"})
-        module = device.create_shader_module(label="display.wgsl", code=shader_source())
-        self._pipeline = device.create_compute_pipeline(
-            label="display",
-            layout=device.create_pipeline_layout(bind_group_layouts=[self._layout]),
-            compute={"module": module, "entry_point": "main"})
+        # One pipeline per tone map (a compile-time constant of the shader),
+        # made when first used.
+        self._pipelines = {}
         self._bind_group = None
         self.settings = None
 
@@ -154,6 +152,16 @@ class DisplayPass:
         self._bind_group = None
 
     # ------------------------------------------------------------- dispatch
+    def _pipeline(self, tonemap):
+        if tonemap not in self._pipelines:
+            module = self.device.create_shader_module(label=f"display.wgsl {tonemap}",
+                                                      code=shader_source(tonemap))
+            self._pipelines[tonemap] = self.device.create_compute_pipeline(
+                label=f"display {tonemap}",
+                layout=self.device.create_pipeline_layout(bind_group_layouts=[self._layout]),
+                compute={"module": module, "entry_point": "main"})
+        return self._pipelines[tonemap]
+
     def _get_bind_group(self):
         if self._bind_group is None:
             resources = {B_PARAMS: self._uniform, B_RGB_IN: self._input,
@@ -179,7 +187,7 @@ class DisplayPass:
                                        np.array([0, 0xFFFFFFFF, 0, 0], np.uint32))
         kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
         cp = encoder.begin_compute_pass(**kwargs)
-        cp.set_pipeline(self._pipeline)
+        cp.set_pipeline(self._pipeline(self.settings["tonemap"]))
         cp.set_bind_group(0, self._get_bind_group())
         cp.dispatch_workgroups(*self.workgroups())
         cp.end()

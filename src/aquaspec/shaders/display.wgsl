@@ -15,6 +15,11 @@
 
 {{ display_struct }}
 
+// The tone map id is a compile-time constant (one pipeline per tone map,
+// aquaspec.gpu.display_pass): a switch on the uniform ran every curve for
+// every pixel on lavapipe. params.tonemap holds the same id.
+const TONEMAP: u32 = {{ tonemap_id }}u;
+
 @group(0) @binding(0) var<uniform> params: {{ display_struct_name }};
 @group(0) @binding(1) var<storage, read> rgb_in: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rgba_out: array<u32>;
@@ -80,6 +85,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     // round() in WGSL rounds half to even, like numpy.rint in display.quantize.
-    let q = vec3<u32>(round(srgb_encode(tonemap(x, params.tonemap)) * 255.0));
+    let q = vec3<u32>(round(srgb_encode(tonemap(x, TONEMAP)) * 255.0));
     rgba_out[p] = q.x | (q.y << 8u) | (q.z << 16u) | (255u << 24u);
 }
