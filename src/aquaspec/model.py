@@ -2,8 +2,11 @@
 
 This module is the oracle the GPU passes are tested against. Everything is
 vectorised: arrays broadcast against each other, with the band axis last.
-Its WGSL twin is ``shaders/common.wgsl`` (same formulas, same branches); the
-G-buffer-level reference built on it is :mod:`aquaspec.shading`.
+Its WGSL twin is ``shaders/common.wgsl``: the same formulas, rearranged for
+speed (per-frame factors precomputed on the host, branches turned into
+selects, four pixels per invocation) and held to this module by
+``tests/test_gpu_deferred.py``; the G-buffer-level reference built on it is
+:mod:`aquaspec.shading`.
 
 Conventions (also in ``docs`` of every function below)
 ------------------------------------------------------
