@@ -1,0 +1,464 @@
+"""The underwater light field of a homogeneous water layer, per band: discrete ordinates.
+
+The seeds' multiple-scattering term lights the water by the downwelling
+irradiance scattered isotropically. This module solves the plane-parallel
+radiative transfer equation (RTE) instead, for a horizontally uniform
+(overcast) sky, and gives everything the renderer needs from it: the
+radiance ``L(d, mu)`` at any depth and direction, the irradiance on a
+surface of any orientation ``E(d, n_y)``, the in-scattering source
+``j(d, v_y)`` and its integral along a camera ray.
+
+Conventions
+-----------
+Depth ``d`` in m below the surface (y = 0, y up). A direction is given by its
+up component: ``mu`` (or ``v_y``, ``n_y``). ``L(d, mu)`` is the radiance *seen
+looking* in direction ``mu`` (``mu > 0``: looking up, the downwelling light),
+so ``E_d = 2 pi int_0^1 L mu dmu`` and
+``E(d, n) = int L(d, w) max(0, n . w) dw`` (``E(d, +1) = E_d``,
+``E(d, -1) = E_u``). Coefficients a, b, c in 1/m. In this convention the
+RTE reads ``mu dL/dd = -c L + j`` with
+``j(d, v) = b int p(w . v) L(d, w) dw``.
+
+Method
+------
+*Delta-M* ([Wiscombe1977]): the phase function's forward peak beyond what
+``2N`` streams resolve, ``f = chi_2N``, is treated as unscattered light:
+``b* = (1 - f) b``, ``c* = c - f b``, ``chi*_l = (chi_l - f)/(1 - f)``. This is an
+exact rewriting of the RTE up to the truncation of ``p*`` to ``2N`` Legendre
+terms.
+
+*Discrete ordinates* ([Chandrasekhar1960], [Stamnes1988]): double-Gauss
+quadrature, ``N`` nodes per hemisphere (weights summing to 1 on each), and
+the azimuthally averaged redistribution matrix
+(:func:`aquaspec.phase.redistribution_matrix`). With ``L+-`` the radiance at
+``+-mu_i``, ``S = L+ + L-`` and ``D = L+ - L-`` obey
+``S'' = (alpha + beta)(alpha - beta) S``; that matrix is similar to a
+product of two symmetric positive semi-definite matrices, so its eigenvalues
+``kappa_m^2`` are computed with ``eigh`` (real, sorted). The homogeneous
+solution is ``sum_m A_m phi_m(mu) exp(-kappa_m d) + B_m phi_m(-mu)
+exp(-kappa_m (H - d))`` (the growing modes are anchored at the seabed, so no
+exponential ever exceeds 1: the "scaled" form). ``kappa_1`` is the asymptotic
+diffuse attenuation.
+
+*Boundaries.* Top: ``surface="null"`` (default; the reference path tracer's
+non-refracting surface) is a uniform radiance ``E0/pi`` looking up;
+``surface="refracted"`` is uniform inside Snell's window (n = 1.33) and 0
+outside; both normalised so that ``E_d(0) = E0`` on the quadrature. Upwelling
+light leaves through the surface (no internal reflection). Bottom: infinitely
+deep (decaying modes only) or a Lambertian seabed of albedo ``rho`` at depth
+``H``.
+
+*Any direction* (source-function integration): the DO nodes give ``L`` at
+``2N`` cosines; at any other ``v`` the source
+``j*(d, v) = b* sum_j Q*(v, mu_j) L(d, mu_j)`` is a sum of the same modes, and
+``L(d, v)`` is its integral along the line of sight plus the attenuated
+boundary radiance, closed form mode by mode
+(:func:`aquaspec.model.ms_path_integral` with ``Kd -> kappa_m``).
+
+*Camera rays.* The full source is ``j = j* + f b L(d, v)``. Along a ray of
+direction ``v`` the second part integrates in closed form too (the line of
+sight of ``L(d(t), v)`` is the ray itself), giving the exact
+``L_MS = int_0^S exp(-c t) j dt = exp(-f b S) I*(S) + (1 - exp(-f b S)) L(d_o, v)``
+with ``I*(S) = int_0^S exp(-c* t) j*(d(t), v) dt`` (:meth:`LightField.l_ms`).
+
+*Tables for the GPU* (:func:`lightfield_tables`): per band, over depth
+(uniform in ``sqrt(d)``) and direction cosine (uniform in ``v_y``), the
+prefactor ``F(d, v_y) = R(d, v_y) / [b E0/(4 pi) ms_path_integral(c, kappa_1,
+d, v_y, inf)]`` with ``R = L_MS(S = inf)``, and ``E(d, n_y)/E0``. Because the
+part of a ray beyond its hit point is the same ray continued, the exact
+identity ``L_MS(d_o, v, S) = R(d_o, v) - exp(-c S) R(d_S, v)`` (``d_S`` the
+depth of the hit) needs only the S = inf table; :func:`lightfield_pixel_radiance`
+uses it (``form="two_point"``) or the one-lookup prefactor form
+``F(d_o, v) * seeds-form(S)`` (``form="prefactor"``).
+``K = kappa_1`` (not the database Kd) is used in the seeds' form because it
+is the decay rate of the light field being tabulated: F then tends to a
+constant at depth, so clamping the depth axis beyond its end is accurate.
+
+References
+----------
+.. [Chandrasekhar1960] S. Chandrasekhar, "Radiative Transfer", Dover (1960), Ch. VI.
+.. [Stamnes1988] K. Stamnes, S.-C. Tsay, W. Wiscombe, K. Jayaweera, "Numerically
+   stable algorithm for discrete-ordinate-method radiative transfer in
+   multiple scattering and emitting layered media", Appl. Opt. 27, 2502-2509
+   (1988), doi:10.1364/AO.27.002502 (reduction to half size; scaled
+   solutions).
+.. [Wiscombe1977] W. J. Wiscombe, "The delta-M method: rapid yet accurate
+   radiative flux calculations for strongly asymmetric phase functions",
+   J. Atmos. Sci. 34, 1408-1422 (1977).
+.. [Mobley1994] C. D. Mobley, "Light and Water", Academic Press (1994),
+   Sec. 9.3 (asymptotic radiance distribution and K_inf).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.polynomial.legendre import leggauss
+
+from . import model
+from .errors import AquaspecError
+from .phase import PhaseFunction, band_moments, redistribution_matrix
+
+#: Surface boundary conditions (the radiance looking up just below y = 0).
+SURFACES = ("null", "refracted")
+
+#: Single-scattering albedo cap: the conservative mode (kappa = 0) of a = 0 is
+#: replaced by kappa ~ 5e-4 c (eigh resolves it), so every mode decays.
+_MAX_ALBEDO = 1.0 - 1e-7
+
+
+def clamped_cosine_azimuth(mu, n_y):
+    """``h(mu, n_y) = int_0^{2 pi} max(0, n . w) dphi`` for unit n, w.
+
+    With ``A = n_y mu`` and ``B = sqrt(1 - n_y^2) sqrt(1 - mu^2)``:
+    ``2 pi A`` if ``A >= B``, 0 if ``A <= -B``, else
+    ``2 (A arccos(-A/B) + sqrt(B^2 - A^2))``. Then
+    ``E(d, n_y) = int_{-1}^{1} L(d, mu) h(mu, n_y) dmu``.
+    """
+    mu = np.asarray(mu, dtype=float)
+    n_y = np.asarray(n_y, dtype=float)
+    a = n_y * mu
+    b = np.sqrt(np.maximum(1.0 - n_y * n_y, 0.0) * np.maximum(1.0 - mu * mu, 0.0))
+    safe_b = np.where(b > 0, b, 1.0)
+    mid = 2.0 * (a * np.arccos(np.clip(-a / safe_b, -1.0, 1.0))
+                 + np.sqrt(np.maximum(b * b - a * a, 0.0)))
+    return np.where(a >= b, 2.0 * np.pi * a, np.where(a <= -b, 0.0, mid))
+
+
+def _band(name, value, n):
+    arr = np.broadcast_to(np.asarray(value, dtype=float), (n,)).astype(float)
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise AquaspecError(f"{name} must be finite and >= 0 per band; got {arr.tolist()}")
+    return arr
+
+
+@dataclass
+class LightField:
+    """Discrete-ordinates solution per band (build it with :func:`solve_lightfield`).
+
+    ``f`` is the delta-M forward fraction, ``b_star = (1 - f) b`` and
+    ``c_star = c - f b`` the scaled coefficients (b* capped at
+    ``(1 - 1e-7) c*``). Arrays have the band axis first: ``kappa`` (n, N) ascending, ``phi``
+    (n, 2N, N) the decaying modes at the nodes ``mu`` (2N: N looking up, then
+    the same cosines negated), ``amp_dec``/``amp_grow`` (n, N) mode
+    amplitudes for ``E0 = e0``.
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    e0: np.ndarray
+    f: np.ndarray
+    b_star: np.ndarray
+    c_star: np.ndarray
+    chi_star: np.ndarray
+    mu: np.ndarray
+    w: np.ndarray
+    kappa: np.ndarray
+    phi: np.ndarray
+    amp_dec: np.ndarray
+    amp_grow: np.ndarray
+    top_radiance: np.ndarray
+    window_cos: float
+    seabed_depth_m: float
+    seabed_albedo: np.ndarray
+    surface: str
+
+    @property
+    def c(self):
+        return self.a + self.b
+
+    @property
+    def n_streams(self) -> int:
+        return self.mu.size // 2
+
+    @property
+    def k_inf(self) -> np.ndarray:
+        """Asymptotic diffuse attenuation ``kappa_1`` (1/m), per band."""
+        return self.kappa[:, 0]
+
+    @property
+    def has_seabed(self) -> bool:
+        return np.isfinite(self.seabed_depth_m)
+
+    # ---- radiance at the quadrature nodes -------------------------------
+    def _phi_grow(self):
+        n = self.n_streams
+        return np.concatenate([self.phi[:, n:], self.phi[:, :n]], axis=1)
+
+    def node_radiance(self, depth_m):
+        """``L(d, mu_i)`` at the nodes: shape ``(n_bands,) + depth.shape + (2N,)``."""
+        d = np.asarray(depth_m, dtype=float)
+        dd = d[..., None]
+        k = self.kappa[:, *([None] * d.ndim), :]
+        dec = np.exp(-k * dd) * self.amp_dec[:, *([None] * d.ndim), :]
+        out = np.einsum("b...m,bim->b...i", dec, self.phi)
+        if self.has_seabed:
+            grow = np.exp(-k * (self.seabed_depth_m - dd)) \
+                * self.amp_grow[:, *([None] * d.ndim), :]
+            out = out + np.einsum("b...m,bim->b...i", grow, self._phi_grow())
+        return out
+
+    def irradiance(self, depth_m, n_y):
+        """``E(d, n_y) = int L max(0, n . w) dw`` on the quadrature; (n_bands, ...).
+
+        ``depth_m`` and ``n_y`` broadcast; ``n_y = +1`` gives ``E_d``, ``-1`` ``E_u``.
+        """
+        d, ny = np.broadcast_arrays(np.asarray(depth_m, dtype=float),
+                                    np.asarray(n_y, dtype=float))
+        lrad = self.node_radiance(d)
+        h = clamped_cosine_azimuth(self.mu, ny[..., None]) * self.w
+        return np.sum(lrad * h, axis=-1)
+
+    def e_d(self, depth_m):
+        """Downwelling irradiance ``E_d(d)`` (band axis first)."""
+        return self.irradiance(depth_m, 1.0)
+
+    def e_u(self, depth_m):
+        """Upwelling irradiance ``E_u(d)``."""
+        return self.irradiance(depth_m, -1.0)
+
+    def e_scalar(self, depth_m):
+        """Scalar irradiance ``E_0(d) = int L dw``."""
+        return 2.0 * np.pi * np.sum(self.node_radiance(depth_m) * self.w, axis=-1)
+
+    def kd_local(self, depth_m):
+        """``-d ln E_d / dd`` at ``depth_m`` (analytic derivative of the modes)."""
+        d = np.asarray(depth_m, dtype=float)
+        dd = d[..., None]
+        k = self.kappa[:, *([None] * d.ndim), :]
+        up = self.phi[:, : self.n_streams]
+        wmu = 2.0 * np.pi * self.w[: self.n_streams] * self.mu[: self.n_streams]
+        flux_dec = np.einsum("bim,i->bm", up, wmu)[:, *([None] * d.ndim), :]
+        e = np.exp(-k * dd) * self.amp_dec[:, *([None] * d.ndim), :] * flux_dec
+        de = -k * e
+        if self.has_seabed:
+            flux_g = np.einsum("bim,i->bm", self._phi_grow()[:, : self.n_streams],
+                               wmu)[:, *([None] * d.ndim), :]
+            g = np.exp(-k * (self.seabed_depth_m - dd)) \
+                * self.amp_grow[:, *([None] * d.ndim), :] * flux_g
+            e, de = e + g, de + k * g
+        return -np.sum(de, axis=-1) / np.sum(e, axis=-1)
+
+    # ---- any direction ----------------------------------------------------
+    def _mode_sources(self, v_y):
+        """``psi_dec, psi_grow``: (n_bands, R, N), b* Q*(v, nodes) phi."""
+        v = np.atleast_1d(np.asarray(v_y, dtype=float)).ravel()
+        q = redistribution_matrix(self.chi_star, v, self.mu, self.w)   # (n, R, 2N)
+        bs = self.b_star[:, None, None]
+        psi_d = bs * np.einsum("brj,bjm->brm", q, self.phi)
+        psi_g = bs * np.einsum("brj,bjm->brm", q, self._phi_grow()) if self.has_seabed \
+            else np.zeros_like(psi_d)
+        return psi_d, psi_g
+
+    def _boundary(self, depth_o, v_y):
+        """Distance to the boundary along ``v`` and the radiance seen there (n, R)."""
+        s_b = model.ray_length(np.inf, depth_o, v_y)
+        down = v_y < 0
+        if self.has_seabed:
+            with np.errstate(divide="ignore"):
+                to_bed = np.where(down, (self.seabed_depth_m - depth_o)
+                                  / np.where(down, -v_y, 1.0), np.inf)
+            s_b = np.minimum(s_b, to_bed)
+        top = np.where(v_y > 0, self._top(v_y), 0.0)
+        if self.has_seabed:
+            e_bed = self.e_d(self.seabed_depth_m)[:, None]
+            top = np.where(down, self.seabed_albedo[:, None] * e_bed / np.pi, top)
+        return s_b, top
+
+    def _top(self, v_y):
+        """Radiance looking up just below the surface, (n, R)."""
+        inside = np.asarray(v_y) > self.window_cos
+        return self.top_radiance[:, None] * inside
+
+    def _mode_integral(self, ext, depth_o, v_y, s, psi_d, psi_g):
+        """``sum_m int_0^s exp(-ext t) (A psi_d e^{-k d(t)} + B psi_g e^{-k (H-d(t))}) dt``."""
+        k = self.kappa[:, None, :]
+        ex = ext[:, None, None]
+        d_o, vy, ss = depth_o[None, :, None], v_y[None, :, None], s[:, :, None]
+        out = np.sum(self.amp_dec[:, None, :] * psi_d
+                     * model.ms_path_integral(ex, k, d_o, vy, ss), axis=-1)
+        if self.has_seabed:
+            # Anchored at the seabed: depth below it H - d(t) = (H - d_o) + t v_y.
+            out = out + np.sum(self.amp_grow[:, None, :] * psi_g * model.ms_path_integral(
+                ex, k, self.seabed_depth_m - d_o, -vy, ss), axis=-1)
+        return out
+
+    def _rays(self, depth_o, v_y, s):
+        d, v, s = np.broadcast_arrays(np.asarray(depth_o, dtype=float),
+                                      np.asarray(v_y, dtype=float),
+                                      np.asarray(s, dtype=float))
+        if np.any(d < 0) or (self.has_seabed and np.any(d > self.seabed_depth_m)):
+            raise AquaspecError("depth_o must lie in the water: 0 <= d <= seabed depth "
+                                f"({self.seabed_depth_m:g} m)")
+        return d.shape, d.ravel(), np.clip(v.ravel(), -1.0, 1.0), s.ravel()
+
+    def radiance(self, depth_m, v_y):
+        """``L(d, v_y)`` looking in direction ``v_y`` (any cosine); (n_bands, ...)."""
+        shape, d, v, _ = self._rays(depth_m, v_y, 0.0)
+        s_b, l_b = self._boundary(d, v)
+        psi_d, psi_g = self._mode_sources(v)
+        cs = self.c_star
+        s_b = np.broadcast_to(s_b, (cs.size, d.size))
+        out = self._mode_integral(cs, d, v, s_b, psi_d, psi_g)
+        att = np.where(np.isfinite(s_b), np.exp(-cs[:, None] * np.where(
+            np.isfinite(s_b), s_b, 0.0)), 0.0)
+        return (out + att * l_b).reshape((cs.size,) + shape)
+
+    def source(self, depth_m, v_y):
+        """In-scattering ``j(d, v) = b int p(w . v) L(d, w) dw``; (n_bands, ...).
+
+        ``j* + f b L(d, v)``: the delta-M truncated part on the nodes plus the
+        forward peak, which scatters the radiance seen along ``v`` itself.
+        """
+        shape, d, v, _ = self._rays(depth_m, v_y, 0.0)
+        psi_d, psi_g = self._mode_sources(v)
+        k = self.kappa[:, None, :]
+        j = np.sum(self.amp_dec[:, None, :] * psi_d * np.exp(-k * d[None, :, None]), axis=-1)
+        if self.has_seabed:
+            j = j + np.sum(self.amp_grow[:, None, :] * psi_g * np.exp(
+                -k * (self.seabed_depth_m - d[None, :, None])), axis=-1)
+        j = j.reshape((self.a.size,) + shape)
+        return j + (self.f * self.b).reshape((-1,) + (1,) * len(shape)) \
+            * self.radiance(depth_m, v_y)
+
+    def l_ms(self, depth_o, v_y, s):
+        """Exact ``L_MS = int_0^S exp(-c t) j(d_o - t v_y, v) dt``; (n_bands, ...).
+
+        Rays are cut at the water surface (up) and at the seabed (down).
+        """
+        shape, d, v, s = self._rays(depth_o, v_y, s)
+        s_b, l_b = self._boundary(d, v)
+        s_eff = np.minimum(s, s_b)
+        psi_d, psi_g = self._mode_sources(v)
+        cs = self.c_star
+        nb = cs.size
+        s_eff = np.broadcast_to(s_eff, (nb, d.size))
+        s_b = np.broadcast_to(s_b, (nb, d.size))
+        i_s = self._mode_integral(cs, d, v, s_eff, psi_d, psi_g)
+        same = s_eff >= s_b
+        i_b = np.where(same, i_s, self._mode_integral(cs, d, v, s_b, psi_d, psi_g))
+        fin = np.isfinite(s_b)
+        l_full = i_b + np.where(fin, np.exp(-cs[:, None] * np.where(fin, s_b, 0.0)), 0.0) * l_b
+        fb = (self.f * self.b)[:, None]
+        fin_s = np.isfinite(s_eff)
+        keep = np.where(fin_s, np.exp(-fb * np.where(fin_s, s_eff, 0.0)), 0.0)
+        return (keep * i_s + (1.0 - keep) * l_full).reshape((nb,) + shape)
+
+
+def _top_radiance(e0, mu_up, w_up, surface, n_water):
+    if surface == "null":
+        window = 0.0
+    elif surface == "refracted":
+        window = model.snell_window_cos(n_water)
+    else:
+        raise AquaspecError(f"unknown surface {surface!r}; known: {', '.join(SURFACES)}")
+    inside = mu_up > window
+    flux = 2.0 * np.pi * np.sum(w_up * mu_up * inside)
+    return e0 / flux, inside, window
+
+
+def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
+                     n_streams: int = 32, seabed_depth_m=None, seabed_albedo=0.0,
+                     surface: str = "null", n_water: float = model.N_WATER,
+                     **phase_params) -> LightField:
+    """Solve the RTE by discrete ordinates for every band at once.
+
+    Parameters
+    ----------
+    a, b : array_like, shape (n,)
+        Absorption and scattering in 1/m (``a + b > 0``).
+    phase : str or PhaseFunction
+        A key of :data:`aquaspec.phase.PHASE_FUNCTIONS` (``phase_params`` go
+        to it) or an instance. ``"petzold"`` needs ``wavelength_nm`` (band
+        centres) for the pure-water share of b.
+    e0 : float or array_like (n,)
+        Downwelling irradiance just below the surface.
+    n_streams : int
+        Gauss nodes per hemisphere, 4 ... 64 (16-48 usual).
+    seabed_depth_m, seabed_albedo :
+        Lambertian seabed at depth H (> 0) with albedo in [0, 1] (per band or
+        scalar); None: infinitely deep water.
+    surface : {"null", "refracted"}
+        Top boundary (see the module docstring).
+    """
+    a_arr = np.atleast_1d(np.asarray(a, dtype=float))
+    nb = a_arr.size
+    a_arr = _band("a", a_arr, nb)
+    b_arr = _band("b", b, nb)
+    if np.any(a_arr + b_arr <= 0):
+        raise AquaspecError("extinction a + b must be > 0 1/m in every band")
+    e0_arr = _band("e0", e0, nb)
+    if not (isinstance(n_streams, (int, np.integer)) and 4 <= n_streams <= 64):
+        raise AquaspecError(f"n_streams={n_streams!r}; accepted: an integer 4 ... 64 "
+                            "(nodes per hemisphere)")
+    if seabed_depth_m is None:
+        depth_h = np.inf
+    else:
+        depth_h = float(seabed_depth_m)
+        if not (np.isfinite(depth_h) and depth_h > 0):
+            raise AquaspecError(f"seabed_depth_m={seabed_depth_m!r}; accepted: None (deep) "
+                                "or a finite depth > 0 m")
+    albedo = np.broadcast_to(np.asarray(seabed_albedo, dtype=float), (nb,)).astype(float)
+    if not np.all((albedo >= 0) & (albedo <= 1)):
+        raise AquaspecError(f"seabed_albedo={seabed_albedo!r}; accepted: 0 ... 1")
+    if surface not in SURFACES:
+        raise AquaspecError(f"unknown surface {surface!r}; known: {', '.join(SURFACES)}")
+
+    n = int(n_streams)
+    x, wg = leggauss(n)
+    mu_up = 0.5 * (x[::-1] + 1.0)          # descending: zenith first
+    w_up = 0.5 * wg[::-1]
+    mu = np.concatenate([mu_up, -mu_up])
+    w = np.concatenate([w_up, w_up])
+
+    chi = band_moments(phase, 2 * n, b=b_arr, wavelength_nm=wavelength_nm, **phase_params)
+    f = chi[:, 2 * n]
+    chi_star = (chi[:, : 2 * n] - f[:, None]) / (1.0 - f[:, None])
+    c = a_arr + b_arr
+    c_star = c - f * b_arr
+    # A tiny absorption a* = c* - b* keeps every mode decaying when a = 0.
+    b_star = np.minimum((1.0 - f) * b_arr, _MAX_ALBEDO * c_star)
+
+    p_sym = redistribution_matrix(chi_star, mu, mu, np.ones_like(mu))   # 2 pi pbar
+    p_pp, p_pm = p_sym[:, :n, :n], p_sym[:, :n, n:]
+    winv = np.diag(1.0 / w_up)
+    # alpha +- beta = M^-1 G+- W with G+- symmetric.
+    g_plus = c_star[:, None, None] * winv - b_star[:, None, None] * (p_pp - p_pm)
+    g_minus = c_star[:, None, None] * winv - b_star[:, None, None] * (p_pp + p_pm)
+    u = np.sqrt(w_up / mu_up)
+    a_plus = u[:, None] * g_plus * u
+    a_minus = u[:, None] * g_minus * u
+    lam, vec = np.linalg.eigh(a_minus)
+    root = np.einsum("bik,bk,bjk->bij", vec, np.sqrt(np.maximum(lam, 0.0)), vec)
+    kap2, y = np.linalg.eigh(root @ a_plus @ root)
+    kappa = np.sqrt(np.maximum(kap2, 0.0))
+    xvec = a_plus @ root @ y
+    s_vec = xvec / np.sqrt(w_up * mu_up)[:, None]
+    alpha_minus_beta = g_minus * w_up / mu_up[:, None]
+    d_vec = (alpha_minus_beta @ s_vec) / kappa[:, None, :]
+    phi = np.concatenate([0.5 * (s_vec + d_vec), 0.5 * (s_vec - d_vec)], axis=1)
+    phi /= np.max(np.abs(phi), axis=1, keepdims=True)
+
+    top, inside, window = _top_radiance(e0_arr, mu_up, w_up, surface, n_water)
+    l_top = top[:, None] * inside
+    phi_up, phi_lo = phi[:, :n], phi[:, n:]
+    if np.isfinite(depth_h):
+        decay = np.exp(-kappa * depth_h)[:, None, :]
+        refl = 2.0 * albedo[:, None, None] * (w_up * mu_up)[None, None, :]
+        # Rows: top (looking up at d = 0), bottom (looking down at d = H).
+        top_rows = np.concatenate([phi_up, phi_lo * decay], axis=2)
+        bot_rows = np.concatenate([(phi_lo - refl @ phi_up) * decay, phi_up - refl @ phi_lo],
+                                  axis=2)
+        system = np.concatenate([top_rows, bot_rows], axis=1)
+        rhs = np.concatenate([l_top, np.zeros_like(l_top)], axis=1)
+        amps = np.linalg.solve(system, rhs[..., None])[..., 0]
+        amp_dec, amp_grow = amps[:, :n], amps[:, n:]
+    else:
+        amp_dec = np.linalg.solve(phi_up, l_top[..., None])[..., 0]
+        amp_grow = np.zeros_like(amp_dec)
+    return LightField(a=a_arr, b=b_arr, e0=e0_arr, f=f, b_star=b_star, c_star=c_star,
+                      chi_star=chi_star, mu=mu, w=w,
+                      kappa=kappa, phi=phi, amp_dec=amp_dec, amp_grow=amp_grow,
+                      top_radiance=top, window_cos=window, seabed_depth_m=depth_h,
+                      seabed_albedo=albedo, surface=surface)
