@@ -337,7 +337,8 @@ class LightField:
         s_b = np.broadcast_to(s_b, (nb, d.size))
         i_s = self._mode_integral(cs, d, v, s_eff, psi_d, psi_g)
         same = s_eff >= s_b
-        i_b = np.where(same, i_s, self._mode_integral(cs, d, v, s_b, psi_d, psi_g))
+        i_b = i_s if np.all(same) else np.where(
+            same, i_s, self._mode_integral(cs, d, v, s_b, psi_d, psi_g))
         fin = np.isfinite(s_b)
         l_full = i_b + np.where(fin, np.exp(-cs[:, None] * np.where(fin, s_b, 0.0)), 0.0) * l_b
         fb = (self.f * self.b)[:, None]
@@ -462,3 +463,218 @@ def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
                       kappa=kappa, phi=phi, amp_dec=amp_dec, amp_grow=amp_grow,
                       top_radiance=top, window_cos=window, seabed_depth_m=depth_h,
                       seabed_albedo=albedo, surface=surface)
+
+
+# ---- tables for the GPU ------------------------------------------------------
+
+#: Default table sizes and depth range (depth axis uniform in sqrt(d)).
+DEFAULT_N_DEPTH = 64
+DEFAULT_N_MU = 65
+DEFAULT_MAX_DEPTH_M = 50.0
+#: Forms of the table evaluator (see :func:`lightfield_pixel_radiance`).
+TABLE_FORMS = ("two_point", "prefactor")
+
+
+def table_depths(max_depth_m: float, n_depth: int) -> np.ndarray:
+    """Depth axis: ``d_k = D (k / (n - 1))^2``, uniform in ``sqrt(d)`` (fine near the surface)."""
+    return max_depth_m * (np.arange(n_depth) / (n_depth - 1.0)) ** 2
+
+
+def table_cosines(n_mu: int) -> np.ndarray:
+    """Direction-cosine axis, uniform in angle: ``v_j = cos(pi (1 - j / (n - 1)))``.
+
+    Uniform in angle rather than in ``v_y`` because the in-scattering of a
+    forward-peaked medium is peaked towards the zenith (``v_y -> 1``), where a
+    step in ``v_y`` is a large step in angle.
+    """
+    return np.cos(np.pi * (1.0 - np.arange(n_mu) / (n_mu - 1.0)))
+
+
+def _seeds_shape(b, c, k, depth, v_y, s):
+    """``b/(4 pi) ms_path_integral(c, K, d, v, s)``: the seeds' closed form per unit E0."""
+    return b / (4.0 * np.pi) * model.ms_path_integral(c, k, depth, v_y, s)
+
+
+def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
+                      seabed_albedo=0.0, n_depth: int = DEFAULT_N_DEPTH,
+                      n_mu: int = DEFAULT_N_MU, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
+                      n_streams: int = 32, surface: str = "null", **phase_params) -> dict:
+    """Per-band tables of the light field for the renderer (float32).
+
+    Parameters
+    ----------
+    band_water : BandWater or object with ``a``, ``b`` (n,) in 1/m
+        and, for ``phase="petzold"``, ``bands.centers_nm`` (or ``wavelength_nm``).
+    phase, phase_params : see :func:`solve_lightfield`.
+    seabed_depth_m, seabed_albedo : Lambertian seabed (None: deep water).
+        With a seabed the depth axis ends at it.
+    n_depth, n_mu : table sizes (>= 2).
+    max_depth_m : depth axis end for deep water (beyond it F is clamped,
+        accurate because F tends to a constant with K = kappa_1).
+
+    Returns
+    -------
+    dict
+        ``"ms_log_prefactor"`` (n, n_depth, n_mu): ``ln F(d, v_y)`` (see the
+        module docstring; F spans orders of magnitude over direction, so its
+        logarithm is what interpolates well); ``"irradiance_per_e0"`` (n, n_depth, n_mu): ``E(d, n_y)/E0``
+        on the same axes (second axis read as ``n_y``); ``"k_inf"`` (n,):
+        ``kappa_1`` in 1/m; ``"sky_radiance_per_e0"`` (n,) the radiance looking
+        up just below the surface, seen for ``v_y > window_cos``;
+        ``"window_cos"`` (1,); ``"seabed"`` (2,) = (depth m or inf, unused);
+        ``"seabed_albedo"`` (n,); ``"depth_m"`` (n_depth,) and ``"cosine"``
+        (n_mu,): the axes; ``"max_depth_m"`` (1,).
+    """
+    a = np.asarray(band_water.a, dtype=float)
+    b = np.asarray(band_water.b, dtype=float)
+    wl = getattr(band_water, "wavelength_nm", None)
+    if wl is None and getattr(band_water, "bands", None) is not None:
+        wl = band_water.bands.centers_nm
+    for name, val in (("n_depth", n_depth), ("n_mu", n_mu)):
+        if not (isinstance(val, (int, np.integer)) and val >= 2):
+            raise AquaspecError(f"{name}={val!r}; accepted: an integer >= 2")
+    lf = solve_lightfield(a, b, phase=phase, wavelength_nm=wl, e0=1.0, n_streams=n_streams,
+                          seabed_depth_m=seabed_depth_m, seabed_albedo=seabed_albedo,
+                          surface=surface, **phase_params)
+    d_max = lf.seabed_depth_m if lf.has_seabed else float(max_depth_m)
+    if not (np.isfinite(d_max) and d_max > 0):
+        raise AquaspecError(f"max_depth_m={max_depth_m!r}; accepted: a finite depth > 0 m")
+    depth = table_depths(d_max, n_depth)
+    cos = table_cosines(n_mu)
+    # At d = 0 an up ray (at the seabed a down ray) has length 0 and F is 0/0;
+    # its limit is taken so close to the boundary that the source is constant.
+    d_eval = np.clip(depth, 1e-7 * d_max, (1.0 - 1e-7) * d_max)
+    dd, vv = np.meshgrid(d_eval, cos, indexing="ij")
+    r_inf = lf.l_ms(dd, vv, np.inf)
+    k1 = lf.k_inf
+    ref = _seeds_shape(b[:, None, None], lf.c[:, None, None], k1[:, None, None], dd, vv, np.inf)
+    pref = r_inf / ref
+    irr = lf.irradiance(depth[:, None], cos[None, :])
+    if not (np.all(np.isfinite(pref)) and np.all(pref > 0) and np.all(np.isfinite(irr))):
+        raise AquaspecError("light-field tables came out non-finite; check a, b and the phase")
+    f32 = np.float32
+    return {
+        "ms_log_prefactor": np.log(pref).astype(f32),
+        "irradiance_per_e0": irr.astype(f32),
+        "k_inf": k1.astype(f32),
+        "sky_radiance_per_e0": lf.top_radiance.astype(f32),
+        "window_cos": np.array([lf.window_cos], f32),
+        "seabed_depth_m": np.array([lf.seabed_depth_m], f32),
+        "seabed_albedo": lf.seabed_albedo.astype(f32),
+        "depth_m": depth.astype(f32),
+        "cosine": cos.astype(f32),
+        "max_depth_m": np.array([d_max], f32),
+    }
+
+
+def bilinear(table, depth_m, cos, max_depth_m):
+    """Bilinear lookup of ``table[band, depth, cos]`` as a GPU sampler would.
+
+    Texel coordinates: ``x = sqrt(clamp(d, 0, D)/D) (n_depth - 1)``,
+    ``y = (1 - acos(clamp(v, -1, 1))/pi) (n_mu - 1)``; on a GPU with linear filtering
+    the texture coordinate is ``(x + 0.5) / n_depth`` (texel centres). Returns
+    shape ``depth.shape + (n_bands,)`` (band axis last).
+    """
+    t = np.asarray(table, dtype=np.float32)
+    nb, nd, nm = t.shape
+    d = np.clip(np.asarray(depth_m, dtype=float), 0.0, max_depth_m)
+    x = np.sqrt(d / max_depth_m) * (nd - 1)
+    y = (1.0 - np.arccos(np.clip(np.asarray(cos, dtype=float), -1.0, 1.0)) / np.pi) * (nm - 1)
+    x, y = np.broadcast_arrays(x, y)
+    i = np.minimum(np.floor(x).astype(int), nd - 2)
+    j = np.minimum(np.floor(y).astype(int), nm - 2)
+    fx = (x - i)[..., None]
+    fy = (y - j)[..., None]
+    tt = np.moveaxis(t, 0, -1).astype(float)
+    return ((1 - fx) * ((1 - fy) * tt[i, j] + fy * tt[i, j + 1])
+            + fx * ((1 - fy) * tt[i + 1, j] + fy * tt[i + 1, j + 1]))
+
+
+def lightfield_l_ms(tables, *, a, b, e0, depth_o, v_y, s, form: str = "two_point"):
+    """``L_MS`` from the tables (band axis last), the NumPy reference of the GPU lookup.
+
+    F is ``exp`` of the bilinearly interpolated ``ms_log_prefactor``.
+    ``form="two_point"``: ``R(d_o, v) - exp(-c S) R(d_S, v)`` with
+    ``R(d, v) = F(d, v) E0 b/(4 pi) ms_path_integral(c, kappa_1, d, v, inf)``
+    (two lookups; exact but for the interpolation of F). ``form="prefactor"``:
+    ``F(d_o, v) E0 b/(4 pi) ms_path_integral(c, kappa_1, d_o, v, S)`` (one lookup).
+    Per-ray inputs need a trailing axis of length 1 to meet band arrays.
+    """
+    if form not in TABLE_FORMS:
+        raise AquaspecError(f"unknown table form {form!r}; known: {', '.join(TABLE_FORMS)}")
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    c = a + b
+    k1 = np.asarray(tables["k_inf"], dtype=float)
+    d_max = float(tables["max_depth_m"][0])
+    bed = float(tables["seabed_depth_m"][0])
+    d_o = np.asarray(depth_o, dtype=float)
+    v = np.asarray(v_y, dtype=float)
+    s_eff = _cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
+    e0 = np.asarray(e0, dtype=float)
+    f_o = np.exp(bilinear(tables["ms_log_prefactor"], d_o[..., 0] if d_o.ndim else d_o,
+                          v[..., 0] if v.ndim else v, d_max))
+    if form == "prefactor":
+        return f_o * e0 * _seeds_shape(b, c, k1, d_o, v, s_eff)
+    r_o = f_o * e0 * _seeds_shape(b, c, k1, d_o, v, np.inf)
+    fin = np.isfinite(s_eff)
+    s_f = np.where(fin, s_eff, 0.0)
+    d_s = np.clip(d_o - s_f * v, 0.0, bed)
+    f_s = np.exp(bilinear(tables["ms_log_prefactor"], d_s[..., 0] if d_s.ndim else d_s,
+                          np.broadcast_to(v, d_s.shape)[..., 0] if d_s.ndim else v, d_max))
+    r_s = f_s * e0 * _seeds_shape(b, c, k1, d_s, v, np.inf)
+    return r_o - np.where(fin, np.exp(-c * s_f), 0.0) * r_s
+
+
+def _cut_at_seabed(s, d_o, v, bed):
+    if not np.isfinite(bed):
+        return s
+    down = v < 0
+    to_bed = np.where(down, (bed - d_o) / np.where(down, -v, 1.0), np.inf)
+    return np.minimum(s, to_bed)
+
+
+def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
+                              surface_depth=None, n_y=None, form: str = "two_point"):
+    """Band radiance along camera rays from the light-field tables.
+
+    Same shape of call as :func:`aquaspec.model.pixel_radiance` (per-ray
+    arrays with a trailing axis of length 1, band arrays (n,)):
+    ``L = T(S) L_surf + L_MS`` with ``L_MS`` from :func:`lightfield_l_ms`.
+    Open water (``rho`` None): an up ray ends at the water surface and sees
+    the light field's own top boundary (``sky_radiance_per_e0`` E0 for
+    ``v_y > window_cos``); a down ray in water with a seabed sees the seabed
+    (``albedo E(H, +1)/pi``). A hit surface of reflectance ``rho`` at
+    ``surface_depth`` with normal ``n_y`` gets ``rho E(d, n_y)/pi`` from the
+    irradiance table.
+    """
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    e0 = np.asarray(e0, dtype=float)
+    c = a + b
+    d_o = np.asarray(depth_o, dtype=float)
+    v = np.asarray(v_y, dtype=float)
+    d_max = float(tables["max_depth_m"][0])
+    bed = float(tables["seabed_depth_m"][0])
+    s_eff = _cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
+    l_ms = lightfield_l_ms(tables, a=a, b=b, e0=e0, depth_o=d_o, v_y=v, s=s_eff, form=form)
+    if rho is None:
+        sky = np.where(v > float(tables["window_cos"][0]),
+                       np.asarray(tables["sky_radiance_per_e0"], dtype=float) * e0, 0.0)
+        l_surf = np.where(np.isfinite(s_eff) & (v > 0), sky, 0.0)
+        if np.isfinite(bed):
+            e_bed = bilinear(tables["irradiance_per_e0"], bed, 1.0, d_max)
+            l_bed = np.asarray(tables["seabed_albedo"], dtype=float) * e_bed * e0 / np.pi
+            l_surf = np.where(np.isfinite(s_eff) & (v < 0), l_bed, l_surf)
+    else:
+        sd = np.asarray(surface_depth, dtype=float)
+        ny = np.asarray(n_y, dtype=float)
+        sd, ny = np.broadcast_arrays(sd, ny)
+        e = bilinear(tables["irradiance_per_e0"], sd[..., 0] if sd.ndim else sd,
+                     ny[..., 0] if ny.ndim else ny, d_max)
+        l_surf = model.lambertian_radiance(rho, e * e0)
+    t = model.transmittance(c, s_eff)
+    out = np.where(t > 0, t * l_surf, 0.0) + l_ms
+    if not np.all(np.isfinite(out)):
+        raise AquaspecError("light-field radiance came out non-finite; check the inputs")
+    return out
