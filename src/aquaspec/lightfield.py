@@ -246,8 +246,8 @@ class LightField:
         v = np.atleast_1d(np.asarray(v_y, dtype=float)).ravel()
         q = redistribution_matrix(self.chi_star, v, self.mu, self.w)   # (n, R, 2N)
         bs = self.b_star[:, None, None]
-        psi_d = bs * np.einsum("brj,bjm->brm", q, self.phi)
-        psi_g = bs * np.einsum("brj,bjm->brm", q, self._phi_grow()) if self.has_seabed \
+        psi_d = bs * (q @ self.phi)
+        psi_g = bs * (q @ self._phi_grow()) if self.has_seabed \
             else np.zeros_like(psi_d)
         return psi_d, psi_g
 
@@ -547,7 +547,10 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
     dd, vv = np.meshgrid(d_eval, cos, indexing="ij")
     r_inf = lf.l_ms(dd, vv, np.inf)
     k1 = lf.k_inf
-    ref = _seeds_shape(b[:, None, None], lf.c[:, None, None], k1[:, None, None], dd, vv, np.inf)
+    # The reference ray ends where the light field's rays end (surface, seabed),
+    # so that F stays smooth near both boundaries.
+    ref = _seeds_shape(b[:, None, None], lf.c[:, None, None], k1[:, None, None], dd, vv,
+                       _cut_at_seabed(np.inf, dd, vv, lf.seabed_depth_m))
     pref = r_inf / ref
     irr = lf.irradiance(depth[:, None], cos[None, :])
     if not (np.all(np.isfinite(pref)) and np.all(pref > 0) and np.all(np.isfinite(irr))):
@@ -596,6 +599,7 @@ def lightfield_l_ms(tables, *, a, b, e0, depth_o, v_y, s, form: str = "two_point
     F is ``exp`` of the bilinearly interpolated ``ms_log_prefactor``.
     ``form="two_point"``: ``R(d_o, v) - exp(-c S) R(d_S, v)`` with
     ``R(d, v) = F(d, v) E0 b/(4 pi) ms_path_integral(c, kappa_1, d, v, inf)``
+    (the ray cut at the surface and at the seabed)
     (two lookups; exact but for the interpolation of F). ``form="prefactor"``:
     ``F(d_o, v) E0 b/(4 pi) ms_path_integral(c, kappa_1, d_o, v, S)`` (one lookup).
     Per-ray inputs need a trailing axis of length 1 to meet band arrays.
@@ -616,19 +620,19 @@ def lightfield_l_ms(tables, *, a, b, e0, depth_o, v_y, s, form: str = "two_point
                           v[..., 0] if v.ndim else v, d_max))
     if form == "prefactor":
         return f_o * e0 * _seeds_shape(b, c, k1, d_o, v, s_eff)
-    r_o = f_o * e0 * _seeds_shape(b, c, k1, d_o, v, np.inf)
+    r_o = f_o * e0 * _seeds_shape(b, c, k1, d_o, v, _cut_at_seabed(np.inf, d_o, v, bed))
     fin = np.isfinite(s_eff)
     s_f = np.where(fin, s_eff, 0.0)
     d_s = np.clip(d_o - s_f * v, 0.0, bed)
     f_s = np.exp(bilinear(tables["ms_log_prefactor"], d_s[..., 0] if d_s.ndim else d_s,
                           np.broadcast_to(v, d_s.shape)[..., 0] if d_s.ndim else v, d_max))
-    r_s = f_s * e0 * _seeds_shape(b, c, k1, d_s, v, np.inf)
+    r_s = f_s * e0 * _seeds_shape(b, c, k1, d_s, v, _cut_at_seabed(np.inf, d_s, v, bed))
     return r_o - np.where(fin, np.exp(-c * s_f), 0.0) * r_s
 
 
 def _cut_at_seabed(s, d_o, v, bed):
     if not np.isfinite(bed):
-        return s
+        return np.asarray(s, dtype=float)
     down = v < 0
     to_bed = np.where(down, (bed - d_o) / np.where(down, -v, 1.0), np.inf)
     return np.minimum(s, to_bed)

@@ -459,4 +459,4 @@ def redistribution_matrix(moments, mu_out, mu_in, weight_in):
     p_out = legendre_table(lmax, mu_out)     # (L, I)
     p_in = legendre_table(lmax, mu_in)       # (L, J)
     coef = chi * (2.0 * np.arange(lmax + 1) + 1.0) * 0.5
-    return np.einsum("...l,li,lj->...ij", coef, p_out, p_in) * np.asarray(weight_in)
+    return ((coef[..., None, :] * p_out.T) @ p_in) * np.asarray(weight_in)
