@@ -1,0 +1,155 @@
+"""Discrete-ordinates light field: closed forms, conservation, convergence, tables."""
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from scipy.optimize import brentq
+from scipy.special import expn
+
+from aquaspec.lightfield import (clamped_cosine_azimuth, lightfield_l_ms,
+                                 lightfield_pixel_radiance, lightfield_tables, solve_lightfield)
+from aquaspec.errors import AquaspecError
+
+RAY_TOL = 1e-9
+
+
+def test_absorbing_slab_exact():
+    a = np.array([0.2, 0.05])
+    lf = solve_lightfield(a, [0.0, 0.0], phase="isotropic", n_streams=16)
+    d = np.array([0.0, 1.0, 5.0, 20.0])
+    # Uniform L0 = E0/pi looking up: E_d(d) = 2 pi L0 E3(a d) = 2 E3(a d).
+    np.testing.assert_allclose(lf.e_d(d), 2 * expn(3, a[:, None] * d), rtol=1e-5)
+    v = np.array([0.9, 0.3, 0.05])
+    np.testing.assert_allclose(lf.radiance(3.0, v), np.exp(-a[:, None] * 3.0 / v) / np.pi,
+                               rtol=1e-12)
+    np.testing.assert_allclose(lf.e_u(d), 0.0, atol=1e-15)
+
+
+@pytest.mark.parametrize("omega", [0.5, 0.9, 0.99])
+def test_isotropic_asymptotic_kappa(omega):
+    # Case: omega/(2 k) ln((1 + k)/(1 - k)) = 1, k in units of c.
+    k_exact = brentq(lambda k: omega / (2 * k) * np.log((1 + k) / (1 - k)) - 1, 1e-9, 1 - 1e-12)
+    lf = solve_lightfield([1 - omega], [omega], phase="isotropic", n_streams=32)
+    assert lf.k_inf[0] == pytest.approx(k_exact, rel=1e-8)
+
+
+@pytest.mark.parametrize("phase,kw", [("isotropic", {}), ("hg", {"g": 0.9})])
+def test_energy_conservation_without_absorption(phase, kw):
+    lf = solve_lightfield([0.0], [0.3], phase=phase, n_streams=16, seabed_depth_m=10.0,
+                          seabed_albedo=0.3, **kw)
+    d = np.linspace(0, 10, 11)
+    net = (lf.e_d(d) - lf.e_u(d))[0]
+    np.testing.assert_allclose(net, net[0], rtol=1e-5)
+    # At the seabed the net flux is what it absorbs.
+    assert net[-1] == pytest.approx(0.7 * lf.e_d(10.0)[0], rel=1e-6)
+
+
+def test_convergence_with_streams():
+    kw = dict(phase="hg", g=0.92, seabed_depth_m=15.0, seabed_albedo=0.2)
+    d = np.array([1.0, 5.0, 12.0])
+    ref = solve_lightfield([0.05], [0.25], n_streams=48, **kw)
+    errs = []
+    for n in (8, 16, 32):
+        lf = solve_lightfield([0.05], [0.25], n_streams=n, **kw)
+        errs.append(np.max(np.abs(lf.e_scalar(d) / ref.e_scalar(d) - 1)))
+    assert errs[2] < errs[0]
+    assert errs[2] < 2e-3
+
+
+def test_tilted_irradiance():
+    lf = solve_lightfield([0.05, 0.4], [0.2, 0.3], phase="hg", g=0.9, n_streams=32,
+                          seabed_depth_m=8.0, seabed_albedo=0.4)
+    d = np.array([0.5, 4.0])
+    np.testing.assert_allclose(lf.irradiance(d, 1.0), lf.e_d(d), rtol=1e-14)
+    np.testing.assert_allclose(lf.irradiance(d, -1.0), lf.e_u(d), rtol=1e-14)
+    # Sideways: against a fine quadrature of the source-integrated radiance.
+    mu = np.linspace(-1, 1, 4001)
+    lrad = lf.radiance(np.full_like(mu, 4.0), mu)
+    for ny in (0.0, 0.5, -0.7):
+        fine = np.trapezoid(lrad * clamped_cosine_azimuth(mu, ny), mu, axis=-1)
+        np.testing.assert_allclose(lf.irradiance(4.0, ny), fine, rtol=0.02)
+
+
+def test_clamped_cosine_closed_form():
+    # Vertical plane (n_y = 0): h = 2 sqrt(1 - mu^2).
+    mu = np.linspace(-1, 1, 9)
+    np.testing.assert_allclose(clamped_cosine_azimuth(mu, 0.0), 2 * np.sqrt(1 - mu * mu))
+    # Integral over the sphere of max(0, n.w) is pi for any n.
+    x = np.linspace(-1, 1, 20001)
+    for ny in (-0.3, 0.8):
+        assert np.trapezoid(clamped_cosine_azimuth(x, ny), x) == pytest.approx(np.pi, rel=1e-6)
+
+
+@pytest.mark.parametrize("seabed", [None, 15.0])
+def test_ray_integral_matches_quadrature(seabed):
+    lf = solve_lightfield([0.06, 0.3], [0.2, 0.5], phase="petzold", wavelength_nm=[450, 600],
+                          n_streams=24, seabed_depth_m=seabed, seabed_albedo=0.3)
+    c = lf.c
+    for d_o, v, s in ((5.0, 0.0, 3.0), (5.0, 0.5, np.inf), (2.0, -0.7, 4.0),
+                      (8.0, 0.95, 2.0), (1.0, -0.2, np.inf)):
+        exact = lf.l_ms(d_o, v, s)
+        end = s
+        if v > 0:
+            end = min(end, d_o / v)
+        if seabed and v < 0:
+            end = min(end, (seabed - d_o) / -v)
+        if not np.isfinite(end):
+            end = 500.0
+        for k in range(2):
+            q = quad(lambda t: np.exp(-c[k] * t) * lf.source(d_o - t * v, v)[k], 0, end,
+                     epsabs=0, epsrel=1e-12, limit=400)[0]
+            assert exact[k] == pytest.approx(q, rel=RAY_TOL)
+
+
+@pytest.fixture(scope="module")
+def ib_tables():
+    from aquaspec.bands import Bands
+    from aquaspec.water import load_water
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        bw = load_water("IB").on_bands(Bands(8))
+    lf = solve_lightfield(bw.a, bw.b, phase="petzold", wavelength_nm=bw.bands.centers_nm,
+                          n_streams=32)
+    return bw, lf, lightfield_tables(bw, phase="petzold")
+
+
+def test_table_error_bound(ib_tables):
+    """Measured: mean < 0.3 %, steep rays (|v_y| > 0.5) < 3 %, all S from 0.1 m to inf."""
+    bw, lf, tab = ib_tables
+    rng = np.random.default_rng(7)
+    d = rng.uniform(0.5, 50, 300)
+    v = rng.uniform(-1, 1, 300)
+    for s in (0.1, 1.0, 10.0, np.inf):
+        exact = lf.l_ms(d, v, s).T
+        approx = lightfield_l_ms(tab, a=bw.a, b=bw.b, e0=1.0, depth_o=d[:, None],
+                                 v_y=v[:, None], s=s)
+        err = np.abs(approx / exact - 1)
+        assert err.mean() < 3e-3
+        assert err[np.abs(v) > 0.5].max() < 3e-2
+
+
+def test_tables_dtype_and_surfaces(ib_tables):
+    bw, lf, tab = ib_tables
+    assert tab["ms_log_prefactor"].dtype == np.float32
+    assert tab["irradiance_per_e0"].shape == (8, 64, 65)
+    ny = np.array([1.0, 0.0, -1.0])
+    e0 = np.linspace(1, 2, 8)
+    lrad = lightfield_pixel_radiance(tab, a=bw.a, b=bw.b, e0=e0, depth_o=np.full((3, 1), 5.0),
+                                     v_y=np.zeros((3, 1)), s=np.full((3, 1), 2.0), rho=0.5,
+                                     surface_depth=np.full((3, 1), 5.0), n_y=ny[:, None])
+    e_exact = lf.irradiance(5.0, ny).T * e0
+    t = np.exp(-(bw.a + bw.b) * 2.0)
+    l_ms = lf.l_ms(5.0, 0.0, 2.0) * e0
+    np.testing.assert_allclose(lrad, t * 0.5 * e_exact / np.pi + l_ms, rtol=1e-2)
+    assert np.all(np.isfinite(lrad))
+
+
+def test_bad_input():
+    with pytest.raises(AquaspecError, match="n_streams"):
+        solve_lightfield([0.1], [0.1], phase="isotropic", n_streams=2)
+    with pytest.raises(AquaspecError, match="surface"):
+        solve_lightfield([0.1], [0.1], phase="isotropic", surface="wavy")
+    with pytest.raises(AquaspecError, match="seabed_depth_m"):
+        solve_lightfield([0.1], [0.1], phase="isotropic", seabed_depth_m=-1)
