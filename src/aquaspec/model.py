@@ -151,6 +151,17 @@ AMBIENT_MODELS = {
 DEFAULT_AMBIENT = "cosine"
 
 
+#: Multiple-scattering models, by the name the CLI takes (``--ms-model``):
+#: what a renderer calls for L_MS and for the ambient light on surfaces.
+#: Named by dotted path because :mod:`aquaspec.lightfield` imports this module.
+MS_MODELS = {
+    "seeds": "aquaspec.model.pixel_radiance (l_ms_seeds + AMBIENT_MODELS)",
+    "lightfield": "aquaspec.lightfield.lightfield_pixel_radiance "
+                  "(tables from aquaspec.lightfield.lightfield_tables)",
+}
+DEFAULT_MS_MODEL = "seeds"
+
+
 def ambient_irradiance(e0, kd, depth, n_y, model: str = DEFAULT_AMBIENT):
     """Irradiance on a surface at ``depth`` with unit normal of up component ``n_y``.
 
