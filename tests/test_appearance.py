@@ -122,3 +122,24 @@ class TestSpectraCommand:
         assert main(["spectra", "--water", "IB", "--plot", str(tmp_path / "no" / "x.png")]) == 2
         captured = capsys.readouterr()
         assert "does not exist" in captured.err and "band_nm" not in captured.out
+
+
+class TestMsModels:
+    def test_lightfield_isotropic_brighter_than_seeds(self):
+        # The seeds' formula drives in-scattering by E_d; an isotropic medium
+        # is driven by the scalar irradiance, which is larger (SPEC: the
+        # seeds' L_MS is 35-67 % too dark in isotropic media).
+        w, s = load_water("IB"), get_sensor("human")
+        seeds = water_colour(w, s, Bands(16), depth_m=5, distance_m=3)
+        lf = water_colour(w, s, Bands(16), depth_m=5, distance_m=3, ms_model="lightfield",
+                          phase="isotropic")
+        assert lf["water_rgb"][2] > 1.3 * seeds["water_rgb"][2]
+        assert lf["ms_model"] == "lightfield" and lf["phase"] == "isotropic"
+
+    def test_unknown_model(self, capsys):
+        with pytest.raises(SystemExit):
+            main(["colour", "--water", "IB", "--depth", "5", "--ms-model", "magic"])
+        assert "invalid choice: 'magic'" in capsys.readouterr().err
+        with pytest.raises(AquaspecError, match="unknown multiple-scattering model 'magic'"):
+            water_colour(load_water("IB"), get_sensor("human"), Bands(8), depth_m=5,
+                         distance_m=3, ms_model="magic")

@@ -201,3 +201,37 @@ class TestInputErrors:
     def test_not_a_gbuffer(self):
         with pytest.raises(AquaspecError, match="GBuffer"):
             shade_gbuffer({"distance": 1}, **medium())
+
+
+def test_lightfield_shading_matches_pixel_radiance():
+    """shade_gbuffer with light-field tables is lightfield_pixel_radiance per pixel."""
+    from aquaspec.bands import Bands
+    from aquaspec.camera import Camera
+    from aquaspec.gbuffer import GBuffer
+    from aquaspec.lightfield import lightfield_pixel_radiance, lightfield_tables
+    from aquaspec.reflectance import Reflectance
+    from aquaspec.water import load_water
+    bands = Bands(6)
+    bw = load_water("IB").on_bands(bands)
+    tables = lightfield_tables(bw, phase="petzold")
+    cam = Camera.look_at([0, -4, 0], [0, -5, -6], width=8, height=6, fov_y_deg=90)
+    dist = np.full((6, 8), np.inf)
+    dist[3:] = 2.5
+    normal = np.zeros((6, 8, 3))
+    normal[..., 1] = 1.0
+    grey = Reflectance.constant(0.3)
+    gb = GBuffer(cam, dist, normal, np.zeros((6, 8), np.uint32), np.zeros((6, 8, 3)), [grey])
+    e0 = np.full(6, 0.4)
+    w = np.eye(6)[:, :3]
+    out = shade_gbuffer(gb, a=bw.a, b=bw.b, kd=bw.kd, e0=e0, response_weights=w,
+                        material_bands=grey.on_bands(bands)[None], sigmoid_centers_t=np.zeros(6),
+                        return_radiance=True, lightfield=tables)
+    dirs = cam.ray_directions()
+    for i, j in [(0, 0), (2, 5), (4, 3), (5, 7)]:
+        v_y = dirs[i, j, 1]
+        hit = np.isfinite(dist[i, j])
+        kw = dict(rho=grey.on_bands(bands), surface_depth=np.array([4 - dist[i, j] * v_y]),
+                  n_y=np.array([1.0])) if hit else {}
+        want = lightfield_pixel_radiance(tables, a=bw.a, b=bw.b, e0=e0, depth_o=4.0,
+                                         v_y=np.array([v_y]), s=np.array([dist[i, j]]), **kw)
+        np.testing.assert_allclose(out["radiance"][i, j], np.ravel(want), rtol=1e-12)

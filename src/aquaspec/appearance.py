@@ -32,6 +32,13 @@ def check_depth(depth_m, name="depth"):
     return d
 
 
+def check_ms_model(name):
+    if name not in model.MS_MODELS:
+        raise AquaspecError(f"unknown multiple-scattering model {name!r}; known: "
+                            f"{', '.join(model.MS_MODELS)}")
+    return name
+
+
 def check_distance(distance_m):
     d = check_depth(distance_m, "distance")
     if d <= 0:
@@ -41,8 +48,14 @@ def check_distance(distance_m):
 
 def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
                  distance_m: float, light: SurfaceLight | None = None,
-                 ambient: str = model.DEFAULT_AMBIENT, outside: str = "error") -> dict:
+                 ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
+                 ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold") -> dict:
     """Camera RGB of open water (horizontal view) and of a grey card at ``distance_m``.
+
+    ``ms_model`` picks the multiple-scattering model
+    (:data:`aquaspec.model.MS_MODELS`): ``"seeds"`` (thesis Eq. 4.7 with the
+    database Kd and ``ambient``) or ``"lightfield"`` (the discrete-ordinates
+    light field of :mod:`aquaspec.lightfield` with phase function ``phase``).
 
     Returns a dict with ``water_rgb``, ``grey_card_rgb`` (linear camera RGB,
     lists of 3 floats) and every parameter used.
@@ -53,11 +66,21 @@ def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
     bw = water.on_bands(bands)
     e0 = light.on_bands(bands)
     weights = sensor.band_weights(bands, outside=outside)
-    water_l = model.pixel_radiance(a=bw.a, b=bw.b, kd=bw.kd, e0=e0, depth_o=depth, v_y=0.0,
-                                   s=np.inf)
-    card_l = model.pixel_radiance(a=bw.a, b=bw.b, kd=bw.kd, e0=e0, depth_o=depth, v_y=0.0,
-                                  s=dist, rho=GREY_CARD_REFLECTANCE, surface_depth=depth,
-                                  n_y=0.0, ambient=ambient)
+    check_ms_model(ms_model)
+    if ms_model == "seeds":
+        def radiance(**kw):
+            return model.pixel_radiance(a=bw.a, b=bw.b, kd=bw.kd, e0=e0, depth_o=depth,
+                                        v_y=0.0, ambient=ambient, **kw)
+    else:
+        from .lightfield import lightfield_pixel_radiance, lightfield_tables
+        tables = lightfield_tables(bw, phase=phase)
+
+        def radiance(**kw):
+            return lightfield_pixel_radiance(tables, a=bw.a, b=bw.b, e0=e0, depth_o=depth,
+                                             v_y=np.zeros(1), **kw)
+    water_l = radiance(s=np.inf)
+    card_l = radiance(s=dist, rho=GREY_CARD_REFLECTANCE, surface_depth=np.full(1, depth),
+                      n_y=np.zeros(1))
     out = {
         "water_rgb": model.radiance_to_rgb(water_l, weights).tolist(),
         "grey_card_rgb": model.radiance_to_rgb(card_l, weights).tolist(),
@@ -71,8 +94,8 @@ def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
         "sensor": sensor.describe(),
         "bands": bands.describe(),
         "light": light.describe(),
-        "ms_model": "seeds",
-        "ambient_model": ambient,
+        "ms_model": ms_model,
+        **({"ambient_model": ambient} if ms_model == "seeds" else {"phase": phase}),
     }
     if not all(np.isfinite(out["water_rgb"]) & np.isfinite(out["grey_card_rgb"])):
         raise AquaspecError("the model produced a non-finite colour; please report this input")

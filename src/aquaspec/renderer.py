@@ -41,6 +41,19 @@ class SpectralSetup:
     bands: Bands
     ambient: str = model.DEFAULT_AMBIENT
     outside: str = "error"
+    ms_model: str = model.DEFAULT_MS_MODEL
+    phase: str = "petzold"
+
+    def lightfield_tables(self) -> dict | None:
+        """Light-field tables for ``ms_model="lightfield"`` (None for the seeds' model)."""
+        if self.ms_model != "lightfield":
+            return None
+        cached = self.__dict__.get("_tables")
+        if cached is None:
+            from .lightfield import lightfield_tables
+            cached = lightfield_tables(self.water.on_bands(self.bands), phase=self.phase)
+            object.__setattr__(self, "_tables", cached)
+        return cached
 
     def medium(self, materials) -> dict:
         """Keyword arguments of ``shade_gbuffer`` / ``DeferredPass.set_medium``."""
@@ -54,9 +67,11 @@ class SpectralSetup:
                     ambient=self.ambient)
 
     def describe(self) -> dict:
+        model_params = ({"ambient_model": self.ambient} if self.ms_model == "seeds"
+                        else {"phase": self.phase})
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),
                 "light": self.light.describe(), "bands": self.bands.describe(),
-                "ambient_model": self.ambient, "ms_model": "seeds",
+                "ms_model": self.ms_model, **model_params,
                 "sensor_outside_range": self.outside}
 
 
@@ -164,6 +179,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            size=(1280, 720), scene=None, camera: Camera | None = None, mesh=None, albedo=None,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
+           ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
            exposure="auto", white_balance="none", tonemap="filmic", colour_matrix="auto",
            return_radiance: bool = False, backend: str = "gpu",
            progress=None) -> RenderResult:
@@ -195,7 +211,11 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     light : str or SurfaceLight
         ``overcast``, ``d65`` or ``sun-sky`` (see :mod:`aquaspec.light`).
     ambient : str
-        Ambient irradiance model (:data:`aquaspec.model.AMBIENT_MODELS`).
+        Ambient irradiance model of the seeds' model
+        (:data:`aquaspec.model.AMBIENT_MODELS`).
+    ms_model : str
+        Multiple-scattering model (:data:`aquaspec.model.MS_MODELS`):
+        ``"seeds"`` or ``"lightfield"`` (with phase function ``phase``).
     outside : {"error", "zero"}
         Sensor response outside its range.
     exposure : "auto" or float EV; white_balance, tonemap : str
@@ -226,8 +246,12 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     sensor_obj = sensor if isinstance(sensor, Sensor) else get_sensor(sensor, camspec)
     light_obj = light if isinstance(light, SurfaceLight) else surface_light(
         light, total_w_m2=irradiance_w_m2, sun_elevation_deg=sun_elevation_deg)
+    from .appearance import check_ms_model
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
-                          ambient, outside)
+                          ambient, outside, check_ms_model(ms_model), phase)
+    if ms_model != "seeds" and backend == "gpu":
+        raise AquaspecError(f"ms_model={ms_model!r} has no GPU pass yet; use backend='numpy' "
+                            "(--backend numpy) or ms_model='seeds'")
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
 
@@ -278,7 +302,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
             gbuffer = raycast_gbuffer(scene, camera)
         say(f"shading {camera.width}x{camera.height} pixels x {n} bands in NumPy")
         out = shade_gbuffer(gbuffer, **setup.medium(gbuffer.materials),
-                            return_radiance=return_radiance)
+                            return_radiance=return_radiance,
+                            lightfield=setup.lightfield_tables())
         linear, radiance = out["camera_rgb"], out.get("radiance")
     bad = ~np.isfinite(linear)
     if bad.any():
@@ -293,7 +318,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         from .appearance import water_colour
         reference = water_colour(water_obj, sensor_obj, setup.bands, depth_m=depth,
                                  distance_m=WHITE_CARD_DISTANCE_M, light=light_obj,
-                                 ambient=ambient, outside=outside)["grey_card_rgb"]
+                                 ambient=ambient, outside=outside, ms_model=ms_model,
+                                 phase=phase)["grey_card_rgb"]
     if isinstance(colour_matrix, str):
         if colour_matrix != "auto":
             raise AquaspecError(f"colour_matrix {colour_matrix!r} is not accepted; use 'auto', "

@@ -107,7 +107,7 @@ def camera_depth(camera) -> float:
 
 def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_bands,
                   sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
-                  return_radiance: bool = False) -> dict:
+                  return_radiance: bool = False, lightfield: dict | None = None) -> dict:
     """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
 
     Parameters
@@ -131,6 +131,10 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         Ambient irradiance model, a key of :data:`aquaspec.model.AMBIENT_MODELS`.
     return_radiance : bool
         Also return the band radiance.
+    lightfield : dict, optional
+        Tables from :func:`aquaspec.lightfield.lightfield_tables`: shade with
+        the light-field multiple-scattering model (``ms_model="lightfield"``)
+        instead of the seeds' (then ``kd`` and ``ambient`` are not used).
 
     Returns
     -------
@@ -161,6 +165,15 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         raise AquaspecError(f"G-buffer sigmoid coefficients at pixel ({i}, {j}) are "
                             f"{gbuffer.sigmoid[i, j].tolist()}; they must be finite")
 
+    if lightfield is None:
+        def radiance_of(**kw):
+            return model.pixel_radiance(a=a, b=b, kd=kd, e0=e0, depth_o=d_o, **kw)
+    else:
+        from .lightfield import lightfield_pixel_radiance
+
+        def radiance_of(ambient=None, **kw):
+            return lightfield_pixel_radiance(lightfield, a=a, b=b, e0=e0, depth_o=d_o, **kw)
+
     rgb = np.empty((hgt, wid, 3))
     radiance = np.empty((hgt, wid, n)) if return_radiance else None
     dirs = cam.ray_directions()
@@ -180,8 +193,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         lrad = np.empty((v_y.size, n))
         ow = ~hit
         if np.any(ow):
-            lrad[ow] = model.pixel_radiance(a=a, b=b, kd=kd, e0=e0, depth_o=d_o,
-                                            v_y=v_y[ow, None], s=s[ow, None])
+            lrad[ow] = radiance_of(v_y=v_y[ow, None], s=s[ow, None])
         if np.any(hit):
             m = mat[hit]
             pp = m == PER_PIXEL
@@ -189,10 +201,9 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
             rho[pp] = sigmoid_reflectance(sig[hit][pp], t)
             rho[~pp] = mb[m[~pp]]
             surface_depth = -(o_y + s[hit] * v_y[hit])
-            lrad[hit] = model.pixel_radiance(
-                a=a, b=b, kd=kd, e0=e0, depth_o=d_o, v_y=v_y[hit, None], s=s[hit, None],
-                rho=rho, surface_depth=surface_depth[:, None], n_y=n_y[hit, None],
-                ambient=ambient)
+            lrad[hit] = radiance_of(
+                v_y=v_y[hit, None], s=s[hit, None], rho=rho,
+                surface_depth=surface_depth[:, None], n_y=n_y[hit, None], ambient=ambient)
         if not np.all(np.isfinite(lrad)):
             raise AquaspecError("shading produced a non-finite radiance; check the water "
                                 "coefficients and the G-buffer")

@@ -30,7 +30,8 @@ def run(args):
     from ..appearance import water_colour
     res = water_colour(water_from(args), sensor_from(args), bands_from(args),
                        depth_m=args.depth, distance_m=args.distance, light=light_from(args),
-                       ambient=args.ambient, outside="zero" if args.outside_zero else "error")
+                       ambient=args.ambient, outside="zero" if args.outside_zero else "error",
+                       ms_model=args.ms_model, phase=args.phase)
     if args.json:
         print(json.dumps(res, indent=2))
     else:

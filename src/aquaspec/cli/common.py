@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..bands import Bands
 from ..light import LIGHTS, surface_light
-from ..model import AMBIENT_MODELS, DEFAULT_AMBIENT
+from ..model import AMBIENT_MODELS, DEFAULT_AMBIENT, DEFAULT_MS_MODEL, MS_MODELS
 from ..sensors import get_sensor
 from ..water import DEFAULT_SOURCE, SOURCES, get_water
 
@@ -43,7 +43,14 @@ def add_light_options(p):
     p.add_argument("--sun-elevation", type=float, default=60.0, metavar="DEG",
                    help="sun elevation for --light sun-sky (default 60)")
     p.add_argument("--ambient", default=DEFAULT_AMBIENT, choices=list(AMBIENT_MODELS),
-                   help=f"how surface irradiance depends on the normal (default {DEFAULT_AMBIENT})")
+                   help=f"seeds model: how surface irradiance depends on the normal (default "
+                        f"{DEFAULT_AMBIENT})")
+    p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODELS),
+                   help="multiple-scattering model: 'seeds' (thesis Eq. 4.7 from Kd) or "
+                        "'lightfield' (discrete-ordinates light field with a phase function) "
+                        f"(default {DEFAULT_MS_MODEL})")
+    p.add_argument("--phase", default="petzold", choices=("petzold", "ff", "hg", "isotropic"),
+                   help="phase function for --ms-model lightfield (default petzold)")
 
 
 def parse_range(text):
