@@ -1,0 +1,76 @@
+"""``aquaspec validate``: the error study against Mitsuba 3."""
+
+from __future__ import annotations
+
+import sys
+
+
+def register(sub):
+    p = sub.add_parser(
+        "validate", help="compare with a spectral path tracer (Mitsuba 3) over waters x depths x "
+                         "cameras",
+        description="Render the validation scene (a ColorChecker board 3 m in front of a "
+                    "horizontally looking camera) with Mitsuba 3 and with aquaspec (spectral "
+                    "n=8 and 16, RGB n=3, Unreal's single-layer water, the image-formation "
+                    "model), for every water, depth and camera, and report RMSE, HSV distance, "
+                    "hue, CIEDE2000 and SSIM as CSV, JSON and plots. Needs the 'validation' "
+                    "extra (pip install 'aquaspec[validation]'). Reference renders are cached.")
+    p.add_argument("--waters", default="I,IA,IB,II,3C", metavar="T,...")
+    p.add_argument("--source", default="solonenko2015")
+    p.add_argument("--depths", default="3,5,9", metavar="M,...")
+    p.add_argument("--camspec", metavar="PATH",
+                   help="camspec_database.txt: every camera in it (default: the built-in sensors)")
+    p.add_argument("--sensors", metavar="NAME,...", help="only these sensors")
+    p.add_argument("--size", default="96x72", metavar="WxH")
+    p.add_argument("--spp", type=int, default=512, help="reference samples per pixel")
+    p.add_argument("--kd-spp", type=int, default=50000, help="samples per irradiance meter")
+    p.add_argument("--phase", default="isotropic", choices=("isotropic", "hg"),
+                   help="phase function of the path-traced water")
+    p.add_argument("--g", type=float, default=0.92, help="Henyey-Greenstein g for --phase hg")
+    p.add_argument("--ms-models", default="seeds", metavar="M,...",
+                   help="aquaspec multiple-scattering models to compare (seeds,lightfield)")
+    p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/aquaspec)")
+    p.add_argument("--no-cache", action="store_true")
+    p.add_argument("-o", "--out", default="validation", metavar="DIR",
+                   help="output directory (default ./validation)")
+    p.set_defaults(func=run, command="validate")
+
+
+def run(args):
+    from ..errors import AquaspecError
+    from ..model import MS_MODELS
+    from ..renderer import parse_size
+    from ..sensors import builtin_sensors, get_sensor, load_camspec
+    from ..validation.reference import require_mitsuba
+    from ..validation.study import default_cache_dir, format_summary, run_study, write_results
+    require_mitsuba()
+    try:
+        depths = tuple(float(x) for x in args.depths.split(","))
+    except ValueError:
+        raise AquaspecError(f"--depths {args.depths!r} must be comma-separated metres") from None
+    if any(d < 0 for d in depths):
+        raise AquaspecError(f"--depths {args.depths!r}: depths must be >= 0")
+    waters = tuple(w.strip() for w in args.waters.split(",") if w.strip())
+    ms_models = tuple(m.strip() for m in args.ms_models.split(",") if m.strip())
+    for m in ms_models:
+        if m not in MS_MODELS:
+            raise AquaspecError(f"unknown multiple-scattering model {m!r}; known: "
+                                f"{', '.join(MS_MODELS)}")
+    if args.camspec:
+        sensors = load_camspec(args.camspec)
+    else:
+        sensors = builtin_sensors()
+    if args.sensors:
+        sensors = {name: get_sensor(name, args.camspec) for name in args.sensors.split(",")}
+    size = parse_size(args.size)
+    cache = None if args.no_cache else (args.cache or default_cache_dir())
+    res = run_study(waters=waters, depths=depths, sensors=sensors, source=args.source, size=size,
+                    spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
+                    g=args.g if args.phase == "hg" else 0.0, ms_models=ms_models,
+                    cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
+    for region in ("image", "patches", "grey", "background"):
+        print(format_summary(res["rows"], region=region))
+        print()
+    paths = write_results(res, args.out)
+    print("wrote " + ", ".join(paths.values()))
+    return 0

@@ -1,0 +1,255 @@
+"""The reference: the same scene path-traced spectrally by Mitsuba 3.
+
+The scene is built with ``mi.load_dict`` from aquaspec's own objects: the
+meshes (written as PLY), their reflectance spectra (``diffuse`` BSDFs with
+irregular spectra), the water's a and b (a ``homogeneous`` medium filling a
+2 km x 1 km box whose top face is the water surface y = 0; the box has a
+``null`` BSDF, so light enters without refraction, and no exterior medium),
+the camera (inside the medium), and an overcast sky (a ``constant``
+environment of radiance E0 / pi, so that the downwelling irradiance just
+below the surface is E0). Integrator ``volpathmis`` (``volpath`` gives
+fireflies in water whose extinction varies strongly with wavelength),
+``max_depth`` 33, box reconstruction filter.
+
+One render serves every camera: the film is a ``specfilm`` of narrow box
+bands (default 30 bands of 10 nm over 400-700 nm, each normalised to unit
+area), so each channel is the band-averaged radiance; camera RGB follows as
+``sum_i w_i L_i R_c,i`` exactly as in aquaspec (:func:`bands_to_rgb`).
+
+Kd is also measured in the path-traced water (:func:`measure_kd`):
+irradiance meters facing up at several depths, fitted per band by a
+log-linear least-squares fit, so the analytic model can be run with the Kd
+of exactly the water the path tracer sees.
+
+Mitsuba is an optional dependency: ``pip install aquaspec[validation]``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..bands import Bands
+from ..errors import AquaspecError
+from ..light import SurfaceLight
+from ..water import Water
+
+#: Variants tried in order (llvm needs Debian's libllvm19; scalar needs nothing).
+VARIANTS = ("llvm_ad_spectral", "scalar_spectral")
+#: Reference bands: 30 boxes of 10 nm.
+REFERENCE_BANDS = Bands(30, 400.0, 700.0)
+MAX_DEPTH = 33
+#: Half-size of the water box, metres (its sides are far enough that light
+#: entering through them is attenuated to nothing).
+WATER_BOX_M = 1000.0
+PHASES = ("isotropic", "hg")
+
+
+def require_mitsuba():
+    """Import Mitsuba 3 and choose a spectral variant; clear error if missing."""
+    try:
+        import mitsuba as mi
+    except ImportError as exc:
+        raise AquaspecError("the validation needs Mitsuba 3, which is not installed: "
+                            "pip install 'aquaspec[validation]'") from exc
+    if mi.variant() in VARIANTS:
+        return mi
+    errors = []
+    for v in VARIANTS:
+        try:
+            mi.set_variant(v)
+            return mi
+        except Exception as exc:  # noqa: BLE001 - Mitsuba raises several types
+            errors.append(f"{v}: {exc}")
+    raise AquaspecError("no spectral Mitsuba variant could be loaded (" + "; ".join(errors)
+                        + "); for llvm_ad_spectral install Debian's libllvm19")
+
+
+def _spectrum(wl, values):
+    if not np.any(np.asarray(values) > 0):
+        # Mitsuba cannot build a sampling distribution of an all-zero spectrum.
+        return {"type": "spectrum", "value": 0.0}
+    return {"type": "irregular", "wavelengths": ", ".join(f"{w:.6g}" for w in wl),
+            "values": ", ".join(f"{max(v, 0.0):.9g}" for v in values)}
+
+
+def _box(lo, hi, full=(300.0, 900.0)):
+    eps = 1e-3
+    wl = [full[0], lo - eps, lo, hi, hi + eps, full[1]]
+    h = 1.0 / (hi - lo)
+    return _spectrum(wl, [0, 0, h, h, 0, 0])
+
+
+def _film(bands, width, height):
+    film = {"type": "specfilm", "width": int(width), "height": int(height),
+            "rfilter": {"type": "box"}}
+    for k, (lo, hi) in enumerate(zip(bands.edges_nm[:-1], bands.edges_nm[1:])):
+        film[f"band{k:03d}"] = _box(lo, hi)
+    return film
+
+
+def _medium(water: Water, phase: str, g: float):
+    if phase not in PHASES:
+        raise AquaspecError(f"reference phase function {phase!r}; accepted: {', '.join(PHASES)}")
+    wl = water.wavelength_nm
+    c = water.a + water.b
+    med = {"type": "homogeneous", "sigma_t": _spectrum(wl, c),
+           "albedo": _spectrum(wl, np.clip(water.b / c, 0.0, 1.0)),
+           "phase": {"type": "isotropic"} if phase == "isotropic" else {"type": "hg", "g": g}}
+    return med
+
+
+def _check_range(water, light, bands):
+    for name, (lo, hi) in (("water", water.range_nm),
+                           ("light", (light.wavelength_nm[0], light.wavelength_nm[-1]))):
+        if lo > bands.lo_nm or hi < bands.hi_nm:
+            raise AquaspecError(f"{name} spectra cover {lo:g}-{hi:g} nm but the reference film "
+                                f"samples {bands.lo_nm:g}-{bands.hi_nm:g} nm")
+
+
+def _base(water, light, phase, g):
+    mi = require_mitsuba()
+    T = mi.ScalarTransform4f
+    sky = _spectrum(light.wavelength_nm, np.asarray(light.values) / np.pi)
+    return {
+        "type": "scene",
+        "integrator": {"type": "volpathmis", "max_depth": MAX_DEPTH},
+        "water_medium": _medium(water, phase, g),
+        "water": {"type": "cube",
+                  "to_world": T().translate([0.0, -WATER_BOX_M / 2, 0.0]).scale(
+                      [WATER_BOX_M, WATER_BOX_M / 2, WATER_BOX_M]),
+                  "bsdf": {"type": "null"},
+                  "interior": {"type": "ref", "id": "water_medium"}},
+        "sky": {"type": "constant", "radiance": sky},
+    }
+
+
+def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
+               mesh_dir, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
+               g: float = 0.0) -> dict:
+    """The Mitsuba scene dictionary (meshes are written as PLY into ``mesh_dir``)."""
+    import trimesh
+    mi = require_mitsuba()
+    _check_range(water, light, bands)
+    if abs(camera.cx - camera.width / 2) > 1e-6 or abs(camera.cy - camera.height / 2) > 1e-6:
+        raise AquaspecError("the reference camera needs the principal point at the image centre")
+    d = _base(water, light, phase, g)
+    fov_y = float(np.degrees(2 * np.arctan(camera.height / 2 / camera.fy)))
+    d["sensor"] = {
+        "type": "perspective", "fov": fov_y, "fov_axis": "y",
+        "to_world": mi.ScalarTransform4f().look_at(
+            origin=camera.position.tolist(), target=(camera.position + camera.forward).tolist(),
+            up=camera.true_up.tolist()),
+        "film": _film(bands, camera.width, camera.height),
+        "sampler": {"type": "independent", "sample_count": int(spp)},
+        "medium": {"type": "ref", "id": "water_medium"},
+    }
+    mesh_dir = Path(mesh_dir)
+    for i, mesh in enumerate(scene.meshes):
+        if mesh.per_pixel:
+            raise AquaspecError("the reference supports meshes with one material each "
+                                f"(mesh {mesh.name!r} is textured or vertex-coloured)")
+        path = mesh_dir / f"mesh{i:04d}.ply"
+        trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).export(path)
+        mat = scene.materials[mesh.material]
+        d[f"mesh{i:04d}"] = {"type": "ply", "filename": str(path), "face_normals": True,
+                             "bsdf": {"type": "diffuse", "reflectance": _spectrum(
+                                 mat.wavelength_nm, mat.values)}}
+    return d
+
+
+def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: int = 256,
+                     seed: int = 0, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
+                     g: float = 0.0) -> dict:
+    """Path-trace the scene; returns ``band_radiance`` (H, W, n) and timing.
+
+    ``band_radiance`` is the radiance averaged over each band of ``bands``
+    (W m^-2 sr^-1 nm^-1), the same quantity aquaspec computes per band.
+    """
+    mi = require_mitsuba()
+    with tempfile.TemporaryDirectory(prefix="aquaspec-ref-") as tmp:
+        d = scene_dict(scene, camera, water, light, spp=spp, mesh_dir=tmp, bands=bands,
+                       phase=phase, g=g)
+        t0 = time.perf_counter()
+        mscene = mi.load_dict(d)
+        img = np.array(mi.render(mscene, seed=seed), dtype=np.float64)
+        seconds = time.perf_counter() - t0
+    if not np.all(np.isfinite(img)):
+        raise AquaspecError("the reference render contains NaN or infinity")
+    return {"band_radiance": img.reshape(camera.height, camera.width, bands.n),
+            "seconds": seconds, "spp": spp, "variant": mi.variant(), "bands": bands.describe()}
+
+
+def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.0, 5.0, 6.0),
+               spp: int = 100_000, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
+               g: float = 0.0, seed: int = 0) -> dict:
+    """Kd(lambda) of the path-traced water, from irradiance meters facing up.
+
+    Returns ``depths_m``, ``e_d`` (n_depths, n) downwelling irradiance per
+    band, ``kd`` (n,) from a least-squares fit of ``ln E_d`` against depth,
+    and ``kd_stderr`` (n,), the fit's standard error.
+    """
+    mi = require_mitsuba()
+    _check_range(water, light, bands)
+    depths = np.asarray(depths_m, dtype=float)
+    if depths.size < 2 or np.any(depths <= 0):
+        raise AquaspecError(f"depths {depths.tolist()} must be at least two positive depths")
+    T = mi.ScalarTransform4f
+    e_d = []
+    for i, depth in enumerate(depths):
+        d = _base(water, light, phase, g)
+        d["meter"] = {
+            "type": "rectangle",
+            "to_world": T().translate([0.0, -float(depth), 0.0]).rotate([1, 0, 0], -90).scale(0.01),
+            "bsdf": {"type": "null"},
+            "interior": {"type": "ref", "id": "water_medium"},
+            "exterior": {"type": "ref", "id": "water_medium"},
+            # The meter's own medium: a copy of the water (a reference here is
+            # refused by Mitsuba for sensors attached to shapes).
+            "sensor": {"type": "irradiancemeter", "film": _film(bands, 1, 1),
+                       "sampler": {"type": "independent", "sample_count": int(spp)},
+                       "medium": _medium(water, phase, g)},
+        }
+        img = np.array(mi.render(mi.load_dict(d), seed=seed + i), dtype=np.float64)
+        e_d.append(img.reshape(bands.n))
+    e_d = np.array(e_d)
+    if np.any(e_d <= 0):
+        raise AquaspecError("an irradiance meter received no light; use more samples or "
+                            "shallower depths")
+    y = np.log(e_d)
+    A = np.stack([np.ones_like(depths), -depths], axis=1)
+    coef, res, *_ = np.linalg.lstsq(A, y, rcond=None)
+    kd = coef[1]
+    dof = max(1, depths.size - 2)
+    resid = y - A @ coef
+    s2 = (resid ** 2).sum(axis=0) / dof
+    se = np.sqrt(s2 / ((depths - depths.mean()) ** 2).sum())
+    return {"depths_m": depths, "e_d": e_d, "kd": kd, "kd_stderr": se, "bands": bands}
+
+
+def water_with_kd(water: Water, kd_bands: np.ndarray, bands: Bands = REFERENCE_BANDS) -> Water:
+    """``water`` with its Kd replaced by per-band values (e.g. measured), as a Water."""
+    centres = bands.centers_nm
+    wl = np.concatenate([[bands.lo_nm], centres, [bands.hi_nm]])
+    kd = np.concatenate([[kd_bands[0]], kd_bands, [kd_bands[-1]]])
+    a = np.interp(wl, water.wavelength_nm, water.a)
+    b = np.interp(wl, water.wavelength_nm, water.b)
+    return Water(name=water.name, source=water.source + " (Kd measured in the reference)",
+                 wavelength_nm=wl, a=a, b=b, kd=np.maximum(kd, 0.0), kd_derived=True,
+                 notes=water.notes, citation=water.citation)
+
+
+def bands_to_rgb(band_radiance, sensor, bands: Bands = REFERENCE_BANDS, outside="zero"):
+    """Camera RGB from reference band radiance: ``sum_i w_i L_i R_c,i``."""
+    return np.asarray(band_radiance) @ sensor.band_weights(bands, outside=outside)
+
+
+def cache_key(**params) -> str:
+    """A stable hash of every parameter of a reference render."""
+    text = json.dumps(params, sort_keys=True, default=lambda o: getattr(o, "tolist", str)(o))
+    return hashlib.sha256(text.encode()).hexdigest()[:20]

@@ -1,0 +1,148 @@
+"""Validation against Mitsuba 3: reference sanity, metrics, a small study, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aquaspec.bands import Bands
+from aquaspec.cli import main
+from aquaspec.errors import AquaspecError
+from aquaspec.light import surface_light
+from aquaspec.validation import metrics
+from aquaspec.water import Water, load_water
+
+
+def mitsuba():
+    pytest.importorskip("mitsuba", reason="Mitsuba 3 is not installed (extra 'validation')")
+    from aquaspec.validation.reference import require_mitsuba
+    return require_mitsuba()
+
+
+class TestMetrics:
+    def test_identical_images(self):
+        img = np.random.default_rng(0).random((20, 30, 3))
+        m = metrics.all_metrics(img, img)
+        assert m["rmse"] == 0 and m["hsv"] == 0 and m["hue_deg"] == 0
+        assert m["ciede2000"] < 1e-9
+        assert metrics.ssim(img, img) == pytest.approx(1.0)
+
+    def test_hsv_distance_closed_form(self):
+        # Fully saturated red vs fully saturated green: hues 120 degrees apart
+        # on the unit circle, distance 2 sin(60 deg) = sqrt(3).
+        red = np.array([[1.0, 0.0, 0.0]])
+        green = np.array([[0.0, 0.5, 0.0]])     # value differs: ignored
+        assert metrics.hsv_distance(red, green) == pytest.approx(np.sqrt(3))
+        assert metrics.hue_difference_deg(red, green) == pytest.approx(120.0)
+        grey = np.array([[0.3, 0.3, 0.3]])
+        assert metrics.hsv_distance(red, grey) == pytest.approx(1.0)
+
+    def test_rmse_and_mask(self):
+        a = np.zeros((2, 2, 3))
+        b = a.copy()
+        b[0, 0] = 2.0
+        assert metrics.rmse(a + 1, b + 1)["rmse"] == pytest.approx(1.0)
+        mask = np.array([[False, True], [True, True]])
+        assert metrics.rmse(a, b, mask)["rmse"] == 0
+        with pytest.raises(AquaspecError, match="selects no pixel"):
+            metrics.rmse(a, b, np.zeros((2, 2), bool))
+
+    def test_ssim_drops_with_noise(self):
+        rng = np.random.default_rng(1)
+        img = np.tile(np.linspace(0, 1, 40), (30, 1))[..., None].repeat(3, -1)
+        noisy = img + rng.normal(0, 0.2, img.shape)
+        assert metrics.ssim(img, noisy) < 0.7
+
+
+@pytest.mark.slow
+class TestReference:
+    def test_pure_absorber_matches_beer_lambert(self):
+        """b = 0: a grey board lit by the sky through an absorbing medium.
+
+        The board's radiance is rho E / pi, with E the irradiance of the
+        uniform sky (radiance E0 / pi) on the vertical board through the
+        absorber (each direction attenuated over its slant path d / mu),
+        attenuated by exp(-c S) towards the camera.
+        """
+        mitsuba()
+        from aquaspec.validation.reference import render_reference
+        from aquaspec.validation.scenes import board_scene
+        wl = np.array([300.0, 800.0])
+        water = Water("absorber", "test", wl, a=np.full(2, 0.25), b=np.zeros(2), kd=np.full(2, 0.25))
+        scene, cam = board_scene(1.0, width=24, height=18, fov_y_deg=12)
+        scene.materials[:] = [type(scene.materials[-1]).constant(0.5)] * len(scene.materials)
+        ref = render_reference(scene, cam, water, surface_light("overcast"), spp=256,
+                               bands=Bands(3))
+        c, d, s = 0.25, 1.0, 3.0
+        e0 = 100 / 300
+        # Irradiance on a vertical board from a uniform sky seen through the
+        # absorber: int over the upper half of the board's hemisphere.
+        mu = np.linspace(1e-6, 1, 4001)
+        phi = np.linspace(-np.pi / 2, np.pi / 2, 801)
+        M, P = np.meshgrid(mu, phi, indexing="ij")
+        sin_t = np.sqrt(1 - M ** 2)
+        cos_board = sin_t * np.cos(P)            # cosine to the board's normal
+        L = e0 / np.pi * np.exp(-c * d / M)
+        E = np.trapezoid(np.trapezoid(L * cos_board, phi, axis=1), mu)
+        want = 0.5 * E / np.pi * np.exp(-c * s)
+        centre = ref["band_radiance"][7:11, 10:14].mean(axis=(0, 1))
+        np.testing.assert_allclose(centre, want, rtol=0.05)
+
+    def test_kd_independent_of_depth_range(self):
+        mitsuba()
+        from aquaspec.validation.reference import measure_kd
+        water = load_water("IB")
+        light = surface_light("overcast")
+        b = Bands(3)
+        shallow = measure_kd(water, light, depths_m=(2.0, 4.0, 6.0), spp=40000, bands=b)
+        deep = measure_kd(water, light, depths_m=(6.0, 9.0, 12.0), spp=40000, bands=b, seed=7)
+        tol = 4 * np.hypot(shallow["kd_stderr"], deep["kd_stderr"]) + 0.1 * deep["kd"]
+        assert np.all(np.abs(shallow["kd"] - deep["kd"]) < tol), (shallow["kd"], deep["kd"])
+
+
+@pytest.mark.slow
+def test_small_study(tmp_path, camspec_path, capsys):
+    mitsuba()
+    code = main(["validate", "--waters", "IB,3C", "--depths", "3,9", "--camspec",
+                 str(camspec_path), "--sensors", "Canon 5DMarkII,Nikon D90,SONY NEX-5N",
+                 "--size", "48x36", "--spp", "32", "--kd-spp", "4000", "--no-cache",
+                 "-o", str(tmp_path)])
+    assert code == 0
+    import json
+    doc = json.loads((tmp_path / "validation.json").read_text())
+    rows = doc["rows"]
+    assert {r["camera"] for r in rows} == {"Canon 5DMarkII", "Nikon D90", "SONY NEX-5N"}
+    assert {(r["water"], r["depth_m"]) for r in rows} == {("IB", 3.0), ("IB", 9.0),
+                                                          ("3C", 3.0), ("3C", 9.0)}
+    assert {"seeds-n8", "seeds-n16", "rgb-seeds-n3", "unreal", "ifm"} <= {r["method"]
+                                                                         for r in rows}
+    assert all(np.isfinite(r["hsv"]) for r in rows)
+    for name in ("validation.csv", "error_per_scene.png", "panels.png"):
+        assert (tmp_path / name).stat().st_size > 0
+
+
+class TestBadInput:
+    def test_unknown_camera(self, camspec_path, capsys, tmp_path):
+        mitsuba()
+        assert main(["validate", "--camspec", str(camspec_path), "--sensors", "Leica M9",
+                     "-o", str(tmp_path)]) == 2
+        assert "unknown sensor 'Leica M9'" in capsys.readouterr().err
+
+    def test_camspec_wrong_format(self, tmp_path, capsys):
+        mitsuba()
+        bad = tmp_path / "cams.txt"
+        bad.write_text("not a camera database\n")
+        assert main(["validate", "--camspec", str(bad), "-o", str(tmp_path)]) == 2
+        assert "no cameras found" in capsys.readouterr().err
+
+    def test_mitsuba_missing(self, monkeypatch, capsys, tmp_path):
+        import builtins
+        real_import = builtins.__import__
+
+        def fake(name, *args, **kwargs):
+            if name == "mitsuba" or name.startswith("mitsuba."):
+                raise ImportError("No module named 'mitsuba'")
+            return real_import(name, *args, **kwargs)
+        monkeypatch.setattr(builtins, "__import__", fake)
+        assert main(["validate", "-o", str(tmp_path)]) == 2
+        assert "pip install 'aquaspec[validation]'" in capsys.readouterr().err
