@@ -68,7 +68,8 @@ def run(args):
                     spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
                     g=args.g if args.phase == "hg" else 0.0, ms_models=ms_models,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
-    for region in ("image", "patches", "grey", "background"):
+    from ..validation.study import REGIONS
+    for region in REGIONS:
         print(format_summary(res["rows"], region=region))
         print()
     paths = write_results(res, args.out)
