@@ -43,6 +43,8 @@ class SpectralSetup:
     outside: str = "error"
     ms_model: str = model.DEFAULT_MS_MODEL
     phase: str = "petzold"
+    #: Parameters of the phase function, e.g. ``(("g", 0.92),)`` for ``hg``.
+    phase_params: tuple = ()
 
     def lightfield_tables(self) -> dict | None:
         """Light-field tables for ``ms_model="lightfield"`` (None for the seeds' model)."""
@@ -51,7 +53,8 @@ class SpectralSetup:
         cached = self.__dict__.get("_tables")
         if cached is None:
             from .lightfield import lightfield_tables
-            cached = lightfield_tables(self.water.on_bands(self.bands), phase=self.phase)
+            cached = lightfield_tables(self.water.on_bands(self.bands), phase=self.phase,
+                                       **dict(self.phase_params))
             object.__setattr__(self, "_tables", cached)
         return cached
 
@@ -68,7 +71,7 @@ class SpectralSetup:
 
     def describe(self) -> dict:
         model_params = ({"ambient_model": self.ambient} if self.ms_model == "seeds"
-                        else {"phase": self.phase})
+                        else {"phase": self.phase, **dict(self.phase_params)})
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),
                 "light": self.light.describe(), "bands": self.bands.describe(),
                 "ms_model": self.ms_model, **model_params,

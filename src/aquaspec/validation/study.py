@@ -61,12 +61,12 @@ def _cached(cache_dir, key, compute):
         return {k: z[k] for k in z.files}, False
 
 
-def _spectral(gb, water, light, n, ms_model, phase_lf):
+def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=()):
     from ..renderer import SpectralSetup
     from ..sensors import get_sensor
     from ..shading import shade_gbuffer
     setup = SpectralSetup(water, get_sensor("human"), light, Bands(n), ms_model=ms_model,
-                          phase=phase_lf)
+                          phase=phase_lf, phase_params=phase_params)
     out = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
                         lightfield=setup.lightfield_tables())
     return out["radiance"]
@@ -130,9 +130,9 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         continue   # the light field does not use Kd
                     for n in band_counts + (3,):
                         name = f"{ms}-n{n}" if n != 3 else f"rgb-{ms}-n3"
-                        methods[(name, mode)] = ("bands", n,
-                                                 _spectral(gb, waters_by_mode[mode], light, n,
-                                                           ms, phase_lf))
+                        methods[(name, mode)] = ("bands", n, _spectral(
+                            gb, waters_by_mode[mode], light, n, ms, phase_lf,
+                            (("g", g),) if phase_lf == "hg" else ()))
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             methods[("ifm", "database")] = ("baseline", "ifm", None)
             for cname, sensor in sensors.items():
