@@ -42,14 +42,14 @@ class _Geometry:
                                 timestamp_writes=timestamp_writes)
 
 
-def _frame_wall_ms(renderer, geometry, display, frames, warmup):
+def _frame_wall_ms(renderer, shading, geometry, display, frames, warmup):
     """Median wall-clock time of a whole frame submitted at once (submit + wait)."""
     dev = renderer.deferred.device
     out = []
     for f in range(warmup + frames):
         enc = dev.create_command_encoder()
         geometry.encode(enc)
-        renderer.deferred.encode(enc)
+        shading.encode(enc)
         display.encode(enc)
         t0 = time.perf_counter()
         dev.queue.submit([enc.finish()])
@@ -61,7 +61,7 @@ def _frame_wall_ms(renderer, geometry, display, frames, warmup):
 
 def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, warmup: int = 3,
               water="IB", depth_m: float = 5.0, sensor="human", numpy_reference: bool = True,
-              progress=None) -> dict:
+              ms_model: str = "seeds", phase: str = "petzold", progress=None) -> dict:
     """Run the cost study; returns a JSON-ready dict (see the module docstring)."""
     from .display import display_settings, to_display
     from .gpu.buffers import time_passes
@@ -91,20 +91,21 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
     for width, height in sizes:
         scene, camera = builtin_scene(depth_m, width=width, height=height)
         for n in bands:
-            setup = SpectralSetup(w_obj, s_obj, light, Bands(n))
+            setup = SpectralSetup(w_obj, s_obj, light, Bands(n), ms_model=ms_model, phase=phase)
             r = Renderer(width, height, n)
             geometry = _Geometry(r, scene, camera)
             r.set_spectral(setup, scene.materials)
             rgb = r.render_scene(scene, camera, setup)
+            shading = r.lightfield if ms_model == "lightfield" else r.deferred
             disp = DisplayPass(width, height, device=r.deferred.device)
-            disp.use_input(r.deferred.rgb_buffer)
+            disp.use_input(shading.rgb_buffer)
             disp.set_from_image(rgb)
             copy = CopyPass(r.deferred)
-            times = time_passes({"geometry": geometry, "deferred": r.deferred,
+            times = time_passes({"geometry": geometry, "deferred": shading,
                                  "display": disp, "copy": copy}, method=timing,
                                 frames=frames, warmup=warmup, device=r.deferred.device)
             frame = times.ms["geometry"] + times.ms["deferred"] + times.ms["display"]
-            wall = _frame_wall_ms(r, geometry, disp, frames, warmup)
+            wall = _frame_wall_ms(r, shading, geometry, disp, frames, warmup)
             row = {"width": width, "height": height, "bands": n, **{f"{k}_ms": v for k, v in
                    times.ms.items()}, "frame_ms": frame, "fps": 1e3 / frame,
                    "frame_wall_ms": wall, "timing": times.method}
@@ -116,7 +117,8 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
             if numpy_reference and n == 8:
                 gb = r.raster.render(scene, camera)
                 t0 = time.perf_counter()
-                lin = shade_gbuffer(gb, **setup.medium(gb.materials))["camera_rgb"]
+                lin = shade_gbuffer(gb, **setup.medium(gb.materials),
+                                    lightfield=setup.lightfield_tables())["camera_rgb"]
                 to_display(lin, **{"exposure": display_settings(lin)["exposure_ev"]})
                 numpy_ms = (time.perf_counter() - t0) * 1e3
                 numpy_rows.append({"width": width, "height": height, "bands": n,
@@ -147,6 +149,7 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                 entry["numpy_over_gpu_n8"] = x["numpy_over_gpu"]
         ratios.append(entry)
     return {"adapter": adapter_info(), "frames": frames, "warmup": warmup,
+            "ms_model": ms_model, **({"phase": phase} if ms_model != "seeds" else {}),
             "water": w_obj.describe(), "sensor": s_obj.describe(), "depth_m": depth_m,
             "rows": rows, "numpy_reference": numpy_rows, "fits": fits, "ratios": ratios}
 

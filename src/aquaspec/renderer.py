@@ -97,12 +97,25 @@ class Renderer:
                                      debug_radiance=debug_radiance)
         self.raster = RasterPass(self.deferred.device)
         self._medium_key = None
+        self.lightfield = None      # LightfieldPass, made when first needed
+        self._use_lightfield = False
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         key = (id(setup), tuple(id(m) for m in materials))
         if key != self._medium_key:
-            self.deferred.set_medium(**setup.medium(materials))
+            self._use_lightfield = setup.ms_model == "lightfield"
+            if self._use_lightfield:
+                from .gpu.lightfield_pass import LightfieldPass
+                if self.lightfield is None:
+                    self.lightfield = LightfieldPass(self.deferred)
+                self.lightfield.set_medium(**setup.medium(materials),
+                                           tables=setup.lightfield_tables())
+            else:
+                self.deferred.set_medium(**setup.medium(materials))
             self._medium_key = key
+
+    def _shading_pass(self):
+        return self.lightfield if self._use_lightfield else self.deferred
 
     def render_scene(self, scene, camera: Camera, setup: SpectralSetup) -> np.ndarray:
         """Rasterise and shade on the GPU; returns linear camera RGB (H, W, 3) float32."""
@@ -110,18 +123,17 @@ class Renderer:
         self.set_spectral(setup, scene.materials)
         enc = self.deferred.device.create_command_encoder()
         self.raster.render_to(self.deferred, scene, camera, encoder=enc)
-        self.deferred.upload_uniforms()
-        self.deferred.encode(enc)
+        self._shading_pass().encode(enc)
         self.deferred.device.queue.submit([enc.finish()])
-        return self.deferred.read_rgb()
+        return self._shading_pass().read_rgb()
 
     def render_gbuffer(self, gbuffer: GBuffer, setup: SpectralSetup) -> np.ndarray:
         """Shade a G-buffer made elsewhere (e.g. RGB-D) on the GPU."""
         self._check_camera(gbuffer.camera)
         self.set_spectral(setup, gbuffer.materials)
         self.deferred.set_gbuffer(gbuffer)
-        self.deferred.run()
-        return self.deferred.read_rgb()
+        self._shading_pass().run()
+        return self._shading_pass().read_rgb()
 
     def read_radiance(self) -> np.ndarray:
         return self.deferred.read_radiance()
@@ -252,9 +264,6 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     from .appearance import check_ms_model
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase)
-    if ms_model != "seeds" and backend == "gpu":
-        raise AquaspecError(f"ms_model={ms_model!r} has no GPU pass yet; use backend='numpy' "
-                            "(--backend numpy) or ms_model='seeds'")
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
 
@@ -287,6 +296,9 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     radiance = None
     if backend == "gpu":
         say(f"shading {camera.width}x{camera.height} pixels x {n} bands on the GPU")
+        if return_radiance and ms_model != "seeds":
+            raise AquaspecError("per-band radiance from the GPU is available for "
+                                "ms_model='seeds'; use backend='numpy' for the light field")
         r = Renderer(camera.width, camera.height, n, debug_radiance=return_radiance)
         if gbuffer is None:
             linear = r.render_scene(scene, camera, setup).astype(np.float64)
