@@ -287,3 +287,23 @@ def time_passes(passes: Mapping[str, object], *, frames: int = 20, warmup: int =
     samples, more = result
     return PassTimes(ms={k: float(statistics.median(v)) for k, v in samples.items()},
                      method=used, frames=frames, samples_ms=samples, notes=notes + more)
+
+
+def record_dispatch(encoder, pipeline, bind_group, workgroups, timestamp_writes=None) -> None:
+    """Record one compute pass: ``pipeline`` with ``bind_group`` over ``workgroups``.
+
+    ``timestamp_writes`` (optional) brackets the pass for :func:`time_passes`.
+    """
+    kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
+    cp = encoder.begin_compute_pass(**kwargs)
+    cp.set_pipeline(pipeline)
+    cp.set_bind_group(0, bind_group)
+    cp.dispatch_workgroups(*workgroups)
+    cp.end()
+
+
+def submit_pass(device, gpu_pass) -> None:
+    """Record ``gpu_pass.encode`` into a new encoder and submit it (does not wait)."""
+    enc = device.create_command_encoder()
+    gpu_pass.encode(enc)
+    device.queue.submit([enc.finish()])

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .buffers import read_buffer
+from .buffers import read_buffer, record_dispatch, submit_pass
 from .deferred import (B_CAMERA, B_DISTANCE, B_RGB, B_SIGMOID, B_SURFACE, DeferredPass,
                        bind_group_layout, shader_source)
 
@@ -62,19 +62,12 @@ class CopyPass:
     def encode(self, encoder, timestamp_writes=None) -> None:
         """Record the copy into ``encoder`` (needs the deferred pass's camera)."""
         self.deferred.upload_uniforms()
-        kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
-        cp = encoder.begin_compute_pass(**kwargs)
-        cp.set_pipeline(self._pipeline)
-        cp.set_bind_group(0, self._get_bind_group())
-        cp.dispatch_workgroups(*self.workgroups())
-        cp.end()
+        record_dispatch(encoder, self._pipeline, self._get_bind_group(), self.workgroups(),
+                        timestamp_writes)
 
     def run(self) -> None:
         """Dispatch the copy (submits; does not wait)."""
-        d = self.deferred
-        enc = d.device.create_command_encoder()
-        self.encode(enc)
-        d.device.queue.submit([enc.finish()])
+        submit_pass(self.deferred.device, self)
 
     def read(self) -> np.ndarray:
         """The output buffer as (H, W, 4) float32: distance, normal.y, sigmoid.z, material."""

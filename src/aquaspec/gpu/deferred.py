@@ -57,7 +57,7 @@ from ..errors import AquaspecError
 from ..gbuffer import PER_PIXEL, GBuffer
 from ..shading import camera_depth, check_medium
 from .buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
-                      upload_buffer)
+                      record_dispatch, submit_pass, upload_buffer)
 from .layout import UniformLayout
 from .shaders import load_wgsl
 
@@ -374,18 +374,12 @@ class DeferredPass:
             raise AquaspecError("no medium: call set_medium() before running")
         self.upload_uniforms()
         encoder.clear_buffer(self._status, 0, self._status.size)
-        kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
-        cp = encoder.begin_compute_pass(**kwargs)
-        cp.set_pipeline(self._pipeline)
-        cp.set_bind_group(0, self._get_bind_group())
-        cp.dispatch_workgroups(*self.workgroups())
-        cp.end()
+        record_dispatch(encoder, self._pipeline, self._get_bind_group(), self.workgroups(),
+                        timestamp_writes)
 
     def run(self) -> None:
         """Shade the current G-buffer (submits; does not wait)."""
-        enc = self.device.create_command_encoder()
-        self.encode(enc)
-        self.device.queue.submit([enc.finish()])
+        submit_pass(self.device, self)
 
     # ------------------------------------------------------------- outputs
     def _check_status(self):

@@ -23,7 +23,8 @@ import numpy as np
 from .. import display
 from ..camera import check_size
 from ..errors import AquaspecError
-from .buffers import create_storage_buffer, create_uniform_buffer, read_buffer, upload_buffer
+from .buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
+                      record_dispatch, submit_pass, upload_buffer)
 from .layout import UniformLayout
 from .shaders import load_wgsl
 
@@ -185,18 +186,12 @@ class DisplayPass:
         # next submission, so it cannot be mixed with encoder.clear_buffer.)
         self.device.queue.write_buffer(self._status, 0,
                                        np.array([0, 0xFFFFFFFF, 0, 0], np.uint32))
-        kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
-        cp = encoder.begin_compute_pass(**kwargs)
-        cp.set_pipeline(self._pipeline(self.settings["tonemap"]))
-        cp.set_bind_group(0, self._get_bind_group())
-        cp.dispatch_workgroups(*self.workgroups())
-        cp.end()
+        record_dispatch(encoder, self._pipeline(self.settings["tonemap"]),
+                        self._get_bind_group(), self.workgroups(), timestamp_writes)
 
     def run(self) -> None:
         """Run the transform (submits; does not wait)."""
-        enc = self.device.create_command_encoder()
-        self.encode(enc)
-        self.device.queue.submit([enc.finish()])
+        submit_pass(self.device, self)
 
     # ------------------------------------------------------------- outputs
     def read(self) -> np.ndarray:

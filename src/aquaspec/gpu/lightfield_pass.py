@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import AquaspecError
-from .buffers import create_storage_buffer, create_uniform_buffer, read_buffer, upload_buffer
+from .buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
+                      record_dispatch, submit_pass, upload_buffer)
 from .layout import UniformLayout
 from .shaders import load_wgsl
 
@@ -102,17 +103,11 @@ class LightfieldPass:
         group = self.device.create_bind_group(layout=self._layout, entries=[
             {"binding": k, "resource": {"buffer": v, "offset": 0, "size": v.size}}
             for k, v in resources.items()])
-        kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
-        cp = encoder.begin_compute_pass(**kwargs)
-        cp.set_pipeline(self._pipeline)
-        cp.set_bind_group(0, group)
-        cp.dispatch_workgroups(-(-self.width // 8), -(-self.height // 8), 1)
-        cp.end()
+        record_dispatch(encoder, self._pipeline, group,
+                        (-(-self.width // 8), -(-self.height // 8), 1), timestamp_writes)
 
     def run(self):
-        enc = self.device.create_command_encoder()
-        self.encode(enc)
-        self.device.queue.submit([enc.finish()])
+        submit_pass(self.device, self)
 
     def read_rgb(self) -> np.ndarray:
         rgb = read_buffer(self.device, self.rgb_buffer, np.float32,
