@@ -72,12 +72,24 @@ AMBIENT_MODEL_IDS = {"uniform": 0, "cosine": 1}
 BAND_FIELDS = ("c", "kd", "t", "ms_scale", "w_r", "w_g", "w_b", "e0_over_pi",
                "be0", "base", "e0_window", "unused")
 
-#: Camera and frame uniforms shared by deferred.wgsl and copy.wgsl.
-CAMERA_LAYOUT = UniformLayout("DeferredCamera", [
+#: The pinhole camera as uniform fields (world position and axes, intrinsics
+#: in pixels), shared by every shading pass's uniform layout.
+CAMERA_FIELDS = [
     ("position", "vec3<f32>"), ("fx", "f32"),
     ("right", "vec3<f32>"), ("fy", "f32"),
     ("up", "vec3<f32>"), ("cx", "f32"),
     ("forward", "vec3<f32>"), ("cy", "f32"),
+]
+
+
+def camera_fields(camera) -> dict:
+    """Values of :data:`CAMERA_FIELDS` for ``camera``."""
+    return dict(position=camera.position, fx=camera.fx, right=camera.right, fy=camera.fy,
+                up=camera.true_up, cx=camera.cx, forward=camera.forward, cy=camera.cy)
+
+
+#: Camera and frame uniforms shared by deferred.wgsl and copy.wgsl.
+CAMERA_LAYOUT = UniformLayout("DeferredCamera", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_bands", "u32"), ("ambient_model", "u32"),
     ("n_materials", "u32"), ("write_radiance", "u32"),
     ("snell_cos", "f32"), ("window_factor", "f32"),
@@ -339,8 +351,7 @@ class DeferredPass:
             return
         cam = self.camera
         data = CAMERA_LAYOUT.pack(
-            position=cam.position, right=cam.right, up=cam.true_up, forward=cam.forward,
-            fx=cam.fx, fy=cam.fy, cx=cam.cx, cy=cam.cy, width=self.width, height=self.height,
+            **camera_fields(cam), width=self.width, height=self.height,
             n_bands=self.n_bands, ambient_model=self._ambient_id or 0,
             n_materials=self._n_materials or 0, write_radiance=int(self.debug_radiance),
             snell_cos=model.snell_window_cos(model.N_WATER),

@@ -18,14 +18,11 @@ import numpy as np
 from ..errors import AquaspecError
 from .buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
                       record_dispatch, submit_pass, upload_buffer)
+from .deferred import CAMERA_FIELDS, bind_group_layout, camera_fields
 from .layout import UniformLayout
 from .shaders import load_wgsl
 
-PARAMS_LAYOUT = UniformLayout("LightfieldParams", [
-    ("position", "vec3<f32>"), ("fx", "f32"),
-    ("right", "vec3<f32>"), ("fy", "f32"),
-    ("up", "vec3<f32>"), ("cx", "f32"),
-    ("forward", "vec3<f32>"), ("cy", "f32"),
+PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_bands", "u32"), ("n_materials", "u32"),
     ("n_depth", "u32"), ("n_mu", "u32"), ("max_depth", "f32"), ("window_cos", "f32"),
     ("depth_o", "f32"),
@@ -36,7 +33,6 @@ class LightfieldPass:
     """Light-field shading of the G-buffer held by ``deferred`` (a DeferredPass)."""
 
     def __init__(self, deferred):
-        from .deferred import bind_group_layout
         self.deferred = deferred
         dev = self.device = deferred.device
         self.width, self.height = deferred.width, deferred.height
@@ -94,8 +90,7 @@ class LightfieldPass:
             raise AquaspecError("LightfieldPass needs a G-buffer (on its DeferredPass) and "
                                 "set_medium() before running")
         upload_buffer(self.device, self._uniform, PARAMS_LAYOUT.pack(
-            position=cam.position, fx=cam.fx, right=cam.right, fy=cam.fy, up=cam.true_up,
-            cx=cam.cx, forward=cam.forward, cy=cam.cy, width=self.width, height=self.height,
+            **camera_fields(cam), width=self.width, height=self.height,
             depth_o=-float(cam.position[1]), **self._shape))
         gb = d.gbuffer_buffers
         resources = {0: self._uniform, 1: gb["distance"], 2: gb["surface"], 3: gb["sigmoid"],
