@@ -30,17 +30,20 @@ def gbuffer_of(kind, depth):
     return RasterPass().render(scene, cam)
 
 
-@pytest.mark.parametrize("water,n,phase,kind,depth", [
-    ("IB", 8, "petzold", "builtin", 5.0),
-    ("3C", 3, "isotropic", "builtin", 9.0),
-    ("I", 16, "hg", "up", 4.0),
+@pytest.mark.parametrize("water,n,phase,kind,depth,cone", [
+    ("IB", 8, "petzold", "builtin", 5.0, 0.0),
+    ("3C", 3, "isotropic", "builtin", 9.0, 0.0),
+    ("I", 16, "hg", "up", 4.0, 0.0),
+    ("IB", 8, "hg", "up", 4.0, 15.0),
+    ("II", 8, "petzold", "builtin", 5.0, 15.0),
 ])
-def test_matches_reference(water, n, phase, kind, depth):
+def test_matches_reference(water, n, phase, kind, depth, cone):
     from aquaspec.gpu.deferred import DeferredPass
     from aquaspec.gpu.lightfield_pass import LightfieldPass
     gb = gbuffer_of(kind, depth)
     setup = SpectralSetup(load_water(water), get_sensor("nikon-5100-npl"),
-                          surface_light("overcast"), Bands(n), ms_model="lightfield", phase=phase)
+                          surface_light("overcast"), Bands(n), ms_model="lightfield", phase=phase,
+                          forward_cone_deg=cone)
     medium = setup.medium(gb.materials)
     tables = setup.lightfield_tables()
     ref = shade_gbuffer(gb, **medium, lightfield=tables)["camera_rgb"]

@@ -153,3 +153,31 @@ def test_bad_input():
         solve_lightfield([0.1], [0.1], phase="isotropic", surface="wavy")
     with pytest.raises(AquaspecError, match="seabed_depth_m"):
         solve_lightfield([0.1], [0.1], phase="isotropic", seabed_depth_m=-1)
+
+
+def test_forward_cone_zero_limit_and_effect():
+    """A vanishing forward cone gives the plain two-point form; a real one
+    leaves open water untouched and gives targets more contrast against it
+    (less veil from light that the target blocks)."""
+    from aquaspec.bands import Bands
+    from aquaspec.lightfield import lightfield_pixel_radiance, lightfield_tables
+    from aquaspec.water import load_water
+    bw = load_water("IB").on_bands(Bands(4))
+    t0 = lightfield_tables(bw, phase="hg", g=0.92)
+    tiny = dict(t0, forward_fraction=np.full(4, 1e-12, np.float32))
+    cone = lightfield_tables(bw, phase="hg", g=0.92, forward_cone_deg=15.0)
+    assert np.all(cone["forward_fraction"] > 0.5)
+    v = np.array([[-0.5], [0.0], [0.3], [0.9]])
+    s = np.array([[2.0], [3.0], [3.0], [1.0]])
+    kw = dict(a=bw.a, b=bw.b, e0=np.full(4, 0.3), depth_o=5.0, v_y=v, s=s,
+              rho=np.full(4, 0.2), surface_depth=5.0 - s * v, n_y=np.zeros((4, 1)))
+    plain = lightfield_pixel_radiance(t0, **kw)
+    np.testing.assert_allclose(lightfield_pixel_radiance(tiny, **kw), plain, rtol=1e-10)
+    open_kw = dict(kw, s=np.full((4, 1), np.inf))
+    for key in ("rho", "surface_depth", "n_y"):
+        open_kw.pop(key)
+    background = lightfield_pixel_radiance(t0, **open_kw)
+    np.testing.assert_allclose(lightfield_pixel_radiance(cone, **open_kw), background,
+                               rtol=1e-12)
+    contrast_cone = np.abs(lightfield_pixel_radiance(cone, **kw) - background)
+    assert np.all(contrast_cone > np.abs(plain - background))

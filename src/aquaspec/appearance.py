@@ -49,7 +49,8 @@ def check_distance(distance_m):
 def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
                  distance_m: float, light: SurfaceLight | None = None,
                  ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
-                 ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold") -> dict:
+                 ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
+                 forward_cone_deg: float = 15.0) -> dict:
     """Camera RGB of open water (horizontal view) and of a grey card at ``distance_m``.
 
     ``ms_model`` picks the multiple-scattering model
@@ -73,7 +74,7 @@ def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
                                         v_y=0.0, ambient=ambient, **kw)
     else:
         from .lightfield import lightfield_pixel_radiance, lightfield_tables
-        tables = lightfield_tables(bw, phase=phase)
+        tables = lightfield_tables(bw, phase=phase, forward_cone_deg=forward_cone_deg)
 
         def radiance(**kw):
             return lightfield_pixel_radiance(tables, a=bw.a, b=bw.b, e0=e0, depth_o=depth,
@@ -95,7 +96,8 @@ def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
         "bands": bands.describe(),
         "light": light.describe(),
         "ms_model": ms_model,
-        **({"ambient_model": ambient} if ms_model == "seeds" else {"phase": phase}),
+        **({"ambient_model": ambient} if ms_model == "seeds"
+           else {"phase": phase, "forward_cone_deg": forward_cone_deg}),
     }
     if not all(np.isfinite(out["water_rgb"]) & np.isfinite(out["grey_card_rgb"])):
         raise AquaspecError("the model produced a non-finite colour; please report this input")

@@ -498,7 +498,8 @@ def _seeds_shape(b, c, k, depth, v_y, s):
 def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
                       seabed_albedo=0.0, n_depth: int = DEFAULT_N_DEPTH,
                       n_mu: int = DEFAULT_N_MU, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
-                      n_streams: int = 32, surface: str = "null", **phase_params) -> dict:
+                      n_streams: int = 32, surface: str = "null",
+                      forward_cone_deg: float = 0.0, **phase_params) -> dict:
     """Per-band tables of the light field for the renderer (float32).
 
     Parameters
@@ -511,6 +512,12 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
     n_depth, n_mu : table sizes (>= 2).
     max_depth_m : depth axis end for deep water (beyond it F is clamped,
         accurate because F tends to a constant with K = kappa_1).
+    forward_cone_deg : float
+        Scattering within this angle of forward counts as unscattered along
+        camera rays that end on a surface: their transmittance uses
+        ``c - f b`` (``f`` = ``"forward_fraction"``, the share of ``b`` in the
+        cone). A target then blocks the light that the 1-D field would have
+        scattered forward from behind it (SPEC: 10-20 degrees). 0 = off.
 
     Returns
     -------
@@ -555,8 +562,11 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
     irr = lf.irradiance(depth[:, None], cos[None, :])
     if not (np.all(np.isfinite(pref)) and np.all(pref > 0) and np.all(np.isfinite(irr))):
         raise AquaspecError("light-field tables came out non-finite; check a, b and the phase")
+    from .phase import band_cone_fraction
+    f_cone = band_cone_fraction(phase, forward_cone_deg, b, wl, **phase_params)
     f32 = np.float32
     return {
+        "forward_fraction": f_cone.astype(f32),
         "ms_log_prefactor": np.log(pref).astype(f32),
         "irradiance_per_e0": irr.astype(f32),
         "k_inf": k1.astype(f32),
@@ -591,6 +601,31 @@ def bilinear(table, depth_m, cos, max_depth_m):
     tt = np.moveaxis(t, 0, -1).astype(float)
     return ((1 - fx) * ((1 - fy) * tt[i, j] + fy * tt[i, j + 1])
             + fx * ((1 - fy) * tt[i + 1, j] + fy * tt[i + 1, j + 1]))
+
+
+def _two_point(tables, *, a, b, e0, depth_o, v_y, s):
+    """``(R(d_o), R(d_S), S finite, S)`` of the two-point form (see lightfield_l_ms)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    c = a + b
+    k1 = np.asarray(tables["k_inf"], dtype=float)
+    d_max = float(tables["max_depth_m"][0])
+    bed = float(tables["seabed_depth_m"][0])
+    d_o = np.asarray(depth_o, dtype=float)
+    v = np.asarray(v_y, dtype=float)
+    e0 = np.asarray(e0, dtype=float)
+
+    def r_at(d):
+        d_b, v_b = np.broadcast_arrays(d, v)
+        f = np.exp(bilinear(tables["ms_log_prefactor"], d_b[..., 0] if d_b.ndim else d_b,
+                            v_b[..., 0] if v_b.ndim else v_b, d_max))
+        return f * e0 * _seeds_shape(b, c, k1, d, v, _cut_at_seabed(np.inf, d, v, bed))
+
+    s_eff = _cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
+    fin = np.isfinite(s_eff)
+    s_f = np.where(fin, s_eff, 0.0)
+    d_s = np.clip(d_o - s_f * v, 0.0, bed)
+    return r_at(d_o), r_at(d_s), fin, s_f
 
 
 def lightfield_l_ms(tables, *, a, b, e0, depth_o, v_y, s, form: str = "two_point"):
@@ -628,6 +663,13 @@ def lightfield_l_ms(tables, *, a, b, e0, depth_o, v_y, s, form: str = "two_point
                           np.broadcast_to(v, d_s.shape)[..., 0] if d_s.ndim else v, d_max))
     r_s = f_s * e0 * _seeds_shape(b, c, k1, d_s, v, _cut_at_seabed(np.inf, d_s, v, bed))
     return r_o - np.where(fin, np.exp(-c * s_f), 0.0) * r_s
+
+
+def _beam_extinction(tables, a, b):
+    """``c - f b``: extinction of a camera ray's beam when the forward cone
+    (``tables["forward_fraction"]``) counts as unscattered."""
+    f = np.asarray(tables.get("forward_fraction", 0.0), dtype=float)
+    return np.asarray(a, dtype=float) + (1.0 - f) * np.asarray(b, dtype=float)
 
 
 def _cut_at_seabed(s, d_o, v, bed):
@@ -677,8 +719,25 @@ def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
         e = bilinear(tables["irradiance_per_e0"], sd[..., 0] if sd.ndim else sd,
                      ny[..., 0] if ny.ndim else ny, d_max)
         l_surf = model.lambertian_radiance(rho, e * e0)
-    t = model.transmittance(c, s_eff)
-    out = np.where(t > 0, t * l_surf, 0.0) + l_ms
+    f = np.asarray(tables.get("forward_fraction", 0.0), dtype=float)
+    if form == "two_point" and np.any(f > 0):
+        # The forward cone stays in the beam (extinction c - f b): with the
+        # open-water field L_bg(d) = R(d) + exp(-c d / v) L_top (up rays) the
+        # radiance is L_bg(d_o) + T' (L_surf - L_bg(d_S)); with f = 0 it is
+        # the two-point form above exactly.
+        r_o, r_s, fin, s_f = _two_point(tables, a=a, b=b, e0=e0, depth_o=d_o, v_y=v, s=s_eff)
+        l_top = np.where(v > float(tables["window_cos"][0]),
+                         np.asarray(tables["sky_radiance_per_e0"], dtype=float) * e0, 0.0)
+        up = v > 0
+        v_safe = np.where(up, v, 1.0)
+        d_s = np.clip(d_o - s_f * v, 0.0, bed)
+        u_o = np.where(up, np.exp(-c * d_o / v_safe), 0.0)
+        u_s = np.where(up, np.exp(-c * d_s / v_safe), 0.0)
+        t_beam = np.where(fin, np.exp(-_beam_extinction(tables, a, b) * s_f), 0.0)
+        out = r_o + u_o * l_top + np.where(fin, t_beam * (l_surf - r_s - u_s * l_top), 0.0)
+    else:
+        t = model.transmittance(c, s_eff)
+        out = np.where(t > 0, t * l_surf, 0.0) + l_ms
     if not np.all(np.isfinite(out)):
         raise AquaspecError("light-field radiance came out non-finite; check the inputs")
     return out

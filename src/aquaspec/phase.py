@@ -444,6 +444,38 @@ def band_moments(method: str | PhaseFunction, lmax: int, b=None, wavelength_nm=N
     return out
 
 
+def band_cone_fraction(method, half_angle_deg: float, b=None, wavelength_nm=None,
+                       **params) -> np.ndarray:
+    """Fraction of scattering within ``half_angle_deg`` of forward, per band.
+
+    ``f = 2 pi int_{cos theta_c}^1 p(mu) dmu`` for the band phase function
+    (mixed with pure water by band for ``"petzold"``, as in
+    :func:`band_moments`). Integrated over the angle on a grid that is
+    geometric towards 0 degrees, where forward-peaked functions live.
+    """
+    if not 0.0 <= half_angle_deg < 90.0:
+        raise AquaspecError(f"forward cone half-angle {half_angle_deg!r} deg; accepted: 0 to 90")
+    b_arr = np.atleast_1d(np.asarray(1.0 if b is None else b, dtype=float))
+    if half_angle_deg == 0.0:
+        return np.zeros(b_arr.size)
+    phase = method if isinstance(method, PhaseFunction) else get_phase(method, **params)
+    theta_c = np.radians(half_angle_deg)
+    theta = np.concatenate([[0.0], np.geomspace(1e-7, theta_c, 4000)])
+
+    def cone(ph):
+        y = 2 * np.pi * ph.value(np.cos(theta)) * np.sin(theta)
+        return float(np.trapezoid(y, theta))
+
+    f = np.full(b_arr.size, cone(phase))
+    if phase.name in MIXED_WITH_WATER:
+        import jerlov
+        wl = np.atleast_1d(np.asarray(wavelength_nm, dtype=float))
+        bw = np.minimum(np.asarray(jerlov.pure_water_scattering(wl), dtype=float), b_arr)
+        frac_w = np.where(b_arr > 0, bw / np.where(b_arr > 0, b_arr, 1.0), 1.0)
+        f = frac_w * cone(PureWaterPhase()) + (1.0 - frac_w) * f
+    return f
+
+
 def redistribution_matrix(moments, mu_out, mu_in, weight_in):
     """Azimuthally averaged redistribution ``Q[..., i, j]`` for DO quadrature.
 

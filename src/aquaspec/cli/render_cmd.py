@@ -93,6 +93,7 @@ def run(args):
                  irradiance_w_m2=args.irradiance, sun_elevation_deg=args.sun_elevation,
                  ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                  ms_model=args.ms_model, phase=args.phase,
+                 forward_cone_deg=args.forward_cone,
                  exposure=exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
                  backend=args.backend, progress=progress)

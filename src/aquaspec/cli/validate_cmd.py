@@ -29,6 +29,9 @@ def register(sub):
     p.add_argument("--g", type=float, default=0.92, help="Henyey-Greenstein g for --phase hg")
     p.add_argument("--ms-models", default="seeds", metavar="M,...",
                    help="aquaspec multiple-scattering models to compare (seeds,lightfield)")
+    p.add_argument("--forward-cone", type=float, default=15.0, metavar="DEG",
+                   help="light-field model: scattering within DEG of forward stays in the beam "
+                        "towards targets (default 15; 0 = off)")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/aquaspec)")
     p.add_argument("--no-cache", action="store_true")
     p.add_argument("-o", "--out", default="validation", metavar="DIR",
@@ -67,6 +70,7 @@ def run(args):
     res = run_study(waters=waters, depths=depths, sensors=sensors, source=args.source, size=size,
                     spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
                     g=args.g if args.phase == "hg" else 0.0, ms_models=ms_models,
+                    forward_cone_deg=args.forward_cone,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
     from ..validation.study import REGIONS
     for region in REGIONS:

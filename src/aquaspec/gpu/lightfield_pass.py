@@ -68,6 +68,7 @@ class LightfieldPass:
         band[:, 1, :3] = w
         band[:, 1, 3] = sigmoid_centers_t
         band[:, 2, 0] = tables["sky_radiance_per_e0"]
+        band[:, 2, 1] = np.asarray(tables.get("forward_fraction", np.zeros(n))) * b
         mb = np.asarray(material_bands, dtype=np.float32).reshape(-1)
         dev = self.device
         self._buffers = {

@@ -18,7 +18,7 @@ const SIGMOID_X_MAX: f32 = 1.0e6;
 @group(0) @binding(2) var<storage, read> gb_surface: array<vec4<u32>>;
 @group(0) @binding(3) var<storage, read> gb_sigmoid: array<vec4<f32>>;
 // Per band i: [3i] = (c, b, kappa_1, E0), [3i+1] = (w_r, w_g, w_b, t),
-// [3i+2] = (sky radiance per E0, 0, 0, 0).
+// [3i+2] = (sky radiance per E0, f b, 0, 0) with f the forward-cone fraction.
 @group(0) @binding(4) var<storage, read> bands: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read> material_bands: array<f32>;
 @group(0) @binding(6) var<storage, read> log_prefactor: array<f32>;
@@ -114,25 +114,39 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let t_o = texel(d_o, v);
     let t_s = texel(max(d_o - s * v, 0.0), v);
     let t_n = texel(surface_depth, n_y);
-    let in_window = !hit && finite && v > prm.window_cos;
 
     var rgb = vec3<f32>(0.0);
     for (var i = 0u; i < prm.n_bands; i = i + 1u) {
         let cbke = bands[3u * i];
         let wt = bands[3u * i + 1u];
-        let sky = bands[3u * i + 2u].x;
+        let sky_fb = bands[3u * i + 2u];
         let c = cbke.x;
         let b = cbke.y;
         let k1 = cbke.z;
         let e0 = cbke.w;
         let scale = e0 * b / (4.0 * PI);
         let r_o = exp(lookup_prefactor(i, t_o)) * scale * ms_integral_inf(c, k1, d_o, v);
-        var l = r_o;
+        // lightfield_pixel_radiance: with the open-water field
+        // L_bg(d) = R(d) + exp(-c d / v) L_top (up rays), the radiance is
+        // L_bg(d_o) + T' (L_surf - L_bg(d_S)), T' = exp(-(c - f b) S).
+        var l_top = 0.0;
+        var u_o = 0.0;
+        if (v > prm.window_cos) {
+            l_top = sky_fb.x * e0;
+        }
+        if (v > 0.0) {
+            u_o = exp(-c * d_o / v);
+        }
+        var l = r_o + u_o * l_top;
         if (finite) {
             let d_s = max(d_o - s * v, 0.0);
             let r_s = exp(lookup_prefactor(i, t_s)) * scale * ms_integral_inf(c, k1, d_s, v);
-            let tr = exp(-c * s);
-            var l_surf = 0.0;
+            var u_s = 0.0;
+            if (v > 0.0) {
+                u_s = exp(-c * d_s / v);
+            }
+            let tr = exp(-(c - sky_fb.y) * s);
+            var l_surf = l_top;
             if (hit) {
                 var rho = 0.0;
                 if (material == PER_PIXEL) {
@@ -141,10 +155,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     rho = material_bands[material * prm.n_bands + i];
                 }
                 l_surf = rho * lookup_irradiance(i, t_n) * e0 / PI;
-            } else if (in_window) {
-                l_surf = sky * e0;
             }
-            l = r_o - tr * r_s + tr * l_surf;
+            l = l + tr * (l_surf - r_s - u_s * l_top);
         }
         rgb = rgb + l * wt.xyz;
     }

@@ -61,12 +61,13 @@ def _cached(cache_dir, key, compute):
         return {k: z[k] for k in z.files}, False
 
 
-def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=()):
+def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=15.0):
     from ..renderer import SpectralSetup
     from ..sensors import get_sensor
     from ..shading import shade_gbuffer
     setup = SpectralSetup(water, get_sensor("human"), light, Bands(n), ms_model=ms_model,
-                          phase=phase_lf, phase_params=phase_params)
+                          phase=phase_lf, phase_params=phase_params,
+                          forward_cone_deg=forward_cone_deg)
     out = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
                         lightfield=setup.lightfield_tables())
     return out["radiance"]
@@ -83,7 +84,8 @@ def _region_means(rgb, m):
 def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, source="solonenko2015",
               size=(96, 72), spp: int = 256, kd_spp: int = 50_000, phase: str = "isotropic",
               g: float = 0.0, band_counts=(8, 16), ms_models=("seeds",),
-              kd_modes=("database", "measured"), cache_dir=None, progress=None) -> dict:
+              kd_modes=("database", "measured"), forward_cone_deg: float = 15.0,
+              cache_dir=None, progress=None) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``."""
     from ..gpu.raster import raycast_gbuffer
     say = progress or (lambda m: None)
@@ -132,7 +134,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         name = f"{ms}-n{n}" if n != 3 else f"rgb-{ms}-n3"
                         methods[(name, mode)] = ("bands", n, _spectral(
                             gb, waters_by_mode[mode], light, n, ms, phase_lf,
-                            (("g", g),) if phase_lf == "hg" else ()))
+                            (("g", g),) if phase_lf == "hg" else (), forward_cone_deg))
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             methods[("ifm", "database")] = ("baseline", "ifm", None)
             for cname, sensor in sensors.items():
@@ -167,7 +169,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
             "params": {"waters": list(waters), "depths": list(depths), "cameras": list(sensors),
                        "size": list(size), "spp": spp, "kd_spp": kd_spp, "phase": phase, "g": g,
                        "source": source, "band_counts": list(band_counts),
-                       "ms_models": list(ms_models)}}
+                       "ms_models": list(ms_models), "forward_cone_deg": forward_cone_deg}}
 
 
 def summarise(rows, *, region="image") -> list[dict]:
