@@ -8,8 +8,8 @@ irregular spectra), the water's a and b (a ``homogeneous`` medium filling a
 the camera (inside the medium), and an overcast sky (a ``constant``
 environment of radiance E0 / pi, so that the downwelling irradiance just
 below the surface is E0). Integrator ``volpathmis`` (``volpath`` gives
-fireflies in water whose extinction varies strongly with wavelength),
-``max_depth`` 33, box reconstruction filter.
+fireflies in water whose extinction varies strongly with wavelength), no
+path-length limit (see :data:`MAX_DEPTH`), box reconstruction filter.
 
 One render serves every camera: the film is a ``specfilm`` of narrow box
 bands (default 30 bands of 10 nm over 400-700 nm, each normalised to unit
@@ -43,7 +43,12 @@ from ..water import Water
 VARIANTS = ("llvm_ad_spectral", "scalar_spectral")
 #: Reference bands: 30 boxes of 10 nm.
 REFERENCE_BANDS = Bands(30, 400.0, 700.0)
-MAX_DEPTH = 33
+#: Path length limit: none (-1); Russian roulette ends paths without bias.
+#: A limit of 33 (the thesis setting) is not converged in turbid water: for
+#: Jerlov 3C at 9 m it made the image 2.5x too dark in blue with isotropic
+#: scattering and 20 % with HG 0.92, against limits of 100 and 300 (which
+#: agree within 2 %).
+MAX_DEPTH = -1
 #: Half-size of the water box, metres (its sides are far enough that light
 #: entering through them is attenuated to nothing).
 WATER_BOX_M = 1000.0

@@ -28,7 +28,7 @@ from ..light import surface_light
 from ..water import load_water
 from . import metrics
 from .baselines import render_baseline
-from .reference import (REFERENCE_BANDS, bands_to_rgb, cache_key, measure_kd,
+from .reference import (MAX_DEPTH, REFERENCE_BANDS, bands_to_rgb, cache_key, measure_kd,
                         render_reference, water_with_kd)
 from .scenes import board_scene, masks
 
@@ -99,7 +99,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     for wname in waters:
         water = load_water(wname, source)
         kd_key = cache_key(kind="kd", water=wname, source=source, phase=phase, g=g, spp=kd_spp,
-                           bands=REFERENCE_BANDS.describe())
+                           bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH)
         kd_res, hit = _cached(cache_dir, kd_key, lambda: measure_kd(
             water, light, spp=kd_spp, phase=phase, g=g))
         say(f"[{wname}] Kd measured in the reference{' (cache)' if hit else ''}")
@@ -119,7 +119,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                 region_masks = {r: mk for r, mk in region_masks.items() if r not in empty}
             key = cache_key(kind="render", scene=SCENE_VERSION, water=wname, source=source,
                             depth=depth, size=list(size), spp=spp, phase=phase, g=g,
-                            bands=REFERENCE_BANDS.describe())
+                            bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH)
             t0 = time.perf_counter()
             ref, hit = _cached(cache_dir, key, lambda: render_reference(
                 scene, cam, water, light, spp=spp, phase=phase, g=g))
