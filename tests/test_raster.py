@@ -108,6 +108,52 @@ class TestAgainstRaycast:
         assert np.ptp(ref.sigmoid[hit][:, 2]) > 1.0
 
 
+    def test_mixed_modes_merged_draws(self, raster):
+        """Meshes of one mode share a draw; each keeps its material / texture / colours."""
+        rng = np.random.default_rng(5)
+        s = plane_and_box()                     # two material meshes, one draw
+        for k, x0 in enumerate((-2.5, 0.5)):    # two textures, two draws
+            s.add(Mesh([[x0, -4.5, -7], [x0 + 2, -4.5, -7], [x0 + 2, -2.5, -7],
+                        [x0, -2.5, -7]], [[0, 1, 2], [0, 2, 3]],
+                       uv=[[0, 0], [1, 0], [1, 1], [0, 1]],
+                       texture=rng.uniform(0.05, 0.95, (3 + k, 4, 3)), name=f"tex {k}"))
+        for x0 in (-1.8, 1.0):                  # two vertex-coloured meshes, one draw
+            s.add(Mesh([[x0, -3.9, -3.5], [x0 + 0.8, -3.9, -3.5], [x0 + 0.4, -3.1, -3.5]],
+                       [[0, 1, 2]], vertex_rgb=rng.uniform(0.05, 0.95, (3, 3)),
+                       name=f"coloured {x0}"))
+        cam = Camera.look_at((0.0, -3.0, 0.0), (0.0, -3.6, -6.0), width=72, height=48)
+        gpu, ref = raster.render(s, cam), raycast_gbuffer(s, cam)
+        hit = compare(gpu, ref)
+        assert set(np.unique(ref.material[hit])) == {0, 1, PER_PIXEL}
+        pp = hit & (ref.material == PER_PIXEL)
+        assert pp.sum() > 100
+        np.testing.assert_allclose(gpu.sigmoid[pp], ref.sigmoid[pp], atol=COEFF_ATOL,
+                                   rtol=1e-3)
+
+    def test_more_vertices_than_16_bit_indices(self, raster):
+        """A draw of > 65535 vertices uses 32-bit indices: a fine flat grid at y = -4."""
+        n = 257                                             # 66049 vertices
+        u = np.linspace(-6, 6, n)
+        x, z = np.meshgrid(u, np.linspace(-12, 1, n))
+        v = np.stack([x.ravel(), np.full(x.size, -4.0), z.ravel()], 1)
+        idx = np.arange(n * n).reshape(n, n)
+        a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+        c, d = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+        faces = np.concatenate([np.stack([a, c, b], 1), np.stack([b, c, d], 1)])
+        s = Scene([Mesh(v, faces, material=0)], [Reflectance.constant(0.5)])
+        cam = Camera.look_at((0.0, -2.0, 0.0), (0.0, -3.0, -5.0), width=64, height=48)
+        g = raster.render(s, cam)
+        d = cam.ray_directions()
+        s_exact = (-4.0 - cam.position[1]) / d[..., 1]
+        p = cam.position + s_exact[..., None] * d
+        inside = (d[..., 1] < 0) & (np.abs(p[..., 0]) < 5.9) & (p[..., 2] > -11.9) \
+            & (p[..., 2] < 0.9)
+        assert inside.sum() > 1000
+        np.testing.assert_allclose(g.distance[inside], s_exact[inside], rtol=DIST_RTOL)
+        np.testing.assert_allclose(g.normal[inside], np.tile([0, 1, 0], (inside.sum(), 1)),
+                                   atol=NORMAL_ATOL)
+
+
 @pytest.fixture(scope="module")
 def rendered(raster):
     scene, cam = builtin_scene(5.0, width=320, height=180)

@@ -42,16 +42,11 @@ from .shaders import load_wgsl
 
 CAMERA_LAYOUT = UniformLayout("RasterCamera", [("view_proj", "mat4x4<f32>"),
                                                ("position", "vec3<f32>")])
-DRAW_LAYOUT = UniformLayout("RasterDraw", [("material", "u32"), ("mode", "u32")])
 
-#: ``RasterDraw.mode`` values; each mode has its own fragment entry point
-#: (and pipeline), :data:`_FRAGMENT_ENTRY`.
+#: Reflectance modes of a mesh; each has its own vertex layout and vertex and
+#: fragment entry points (and pipeline), :data:`_ENTRY`.
 MODE_MATERIAL, MODE_TEXTURE, MODE_VERTEX = 0, 1, 2
-_FRAGMENT_ENTRY = {MODE_MATERIAL: "fs_material", MODE_TEXTURE: "fs_texture",
-                   MODE_VERTEX: "fs_vertex"}
-
-# Interleaved vertex: position (3), normal (3), uv (2), sigmoid coefficients (3).
-_VERTEX_FLOATS = 11
+_ENTRY = {MODE_MATERIAL: "material", MODE_TEXTURE: "texture", MODE_VERTEX: "vertex"}
 
 
 def _mode(mesh: Mesh) -> int:
@@ -63,13 +58,23 @@ def _mode(mesh: Mesh) -> int:
 
 
 def _vertex_data(mesh: Mesh) -> np.ndarray:
-    data = np.zeros((len(mesh.vertices), _VERTEX_FLOATS), dtype=np.float32)
+    """Interleaved vertices of ``mesh`` for its mode's pipeline, (V, k) 32-bit words.
+
+    Every mode: position (3 f32), normal (3 f32); then material mode: the
+    material index (u32); texture mode: uv (2 f32); vertex mode: the sigmoid
+    coefficients (3 f32).
+    """
+    mode = _mode(mesh)
+    extra = {MODE_MATERIAL: 1, MODE_TEXTURE: 2, MODE_VERTEX: 3}[mode]
+    data = np.zeros((len(mesh.vertices), 6 + extra), dtype=np.float32)
     data[:, 0:3] = mesh.vertices
     data[:, 3:6] = mesh.normals
-    if mesh.uv is not None:
+    if mode == MODE_MATERIAL:
+        data[:, 6].view(np.uint32)[:] = mesh.material
+    elif mode == MODE_TEXTURE:
         data[:, 6:8] = mesh.uv
-    if mesh.vertex_rgb is not None:
-        data[:, 8:11] = mesh.vertex_sigmoid()
+    else:
+        data[:, 6:9] = mesh.vertex_sigmoid()
     return data
 
 
@@ -81,41 +86,53 @@ def _check_inputs(scene, camera):
     scene.validate()
 
 
-class _GpuMesh:
-    """A mesh's GPU resources: vertex/index buffers and its bind group."""
+class _Draw:
+    """One draw call: vertex/index buffers of one or more meshes of one mode.
 
-    def __init__(self, device, pipeline_layout_group, mesh: Mesh, dummy_view):
+    Meshes without a texture are merged per mode (the material index is a
+    vertex attribute): lavapipe processes the vertices of a draw on one
+    thread, and per-draw overhead was a measurable part of the pass with
+    the built-in scene's 39 meshes. A textured mesh is its own draw with
+    its own bind group.
+    """
+
+    def __init__(self, device, mode, meshes, bind_group):
         import wgpu
+        self.mode = mode
+        data = [_vertex_data(m) for m in meshes]
+        offsets = np.cumsum([0] + [len(d) for d in data])[:-1]
+        faces = np.concatenate([m.faces + o for m, o in zip(meshes, offsets)])
         self.vertex = device.create_buffer_with_data(
-            data=_vertex_data(mesh).tobytes(), usage=wgpu.BufferUsage.VERTEX)
-        self.index = device.create_buffer_with_data(
-            data=mesh.faces.astype(np.uint32).tobytes(), usage=wgpu.BufferUsage.INDEX)
-        self.count = int(mesh.faces.size)
-        self.mode = mode = _mode(mesh)
-        uniform = device.create_buffer_with_data(
-            data=DRAW_LAYOUT.pack(material=mesh.material, mode=mode),
-            usage=wgpu.BufferUsage.UNIFORM)
-        view = dummy_view
-        if mode == MODE_TEXTURE:
-            coeffs = mesh.texture_sigmoid()
-            h, w = coeffs.shape[:2]
-            limit = device.limits["max-texture-dimension-2d"]
-            if max(h, w) > limit:
-                raise AquaspecError(f"texture of mesh {mesh.name!r} is {w}x{h}; this GPU "
-                                    f"accepts textures up to {limit} pixels a side")
-            rgba = np.zeros((h, w, 4), np.float32)
-            rgba[..., :3] = coeffs
-            tex = device.create_texture(size=(w, h, 1), format=wgpu.TextureFormat.rgba32float,
-                                        usage=wgpu.TextureUsage.TEXTURE_BINDING
-                                        | wgpu.TextureUsage.COPY_DST)
-            device.queue.write_texture({"texture": tex, "mip_level": 0, "origin": (0, 0, 0)},
-                                       rgba, {"offset": 0, "bytes_per_row": 16 * w,
-                                              "rows_per_image": h}, (w, h, 1))
-            view = tex.create_view()
-        self.bind_group = device.create_bind_group(layout=pipeline_layout_group, entries=[
-            {"binding": 0, "resource": {"buffer": uniform, "offset": 0,
-                                        "size": DRAW_LAYOUT.size}},
-            {"binding": 1, "resource": view}])
+            data=np.concatenate(data).tobytes(), usage=wgpu.BufferUsage.VERTEX)
+        # 16-bit indices where they fit: half the index bytes to fetch.
+        small = offsets[-1] + len(data[-1]) <= 0xFFFF
+        self.index_format = wgpu.IndexFormat.uint16 if small else wgpu.IndexFormat.uint32
+        idx = faces.astype(np.uint16 if small else np.uint32).reshape(-1)
+        if idx.size % 2:
+            idx = np.concatenate([idx, idx[-1:]])   # buffer sizes in multiples of 4 bytes
+        self.index = device.create_buffer_with_data(data=idx.tobytes(),
+                                                    usage=wgpu.BufferUsage.INDEX)
+        self.count = int(faces.size)
+        self.bind_group = bind_group
+
+
+def _texture_view(device, mesh: Mesh):
+    import wgpu
+    coeffs = mesh.texture_sigmoid()
+    h, w = coeffs.shape[:2]
+    limit = device.limits["max-texture-dimension-2d"]
+    if max(h, w) > limit:
+        raise AquaspecError(f"texture of mesh {mesh.name!r} is {w}x{h}; this GPU "
+                            f"accepts textures up to {limit} pixels a side")
+    rgba = np.zeros((h, w, 4), np.float32)
+    rgba[..., :3] = coeffs
+    tex = device.create_texture(size=(w, h, 1), format=wgpu.TextureFormat.rgba32float,
+                                usage=wgpu.TextureUsage.TEXTURE_BINDING
+                                | wgpu.TextureUsage.COPY_DST)
+    device.queue.write_texture({"texture": tex, "mip_level": 0, "origin": (0, 0, 0)},
+                               rgba, {"offset": 0, "bytes_per_row": 16 * w,
+                                      "rows_per_image": h}, (w, h, 1))
+    return tex.create_view()
 
 
 class RasterPass:
@@ -141,7 +158,6 @@ class RasterPass:
         self.device = device
         from .deferred import OPEN_WATER_DISTANCE
         src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl(),
-                        draw_struct=DRAW_LAYOUT.wgsl(),
                         open_water_distance=repr(float(OPEN_WATER_DISTANCE)))
         module = device.create_shader_module(label="gbuffer.wgsl", code=src)
         self._module = module
@@ -149,14 +165,14 @@ class RasterPass:
         self._cam_layout = device.create_bind_group_layout(entries=[
             {"binding": 0, "visibility": wgpu.ShaderStage.VERTEX | wgpu.ShaderStage.FRAGMENT,
              "buffer": {"type": wgpu.BufferBindingType.uniform}}])
-        self._draw_layout = device.create_bind_group_layout(entries=[
-            {"binding": 0, "visibility": wgpu.ShaderStage.FRAGMENT,
-             "buffer": {"type": wgpu.BufferBindingType.uniform}},
+        self._tex_layout = device.create_bind_group_layout(entries=[
             {"binding": 1, "visibility": wgpu.ShaderStage.FRAGMENT,
              "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float,
                          "view_dimension": wgpu.TextureViewDimension.d2}}])
-        self._pipeline_layout = device.create_pipeline_layout(
-            bind_group_layouts=[self._cam_layout, self._draw_layout])
+        self._pipeline_layouts = {
+            False: device.create_pipeline_layout(bind_group_layouts=[self._cam_layout]),
+            True: device.create_pipeline_layout(
+                bind_group_layouts=[self._cam_layout, self._tex_layout])}
         # Render pipelines by mode, made when a scene first needs them.
         self._pipelines = {}
         self._cam_buffer = device.create_buffer(
@@ -164,11 +180,8 @@ class RasterPass:
         self._cam_group = device.create_bind_group(layout=self._cam_layout, entries=[
             {"binding": 0, "resource": {"buffer": self._cam_buffer, "offset": 0,
                                         "size": CAMERA_LAYOUT.size}}])
-        dummy = device.create_texture(size=(1, 1, 1), format=wgpu.TextureFormat.rgba32float,
-                                      usage=wgpu.TextureUsage.TEXTURE_BINDING)
-        self._dummy_view = dummy.create_view()
         self._scene = None
-        self._meshes = []
+        self._draws = []
         self._size = None
         self.targets = {}
 
@@ -178,24 +191,26 @@ class RasterPass:
             return self._pipelines[mode]
         module = self._module
         f32x3, f32x2 = wgpu.VertexFormat.float32x3, wgpu.VertexFormat.float32x2
+        extra = {MODE_MATERIAL: (wgpu.VertexFormat.uint32, 4),
+                 MODE_TEXTURE: (f32x2, 8), MODE_VERTEX: (f32x3, 12)}[mode]
+        name = _ENTRY[mode]
         pipe = self.device.create_render_pipeline(
-            label=f"gbuffer {_FRAGMENT_ENTRY[mode]}",
-            layout=self._pipeline_layout,
-            vertex={"module": module, "entry_point": "vs_main", "buffers": [{
-                "array_stride": 4 * _VERTEX_FLOATS,
+            label=f"gbuffer {name}",
+            layout=self._pipeline_layouts[mode == MODE_TEXTURE],
+            vertex={"module": module, "entry_point": f"vs_{name}", "buffers": [{
+                "array_stride": 24 + extra[1],
                 "step_mode": wgpu.VertexStepMode.vertex,
                 "attributes": [
                     {"format": f32x3, "offset": 0, "shader_location": 0},
                     {"format": f32x3, "offset": 12, "shader_location": 1},
-                    {"format": f32x2, "offset": 24, "shader_location": 2},
-                    {"format": f32x3, "offset": 32, "shader_location": 3}]}]},
+                    {"format": extra[0], "offset": 24, "shader_location": 2}]}]},
             primitive={"topology": wgpu.PrimitiveTopology.triangle_list,
                        "cull_mode": wgpu.CullMode.none},
             depth_stencil={"format": wgpu.TextureFormat.depth32float,
                            "depth_write_enabled": True,
                            "depth_compare": wgpu.CompareFunction.less},
             multisample={"count": 1},
-            fragment={"module": module, "entry_point": _FRAGMENT_ENTRY[mode], "targets": [
+            fragment={"module": module, "entry_point": f"fs_{name}", "targets": [
                 {"format": wgpu.TextureFormat.rgba32float},
                 {"format": wgpu.TextureFormat.rgba32uint}]})
         self._pipelines[mode] = pipe
@@ -204,16 +219,26 @@ class RasterPass:
     def invalidate(self):
         """Forget the uploaded scene (call after editing its meshes in place)."""
         self._scene = None
-        self._meshes = []
+        self._draws = []
 
     def _upload(self, scene: Scene):
-        if scene is not self._scene:
-            meshes = [_GpuMesh(self.device, self._draw_layout, m, self._dummy_view)
-                      for m in scene.meshes]
-            # Drawn grouped by mode, one pipeline switch per mode (a stable
-            # sort; the depth test decides what is seen, exact ties aside).
-            self._meshes = sorted(meshes, key=lambda m: m.mode)
-            self._scene = scene
+        if scene is self._scene:
+            return
+        draws = []
+        # Drawn grouped by mode, one pipeline switch per mode, meshes in scene
+        # order within a mode (the depth test decides what is seen, exact ties
+        # aside).
+        for mode in (MODE_MATERIAL, MODE_VERTEX):
+            meshes = [m for m in scene.meshes if _mode(m) == mode]
+            if meshes:
+                draws.append(_Draw(self.device, mode, meshes, None))
+        for m in scene.meshes:
+            if _mode(m) == MODE_TEXTURE:
+                group = self.device.create_bind_group(layout=self._tex_layout, entries=[
+                    {"binding": 1, "resource": _texture_view(self.device, m)}])
+                draws.append(_Draw(self.device, MODE_TEXTURE, [m], group))
+        self._draws = draws
+        self._scene = scene
 
     def _ensure_targets(self, width, height):
         import wgpu
@@ -256,14 +281,15 @@ class RasterPass:
             **({} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}))
         rp.set_bind_group(0, self._cam_group)
         mode = None
-        for m in self._meshes:
-            if m.mode != mode:
-                mode = m.mode
+        for d in self._draws:
+            if d.mode != mode:
+                mode = d.mode
                 rp.set_pipeline(self._pipeline(mode))
-            rp.set_bind_group(1, m.bind_group)
-            rp.set_vertex_buffer(0, m.vertex)
-            rp.set_index_buffer(m.index, wgpu.IndexFormat.uint32)
-            rp.draw_indexed(m.count)
+            if d.bind_group is not None:
+                rp.set_bind_group(1, d.bind_group)
+            rp.set_vertex_buffer(0, d.vertex)
+            rp.set_index_buffer(d.index, d.index_format)
+            rp.draw_indexed(d.count)
         rp.end()
 
     def render_to(self, deferred_pass, scene: Scene, camera: Camera, encoder=None,

@@ -7,30 +7,56 @@
 //                  index (PER_PIXEL for textured / vertex-coloured meshes)
 
 {{ camera_struct }}
-{{ draw_struct }}
 
 const PER_PIXEL: u32 = 0xFFFFFFFFu;
 
 @group(0) @binding(0) var<uniform> cam: RasterCamera;
-@group(1) @binding(0) var<uniform> draw: RasterDraw;
-// Per-texel sigmoid coefficients (rgba32float is not filterable, so the
-// bilinear filter is done here with textureLoad).
+// Per-texel sigmoid coefficients of a textured mesh (rgba32float is not
+// filterable, so the bilinear filter is done here with textureLoad).
 @group(1) @binding(1) var coeff_tex: texture_2d<f32>;
 
-struct VsIn {
+// Vertex layouts, one per mode (aquaspec.gpu.raster._vertex_data): position,
+// normal, then the mode's own attribute at location 2. Each mode passes on
+// only what its fragment shader needs: on lavapipe every varying is
+// interpolated for every fragment.
+struct VsMaterialIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) material: u32,
+};
+
+struct VsTextureIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
-    @location(3) coeff: vec3<f32>,
 };
 
-struct VsOut {
+struct VsVertexIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) coeff: vec3<f32>,
+};
+
+// Camera-relative position rel: S = length(rel) without cancellation.
+struct VsMaterialOut {
     @builtin(position) clip: vec4<f32>,
-    // Camera-relative position: S = length(rel) without cancellation.
+    @location(0) rel: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) @interpolate(flat) material: u32,
+};
+
+struct VsTextureOut {
+    @builtin(position) clip: vec4<f32>,
     @location(0) rel: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
-    @location(3) coeff: vec3<f32>,
+};
+
+struct VsVertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) rel: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) coeff: vec3<f32>,
 };
 
 struct FsOut {
@@ -39,14 +65,21 @@ struct FsOut {
 };
 
 @vertex
-fn vs_main(v: VsIn) -> VsOut {
-    var out: VsOut;
-    out.clip = cam.view_proj * vec4<f32>(v.position, 1.0);
-    out.rel = v.position - cam.position;
-    out.normal = v.normal;
-    out.uv = v.uv;
-    out.coeff = v.coeff;
-    return out;
+fn vs_material(v: VsMaterialIn) -> VsMaterialOut {
+    return VsMaterialOut(cam.view_proj * vec4<f32>(v.position, 1.0), v.position - cam.position,
+                         v.normal, v.material);
+}
+
+@vertex
+fn vs_texture(v: VsTextureIn) -> VsTextureOut {
+    return VsTextureOut(cam.view_proj * vec4<f32>(v.position, 1.0), v.position - cam.position,
+                        v.normal, v.uv);
+}
+
+@vertex
+fn vs_vertex(v: VsVertexIn) -> VsVertexOut {
+    return VsVertexOut(cam.view_proj * vec4<f32>(v.position, 1.0), v.position - cam.position,
+                       v.normal, v.coeff);
 }
 
 fn wrap(i: i32, n: i32) -> i32 {
@@ -71,45 +104,45 @@ fn sample_coeff(uv: vec2<f32>) -> vec3<f32> {
     return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
 }
 
-// The triangle's own plane, from screen-space derivatives, oriented
-// towards the camera: the shading normal is put on that side, which works
-// whatever the mesh's winding.
-fn facing_normal(in: VsOut) -> vec3<f32> {
-    var g = cross(dpdx(in.rel), dpdy(in.rel));
-    if (dot(g, in.rel) > 0.0) {
+// The triangle's own plane, from screen-space derivatives of the
+// camera-relative position, oriented towards the camera: the shading normal
+// is put on that side, which works whatever the mesh's winding.
+fn facing_normal(rel: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
+    var g = cross(dpdx(rel), dpdy(rel));
+    if (dot(g, rel) > 0.0) {
         g = -g;
     }
-    var n = normalize(in.normal);
+    var n = normalize(normal);
     if (dot(n, g) < 0.0) {
         n = -n;
     }
     return n;
 }
 
-fn gbuffer_out(in: VsOut, coeff: vec3<f32>, material: u32) -> FsOut {
+fn gbuffer_out(rel: vec3<f32>, normal: vec3<f32>, coeff: vec3<f32>, material: u32) -> FsOut {
     var out: FsOut;
-    out.geometry = vec4<f32>(facing_normal(in), length(in.rel));
+    out.geometry = vec4<f32>(facing_normal(rel, normal), length(rel));
     out.material = vec4<u32>(bitcast<vec3<u32>>(coeff), material);
     return out;
 }
 
 // One fragment entry point per mode (MODE_*), each its own pipeline: on
-// lavapipe a branch on draw.mode still ran the texture filter for every
+// lavapipe a branch on the mode still ran the texture filter for every
 // fragment of every mesh (SIMD lanes run both sides), which cost 40 % of the
 // geometry pass of the built-in scene, which has no textures.
 @fragment
-fn fs_material(in: VsOut) -> FsOut {
-    return gbuffer_out(in, vec3<f32>(0.0), draw.material);
+fn fs_material(in: VsMaterialOut) -> FsOut {
+    return gbuffer_out(in.rel, in.normal, vec3<f32>(0.0), in.material);
 }
 
 @fragment
-fn fs_texture(in: VsOut) -> FsOut {
-    return gbuffer_out(in, sample_coeff(in.uv), PER_PIXEL);
+fn fs_texture(in: VsTextureOut) -> FsOut {
+    return gbuffer_out(in.rel, in.normal, sample_coeff(in.uv), PER_PIXEL);
 }
 
 @fragment
-fn fs_vertex(in: VsOut) -> FsOut {
-    return gbuffer_out(in, in.coeff, PER_PIXEL);
+fn fs_vertex(in: VsVertexOut) -> FsOut {
+    return gbuffer_out(in.rel, in.normal, in.coeff, PER_PIXEL);
 }
 
 // ---------------------------------------------------------------------------
