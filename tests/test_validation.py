@@ -88,6 +88,20 @@ class TestReference:
         centre = ref["band_radiance"][7:11, 10:14].mean(axis=(0, 1))
         np.testing.assert_allclose(centre, want, rtol=0.05)
 
+    def test_preflight_catches_a_black_scene(self):
+        """A scene no light reaches fails on the tiny test image, not after the study."""
+        mitsuba()
+        from aquaspec.light import SurfaceLight
+        from aquaspec.validation.reference import preflight
+        from aquaspec.validation.scenes import board_scene
+        scene, cam = board_scene(3.0, width=32, height=24)
+        water = load_water("IB")
+        ok = preflight(scene, cam, water, surface_light("overcast"))
+        assert ok["band_radiance"].shape == (6, 8, 30) and ok["band_radiance"].max() > 0
+        dark = SurfaceLight("dark", np.array([300.0, 900.0]), np.zeros(2), {})
+        with pytest.raises(AquaspecError, match="test render is black"):
+            preflight(scene, cam, water, dark)
+
     def test_kd_independent_of_depth_range(self):
         mitsuba()
         from aquaspec.validation.reference import measure_kd
@@ -106,11 +120,20 @@ def test_small_study(tmp_path, camspec_path, capsys):
     code = main(["validate", "--waters", "IB,3C", "--depths", "3,9", "--camspec",
                  str(camspec_path), "--sensors", "Canon 5DMarkII,Nikon D90,SONY NEX-5N",
                  "--size", "48x36", "--spp", "32", "--kd-spp", "4000", "--no-cache",
-                 "-o", str(tmp_path)])
+                 "--gpu-timing", "-o", str(tmp_path)])
     assert code == 0
+    out = capsys.readouterr().out
+    assert "time per image at equal pixel count" in out
     import json
     doc = json.loads((tmp_path / "validation.json").read_text())
     rows = doc["rows"]
+    assert {r["region"] for r in rows} == {"image", "patches", "grey", "background",
+                                           "background_down", "patch_means"}
+    for sc in doc["scenes"]:
+        assert sc["reference_seconds"] > 0 and sc["numpy_shading_seconds"]["seeds-n16"] > 0
+        assert sc["gpu_frame_seconds"] is None or sc["gpu_frame_seconds"] > 0
+        # Kd measured in the path-traced water: positive in every band.
+        assert len(sc["kd_measured"]) == 30 and min(sc["kd_measured"]) > 0
     assert {r["camera"] for r in rows} == {"Canon 5DMarkII", "Nikon D90", "SONY NEX-5N"}
     assert {(r["water"], r["depth_m"]) for r in rows} == {("IB", 3.0), ("IB", 9.0),
                                                           ("3C", 3.0), ("3C", 9.0)}

@@ -32,6 +32,9 @@ def register(sub):
     p.add_argument("--forward-cone", type=float, default=15.0, metavar="DEG",
                    help="light-field model: scattering within DEG of forward stays in the beam "
                         "towards targets (default 15; 0 = off)")
+    p.add_argument("--gpu-timing", action="store_true",
+                   help="also time aquaspec's GPU renderer per scene (n = largest band count) "
+                        "for the speed-up over the reference at equal pixel count")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/aquaspec)")
     p.add_argument("--no-cache", action="store_true")
     p.add_argument("-o", "--out", default="validation", metavar="DIR",
@@ -45,7 +48,8 @@ def run(args):
     from ..renderer import parse_size
     from ..sensors import builtin_sensors, get_sensor, load_camspec
     from ..validation.reference import require_mitsuba
-    from ..validation.study import default_cache_dir, format_summary, run_study, write_results
+    from ..validation.study import (default_cache_dir, format_summary, format_timing, run_study,
+                                    write_results)
     require_mitsuba()
     try:
         depths = tuple(float(x) for x in args.depths.split(","))
@@ -70,12 +74,14 @@ def run(args):
     res = run_study(waters=waters, depths=depths, sensors=sensors, source=args.source, size=size,
                     spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
                     g=args.g if args.phase == "hg" else 0.0, ms_models=ms_models,
-                    forward_cone_deg=args.forward_cone,
+                    forward_cone_deg=args.forward_cone, gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
     from ..validation.study import REGIONS
     for region in REGIONS:
         print(format_summary(res["rows"], region=region))
         print()
+    print(format_timing(res["scenes"]))
+    print()
     paths = write_results(res, args.out)
     print("wrote " + ", ".join(paths.values()))
     return 0

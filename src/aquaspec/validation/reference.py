@@ -190,6 +190,35 @@ def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: i
             "seconds": seconds, "spp": spp, "variant": mi.variant(), "bands": bands.describe()}
 
 
+def preflight(scene, camera, water: Water, light: SurfaceLight, *, phase: str = "isotropic",
+              g: float = 0.0, bands: Bands = REFERENCE_BANDS, size=(8, 6), spp: int = 8) -> dict:
+    """Render a tiny version of the scene first, to fail in a second, not after minutes.
+
+    Same scene, camera pose and field of view at ``size`` pixels and ``spp``
+    samples. Raises :class:`AquaspecError` if the image is not finite (checked
+    by :func:`render_reference`), has negative values, or is black (the
+    sky must reach the camera through the water).
+    Returns the tiny render.
+    """
+    from ..camera import Camera
+    fov_y = float(np.degrees(2 * np.arctan(camera.height / 2 / camera.fy)))
+    tiny = Camera.look_at(camera.position, camera.position + camera.forward, width=size[0],
+                          height=size[1], fov_y_deg=fov_y, up=camera.true_up)
+    res = render_reference(scene, tiny, water, light, spp=spp, seed=12345, bands=bands,
+                           phase=phase, g=g)
+    img = res["band_radiance"]
+    if np.any(img < 0):
+        raise AquaspecError(f"the reference's test render has negative radiance "
+                            f"(min {img.min():.3g})")
+    if not np.any(img > 0):
+        # A single dark band can be noise in very turbid water at this sample
+        # count; a black image means the sky does not reach the camera.
+        raise AquaspecError("the reference's test render is black: no light reaches the "
+                            f"camera at depth {camera.depth_m:g} m; check the camera is under "
+                            "water and the water and light spectra")
+    return res
+
+
 def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.0, 5.0, 6.0),
                spp: int = 100_000, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
                g: float = 0.0, seed: int = 0) -> dict:

@@ -9,7 +9,16 @@ database Kd and with the measured one, for each multiple-scattering model)
 and by the baselines (RGB n = 3, Unreal's single-layer water, the
 image-formation model). Every camera's RGB is compared with the reference's
 over the whole image, the 24 ColorChecker patches, the grey patch and the
-open-water background.
+open-water background (all of it, and only the rays going down), and by the
+24 patches' mean colours.
+
+Regions: ``image``; ``patches`` (pixels of the 24 patches); ``grey``;
+``background`` (open water); ``background_down`` (open water seen along rays
+going down or level: the reference's water surface has no refraction, so up
+rays see the sky at every angle, while the seeds' model sees it only through
+Snell's window; below the horizon both see only the water); ``patch_means``
+(the mean colour of each of the 24 patches, far less path-tracing noise than
+per-pixel errors).
 """
 
 from __future__ import annotations
@@ -29,13 +38,13 @@ from ..water import load_water
 from . import metrics
 from .baselines import render_baseline
 from .reference import (MAX_DEPTH, REFERENCE_BANDS, bands_to_rgb, cache_key, measure_kd,
-                        render_reference, water_with_kd)
+                        preflight, render_reference, water_with_kd)
 from .scenes import board_scene, masks
 
 DEFAULT_WATERS = ("I", "IA", "IB", "II", "3C")
 DEFAULT_DEPTHS = (3.0, 5.0, 9.0)
 SCENE_VERSION = "board-v1"
-REGIONS = ("image", "patches", "grey", "background", "patch_means")
+REGIONS = ("image", "patches", "grey", "background", "background_down", "patch_means")
 
 
 def default_cache_dir() -> Path:
@@ -73,20 +82,49 @@ def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_
     return out["radiance"]
 
 
+def gpu_frame_seconds(scene, camera, water, light, n: int, *, ms_model="seeds",
+                      phase="isotropic", phase_params=(), frames: int = 5):
+    """Median wall time of one GPU frame (raster + shading + read-back) at this size.
+
+    The thesis's speed-up is of the real-time renderer over the path tracer at
+    equal pixel count; on a machine without a GPU this is lavapipe on the CPU,
+    so it is an upper bound of the frame time. Returns None (and the reason)
+    when no wgpu adapter is available.
+    """
+    from ..renderer import Renderer, SpectralSetup
+    from ..sensors import get_sensor
+    try:
+        r = Renderer(camera.width, camera.height, n)
+    except Exception as exc:  # noqa: BLE001 - wgpu raises several types without an adapter
+        return None, f"no GPU timing: {exc}"
+    setup = SpectralSetup(water, get_sensor("human"), light, Bands(n), ms_model=ms_model,
+                          phase=phase, phase_params=phase_params, outside="zero")
+    r.render_scene(scene, camera, setup)            # compile and upload once
+    times = []
+    for _ in range(frames):
+        t0 = time.perf_counter()
+        r.render_scene(scene, camera, setup)
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), None
+
+
 def _region_means(rgb, m):
-    """(25, 3): mean RGB of each visible patch, then of the open-water background."""
-    parts = [rgb[mask].mean(axis=0) for mask in m["patches"] if mask.any()]
-    if m["background"].any():
-        parts.append(rgb[m["background"]].mean(axis=0))
-    return np.array(parts)
+    """(k, 3): mean RGB of each visible patch (k <= 24)."""
+    return np.array([rgb[mask].mean(axis=0) for mask in m["patches"] if mask.any()])
 
 
 def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, source="solonenko2015",
               size=(96, 72), spp: int = 256, kd_spp: int = 50_000, phase: str = "isotropic",
               g: float = 0.0, band_counts=(8, 16), ms_models=("seeds",),
               kd_modes=("database", "measured"), forward_cone_deg: float = 15.0,
-              cache_dir=None, progress=None) -> dict:
-    """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``."""
+              cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
+    """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
+
+    Each entry of ``scenes`` holds the reference's render time and the time
+    aquaspec took to shade the same G-buffer in NumPy (float64, one core) per
+    method, and with ``gpu_timing`` the median GPU frame time at the largest
+    band count, so the speed-up at equal pixel count can be reported.
+    """
     from ..gpu.raster import raycast_gbuffer
     say = progress or (lambda m: None)
     if not sensors:
@@ -95,6 +133,11 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     phase_lf = "isotropic" if phase == "isotropic" else "hg"
     rows, scenes, images = [], [], {}
     total = len(waters) * len(depths)
+    if waters and depths:
+        # A broken scene should fail in a second, not after the Kd meters.
+        say("checking the reference scene on an 8x6 test image")
+        scene0, cam0 = board_scene(depths[0], width=size[0], height=size[1])
+        preflight(scene0, cam0, load_water(waters[0], source), light, phase=phase, g=g)
     k = 0
     for wname in waters:
         water = load_water(wname, source)
@@ -110,8 +153,10 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
             scene, cam = board_scene(depth, width=size[0], height=size[1])
             gb = raycast_gbuffer(scene, cam)
             m = masks(gb)
+            going_down = cam.ray_directions()[..., 1] <= 0
             region_masks = {"image": None, "patches": m["patches"].any(axis=0),
-                            "grey": m["grey"], "background": m["background"]}
+                            "grey": m["grey"], "background": m["background"],
+                            "background_down": m["background"] & going_down}
             empty = [r for r, mk in region_masks.items() if mk is not None and not mk.any()]
             if empty:
                 say(f"  note: no pixel in region(s) {', '.join(empty)} at {size[0]}x{size[1]}; "
@@ -126,15 +171,18 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
             say(f"[{k}/{total}] {wname} {depth:g} m: reference "
                 f"{'from cache' if hit else f'{time.perf_counter() - t0:.1f} s'}")
             methods = {}
+            numpy_seconds = {}
             for mode in kd_modes:
                 for ms in ms_models:
                     if ms != "seeds" and mode == "measured":
                         continue   # the light field does not use Kd
                     for n in band_counts + (3,):
                         name = f"{ms}-n{n}" if n != 3 else f"rgb-{ms}-n3"
+                        t0 = time.perf_counter()
                         methods[(name, mode)] = ("bands", n, _spectral(
                             gb, waters_by_mode[mode], light, n, ms, phase_lf,
                             (("g", g),) if phase_lf == "hg" else (), forward_cone_deg))
+                        numpy_seconds[name] = time.perf_counter() - t0
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             methods[("ifm", "database")] = ("baseline", "ifm", None)
             for cname, sensor in sensors.items():
@@ -151,20 +199,35 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                             met["ssim"] = metrics.ssim(ref_rgb, rgb)
                         rows.append({"water": wname, "depth_m": depth, "camera": cname,
                                      "method": mname, "kd": mode, "region": region, **met})
-                    # Mean colour of each patch and of the background: far less
-                    # path-tracing noise than per-pixel errors.
-                    rows.append({"water": wname, "depth_m": depth, "camera": cname,
-                                 "method": mname, "kd": mode, "region": "patch_means",
-                                 **metrics.all_metrics(_region_means(ref_rgb, m),
-                                                       _region_means(rgb, m), matrix=mat)})
+                    # Mean colour of each patch: far less path-tracing noise
+                    # than per-pixel errors.
+                    if "patches" in region_masks:
+                        rows.append({"water": wname, "depth_m": depth, "camera": cname,
+                                     "method": mname, "kd": mode, "region": "patch_means",
+                                     **metrics.all_metrics(_region_means(ref_rgb, m),
+                                                           _region_means(rgb, m), matrix=mat)})
                     if cname == next(iter(sensors)):
                         images[(wname, depth, mname, mode)] = rgb
                 if cname == next(iter(sensors)):
                     images[(wname, depth, "reference", "-")] = ref_rgb
-            scenes.append({"water": wname, "depth_m": depth, "reference_seconds":
-                           float(np.asarray(ref.get("seconds", np.nan))),
-                           "pixels": size[0] * size[1], "spp": spp,
-                           "kd_measured": np.asarray(kd_res["kd"]).tolist()})
+            info = {"water": wname, "depth_m": depth, "reference_seconds":
+                    float(np.asarray(ref.get("seconds", np.nan))),
+                    "pixels": size[0] * size[1], "spp": spp,
+                    "numpy_shading_seconds": numpy_seconds,
+                    "kd_measured": np.asarray(kd_res["kd"]).tolist(),
+                    "kd_measured_stderr": np.asarray(kd_res["kd_stderr"]).tolist(),
+                    "kd_database": water.on_bands(REFERENCE_BANDS).kd.tolist()}
+            if gpu_timing:
+                n_max = max(band_counts)
+                secs, why = gpu_frame_seconds(scene, cam, water, light, n_max)
+                info["gpu_frame_seconds"] = secs
+                info["gpu_bands"] = n_max
+                if why:
+                    say("  " + why)
+                else:
+                    say(f"  GPU frame n={n_max}: {secs * 1e3:.1f} ms; reference "
+                        f"{info['reference_seconds']:.1f} s")
+            scenes.append(info)
     return {"rows": rows, "scenes": scenes, "images": images,
             "params": {"waters": list(waters), "depths": list(depths), "cameras": list(sensors),
                        "size": list(size), "spp": spp, "kd_spp": kd_spp, "phase": phase, "g": g,
@@ -197,6 +260,25 @@ def format_summary(rows, region="image") -> str:
     for r in sorted(s, key=lambda r: (r["water"], r["depth_m"], r["method"], r["kd"])):
         lines.append(f"{r['water']:>5s} {r['depth_m']:5.1f} {r['method']:>20s} {r['kd']:>9s} "
                      + " ".join(f"{r[c]:10.4f}" for c in cols))
+    return "\n".join(lines)
+
+
+def format_timing(scenes) -> str:
+    """Reference vs aquaspec time per scene at equal pixel count (and speed-ups)."""
+    lines = ["time per image at equal pixel count (reference: Mitsuba; NumPy: shade_gbuffer "
+             "in float64 at the largest n; GPU: one frame at the largest n)",
+             f"{'water':>5s} {'depth':>5s} {'pixels':>7s} {'spp':>5s} {'reference s':>11s} "
+             f"{'NumPy s':>11s} {'speed-up':>9s} {'GPU ms':>8s} {'speed-up':>9s}"]
+    for sc in scenes:
+        ref = sc["reference_seconds"]
+        np_s = sc["numpy_shading_seconds"]
+        key = max((k for k in np_s if not k.startswith("rgb")), default=None,
+                  key=lambda k: int(k.rsplit("n", 1)[-1]))
+        t_np = np_s.get(key, np.nan) if key else np.nan
+        gpu = sc.get("gpu_frame_seconds")
+        gpu_txt = (f"{gpu * 1e3:8.1f} {ref / gpu:9.0f}" if gpu else f"{'-':>8s} {'-':>9s}")
+        lines.append(f"{sc['water']:>5s} {sc['depth_m']:5.1f} {sc['pixels']:7d} {sc['spp']:5d} "
+                     f"{ref:11.2f} {t_np:11.3f} {ref / t_np:9.0f} {gpu_txt}")
     return "\n".join(lines)
 
 
