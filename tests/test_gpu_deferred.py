@@ -259,23 +259,36 @@ class TestDeferredMatchesReference:
             p.read_radiance()
 
 
+def gbuffer_textures(device, packed, label="raster"):
+    """Textures in the deferred pass's G-buffer layout, filled with ``packed``."""
+    import wgpu
+    from aquaspec.gpu.buffers import create_texture, upload_texture
+    from aquaspec.gpu.deferred import GBUFFER_TEXTURES
+    out = {}
+    for name, arr in packed.items():
+        out[name] = create_texture(device, arr.shape[1], arr.shape[0],
+                                   GBUFFER_TEXTURES[name][1], label=f"{label} {name}",
+                                   usage=wgpu.TextureUsage.TEXTURE_BINDING
+                                   | wgpu.TextureUsage.COPY_DST)
+        upload_texture(device, out[name], arr)
+    return out
+
+
 class TestGpuResidentInputs:
-    def test_external_buffers(self, device):
-        """A raster pass hands over its own buffers in the documented layout."""
-        from aquaspec.gpu.buffers import create_storage_buffer
+    def test_external_textures(self, device):
+        """A raster pass hands over its own textures in the documented layout."""
         from aquaspec.gpu.deferred import pack_gbuffer
         gb = scene_seabed()
         med = medium("3C", 8)
-        packed = pack_gbuffer(gb)
-        bufs = {k: create_storage_buffer(device, v, label=f"raster {k}") for k, v in packed.items()}
+        tex = gbuffer_textures(device, pack_gbuffer(gb))
         p = deferred_pass(device, 8)
         p.set_medium(**med)
-        p.use_gbuffer_buffers(gb.camera, **bufs)
+        p.use_gbuffer_textures(gb.camera, **tex)
         try:
             p.run()
             gpu = p.read_rgb()
         finally:
-            # Restore the pass's own buffers for the other tests sharing it.
+            # Restore the pass's own textures for the other tests sharing it.
             from aquaspec.gpu.deferred import DeferredPass
             _PASSES.pop((8, False))
             _PASSES[(8, False)] = DeferredPass(W, H, 8, device=device)
@@ -283,42 +296,63 @@ class TestGpuResidentInputs:
         assert_matches(gpu, ref, comparable(gb))
 
     def test_written_in_place(self, device):
-        """Writing the pass's own gbuffer_buffers (as a raster pass may) works."""
-        from aquaspec.gpu.buffers import upload_buffer
+        """Writing the pass's own gbuffer_textures (as a raster pass does) works."""
+        from aquaspec.gpu.buffers import upload_texture
         from aquaspec.gpu.deferred import pack_gbuffer
         gb = scene_box()
         med = medium("IB", 3)
         p = deferred_pass(device, 3)
         p.set_medium(**med)
         for k, v in pack_gbuffer(gb).items():
-            upload_buffer(device, p.gbuffer_buffers[k], v)
+            upload_texture(device, p.gbuffer_textures[k], v)
         p.set_camera(gb.camera)
         p.run()
         assert_matches(p.read_rgb(), shade_gbuffer(gb, **med)["camera_rgb"], comparable(gb))
 
+    def test_set_gbuffer_fills_storage_copy(self, device):
+        """set_gbuffer also fills the storage-buffer copy (for the light-field pass)."""
+        from aquaspec.gpu.buffers import read_buffer
+        from aquaspec.gpu.deferred import pack_gbuffer_storage
+        gb = scene_seabed()
+        p = deferred_pass(device, 3)
+        p.set_gbuffer(gb)
+        ref = pack_gbuffer_storage(gb)
+        for name, arr in ref.items():
+            got = read_buffer(device, p.gbuffer_buffers[name], arr.dtype, arr.shape)
+            np.testing.assert_array_equal(got, arr)
+        # The two packings hold the same values.
+        np.testing.assert_array_equal(ref["distance"].reshape(H, W),
+                                      np.where(gb.hit, gb.distance, -1.0).astype(np.float32))
+        np.testing.assert_array_equal(ref["surface"][:, 3], gb.material.reshape(-1))
+
     def test_bad_material_index_is_reported(self, device):
-        from aquaspec.gpu.buffers import upload_buffer
+        from aquaspec.gpu.buffers import upload_texture
         from aquaspec.gpu.deferred import pack_gbuffer
         gb = scene_box()
         packed = pack_gbuffer(gb)
-        packed["surface"][gb.hit.reshape(-1) & (gb.material.reshape(-1) == 0), 3] = 7
+        packed["material"][gb.hit & (gb.material == 0), 3] = 7
         p = deferred_pass(device, 3)
         p.set_medium(**medium("IB", 3))
-        upload_buffer(device, p.gbuffer_buffers["surface"], packed["surface"])
+        upload_texture(device, p.gbuffer_textures["material"], packed["material"])
         p.set_camera(gb.camera)
         p.run()
         with pytest.raises(AquaspecError, match="material index"):
             p.read_rgb()
         p.set_gbuffer(gb)   # leave valid contents behind
 
-    def test_wrong_buffer_size(self, device):
-        from aquaspec.gpu.buffers import create_storage_buffer
+    def test_wrong_texture(self, device):
+        from aquaspec.gpu.deferred import pack_gbuffer
         gb = scene_box()
         p = deferred_pass(device, 3)
-        with pytest.raises(AquaspecError, match="distance buffer has"):
-            p.use_gbuffer_buffers(gb.camera, distance=create_storage_buffer(device, 64))
-        with pytest.raises(AquaspecError, match="unknown G-buffer buffer"):
-            p.use_gbuffer_buffers(gb.camera, depth=create_storage_buffer(device, 64))
+        packed = pack_gbuffer(gb)
+        small = gbuffer_textures(device, {"geometry": packed["geometry"][:10, :10]})
+        with pytest.raises(AquaspecError, match="geometry texture is 10x10"):
+            p.use_gbuffer_textures(gb.camera, **small)
+        swapped = gbuffer_textures(device, {"geometry": packed["geometry"]})
+        with pytest.raises(AquaspecError, match="rgba32uint"):
+            p.use_gbuffer_textures(gb.camera, material=swapped["geometry"])
+        with pytest.raises(AquaspecError, match="unknown G-buffer texture"):
+            p.use_gbuffer_textures(gb.camera, depth=swapped["geometry"])
 
 
 class TestDeferredInputErrors:

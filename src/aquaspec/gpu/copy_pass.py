@@ -1,6 +1,6 @@
 """The "memory floor" pass: read the G-buffer, write the output, no shading.
 
-It binds the same camera uniform, G-buffer buffers and output buffer as a
+It binds the same camera uniform, G-buffer textures and output buffer as a
 :class:`~aquaspec.gpu.deferred.DeferredPass` and covers the same pixels, so
 ``aquaspec bench`` can report how much of the deferred pass's time is memory
 traffic (the floor) and how much is the per-band arithmetic. WGSL:
@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from .buffers import read_buffer, record_dispatch, submit_pass
-from .deferred import (B_CAMERA, B_DISTANCE, B_RGB, B_SIGMOID, B_SURFACE, DeferredPass,
-                       bind_group_layout, shader_source)
+from .deferred import (B_CAMERA, B_GEOMETRY, B_MATERIAL, B_RGB, DeferredPass,
+                       bind_group_entries, bind_group_layout, shader_source)
 
 
 class CopyPass:
@@ -23,16 +23,15 @@ class CopyPass:
     Parameters
     ----------
     deferred : DeferredPass
-        Its G-buffer buffers (including ones handed over with
-        ``use_gbuffer_buffers``), camera uniform and RGB output are used.
+        Its G-buffer textures (including ones handed over with
+        ``use_gbuffer_textures``), camera uniform and RGB output are used.
     """
 
     def __init__(self, deferred: DeferredPass):
         self.deferred = deferred
         device = deferred.device
         self._layout = bind_group_layout(device, {
-            B_CAMERA: "uniform", B_DISTANCE: "read", B_SURFACE: "read", B_SIGMOID: "read",
-            B_RGB: "write"})
+            B_CAMERA: "uniform", B_GEOMETRY: "float", B_MATERIAL: "uint", B_RGB: "write"})
         module = device.create_shader_module(label="copy.wgsl", code=shader_source("copy.wgsl"))
         self._pipeline = device.create_compute_pipeline(
             label="copy",
@@ -44,13 +43,11 @@ class CopyPass:
     def _get_bind_group(self):
         d = self.deferred
         if self._bind_group is None or self._version != d.bindings_version:
-            gb = d.gbuffer_buffers
-            resources = {B_CAMERA: d._uniform, B_DISTANCE: gb["distance"],
-                         B_SURFACE: gb["surface"], B_SIGMOID: gb["sigmoid"],
-                         B_RGB: d.rgb_buffer}
-            self._bind_group = d.device.create_bind_group(layout=self._layout, entries=[
-                {"binding": k, "resource": {"buffer": v, "offset": 0, "size": v.size}}
-                for k, v in resources.items()])
+            gb = d.gbuffer_textures
+            resources = {B_CAMERA: d._uniform, B_GEOMETRY: gb["geometry"],
+                         B_MATERIAL: gb["material"], B_RGB: d.rgb_buffer}
+            self._bind_group = d.device.create_bind_group(layout=self._layout,
+                                                          entries=bind_group_entries(resources))
             self._version = d.bindings_version
         return self._bind_group
 

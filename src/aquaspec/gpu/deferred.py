@@ -11,30 +11,42 @@ Conventions: metres, y up, water surface y = 0, depth ``-p.y``; a, b, Kd in
 
 G-buffer layout (GPU-resident)
 ------------------------------
-The G-buffer lives in three storage buffers, one element per pixel, pixel
-``p = row * width + column`` (row 0 at the top, as in
-:meth:`aquaspec.camera.Camera.ray_directions`). A raster pass can write into
-them directly (:attr:`DeferredPass.gbuffer_buffers`, usage ``STORAGE |
-COPY_DST | COPY_SRC``) or hand over its own buffers of the same layout
-(:meth:`DeferredPass.use_gbuffer_buffers`):
+The G-buffer lives in two textures, texel ``(column, row)`` per pixel (row 0
+at the top, as in :meth:`aquaspec.camera.Camera.ray_directions`), the render
+targets of the geometry pass (:class:`aquaspec.gpu.raster.RasterPass`
+renders straight into :attr:`DeferredPass.gbuffer_textures`; usage
+``RENDER_ATTACHMENT | TEXTURE_BINDING | COPY_DST | COPY_SRC``), or textures
+made elsewhere in the same formats (:meth:`DeferredPass.use_gbuffer_textures`):
 
-==========  =====================  ===============================================
-binding     WGSL type              contents
-==========  =====================  ===============================================
-1 distance  ``array<f32>``         distance S in m from the camera centre along the
-                                   pixel's ray; :data:`OPEN_WATER_DISTANCE` (any
-                                   negative value) where the ray sees open water
-2 surface   ``array<vec4<u32>>``   ``xyz``: unit world normal as f32 bits
-                                   (``bitcast<vec3<u32>>(n)``), ``w``: material
-                                   index, or ``0xffffffff`` (gbuffer.PER_PIXEL)
-                                   for the pixel's own sigmoid coefficients
-3 sigmoid   ``array<vec4<f32>>``   ``xyz``: Jakob-Hanika coefficients (c0, c1, c2)
-                                   in t = (lambda - 550) / 100; ``w`` unused
-==========  =====================  ===============================================
+===========  =====================  ==============================================
+binding      format                 contents
+===========  =====================  ==============================================
+1 geometry   ``rgba32float``        ``xyz``: unit world normal (0 for open water);
+                                    ``w``: distance S in m from the camera centre
+                                    along the pixel's ray, :data:`OPEN_WATER_DISTANCE`
+                                    (any negative value) where it sees open water
+2 material   ``rgba32uint``         ``xyz``: Jakob-Hanika coefficients (c0, c1, c2)
+                                    in t = (lambda - 550) / 100 as f32 bits (0 for
+                                    single-material pixels); ``w``: material
+                                    index, or ``0xffffffff`` (gbuffer.PER_PIXEL)
+                                    for the pixel's own sigmoid coefficients
+===========  =====================  ==============================================
 
+Reading the render targets directly saved the compute pass that used to
+repack them into storage buffers (6-7 ms of a 1280x720 frame on lavapipe).
 Storing the material as an integer (rather than a float bit pattern) keeps
 ``0xffffffff`` from ever passing through a float register, where a NaN
 payload is not guaranteed to survive.
+
+Storage-buffer copy (for :class:`~aquaspec.gpu.lightfield_pass.LightfieldPass`)
+-------------------------------------------------------------------------------
+:attr:`DeferredPass.gbuffer_buffers` holds the same G-buffer in three storage
+buffers, one element per pixel ``p = row * width + column``: ``distance``
+``array<f32>``; ``surface`` ``array<vec4<u32>>`` (normal f32 bits, material);
+``sigmoid`` ``array<vec4<f32>>`` (c0, c1, c2, unused); see
+:func:`pack_gbuffer_storage`. :meth:`DeferredPass.set_gbuffer` fills them
+always; the geometry pass fills them (with a compute repack) only when
+:attr:`DeferredPass.storage_gbuffer` is true.
 
 Per-band inputs (:meth:`DeferredPass.set_medium`): binding 4 is a uniform
 ``array<vec4<f32>, 3 n>``, :func:`band_table` (the per-band factors that do
@@ -56,8 +68,8 @@ from ..camera import check_size
 from ..errors import AquaspecError
 from ..gbuffer import PER_PIXEL, GBuffer
 from ..shading import camera_depth, check_medium
-from .buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
-                      record_dispatch, submit_pass, upload_buffer)
+from .buffers import (create_storage_buffer, create_texture, create_uniform_buffer,
+                      read_buffer, record_dispatch, submit_pass, upload_buffer, upload_texture)
 from .layout import UniformLayout
 from .shaders import load_wgsl
 
@@ -101,9 +113,13 @@ WORKGROUP = (8, 8)
 PIXELS_PER_INVOCATION = 4
 
 # Binding numbers (also in the WGSL files).
-B_CAMERA, B_DISTANCE, B_SURFACE, B_SIGMOID = 0, 1, 2, 3
+B_CAMERA, B_GEOMETRY, B_MATERIAL = 0, 1, 2
 B_BANDS, B_MATERIALS, B_RGB, B_RADIANCE, B_STATUS = 4, 5, 6, 7, 8
-GBUFFER_BINDINGS = {"distance": B_DISTANCE, "surface": B_SURFACE, "sigmoid": B_SIGMOID}
+#: G-buffer textures: name -> (binding, texture format).
+GBUFFER_TEXTURES = {"geometry": (B_GEOMETRY, "rgba32float"),
+                    "material": (B_MATERIAL, "rgba32uint")}
+#: Bytes per element of the storage-buffer copy (:attr:`DeferredPass.gbuffer_buffers`).
+GBUFFER_BUFFER_BYTES = {"distance": 4, "surface": 16, "sigmoid": 16}
 
 
 def shader_source(name: str, n_bands: int = 1, write_radiance: bool = False) -> str:
@@ -141,40 +157,80 @@ def band_table(a, b, kd, e0, response_weights, sigmoid_centers_t, depth_o) -> np
 
 
 def pack_gbuffer(gbuffer: GBuffer) -> dict:
-    """Host arrays in the GPU G-buffer layout (see the module docstring).
+    """Host arrays in the GPU G-buffer texture layout (see the module docstring).
+
+    Returns ``{"geometry": (H, W, 4) f32, "material": (H, W, 4) u32}``.
+    """
+    h, w = gbuffer.distance.shape
+    geometry = np.empty((h, w, 4), dtype=np.float32)
+    geometry[..., :3] = gbuffer.normal
+    geometry[..., 3] = np.where(np.isfinite(gbuffer.distance), gbuffer.distance,
+                                np.float32(OPEN_WATER_DISTANCE))
+    material = np.empty((h, w, 4), dtype=np.uint32)
+    material[..., :3] = np.ascontiguousarray(gbuffer.sigmoid, dtype=np.float32).view(np.uint32)
+    material[..., 3] = gbuffer.material
+    return {"geometry": geometry, "material": material}
+
+
+def pack_gbuffer_storage(gbuffer: GBuffer) -> dict:
+    """Host arrays in the storage-buffer layout of :attr:`DeferredPass.gbuffer_buffers`.
 
     Returns ``{"distance": (H*W,) f32, "surface": (H*W, 4) u32,
     "sigmoid": (H*W, 4) f32}``.
     """
-    dist = np.where(np.isfinite(gbuffer.distance), gbuffer.distance,
-                    np.float32(OPEN_WATER_DISTANCE)).astype(np.float32).reshape(-1)
-    surface = np.empty(dist.shape + (4,), dtype=np.uint32)
-    surface[:, :3] = np.ascontiguousarray(gbuffer.normal, dtype=np.float32).reshape(
-        -1, 3).view(np.uint32)
-    surface[:, 3] = gbuffer.material.reshape(-1)
-    sigmoid = np.zeros(dist.shape + (4,), dtype=np.float32)
-    sigmoid[:, :3] = gbuffer.sigmoid.reshape(-1, 3)
-    return {"distance": dist, "surface": surface, "sigmoid": sigmoid}
+    tex = pack_gbuffer(gbuffer)
+    geometry, material = tex["geometry"].reshape(-1, 4), tex["material"].reshape(-1, 4)
+    surface = np.empty_like(material)
+    surface[:, :3] = geometry[:, :3].view(np.uint32)
+    surface[:, 3] = material[:, 3]
+    sigmoid = np.zeros(geometry.shape, dtype=np.float32)
+    sigmoid[:, :3] = material[:, :3].view(np.float32)
+    return {"distance": geometry[:, 3].copy(), "surface": surface, "sigmoid": sigmoid}
 
 
 def bind_group_layout(device, bindings):
-    """Compute-stage layout for ``bindings``: {binding: "uniform"|"read"|"write"}."""
+    """Compute-stage layout for ``bindings``: {binding: kind}.
+
+    Kinds: ``"uniform"``, ``"read"`` / ``"write"`` (storage buffers),
+    ``"float"`` / ``"uint"`` (unfilterable 2-D textures of that sample type).
+    """
     import wgpu
     kinds = {"uniform": wgpu.BufferBindingType.uniform,
              "read": wgpu.BufferBindingType.read_only_storage,
              "write": wgpu.BufferBindingType.storage}
-    return device.create_bind_group_layout(entries=[
-        {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
-         "buffer": {"type": kinds[k]}} for b, k in sorted(bindings.items())])
+    samples = {"float": wgpu.TextureSampleType.unfilterable_float,
+               "uint": wgpu.TextureSampleType.uint}
+
+    def entry(b, k):
+        if k in samples:
+            return {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
+                    "texture": {"sample_type": samples[k],
+                                "view_dimension": wgpu.TextureViewDimension.d2}}
+        return {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
+                "buffer": {"type": kinds[k]}}
+
+    return device.create_bind_group_layout(entries=[entry(b, k)
+                                                    for b, k in sorted(bindings.items())])
+
+
+def bind_group_entries(resources) -> list:
+    """Bind-group entries for {binding: buffer or texture} (whole buffers, default views)."""
+    out = []
+    for b, r in sorted(resources.items()):
+        if hasattr(r, "create_view"):
+            out.append({"binding": b, "resource": r.create_view()})
+        else:
+            out.append({"binding": b, "resource": {"buffer": r, "offset": 0, "size": r.size}})
+    return out
 
 
 class DeferredPass:
     """Deferred spectral shading of a ``width`` x ``height`` G-buffer with ``n_bands`` bands.
 
     Create it once per image size and band count; then per frame
-    :meth:`set_gbuffer` (or let a raster pass write :attr:`gbuffer_buffers`
-    and call :meth:`set_camera`), :meth:`set_medium` when the water, light or
-    sensor change, :meth:`run`, :meth:`read_rgb`.
+    :meth:`set_gbuffer` (or let a raster pass render into
+    :attr:`gbuffer_textures` and call :meth:`set_camera`), :meth:`set_medium`
+    when the water, light or sensor change, :meth:`run`, :meth:`read_rgb`.
 
     Parameters
     ----------
@@ -214,11 +270,15 @@ class DeferredPass:
                     "smaller image or fewer bands")
 
         self._uniform = create_uniform_buffer(device, CAMERA_LAYOUT, label="deferred camera")
-        self._gbuffer = {
-            "distance": create_storage_buffer(device, npix * 4, label="gbuffer distance"),
-            "surface": create_storage_buffer(device, npix * 16, label="gbuffer surface"),
-            "sigmoid": create_storage_buffer(device, npix * 16, label="gbuffer sigmoid"),
-        }
+        usage = (wgpu.TextureUsage.RENDER_ATTACHMENT | wgpu.TextureUsage.TEXTURE_BINDING
+                 | wgpu.TextureUsage.COPY_DST | wgpu.TextureUsage.COPY_SRC)
+        self._textures = {name: create_texture(device, self.width, self.height, fmt,
+                                               label=f"gbuffer {name}", usage=usage)
+                          for name, (_, fmt) in GBUFFER_TEXTURES.items()}
+        self._buffers = None        # storage-buffer copy, made when first needed
+        #: When true, the geometry pass also fills :attr:`gbuffer_buffers`
+        #: (needed by the light-field pass; costs a compute repack per frame).
+        self.storage_gbuffer = False
         self._bands = device.create_buffer(
             label="deferred band table", size=self.n_bands * len(BAND_FIELDS) * 4,
             usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
@@ -235,7 +295,7 @@ class DeferredPass:
         self._status = create_storage_buffer(device, 16, label="deferred status")
 
         self._layout = bind_group_layout(device, {
-            B_CAMERA: "uniform", B_DISTANCE: "read", B_SURFACE: "read", B_SIGMOID: "read",
+            B_CAMERA: "uniform", B_GEOMETRY: "float", B_MATERIAL: "uint",
             B_BANDS: "uniform", B_MATERIALS: "read", B_RGB: "write", B_RADIANCE: "write",
             B_STATUS: "write"})
         module = device.create_shader_module(label="deferred.wgsl",
@@ -253,13 +313,26 @@ class DeferredPass:
         self._ambient_id = None
         self._medium_bands = None
         self._uniform_dirty = True
-        self._wgpu_usage_storage = wgpu.BufferUsage.STORAGE
 
     # ---------------------------------------------------------------- inputs
     @property
+    def gbuffer_textures(self) -> dict:
+        """The G-buffer textures ``{"geometry", "material"}`` read by the pass."""
+        return dict(self._textures)
+
+    @property
     def gbuffer_buffers(self) -> dict:
-        """The G-buffer storage buffers ``{"distance", "surface", "sigmoid"}`` read by the pass."""
-        return dict(self._gbuffer)
+        """The storage-buffer copy ``{"distance", "surface", "sigmoid"}`` (module docstring).
+
+        Kept up to date by :meth:`set_gbuffer`, and by the geometry pass when
+        :attr:`storage_gbuffer` is true.
+        """
+        if self._buffers is None:
+            npix = self.width * self.height
+            self._buffers = {name: create_storage_buffer(self.device, npix * nbytes,
+                                                         label=f"gbuffer {name}")
+                             for name, nbytes in GBUFFER_BUFFER_BYTES.items()}
+        return dict(self._buffers)
 
     def set_camera(self, camera) -> None:
         """Set the camera whose rays the G-buffer was made with (size must match)."""
@@ -271,7 +344,10 @@ class DeferredPass:
         self._uniform_dirty = True
 
     def set_gbuffer(self, gbuffer: GBuffer) -> None:
-        """Upload a host G-buffer (and its camera) into :attr:`gbuffer_buffers`."""
+        """Upload a host G-buffer (and its camera) into :attr:`gbuffer_textures`.
+
+        The storage-buffer copy :attr:`gbuffer_buffers` is filled too.
+        """
         if not isinstance(gbuffer, GBuffer):
             raise AquaspecError(f"gbuffer must be an aquaspec.gbuffer.GBuffer, got "
                                 f"{type(gbuffer).__name__}")
@@ -281,32 +357,39 @@ class DeferredPass:
             raise AquaspecError("G-buffer sigmoid coefficients of per-pixel materials "
                                 "must be finite")
         for name, arr in pack_gbuffer(gbuffer).items():
-            upload_buffer(self.device, self._gbuffer[name], arr)
+            upload_texture(self.device, self._textures[name], arr)
+        bufs = self.gbuffer_buffers
+        for name, arr in pack_gbuffer_storage(gbuffer).items():
+            upload_buffer(self.device, bufs[name], arr)
 
-    def use_gbuffer_buffers(self, camera, **buffers) -> None:
-        """Read the G-buffer from GPU buffers made elsewhere (e.g. a raster pass).
+    def use_gbuffer_textures(self, camera, **textures) -> None:
+        """Read the G-buffer from textures made elsewhere (e.g. a raster pass's targets).
 
         Parameters
         ----------
         camera : Camera
             The camera the G-buffer was rendered with.
-        distance, surface, sigmoid : wgpu.GPUBuffer, optional
-            Storage buffers in the layout of the module docstring; those not
-            given stay as they are.
+        geometry, material : wgpu.GPUTexture, optional
+            Textures in the formats of the module docstring, of this pass's
+            size, with ``TEXTURE_BINDING`` usage; those not given stay as they
+            are.
         """
-        for name, buf in buffers.items():
-            if name not in self._gbuffer:
-                raise AquaspecError(f"unknown G-buffer buffer {name!r}; accepted: "
-                                    f"{', '.join(self._gbuffer)}")
-            need = self.width * self.height * (4 if name == "distance" else 16)
-            if buf.size < need:
-                raise AquaspecError(f"G-buffer {name} buffer has {buf.size} bytes; "
-                                    f"{self.width}x{self.height} needs {need}")
-            if not buf.usage & self._wgpu_usage_storage:
-                raise AquaspecError(f"G-buffer {name} buffer lacks STORAGE usage")
+        import wgpu
+        for name, tex in textures.items():
+            if name not in self._textures:
+                raise AquaspecError(f"unknown G-buffer texture {name!r}; accepted: "
+                                    f"{', '.join(self._textures)}")
+            fmt = GBUFFER_TEXTURES[name][1]
+            size = tuple(tex.size[:2])
+            if size != (self.width, self.height) or tex.format != fmt:
+                raise AquaspecError(f"G-buffer {name} texture is {size[0]}x{size[1]} "
+                                    f"{tex.format}; this pass needs {self.width}x"
+                                    f"{self.height} {fmt}")
+            if not tex.usage & wgpu.TextureUsage.TEXTURE_BINDING:
+                raise AquaspecError(f"G-buffer {name} texture lacks TEXTURE_BINDING usage")
         self.set_camera(camera)
-        if buffers:
-            self._gbuffer.update(buffers)
+        if textures:
+            self._textures.update(textures)
             self._bind_group = None
             self.bindings_version += 1
 
@@ -364,14 +447,12 @@ class DeferredPass:
 
     def _get_bind_group(self):
         if self._bind_group is None:
-            resources = {B_CAMERA: self._uniform, B_DISTANCE: self._gbuffer["distance"],
-                         B_SURFACE: self._gbuffer["surface"],
-                         B_SIGMOID: self._gbuffer["sigmoid"], B_BANDS: self._bands,
+            resources = {B_CAMERA: self._uniform, B_GEOMETRY: self._textures["geometry"],
+                         B_MATERIAL: self._textures["material"], B_BANDS: self._bands,
                          B_MATERIALS: self._materials, B_RGB: self.rgb_buffer,
                          B_RADIANCE: self._radiance, B_STATUS: self._status}
-            self._bind_group = self.device.create_bind_group(layout=self._layout, entries=[
-                {"binding": k, "resource": {"buffer": v, "offset": 0, "size": v.size}}
-                for k, v in resources.items()])
+            self._bind_group = self.device.create_bind_group(
+                layout=self._layout, entries=bind_group_entries(resources))
         return self._bind_group
 
     def workgroups(self) -> tuple[int, int, int]:

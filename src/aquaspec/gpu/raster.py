@@ -16,17 +16,19 @@ buffer (shader ``shaders/gbuffer.wgsl``). Per pixel it writes
   texels, repeat wrapping; barycentrically between vertices).
 
 GPU-resident layout (:attr:`RasterPass.targets`, valid after
-:meth:`RasterPass.encode`): ``"geometry"`` rgba32float (normal xyz, S) and
-``"material"`` rgba32uint (the three coefficients' float32 bits, material
-index). 32 bytes per pixel, WebGPU's default colour-attachment budget.
+:meth:`RasterPass.encode`, the same as the deferred pass's G-buffer textures,
+:mod:`aquaspec.gpu.deferred`): ``"geometry"`` rgba32float (normal xyz, S;
+open water: normal 0, S = ``OPEN_WATER_DISTANCE``) and ``"material"``
+rgba32uint (the three coefficients' float32 bits, material index). 32 bytes
+per pixel, WebGPU's default colour-attachment budget.
 
 :func:`raycast_gbuffer` computes the same G-buffer by brute-force ray-triangle
 intersection in float64 (vectorised; meant for small images and scenes) and
 is what the tests compare :class:`RasterPass` against.
 
-:meth:`RasterPass.render_to` writes into a
-:class:`~aquaspec.gpu.deferred.DeferredPass`'s storage-buffer G-buffer on
-the GPU (a compute repack of the targets; no read-back).
+:meth:`RasterPass.render_to` renders straight into a
+:class:`~aquaspec.gpu.deferred.DeferredPass`'s G-buffer textures (no
+read-back, no copy).
 """
 
 from __future__ import annotations
@@ -156,9 +158,7 @@ class RasterPass:
             from .device import get_device
             _, device = get_device()
         self.device = device
-        from .deferred import OPEN_WATER_DISTANCE
-        src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl(),
-                        open_water_distance=repr(float(OPEN_WATER_DISTANCE)))
+        src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl())
         module = device.create_shader_module(label="gbuffer.wgsl", code=src)
         self._module = module
         self._pack_pipeline = None
@@ -257,27 +257,37 @@ class RasterPass:
         }
         self._size = (width, height)
 
-    def encode(self, encoder, scene: Scene, camera: Camera, timestamp_writes=None):
-        """Record the geometry pass into ``encoder``; results land in :attr:`targets`."""
+    def encode(self, encoder, scene: Scene, camera: Camera, timestamp_writes=None, *,
+               targets=None):
+        """Record the geometry pass into ``encoder``.
+
+        The results land in :attr:`targets`, or in ``targets``
+        (``{"geometry", "material"}`` textures of the camera's size in the
+        formats of :mod:`aquaspec.gpu.deferred`) when given. Open water is
+        cleared to normal 0 and distance
+        :data:`~aquaspec.gpu.deferred.OPEN_WATER_DISTANCE`.
+        """
         import wgpu
+        from .deferred import OPEN_WATER_DISTANCE
         _check_inputs(scene, camera)
         self._upload(scene)
         self._ensure_targets(camera.width, camera.height)
+        out = self.targets if targets is None else targets
         view_proj = camera.projection_matrix() @ camera.view_matrix()
         self.device.queue.write_buffer(self._cam_buffer, 0, CAMERA_LAYOUT.pack(
             view_proj=np.asarray(view_proj.T, np.float32).reshape(-1),
             position=camera.position))
         rp = encoder.begin_render_pass(
             color_attachments=[
-                {"view": self.targets["geometry"].create_view(),
-                 "clear_value": (0.0, 0.0, 0.0, float("inf")),
+                {"view": out["geometry"].create_view(),
+                 "clear_value": (0.0, 0.0, 0.0, float(OPEN_WATER_DISTANCE)),
                  "load_op": wgpu.LoadOp.clear, "store_op": wgpu.StoreOp.store},
-                {"view": self.targets["material"].create_view(),
+                {"view": out["material"].create_view(),
                  "clear_value": (0, 0, 0, 0),
                  "load_op": wgpu.LoadOp.clear, "store_op": wgpu.StoreOp.store}],
             depth_stencil_attachment={
                 "view": self.targets["depth"].create_view(), "depth_clear_value": 1.0,
-                "depth_load_op": wgpu.LoadOp.clear, "depth_store_op": wgpu.StoreOp.store},
+                "depth_load_op": wgpu.LoadOp.clear, "depth_store_op": wgpu.StoreOp.discard},
             **({} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}))
         rp.set_bind_group(0, self._cam_group)
         mode = None
@@ -296,12 +306,12 @@ class RasterPass:
                   timestamp_writes=None):
         """Rasterise straight into a :class:`~aquaspec.gpu.deferred.DeferredPass`'s G-buffer.
 
-        Records the geometry pass and a compute pass that repacks its targets
-        into ``deferred_pass.gbuffer_buffers`` (nothing is read back), and
-        sets the deferred pass's camera. With ``encoder`` the commands are
-        only recorded; without, they are submitted. ``timestamp_writes``
-        brackets both passes (its beginning index on the geometry pass, its
-        end index on the repacking pass).
+        Renders into ``deferred_pass.gbuffer_textures`` (nothing is read
+        back) and sets the deferred pass's camera; when
+        ``deferred_pass.storage_gbuffer`` is true, a compute pass also
+        repacks the result into ``deferred_pass.gbuffer_buffers``. With
+        ``encoder`` the commands are only recorded; without, they are
+        submitted. ``timestamp_writes`` brackets all passes recorded.
         """
         if (camera.width, camera.height) != (deferred_pass.width, deferred_pass.height):
             raise AquaspecError(f"camera is {camera.width}x{camera.height} but the deferred "
@@ -309,27 +319,30 @@ class RasterPass:
         own = encoder is None
         if own:
             encoder = self.device.create_command_encoder()
-        begin = end = None
-        if timestamp_writes is not None:
+        pack = bool(deferred_pass.storage_gbuffer)
+        begin = end = timestamp_writes
+        if timestamp_writes is not None and pack:
             qs = timestamp_writes["query_set"]
             begin = {"query_set": qs, "beginning_of_pass_write_index":
                      timestamp_writes["beginning_of_pass_write_index"]}
             end = {"query_set": qs, "end_of_pass_write_index":
                    timestamp_writes["end_of_pass_write_index"]}
-        self.encode(encoder, scene, camera, timestamp_writes=begin)
-        bufs = deferred_pass.gbuffer_buffers
-        group = self.device.create_bind_group(
-            layout=self._get_pack_pipeline().get_bind_group_layout(0), entries=[
-                {"binding": 10, "resource": self.targets["geometry"].create_view()},
-                {"binding": 11, "resource": self.targets["material"].create_view()}] + [
-                {"binding": b, "resource": {"buffer": bufs[name], "offset": 0,
-                                            "size": bufs[name].size}}
-                for b, name in ((12, "distance"), (13, "surface"), (14, "sigmoid"))])
-        cp = encoder.begin_compute_pass(**({} if end is None else {"timestamp_writes": end}))
-        cp.set_pipeline(self._pack_pipeline)
-        cp.set_bind_group(0, group)
-        cp.dispatch_workgroups(-(-camera.width // 8), -(-camera.height // 8), 1)
-        cp.end()
+        tex = deferred_pass.gbuffer_textures
+        self.encode(encoder, scene, camera, timestamp_writes=begin, targets=tex)
+        if pack:
+            bufs = deferred_pass.gbuffer_buffers
+            group = self.device.create_bind_group(
+                layout=self._get_pack_pipeline().get_bind_group_layout(0), entries=[
+                    {"binding": 10, "resource": tex["geometry"].create_view()},
+                    {"binding": 11, "resource": tex["material"].create_view()}] + [
+                    {"binding": b, "resource": {"buffer": bufs[name], "offset": 0,
+                                                "size": bufs[name].size}}
+                    for b, name in ((12, "distance"), (13, "surface"), (14, "sigmoid"))])
+            cp = encoder.begin_compute_pass(**({} if end is None else {"timestamp_writes": end}))
+            cp.set_pipeline(self._pack_pipeline)
+            cp.set_bind_group(0, group)
+            cp.dispatch_workgroups(-(-camera.width // 8), -(-camera.height // 8), 1)
+            cp.end()
         deferred_pass.set_camera(camera)
         if own:
             self.device.queue.submit([encoder.finish()])
@@ -357,7 +370,7 @@ class RasterPass:
         geom = self._read(self.targets["geometry"], np.float32, w, h)
         mat = self._read(self.targets["material"], np.uint32, w, h)
         distance = geom[..., 3]
-        hit = np.isfinite(distance)
+        hit = distance >= 0
         normal = np.where(hit[..., None], geom[..., :3], 0.0)
         return GBuffer(camera, np.where(hit, distance, np.inf), normal, mat[..., 3],
                        mat[..., :3].copy().view(np.float32), list(scene.materials))

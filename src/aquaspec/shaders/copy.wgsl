@@ -9,9 +9,8 @@
 {{ camera_struct }}
 
 @group(0) @binding(0) var<uniform> cam: {{ camera_struct_name }};
-@group(0) @binding(1) var<storage, read> gb_distance: array<f32>;
-@group(0) @binding(2) var<storage, read> gb_surface: array<vec4<u32>>;
-@group(0) @binding(3) var<storage, read> gb_sigmoid: array<vec4<f32>>;
+@group(0) @binding(1) var gb_geometry: texture_2d<f32>;
+@group(0) @binding(2) var gb_material: texture_2d<u32>;
 @group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
 
 @compute @workgroup_size(8, 8)
@@ -19,7 +18,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= cam.width || gid.y >= cam.height) {
         return;
     }
-    let p = gid.y * cam.width + gid.x;
-    let surf = gb_surface[p];
-    rgb_out[p] = vec4<f32>(gb_distance[p], bitcast<f32>(surf.y), gb_sigmoid[p].z, f32(surf.w));
+    let geo = textureLoad(gb_geometry, gid.xy, 0);
+    let mat = textureLoad(gb_material, gid.xy, 0);
+    rgb_out[gid.y * cam.width + gid.x] = vec4<f32>(geo.w, geo.y, bitcast<f32>(mat.z),
+                                                   f32(mat.w));
 }

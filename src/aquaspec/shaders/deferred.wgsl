@@ -29,9 +29,10 @@ const WRITE_RADIANCE: bool = {{ write_radiance }};
 const PER_PIXEL: u32 = 0xffffffffu;
 
 @group(0) @binding(0) var<uniform> cam: {{ camera_struct_name }};
-@group(0) @binding(1) var<storage, read> gb_distance: array<f32>;
-@group(0) @binding(2) var<storage, read> gb_surface: array<vec4<u32>>;
-@group(0) @binding(3) var<storage, read> gb_sigmoid: array<vec4<f32>>;
+// G-buffer: the geometry pass's render targets (normal xyz, S) and
+// (sigmoid coefficient bits xyz, material index).
+@group(0) @binding(1) var gb_geometry: texture_2d<f32>;
+@group(0) @binding(2) var gb_material: texture_2d<u32>;
 // Three vec4 per band i (aquaspec.gpu.deferred.BAND_FIELDS):
 //   [3i]     c, kd, t, ms_scale = b E0 / (4 pi) exp(-Kd d_o)
 //   [3i + 1] w_r, w_g, w_b, e0_over_pi = E0 / pi
@@ -63,19 +64,21 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let row_start = gid.y * cam.width;
-    let last = cam.width * cam.height - 1u;
     let v_y = ray_direction_y(j0, gid.y);
     let depth_o = -cam.position.y;
 
     var s_gb: vec4<f32>;
     var n_y: vec4<f32>;
     var material: vec4<u32>;
+    var sig: array<vec3<u32>, 4>;
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let p = min(row_start + j0 + k, last);
-        s_gb[k] = gb_distance[p];
-        let surf = gb_surface[p];
-        n_y[k] = bitcast<f32>(surf.y);
-        material[k] = surf.w;
+        let xy = vec2<u32>(min(j0 + k, cam.width - 1u), gid.y);
+        let geo = textureLoad(gb_geometry, xy, 0);
+        let mat = textureLoad(gb_material, xy, 0);
+        s_gb[k] = geo.w;
+        n_y[k] = geo.y;
+        material[k] = mat.w;
+        sig[k] = mat.xyz;
     }
     // A hit counts only if the ray reaches it before the water surface.
     let up = v_y > vec4<f32>(0.0);
@@ -98,10 +101,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var k = 0u; k < 4u; k = k + 1u) {
         let valid = j0 + k < cam.width;
         if (valid && use_sigmoid[k]) {
-            let sig = gb_sigmoid[row_start + j0 + k];
-            c0[k] = sig.x;
-            c1[k] = sig.y;
-            c2[k] = sig.z;
+            let c = bitcast<vec3<f32>>(sig[k]);
+            c0[k] = c.x;
+            c1[k] = c.y;
+            c2[k] = c.z;
         }
         if (valid && hit[k] && !use_sigmoid[k] && !use_material[k]) {
             bad = bad + 1u;

@@ -2,7 +2,8 @@
 //
 // Targets (32 bytes per pixel, the WebGPU default limit):
 //   0 rgba32float: world normal xyz (facing the camera), distance S in metres
-//                  from the camera centre (not z-depth; inf where cleared)
+//                  from the camera centre (not z-depth; the clear value
+//                  OPEN_WATER_DISTANCE < 0 where no surface is seen)
 //   1 rgba32uint:  bitcast sigmoid coefficients c0, c1, c2 and the material
 //                  index (PER_PIXEL for textured / vertex-coloured meshes)
 
@@ -146,11 +147,10 @@ fn fs_vertex(in: VsVertexOut) -> FsOut {
 }
 
 // ---------------------------------------------------------------------------
-// Repack the render targets into the storage-buffer G-buffer read by the
-// deferred shading pass (layout: aquaspec/gpu/deferred.py docstring). Its
-// bindings live in group 0 at numbers the render entry points do not use.
-
-const OPEN_WATER_DISTANCE: f32 = {{ open_water_distance }};
+// Repack the render targets into the storage-buffer copy of the G-buffer
+// (aquaspec.gpu.deferred.DeferredPass.gbuffer_buffers, read by the
+// light-field pass). Its bindings live in group 0 at numbers the render
+// entry points do not use.
 
 @group(0) @binding(10) var geometry_in: texture_2d<f32>;
 @group(0) @binding(11) var material_in: texture_2d<u32>;
@@ -167,10 +167,8 @@ fn pack_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let p = id.y * size.x + id.x;
     let g = textureLoad(geometry_in, vec2<u32>(id.xy), 0);
     let m = textureLoad(material_in, vec2<u32>(id.xy), 0);
-    // The targets are cleared to S = inf; WGSL has no isinf, and no finite
-    // f32 exceeds 3.4e38.
-    let open_water = g.w > 3.0e38;
-    distance_out[p] = select(g.w, OPEN_WATER_DISTANCE, open_water);
+    // Open water is already OPEN_WATER_DISTANCE (the targets' clear value).
+    distance_out[p] = g.w;
     surface_out[p] = vec4<u32>(bitcast<vec3<u32>>(g.xyz), m.w);
     sigmoid_out[p] = vec4<f32>(bitcast<vec3<f32>>(m.xyz), 0.0);
 }
