@@ -140,7 +140,10 @@ def test_small_study(tmp_path, camspec_path, capsys):
     assert {"seeds-n8", "seeds-n16", "rgb-seeds-n3", "unreal", "ifm"} <= {r["method"]
                                                                          for r in rows}
     assert all(np.isfinite(r["hsv"]) for r in rows)
-    for name in ("validation.csv", "error_per_scene.png", "panels.png"):
+    assert {(r["method"], r["kd"]) for r in rows if r["method"] in ("ifm", "unreal")} == {
+        ("ifm", "database"), ("ifm", "measured"), ("unreal", "database")}
+    for name in ("validation.csv", "error_per_scene.png", "error_per_scene_measured_kd.png",
+                 "panels.png"):
         assert (tmp_path / name).stat().st_size > 0
 
 

@@ -184,7 +184,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                             (("g", g),) if phase_lf == "hg" else (), forward_cone_deg))
                         numpy_seconds[name] = time.perf_counter() - t0
             methods[("unreal", "database")] = ("baseline", "unreal", None)
-            methods[("ifm", "database")] = ("baseline", "ifm", None)
+            for mode in kd_modes:       # the image-formation model's B_inf and J use Kd
+                methods[("ifm", mode)] = ("baseline", "ifm", None)
             for cname, sensor in sensors.items():
                 ref_rgb = bands_to_rgb(ref["band_radiance"], sensor)
                 mat = sensor.srgb_matrix()
@@ -295,39 +296,70 @@ def write_results(result, out_dir) -> dict:
         w.writerow(r)
     text = buf.getvalue()
     paths = {"csv": out / "validation.csv", "json": out / "validation.json",
-             "figure": out / "error_per_scene.png", "panels": out / "panels.png"}
+             "figure": out / "error_per_scene.png",
+             "figure_measured_kd": out / "error_per_scene_measured_kd.png",
+             "panels": out / "panels.png"}
     write_file_atomically(paths["csv"], lambda t: Path(t).write_text(text))
     doc = json.dumps({"params": result["params"], "scenes": result["scenes"],
                       "summary": {reg: summarise(rows, region=reg) for reg in REGIONS},
                       "rows": rows}, indent=1)
     write_file_atomically(paths["json"], lambda t: Path(t).write_text(doc))
-    plot_errors(rows, paths["figure"])
+    order = result["params"]["waters"]
+    plot_errors(rows, paths["figure"], kd="database", order=order)
+    if any(r["kd"] == "measured" for r in rows):
+        plot_errors(rows, paths["figure_measured_kd"], kd="measured", order=order)
+    else:
+        del paths["figure_measured_kd"]
     plot_panels(result["images"], paths["panels"])
     return {k: str(v) for k, v in paths.items()}
 
 
-def plot_errors(rows, path):
-    """The thesis's Figure 6.5: HSV error per scene, spectral vs RGB."""
+def plot_errors(rows, path, *, region="patch_means", kd="database", order=None):
+    """The thesis's Figure 6.5: error per scene (mean over cameras), spectral vs RGB.
+
+    One row per metric (HSV distance, relative RMSE on a log axis,
+    CIEDE2000), one group of bars per scene in the study's order, one bar
+    per method with Kd mode ``kd`` (Unreal's water does not use Kd: always shown).
+    ``region`` defaults to the patch means, the low-noise comparison.
+    """
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from ..output import write_file_atomically
-    s = [r for r in summarise(rows) if r["kd"] == "database"]
-    scenes = sorted({(r["water"], r["depth_m"]) for r in s}, key=lambda x: (x[0], x[1]))
-    methods = sorted({r["method"] for r in s})
-    fig, axes = plt.subplots(2, 1, figsize=(max(6, len(scenes) * 0.7), 6), sharex=True)
+    s = [r for r in summarise(rows, region=region)
+         if r["kd"] == kd or r["method"] == "unreal"]
+    order = list(order or [])
+    scenes = sorted({(r["water"], r["depth_m"]) for r in s},
+                    key=lambda x: (order.index(x[0]) if x[0] in order else len(order), x[0], x[1]))
+
+    def method_key(m):
+        # Spectral then RGB per model, baselines last.
+        base = m.replace("rgb-", "").rsplit("-n", 1)[0]
+        rank = 2 if m in ("unreal", "ifm") else (1 if m.startswith("rgb-") else 0)
+        return (m in ("unreal", "ifm"), base, rank, m)
+    methods = sorted({r["method"] for r in s}, key=method_key)
+    # The same colour for a method in every figure of the study.
+    colour_of = {m: i for i, m in enumerate(sorted({r["method"] for r in rows}, key=method_key))}
+    metrics_ = (("hsv", "HSV distance", False), ("rmse_rel", "relative RMSE", True),
+                ("ciede2000", "CIEDE2000", False))
+    fig, axes = plt.subplots(len(metrics_), 1, figsize=(max(7, len(scenes) * 0.8), 8),
+                             sharex=True)
     x = np.arange(len(scenes))
     width = 0.8 / max(1, len(methods))
+    cmap = plt.get_cmap("tab10")
     for i, mth in enumerate(methods):
-        for ax, key in zip(axes, ("hsv", "rmse_rel")):
+        for ax, (key, _, _) in zip(axes, metrics_):
             vals = [next((r[key] for r in s if (r["water"], r["depth_m"]) == sc
                           and r["method"] == mth), np.nan) for sc in scenes]
-            ax.bar(x + i * width, vals, width, label=mth)
-    axes[0].set_ylabel("HSV distance")
-    axes[1].set_ylabel("relative RMSE")
-    axes[1].set_xticks(x + 0.4 - width / 2, [f"{w} {d:g} m" for w, d in scenes], rotation=45)
-    axes[0].legend(fontsize=7, ncol=3)
-    axes[0].set_title("error per scene (mean over cameras, database Kd)")
+            ax.bar(x + i * width, vals, width, label=mth, color=cmap(colour_of[mth] % 10))
+    for ax, (_, label, log) in zip(axes, metrics_):
+        ax.set_ylabel(label)
+        if log:
+            ax.set_yscale("log")
+    axes[-1].set_xticks(x + 0.4 - width / 2, [f"{w} {d:g} m" for w, d in scenes], rotation=45)
+    axes[0].legend(fontsize=7, ncol=4)
+    axes[0].set_title(f"error per scene, {region.replace('_', ' ')} (mean over cameras, "
+                      f"{kd} Kd)")
     fig.tight_layout()
     try:
         write_file_atomically(path, lambda t: fig.savefig(t, format="png", dpi=100))
