@@ -102,6 +102,55 @@ class TestReference:
         with pytest.raises(AquaspecError, match="test render is black"):
             preflight(scene, cam, water, dark)
 
+    def test_irradiance_meter_in_a_pure_absorber(self):
+        """b = 0 under a uniform sky of radiance E0 / pi and a non-refracting surface.
+
+        Each direction at zenith cosine mu is attenuated over d / mu, so
+        ``E_d(d) = 2 E0 int_0^1 mu exp(-a d / mu) dmu = 2 E0 E_3(a d)`` (E_3:
+        exponential integral), a closed form the meters must reproduce.
+        """
+        mitsuba()
+        from scipy.special import expn
+        from aquaspec.validation.reference import measure_kd
+        a = 0.2
+        water = Water("absorber", "test", np.array([300.0, 800.0]), a=np.full(2, a),
+                      b=np.zeros(2), kd=np.full(2, a))
+        light = surface_light("overcast")
+        b = Bands(3)
+        res = measure_kd(water, light, depths_m=(1.0, 3.0, 6.0), spp=20000, bands=b)
+        want = 2 * expn(3, a * res["depths_m"])[:, None] * light.on_bands(b)[None, :]
+        np.testing.assert_allclose(res["e_d"], want, rtol=0.03)
+        # The log-linear fit of a non-exponential profile: between the local
+        # slopes of 2 E_3(a d) at 1 and 6 m.
+        slope = expn(2, a * np.array([1.0, 6.0])) / expn(3, a * np.array([1.0, 6.0])) * a
+        assert np.all((res["kd"] > slope[1] - 0.02) & (res["kd"] < slope[0] + 0.02))
+
+    def test_open_water_matches_the_light_field(self):
+        """Scattering water: the reference's open-water radiance against an independent
+        solution of the same transfer problem (discrete ordinates, aquaspec.lightfield).
+
+        Rays going down or level (the light field's weakest part is near the
+        surface), summed over three 100 nm groups of bands to beat the noise.
+        """
+        mitsuba()
+        from aquaspec.gpu.raster import raycast_gbuffer
+        from aquaspec.validation.reference import render_reference
+        from aquaspec.validation.scenes import board_scene, masks
+        from aquaspec.validation.study import _spectral
+        light = surface_light("overcast")
+        for wname, depth in (("IB", 5.0), ("II", 3.0)):
+            water = load_water(wname)
+            scene, cam = board_scene(depth, width=32, height=24)
+            gb = raycast_gbuffer(scene, cam)
+            sel = masks(gb)["background"] & (cam.ray_directions()[..., 1] <= 0)
+            ref = render_reference(scene, cam, water, light, spp=128)["band_radiance"][sel]
+            lf = _spectral(gb, water, light, 30, "lightfield", "isotropic")[sel]
+            r = ref.reshape(-1, 3, 10).sum(axis=2)
+            want = lf.reshape(-1, 3, 10).sum(axis=2).mean(axis=0)
+            got = r.mean(axis=0)
+            stderr = r.std(axis=0) / np.sqrt(len(r))
+            assert np.all(np.abs(got - want) < 4 * stderr + 0.05 * want), (wname, got, want)
+
     def test_kd_independent_of_depth_range(self):
         mitsuba()
         from aquaspec.validation.reference import measure_kd
