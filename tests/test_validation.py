@@ -196,6 +196,27 @@ def test_small_study(tmp_path, camspec_path, capsys):
         assert (tmp_path / name).stat().st_size > 0
 
 
+@pytest.mark.slow
+def test_reference_cache(tmp_path):
+    """A second identical study takes the reference and Kd from the cache; another spp does not."""
+    mitsuba()
+    from aquaspec.sensors import get_sensor
+    from aquaspec.validation.study import run_study
+    kw = dict(waters=("IB",), depths=(4.0,), sensors={"human": get_sensor("human")},
+              size=(24, 18), kd_spp=2000, band_counts=(8,), cache_dir=tmp_path)
+    logs = [[], [], []]
+    first = run_study(spp=8, progress=logs[0].append, **kw)
+    second = run_study(spp=8, progress=logs[1].append, **kw)
+    run_study(spp=16, progress=logs[2].append, **kw)
+    assert not any("cache" in m for m in logs[0])
+    assert any("reference from cache" in m for m in logs[1])
+    assert any("Kd measured in the reference (cache)" in m for m in logs[1])
+    assert not any("reference from cache" in m for m in logs[2])
+    a = first["images"][("IB", 4.0, "reference", "-")]
+    np.testing.assert_array_equal(a, second["images"][("IB", 4.0, "reference", "-")])
+    assert len(list(tmp_path.glob("*.npz"))) == 3     # Kd, render at 8 spp, render at 16 spp
+
+
 class TestBadInput:
     def test_unknown_camera(self, camspec_path, capsys, tmp_path):
         mitsuba()

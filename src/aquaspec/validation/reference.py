@@ -283,6 +283,20 @@ def bands_to_rgb(band_radiance, sensor, bands: Bands = REFERENCE_BANDS, outside=
     return np.asarray(band_radiance) @ sensor.band_weights(bands, outside=outside)
 
 
+def spectra_digest(*arrays) -> str:
+    """A short hash of the values of arrays (spectra, vertices), for cache keys.
+
+    Names alone are not enough: the data behind a water type's name (gap
+    filling, a new table) or a light can change between versions.
+    """
+    h = hashlib.sha256()
+    for arr in arrays:
+        x = np.ascontiguousarray(np.asarray(arr, dtype=np.float64))
+        h.update(str(x.shape).encode())
+        h.update(x.tobytes())
+    return h.hexdigest()[:16]
+
+
 def cache_key(**params) -> str:
     """A stable hash of every parameter of a reference render."""
     text = json.dumps(params, sort_keys=True, default=lambda o: getattr(o, "tolist", str)(o))

@@ -38,12 +38,14 @@ from ..water import load_water
 from . import metrics
 from .baselines import render_baseline
 from .reference import (MAX_DEPTH, REFERENCE_BANDS, bands_to_rgb, cache_key, measure_kd,
-                        preflight, render_reference, water_with_kd)
+                        preflight, render_reference, spectra_digest, water_with_kd)
 from .scenes import board_scene, masks
 
 DEFAULT_WATERS = ("I", "IA", "IB", "II", "3C")
 DEFAULT_DEPTHS = (3.0, 5.0, 9.0)
 SCENE_VERSION = "board-v1"
+#: Depths of the irradiance meters that measure Kd in the reference, m.
+KD_DEPTHS_M = (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
 REGIONS = ("image", "patches", "grey", "background", "background_down", "patch_means")
 
 
@@ -141,10 +143,15 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     k = 0
     for wname in waters:
         water = load_water(wname, source)
+        # Keys hold every parameter of the render, including the values of
+        # the spectra (not only their names).
+        data = spectra_digest(water.wavelength_nm, water.a, water.b, light.wavelength_nm,
+                              light.values)
         kd_key = cache_key(kind="kd", water=wname, source=source, phase=phase, g=g, spp=kd_spp,
-                           bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH)
+                           bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
+                           depths=list(KD_DEPTHS_M), data=data)
         kd_res, hit = _cached(cache_dir, kd_key, lambda: measure_kd(
-            water, light, spp=kd_spp, phase=phase, g=g))
+            water, light, depths_m=KD_DEPTHS_M, spp=kd_spp, phase=phase, g=g))
         say(f"[{wname}] Kd measured in the reference{' (cache)' if hit else ''}")
         waters_by_mode = {"database": water,
                           "measured": water_with_kd(water, np.asarray(kd_res["kd"]))}
@@ -162,9 +169,14 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                 say(f"  note: no pixel in region(s) {', '.join(empty)} at {size[0]}x{size[1]}; "
                     "use a larger --size to measure them")
                 region_masks = {r: mk for r, mk in region_masks.items() if r not in empty}
+            geometry = spectra_digest(*[x for mesh in scene.meshes
+                                        for x in (mesh.vertices, mesh.faces)],
+                                      *[x for mat in scene.materials
+                                        for x in (mat.wavelength_nm, mat.values)])
             key = cache_key(kind="render", scene=SCENE_VERSION, water=wname, source=source,
                             depth=depth, size=list(size), spp=spp, phase=phase, g=g,
-                            bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH)
+                            bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
+                            data=data, geometry=geometry)
             t0 = time.perf_counter()
             ref, hit = _cached(cache_dir, key, lambda: render_reference(
                 scene, cam, water, light, spp=spp, phase=phase, g=g))
