@@ -47,6 +47,36 @@ class TestMetrics:
         with pytest.raises(AquaspecError, match="selects no pixel"):
             metrics.rmse(a, b, np.zeros((2, 2), bool))
 
+    def test_ssim_of_flat_images_closed_form(self):
+        # No variance: only the luminance term, (2 mx my + C1) / (mx^2 + my^2 + C1),
+        # with C1 = (0.01 L)^2 and L = 1 for a reference without range.
+        x, y = np.full((16, 16, 3), 0.25), np.full((16, 16, 3), 0.5)
+        c1 = 1e-4
+        want = (2 * 0.25 * 0.5 + c1) / (0.25 ** 2 + 0.5 ** 2 + c1)
+        assert metrics.ssim(x, y) == pytest.approx(want, rel=1e-9)
+
+    def test_display_lab_and_ciede2000(self):
+        # The display transform reads scaled RGB as linear sRGB: white is
+        # L* = 100, a* = b* = 0 under D65; mid grey 0.18 is L* = 49.5.
+        lab = metrics.display_lab(np.array([[2.0, 2.0, 2.0], [0.36, 0.36, 0.36]]), scale=0.5)
+        # (a*, b* within 0.02: sRGB's white point and the D65 chromaticity
+        # used for Lab are rounded differently.)
+        np.testing.assert_allclose(lab[0], [100.0, 0.0, 0.0], atol=0.02)
+        assert lab[1, 0] == pytest.approx(116 * 0.18 ** (1 / 3) - 16, abs=1e-3)
+        np.testing.assert_allclose(lab[1, 1:], 0.0, atol=0.02)
+        # Two greys differ in lightness only: CIEDE2000 of a pure L* difference
+        # is dL / S_L with S_L = 1 + 0.015 (L - 50)^2 / sqrt(20 + (L - 50)^2).
+        ref = np.full((1, 2, 3), 0.18)
+        test = np.full((1, 2, 3), 0.18 * 1.2)
+        scale = 0.9 / 0.18        # the reference's 99th percentile maps to 0.9
+        l1 = metrics.display_lab(ref.reshape(-1, 3), scale=scale)[0, 0]
+        l2 = metrics.display_lab(test.reshape(-1, 3), scale=scale)[0, 0]
+        lm = (l1 + l2) / 2
+        s_l = 1 + 0.015 * (lm - 50) ** 2 / np.sqrt(20 + (lm - 50) ** 2)
+        # 0.9 * 1.2 > 1 is clipped to white by the display transform.
+        assert l2 == pytest.approx(100.0, abs=1e-3)
+        assert metrics.ciede2000(ref, test) == pytest.approx(abs(l2 - l1) / s_l, rel=1e-6)
+
     def test_ssim_drops_with_noise(self):
         rng = np.random.default_rng(1)
         img = np.tile(np.linspace(0, 1, 40), (30, 1))[..., None].repeat(3, -1)
