@@ -82,6 +82,11 @@ class TestPathIntegralAgainstQuadrature:
         got = model.ms_path_integral(0.2, 0.1, 6.0, 0.5, np.inf)
         np.testing.assert_allclose(got, model.ms_path_integral(0.2, 0.1, 6.0, 0.5, 12.0), rtol=0)
 
+    def test_grazing_up_ray_far_from_the_surface(self):
+        # d_o / v_y is finite but k S overflows: the result is exp(-Kd d_o) / k.
+        got = model.ms_path_integral(45.0, 0.0, 164.0, 4.0861542384272654e-305, np.inf)
+        np.testing.assert_allclose(got, 1 / 45.0, rtol=1e-15)
+
     def test_zero_length(self):
         assert model.ms_path_integral(0.2, 0.1, 6.0, -0.3, 0.0) == 0.0
         assert model.ms_path_integral(0.2, 0.1, 0.0, 0.3, np.inf) == 0.0

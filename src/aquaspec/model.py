@@ -43,14 +43,6 @@ N_WATER = 1.33
 _FOUR_PI = 4.0 * np.pi
 
 
-def _phi(x):
-    """(1 - exp(-x)) / x for x >= 0, with the limit 1 at x = 0."""
-    x = np.asarray(x, dtype=float)
-    small = np.abs(x) < 1e-8
-    safe = np.where(small, 1.0, x)
-    return np.where(small, 1.0 - 0.5 * x, -np.expm1(-safe) / safe)
-
-
 def _log_psi(y):
     """log((exp(y) - 1) / y) for y > 0, without overflow."""
     y = np.asarray(y, dtype=float)
@@ -103,10 +95,12 @@ def ms_path_integral(c, kd, depth_o, v_y, s):
     k = c - kd * v_y
     finite = np.isfinite(s)
     s_f = np.where(finite, s, 0.0)
-    x = k * s_f
+    with np.errstate(over="ignore"):  # k S may overflow for grazing up-rays: x = inf is fine
+        x = k * s_f
     base = -kd * depth_o
-    # x >= 0: exp(-Kd d_o) * S * (1 - e^-x)/x.
-    pos = np.exp(base) * s_f * _phi(np.maximum(x, 0.0))
+    # x >= 0: exp(-Kd d_o) * (1 - e^-x) / k, i.e. S (1 - e^-x) / x, which is S at k = 0.
+    k_safe = np.where(k > 0, k, 1.0)
+    pos = np.exp(base) * np.where(k > 0, -np.expm1(-np.maximum(x, 0.0)) / k_safe, s_f)
     # x < 0: exp(-Kd d_o) * S * (e^y - 1)/y with y = -x; the exponent
     # -Kd d_o + y = -Kd d(S) - c S stays <= 0 for rays that stay under water.
     y = np.maximum(-x, 0.0)
