@@ -22,7 +22,7 @@ fn f32_inf() -> f32 {
     return bitcast<f32>(0x7f800000u);
 }
 
-// model._phi: (1 - exp(-x)) / x for x >= 0, limit 1 at x = 0. Branchless
+// (1 - exp(-x)) / x for x >= 0 (model.ms_path_integral), limit 1 at x = 0. Branchless
 // (SIMD lanes on lavapipe run both sides of a divergent branch anyway):
 // below x = 0.1 the Taylor series of (1 - e^-x) / x (truncation x^5 / 720
 // relative, < 2e-8), above it the closed form, whose f32 rounding error is then

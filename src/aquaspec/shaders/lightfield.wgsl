@@ -52,7 +52,7 @@ fn lookup_irradiance(band: u32, t: Texel) -> f32 {
          + t.fx * ((1.0 - t.fy) * irradiance[base + n] + t.fy * irradiance[base + n + 1u]);
 }
 
-// model._phi: (1 - exp(-x)) / x, x >= 0 (series below 0.1, as common.wgsl).
+// (1 - exp(-x)) / x, x >= 0, as in model.ms_path_integral (series below 0.1, as common.wgsl).
 fn phi(x: f32) -> f32 {
     if (x < 0.1) {
         return 1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0))));
