@@ -641,27 +641,17 @@ def lightfield_l_ms(tables, *, a, b, e0, depth_o, v_y, s, form: str = "two_point
     """
     if form not in TABLE_FORMS:
         raise AquaspecError(f"unknown table form {form!r}; known: {', '.join(TABLE_FORMS)}")
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    c = a + b
-    k1 = np.asarray(tables["k_inf"], dtype=float)
-    d_max = float(tables["max_depth_m"][0])
-    bed = float(tables["seabed_depth_m"][0])
-    d_o = np.asarray(depth_o, dtype=float)
-    v = np.asarray(v_y, dtype=float)
-    s_eff = _cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
-    e0 = np.asarray(e0, dtype=float)
-    f_o = np.exp(bilinear(tables["ms_log_prefactor"], d_o[..., 0] if d_o.ndim else d_o,
-                          v[..., 0] if v.ndim else v, d_max))
+    c = np.asarray(a, dtype=float) + np.asarray(b, dtype=float)
     if form == "prefactor":
-        return f_o * e0 * _seeds_shape(b, c, k1, d_o, v, s_eff)
-    r_o = f_o * e0 * _seeds_shape(b, c, k1, d_o, v, _cut_at_seabed(np.inf, d_o, v, bed))
-    fin = np.isfinite(s_eff)
-    s_f = np.where(fin, s_eff, 0.0)
-    d_s = np.clip(d_o - s_f * v, 0.0, bed)
-    f_s = np.exp(bilinear(tables["ms_log_prefactor"], d_s[..., 0] if d_s.ndim else d_s,
-                          np.broadcast_to(v, d_s.shape)[..., 0] if d_s.ndim else v, d_max))
-    r_s = f_s * e0 * _seeds_shape(b, c, k1, d_s, v, _cut_at_seabed(np.inf, d_s, v, bed))
+        d_o = np.asarray(depth_o, dtype=float)
+        v = np.asarray(v_y, dtype=float)
+        bed = float(tables["seabed_depth_m"][0])
+        s_eff = _cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
+        f_o = np.exp(bilinear(tables["ms_log_prefactor"], d_o[..., 0] if d_o.ndim else d_o,
+                              v[..., 0] if v.ndim else v, float(tables["max_depth_m"][0])))
+        return f_o * np.asarray(e0, dtype=float) * _seeds_shape(
+            np.asarray(b, dtype=float), c, np.asarray(tables["k_inf"], dtype=float), d_o, v, s_eff)
+    r_o, r_s, fin, s_f = _two_point(tables, a=a, b=b, e0=e0, depth_o=depth_o, v_y=v_y, s=s)
     return r_o - np.where(fin, np.exp(-c * s_f), 0.0) * r_s
 
 
