@@ -201,6 +201,32 @@ class TestDeferredMatchesReference:
         assert np.all(ref > 0)
         assert_matches(gpu, ref, comparable(gb))
 
+    @pytest.mark.parametrize("n", [3, 8])
+    @pytest.mark.parametrize("scene", ["seabed", "box"])
+    def test_without_per_pixel_materials(self, device, scene, n):
+        """A G-buffer with no per-pixel material runs the pipeline that never
+        reads the sigmoid texture; it must shade the same."""
+        gb = SCENES[scene]()
+        gb.material[gb.material == PER_PIXEL] = 0
+        med = medium("IB", n)
+        p = run_gpu(device, gb, med, n)
+        assert not p.per_pixel
+        assert_matches(p.read_rgb(), shade_gbuffer(gb, **med)["camera_rgb"], comparable(gb))
+
+    def test_per_pixel_material_in_single_material_gbuffer_is_reported(self, device):
+        """PER_PIXEL in a G-buffer declared without per-pixel materials is an error, not rho = 0."""
+        from aquaspec.gpu.buffers import upload_texture
+        from aquaspec.gpu.deferred import pack_gbuffer
+        gb = scene_box()
+        p = deferred_pass(device, 3)
+        p.set_medium(**medium("IB", 3))
+        p.use_gbuffer_textures(gb.camera, per_pixel=False)
+        upload_texture(device, p.gbuffer_textures["surface"], pack_gbuffer(gb)["surface"])
+        p.run()
+        with pytest.raises(AquaspecError, match="material index"):
+            p.read_rgb()
+        p.set_gbuffer(gb)   # leave valid contents behind
+
     def test_scenes_cover_every_branch(self):
         """The scenes exercise hits, open water, the window, the black surface
         outside it and a hit beyond the surface; otherwise the match above
@@ -330,10 +356,10 @@ class TestGpuResidentInputs:
         from aquaspec.gpu.deferred import pack_gbuffer
         gb = scene_box()
         packed = pack_gbuffer(gb)
-        packed["material"][gb.hit & (gb.material == 0), 3] = 7
+        packed["surface"][gb.hit & (gb.material == 0), 3] = 7
         p = deferred_pass(device, 3)
         p.set_medium(**medium("IB", 3))
-        upload_texture(device, p.gbuffer_textures["material"], packed["material"])
+        upload_texture(device, p.gbuffer_textures["surface"], packed["surface"])
         p.set_camera(gb.camera)
         p.run()
         with pytest.raises(AquaspecError, match="material index"):
@@ -345,14 +371,14 @@ class TestGpuResidentInputs:
         gb = scene_box()
         p = deferred_pass(device, 3)
         packed = pack_gbuffer(gb)
-        small = gbuffer_textures(device, {"geometry": packed["geometry"][:10, :10]})
-        with pytest.raises(AquaspecError, match="geometry texture is 10x10"):
+        small = gbuffer_textures(device, {"surface": packed["surface"][:10, :10]})
+        with pytest.raises(AquaspecError, match="surface texture is 10x10"):
             p.use_gbuffer_textures(gb.camera, **small)
-        swapped = gbuffer_textures(device, {"geometry": packed["geometry"]})
+        swapped = gbuffer_textures(device, {"sigmoid": packed["sigmoid"]})
         with pytest.raises(AquaspecError, match="rgba32uint"):
-            p.use_gbuffer_textures(gb.camera, material=swapped["geometry"])
+            p.use_gbuffer_textures(gb.camera, surface=swapped["sigmoid"])
         with pytest.raises(AquaspecError, match="unknown G-buffer texture"):
-            p.use_gbuffer_textures(gb.camera, depth=swapped["geometry"])
+            p.use_gbuffer_textures(gb.camera, depth=swapped["sigmoid"])
 
 
 class TestDeferredInputErrors:
@@ -452,3 +478,94 @@ class TestBufferHelpers:
         np.testing.assert_array_equal(read_texture(device, tex, np.float32, 4), data)
         with pytest.raises(AquaspecError, match="5x3"):
             upload_texture(device, tex, data[:2])
+
+
+class TestSurfacePacking:
+    def test_octahedral_round_trip(self):
+        """Host packing of the surface texel: n_y exact, the rest within 16-bit quantisation."""
+        from aquaspec.gpu.deferred import (oct_decode, oct_encode, pack_snorm16x2,
+                                           unpack_snorm16x2, unpack_surface)
+        rng = np.random.default_rng(3)
+        n = rng.normal(size=(4000, 3))
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        n[:6] = [[0, 1, 0], [0, -1, 0], [1, 0, 0], [0, 0, -1], [-0.6, 0, 0.8], [0, 0.6, -0.8]]
+        np.testing.assert_allclose(oct_decode(oct_encode(n)), n, atol=1e-12)
+        words = pack_snorm16x2(oct_encode(n))
+        assert np.abs(unpack_snorm16x2(words) - oct_encode(n)).max() <= 0.5 / 32767 + 1e-12
+        surface = np.zeros((len(n), 4), np.uint32)
+        surface[:, 0] = np.float32(2.5).view(np.uint32)
+        surface[:, 1] = n[:, 1].astype(np.float32).view(np.uint32)
+        surface[:, 2] = words
+        surface[:, 3] = 7
+        distance, normal, material = unpack_surface(surface)
+        np.testing.assert_array_equal(normal[:, 1], n[:, 1].astype(np.float32))
+        np.testing.assert_allclose(np.linalg.norm(normal, axis=1), 1.0, atol=1e-12)
+        np.testing.assert_allclose(normal, n, atol=1e-4)
+        assert np.all(distance == 2.5) and np.all(material == 7)
+
+
+class TestFusedDisplay:
+    """encode(display=True): shading and the display transform in one pass."""
+
+    @pytest.mark.parametrize("tonemap", ["filmic", "none"])
+    @pytest.mark.parametrize("scene", ["seabed", "up"])
+    def test_equals_display_pass_of_linear_output(self, device, scene, tonemap):
+        from aquaspec import display
+        from aquaspec.gpu.display_pass import DisplayPass
+        gb = SCENES[scene]()
+        n = 8
+        med = medium("IB", n)
+        p = run_gpu(device, gb, med, n)
+        linear = p.read_rgb()
+        settings = display.display_settings(linear, white_balance="grey-world")
+        kw = dict(exposure_ev=settings["exposure_ev"],
+                  white_balance_gains=settings["white_balance_gains"], tonemap=tonemap)
+        two_pass = DisplayPass(W, H, device=device)
+        two_pass.use_input(p.rgb_buffer)
+        two_pass.set_settings(**kw)
+        two_pass.run()
+        expected = two_pass.read()
+        p.set_display(**kw)
+        p.run(display=True)
+        fused = p.read_display()
+        assert fused.shape == (H, W, 3) and fused.dtype == np.uint8
+        # Same f32 arithmetic, but the compiler may fuse operations
+        # differently in the two shaders: codes may differ by one at ties.
+        diff = np.abs(fused.astype(int) - expected.astype(int))
+        assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
+        assert len(np.unique(fused.reshape(-1, 3), axis=0)) > 50   # a real picture
+        # And against the float64 NumPy chain, shading included.
+        ref, _ = display.to_display(shade_gbuffer(gb, **med)["camera_rgb"],
+                                    exposure=settings["exposure_ev"],
+                                    white_balance="grey-world", tonemap=tonemap)
+        m = comparable(gb)
+        assert np.abs(fused.astype(int) - ref.astype(int))[m].max() <= 1
+        with pytest.raises(AquaspecError, match="display image"):
+            p.read_rgb()
+
+    def test_non_finite_pixels_are_refused(self, device):
+        """Values that overflow float32 after exposure: the fused pass says where."""
+        gb = scene_seabed()
+        n = 3
+        med = medium("I", n)
+        med["e0"] = med["e0"] * 1e36
+        p = deferred_pass(device, n)
+        p.set_gbuffer(gb)
+        p.set_medium(**med)
+        p.set_display(exposure_ev=20.0)
+        p.run(display=True)
+        with pytest.raises(AquaspecError, match=r"non-finite .* first is at \(row"):
+            p.read_display()
+
+    def test_needs_settings_and_a_display_run(self, device):
+        from aquaspec.gpu.deferred import DeferredPass
+        p = DeferredPass(W, H, 3, device=device)
+        p.set_gbuffer(scene_box())
+        p.set_medium(**medium("IB", 3))
+        with pytest.raises(AquaspecError, match="set_display"):
+            p.run(display=True)
+        p.run()
+        with pytest.raises(AquaspecError, match="display=True"):
+            p.read_display()
+        with pytest.raises(AquaspecError, match="unknown tone map 'aces'"):
+            p.set_display(exposure_ev=0.0, tonemap="aces")

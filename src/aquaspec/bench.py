@@ -1,12 +1,19 @@
 """The cost study: frame time per pass against the number of bands.
 
 For each image size and band count the built-in scene is rendered entirely
-on the GPU (geometry pass + repacking into the G-buffer, deferred spectral
-pass, display pass) and each pass is timed with GPU timestamp queries (the
-wall clock around submit-and-wait where the driver has none). Reported:
+on the GPU and each pass is timed with GPU timestamp queries (the wall clock
+around submit-and-wait where the driver has none). A frame is the geometry
+pass (rasterising into the G-buffer) and the spectral shading pass with the
+display transform fused in (``DeferredPass.encode(display=True)``: linear
+camera RGB never goes through memory); the display settings (exposure,
+white balance) are resolved once beforehand, as an interactive view carries
+them from frame to frame. The separate shading and display passes, which
+``aquaspec render`` uses because it also writes the linear image, are timed
+too. Reported:
 
 - the median time of each pass over ``frames`` frames after ``warmup``;
-- the whole frame (sum of its passes) and frames per second;
+- the whole frame (geometry + fused shading and display) and frames per
+  second, and the same frame submitted at once (wall clock);
 - the linear fit ``t(n) = t0 + n t1`` of the frame time (thesis Fig. 6.7);
 - three ratios measured in the same run: the NumPy reference shading and
   display of the same G-buffer against our frame; n = 8 against n = 3 (the
@@ -32,7 +39,7 @@ DEFAULT_BANDS = (3, 8, 16, 32, 64)
 
 
 class _Geometry:
-    """The geometry pass plus repacking, as one timed pass."""
+    """The geometry pass (plus repacking when the shading pass needs it), as one timed pass."""
 
     def __init__(self, renderer, scene, camera):
         self.r, self.scene, self.camera = renderer, scene, camera
@@ -42,15 +49,24 @@ class _Geometry:
                                 timestamp_writes=timestamp_writes)
 
 
-def _frame_wall_ms(renderer, shading, geometry, display, frames, warmup):
+class _Fused:
+    """A shading pass with the display transform fused in (``encode(display=True)``)."""
+
+    def __init__(self, shading):
+        self.shading = shading
+
+    def encode(self, encoder, timestamp_writes=None):
+        self.shading.encode(encoder, timestamp_writes, display=True)
+
+
+def _frame_wall_ms(renderer, passes, frames, warmup):
     """Median wall-clock time of a whole frame submitted at once (submit + wait)."""
     dev = renderer.deferred.device
     out = []
     for f in range(warmup + frames):
         enc = dev.create_command_encoder()
-        geometry.encode(enc)
-        shading.encode(enc)
-        display.encode(enc)
+        for p in passes:
+            p.encode(enc)
         t0 = time.perf_counter()
         dev.queue.submit([enc.finish()])
         dev.queue.read_buffer(renderer.deferred._status)  # waits for the frame
@@ -99,21 +115,36 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
             shading = r.lightfield if ms_model == "lightfield" else r.deferred
             disp = DisplayPass(width, height, device=r.deferred.device)
             disp.use_input(shading.rgb_buffer)
-            disp.set_from_image(rgb)
-            copy = CopyPass(r.deferred)
-            times = time_passes({"geometry": geometry, "deferred": shading,
-                                 "display": disp, "copy": copy}, method=timing,
-                                frames=frames, warmup=warmup, device=r.deferred.device)
-            frame = times.ms["geometry"] + times.ms["deferred"] + times.ms["display"]
-            wall = _frame_wall_ms(r, shading, geometry, disp, frames, warmup)
+            settings = disp.set_from_image(rgb)
+            passes = {"geometry": geometry, "deferred": shading, "display": disp,
+                      "copy": CopyPass(r.deferred)}
+            # The light-field pass has no fused display yet: its frame is
+            # geometry + shading + display.
+            fusable = hasattr(shading, "set_display")
+            if fusable:
+                shading.set_display(exposure_ev=settings["exposure_ev"],
+                                    white_balance_gains=settings["white_balance_gains"],
+                                    matrix=settings["matrix"], tonemap=settings["tonemap"])
+                passes["shade_display"] = _Fused(shading)
+            times = time_passes(passes, method=timing, frames=frames, warmup=warmup,
+                                device=r.deferred.device)
+            unfused = times.ms["geometry"] + times.ms["deferred"] + times.ms["display"]
+            if fusable:
+                frame = times.ms["geometry"] + times.ms["shade_display"]
+                wall = _frame_wall_ms(r, [geometry, passes["shade_display"]], frames, warmup)
+            else:
+                times.ms["shade_display"] = times.ms["deferred"] + times.ms["display"]
+                frame = unfused
+                wall = _frame_wall_ms(r, [geometry, shading, disp], frames, warmup)
             row = {"width": width, "height": height, "bands": n, **{f"{k}_ms": v for k, v in
                    times.ms.items()}, "frame_ms": frame, "fps": 1e3 / frame,
-                   "frame_wall_ms": wall, "timing": times.method}
+                   "frame_wall_ms": wall, "frame_unfused_ms": unfused, "timing": times.method}
             rows.append(row)
             say(f"{width}x{height} n={n:3d}: frame {frame:7.2f} ms ({1e3 / frame:6.1f} fps) "
-                f"geometry {times.ms['geometry']:.2f} deferred {times.ms['deferred']:.2f} "
-                f"display {times.ms['display']:.2f} copy {times.ms['copy']:.2f} "
-                f"| submit+wait {wall:.2f} ms")
+                f"= geometry {times.ms['geometry']:.2f} + shade+display "
+                f"{times.ms['shade_display']:.2f} | separate passes: deferred "
+                f"{times.ms['deferred']:.2f} display {times.ms['display']:.2f} copy "
+                f"{times.ms['copy']:.2f} | frame submitted at once {wall:.2f} ms")
             if numpy_reference and n == 8:
                 gb = r.raster.render(scene, camera)
                 t0 = time.perf_counter()
@@ -157,12 +188,16 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
 def format_table(result: dict) -> str:
     lines = [f"adapter: {result['adapter'].get('device')} ({result['adapter'].get('adapter_type')}),"
              f" median of {result['frames']} frames after {result['warmup']} warm-up",
-             f"{'size':>10s} {'n':>4s} {'geometry':>9s} {'deferred':>9s} {'display':>8s} "
-             f"{'copy':>7s} {'frame':>8s} {'fps':>7s} {'wall':>8s}  (ms)"]
+             "frame = geometry + shade+display (the display transform fused into the shading "
+             "pass); deferred and display: the same work as two passes; wall: the frame "
+             "submitted at once",
+             f"{'size':>10s} {'n':>4s} {'geometry':>9s} {'shade+disp':>10s} {'frame':>8s} "
+             f"{'fps':>6s} {'wall':>7s} | {'deferred':>8s} {'display':>8s} {'copy':>6s}  (ms)"]
     for x in result["rows"]:
         lines.append(f"{x['width']:>5d}x{x['height']:<4d} {x['bands']:>4d} {x['geometry_ms']:9.2f} "
-                     f"{x['deferred_ms']:9.2f} {x['display_ms']:8.2f} {x['copy_ms']:7.2f} "
-                     f"{x['frame_ms']:8.2f} {x['fps']:7.1f} {x['frame_wall_ms']:8.2f}")
+                     f"{x['shade_display_ms']:10.2f} {x['frame_ms']:8.2f} {x['fps']:6.1f} "
+                     f"{x['frame_wall_ms']:7.2f} | {x['deferred_ms']:8.2f} "
+                     f"{x['display_ms']:8.2f} {x['copy_ms']:6.2f}")
     for f in result["fits"]:
         lines.append(f"fit {f['width']}x{f['height']}: t(n) = {f['t0_ms']:.2f} ms + n * "
                      f"{f['t1_ms_per_band']:.3f} ms (deferred alone: {f['deferred_t0_ms']:.2f} + "

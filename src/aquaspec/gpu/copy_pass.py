@@ -5,7 +5,9 @@ It binds the same camera uniform, G-buffer textures and output buffer as a
 ``aquaspec bench`` can report how much of the deferred pass's time is memory
 traffic (the floor) and how much is the per-band arithmetic. WGSL:
 ``shaders/copy.wgsl``; each output pixel is
-``(distance, normal.y, sigmoid.z, f32(material))`` of its input.
+``(distance, normal.y, sigmoid.z, f32(material))`` of its input (the
+sigmoid texture is read only when the deferred pass's ``per_pixel`` is
+true, as the deferred pass does; sigmoid.z is 0 otherwise).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .buffers import read_buffer, record_dispatch, submit_pass
-from .deferred import (B_CAMERA, B_GEOMETRY, B_MATERIAL, B_RGB, DeferredPass,
+from .deferred import (B_CAMERA, B_RGB, B_SIGMOID, B_SURFACE, DeferredPass,
                        bind_group_entries, bind_group_layout, shader_source)
 
 
@@ -31,7 +33,7 @@ class CopyPass:
         self.deferred = deferred
         device = deferred.device
         self._layout = bind_group_layout(device, {
-            B_CAMERA: "uniform", B_GEOMETRY: "float", B_MATERIAL: "uint", B_RGB: "write"})
+            B_CAMERA: "uniform", B_SURFACE: "uint", B_SIGMOID: "float", B_RGB: "write"})
         module = device.create_shader_module(label="copy.wgsl", code=shader_source("copy.wgsl"))
         self._pipeline = device.create_compute_pipeline(
             label="copy",
@@ -44,8 +46,8 @@ class CopyPass:
         d = self.deferred
         if self._bind_group is None or self._version != d.bindings_version:
             gb = d.gbuffer_textures
-            resources = {B_CAMERA: d._uniform, B_GEOMETRY: gb["geometry"],
-                         B_MATERIAL: gb["material"], B_RGB: d.rgb_buffer}
+            resources = {B_CAMERA: d._uniform, B_SURFACE: gb["surface"],
+                         B_SIGMOID: gb["sigmoid"], B_RGB: d.rgb_buffer}
             self._bind_group = d.device.create_bind_group(layout=self._layout,
                                                           entries=bind_group_entries(resources))
             self._version = d.bindings_version

@@ -11,8 +11,8 @@ Conventions: metres, y up, water surface y = 0, depth ``-p.y``; a, b, Kd in
 
 G-buffer layout (GPU-resident)
 ------------------------------
-The G-buffer lives in two textures, texel ``(column, row)`` per pixel (row 0
-at the top, as in :meth:`aquaspec.camera.Camera.ray_directions`), the render
+The G-buffer lives in textures, texel ``(column, row)`` per pixel (row 0 at
+the top, as in :meth:`aquaspec.camera.Camera.ray_directions`), the render
 targets of the geometry pass (:class:`aquaspec.gpu.raster.RasterPass`
 renders straight into :attr:`DeferredPass.gbuffer_textures`; usage
 ``RENDER_ATTACHMENT | TEXTURE_BINDING | COPY_DST | COPY_SRC``), or textures
@@ -21,20 +21,28 @@ made elsewhere in the same formats (:meth:`DeferredPass.use_gbuffer_textures`):
 ===========  =====================  ==============================================
 binding      format                 contents
 ===========  =====================  ==============================================
-1 geometry   ``rgba32float``        ``xyz``: unit world normal (0 for open water);
-                                    ``w``: distance S in m from the camera centre
-                                    along the pixel's ray, :data:`OPEN_WATER_DISTANCE`
-                                    (any negative value) where it sees open water
-2 material   ``rgba32uint``         ``xyz``: Jakob-Hanika coefficients (c0, c1, c2)
-                                    in t = (lambda - 550) / 100 as f32 bits (0 for
-                                    single-material pixels); ``w``: material
-                                    index, or ``0xffffffff`` (gbuffer.PER_PIXEL)
-                                    for the pixel's own sigmoid coefficients
+1 surface    ``rgba32uint``         ``x``: distance S in m from the camera centre
+                                    along the pixel's ray as f32 bits,
+                                    :data:`OPEN_WATER_DISTANCE` (any negative
+                                    value) where it sees open water; ``y``: the
+                                    unit world normal's up component n_y as f32
+                                    bits (all the shading needs); ``z``: the whole
+                                    normal, octahedral (:func:`oct_decode`), two
+                                    16-bit snorm; ``w``: material index, or
+                                    ``0xffffffff`` (gbuffer.PER_PIXEL) for the
+                                    pixel's own sigmoid coefficients
+2 sigmoid    ``rgba32float``        ``xyz``: Jakob-Hanika coefficients (c0, c1, c2)
+                                    in t = (lambda - 550) / 100 (0 for
+                                    single-material pixels); read only when
+                                    :attr:`DeferredPass.per_pixel` is true
 ===========  =====================  ==============================================
 
-Reading the render targets directly saved the compute pass that used to
-repack them into storage buffers (6-7 ms of a 1280x720 frame on lavapipe).
-Storing the material as an integer (rather than a float bit pattern) keeps
+One 16-byte target for scenes without per-pixel materials (the built-in
+scene, and any scene of plain-coloured meshes) made the geometry pass about
+40 % faster on lavapipe than the 32 bytes of two targets. Reading the render
+targets directly saved the compute pass that used to repack them into
+storage buffers (6-7 ms of a 1280x720 frame on lavapipe). Storing the
+material as an integer (rather than a float bit pattern) keeps
 ``0xffffffff`` from ever passing through a float register, where a NaN
 payload is not guaranteed to survive.
 
@@ -42,8 +50,8 @@ Storage-buffer copy (for :class:`~aquaspec.gpu.lightfield_pass.LightfieldPass`)
 -------------------------------------------------------------------------------
 :attr:`DeferredPass.gbuffer_buffers` holds the same G-buffer in three storage
 buffers, one element per pixel ``p = row * width + column``: ``distance``
-``array<f32>``; ``surface`` ``array<vec4<u32>>`` (normal f32 bits, material);
-``sigmoid`` ``array<vec4<f32>>`` (c0, c1, c2, unused); see
+``array<f32>``; ``surface`` ``array<vec4<u32>>`` (the surface texel);
+``sigmoid`` ``array<vec4<f32>>`` (c0, c1, c2, unused; 0 unless per-pixel); see
 :func:`pack_gbuffer_storage`. :meth:`DeferredPass.set_gbuffer` fills them
 always; the geometry pass fills them (with a compute repack) only when
 :attr:`DeferredPass.storage_gbuffer` is true.
@@ -69,7 +77,7 @@ from ..errors import AquaspecError
 from ..gbuffer import PER_PIXEL, GBuffer
 from ..shading import camera_depth, check_medium
 from .buffers import (create_storage_buffer, create_texture, create_uniform_buffer,
-                      read_buffer, record_dispatch, submit_pass, upload_buffer, upload_texture)
+                      read_buffer, record_dispatch, upload_buffer, upload_texture)
 from .layout import UniformLayout
 from .shaders import load_wgsl
 
@@ -105,6 +113,7 @@ CAMERA_LAYOUT = UniformLayout("DeferredCamera", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_bands", "u32"), ("ambient_model", "u32"),
     ("n_materials", "u32"), ("write_radiance", "u32"),
     ("snell_cos", "f32"), ("window_factor", "f32"),
+    ("per_pixel", "u32"),
 ])
 
 #: Compute workgroup size (x, y) of deferred.wgsl, in invocations.
@@ -113,26 +122,37 @@ WORKGROUP = (8, 8)
 PIXELS_PER_INVOCATION = 4
 
 # Binding numbers (also in the WGSL files).
-B_CAMERA, B_GEOMETRY, B_MATERIAL = 0, 1, 2
+B_CAMERA, B_SURFACE, B_SIGMOID = 0, 1, 2
 B_BANDS, B_MATERIALS, B_RGB, B_RADIANCE, B_STATUS = 4, 5, 6, 7, 8
+B_DISPLAY, B_RGBA = 9, 10
 #: G-buffer textures: name -> (binding, texture format).
-GBUFFER_TEXTURES = {"geometry": (B_GEOMETRY, "rgba32float"),
-                    "material": (B_MATERIAL, "rgba32uint")}
+GBUFFER_TEXTURES = {"surface": (B_SURFACE, "rgba32uint"),
+                    "sigmoid": (B_SIGMOID, "rgba32float")}
 #: Bytes per element of the storage-buffer copy (:attr:`DeferredPass.gbuffer_buffers`).
 GBUFFER_BUFFER_BYTES = {"distance": 4, "surface": 16, "sigmoid": 16}
 
 
-def shader_source(name: str, n_bands: int = 1, write_radiance: bool = False) -> str:
+def shader_source(name: str, n_bands: int = 1, write_radiance: bool = False,
+                  per_pixel: bool = True, tonemap: str | None = None) -> str:
     """WGSL of ``deferred.wgsl`` or ``copy.wgsl`` with the camera struct filled in.
 
-    The band count and the debug-radiance switch are compile-time constants
-    of ``deferred.wgsl`` (a constant trip count and uniform-array band table
-    made the band loop about 4x faster on lavapipe).
+    The band count, the debug-radiance switch and whether per-pixel
+    (sigmoid) materials occur are compile-time constants of
+    ``deferred.wgsl`` (a constant trip count and uniform-array band table
+    made the band loop about 4x faster on lavapipe; SIMD lanes would
+    evaluate the sigmoid for every pixel otherwise). ``tonemap`` (a key of
+    :data:`aquaspec.gpu.display_pass.TONEMAP_IDS`) compiles the fused
+    display transform in; None writes linear RGB.
     """
+    from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS
     return load_wgsl(name, camera_struct=CAMERA_LAYOUT.wgsl(),
+                     display_struct=DISPLAY_LAYOUT.wgsl(), display_struct_name=DISPLAY_LAYOUT.name,
+                     display="false" if tonemap is None else "true",
+                     tonemap_id=TONEMAP_IDS[tonemap or "none"],
                      camera_struct_name=CAMERA_LAYOUT.name, n_bands=int(n_bands),
                      band_table_len=len(BAND_FIELDS) // 4 * int(n_bands),
                      write_radiance="true" if write_radiance else "false",
+                     per_pixel="true" if per_pixel else "false",
                      workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
 
 
@@ -156,20 +176,79 @@ def band_table(a, b, kd, e0, response_weights, sigmoid_centers_t, depth_o) -> np
                      be0, base, e0 * model.N_WATER ** 2 / np.pi, np.zeros_like(a)], axis=1)
 
 
+def oct_encode(normal) -> np.ndarray:
+    """Octahedral map of unit vectors (..., 3) onto [-1, 1]^2 (..., 2), as gbuffer.wgsl.
+
+    The (x, z) plane, the lower hemisphere (y < 0) folded over the
+    diagonals; zero vectors map to (0, 0).
+    """
+    n = np.asarray(normal, dtype=np.float64)
+    l1 = np.abs(n).sum(axis=-1, keepdims=True)
+    p = n[..., [0, 2]] / np.where(l1 > 0, l1, 1.0)
+    sign = np.where(p >= 0, 1.0, -1.0)
+    folded = (1.0 - np.abs(p[..., ::-1])) * sign
+    return np.where(n[..., 1:2] < 0, folded, p)
+
+
+def oct_decode(p) -> np.ndarray:
+    """Unit vectors (..., 3) from octahedral coordinates (..., 2): inverse of :func:`oct_encode`."""
+    p = np.asarray(p, dtype=np.float64)
+    y = 1.0 - np.abs(p).sum(axis=-1)
+    sign = np.where(p >= 0, 1.0, -1.0)
+    xz = np.where((y < 0)[..., None], (1.0 - np.abs(p[..., ::-1])) * sign, p)
+    n = np.stack([xz[..., 0], y, xz[..., 1]], axis=-1)
+    norm = np.linalg.norm(n, axis=-1, keepdims=True)
+    return n / np.where(norm > 0, norm, 1.0)
+
+
+def pack_snorm16x2(p) -> np.ndarray:
+    """WGSL ``pack2x16snorm`` of (..., 2) values in [-1, 1]: u32 words."""
+    q = np.rint(np.clip(np.asarray(p, np.float64), -1.0, 1.0) * 32767.0).astype(np.int32)
+    return ((q[..., 0] & 0xFFFF) | ((q[..., 1] & 0xFFFF) << 16)).astype(np.uint32)
+
+
+def unpack_snorm16x2(words) -> np.ndarray:
+    """WGSL ``unpack2x16snorm``: u32 words -> (..., 2) float64 in [-1, 1]."""
+    w = np.asarray(words, dtype=np.uint32)
+    q = np.stack([w & 0xFFFF, w >> 16], axis=-1).astype(np.int32)
+    q = np.where(q >= 0x8000, q - 0x10000, q)
+    return np.maximum(q / 32767.0, -1.0)
+
+
+def unpack_surface(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distance (f32, negative for open water), unit normal (f64) and material of surface texels.
+
+    The normal keeps the exact n_y of word y; its horizontal part comes from
+    the octahedral word z, rescaled so that the normal has unit length.
+    """
+    surface = np.asarray(surface, dtype=np.uint32)
+    distance = surface[..., 0].view(np.float32)
+    n_y = np.clip(surface[..., 1].view(np.float32).astype(np.float64), -1.0, 1.0)
+    normal = oct_decode(unpack_snorm16x2(surface[..., 2]))
+    h = np.hypot(normal[..., 0], normal[..., 2])
+    scale = np.sqrt(np.maximum(1.0 - n_y ** 2, 0.0)) / np.where(h > 0, h, 1.0)
+    normal[..., 0] *= scale
+    normal[..., 2] *= scale
+    normal[..., 1] = n_y
+    return distance, normal, surface[..., 3].copy()
+
+
 def pack_gbuffer(gbuffer: GBuffer) -> dict:
     """Host arrays in the GPU G-buffer texture layout (see the module docstring).
 
-    Returns ``{"geometry": (H, W, 4) f32, "material": (H, W, 4) u32}``.
+    Returns ``{"surface": (H, W, 4) u32, "sigmoid": (H, W, 4) f32}``.
     """
     h, w = gbuffer.distance.shape
-    geometry = np.empty((h, w, 4), dtype=np.float32)
-    geometry[..., :3] = gbuffer.normal
-    geometry[..., 3] = np.where(np.isfinite(gbuffer.distance), gbuffer.distance,
-                                np.float32(OPEN_WATER_DISTANCE))
-    material = np.empty((h, w, 4), dtype=np.uint32)
-    material[..., :3] = np.ascontiguousarray(gbuffer.sigmoid, dtype=np.float32).view(np.uint32)
-    material[..., 3] = gbuffer.material
-    return {"geometry": geometry, "material": material}
+    surface = np.empty((h, w, 4), dtype=np.uint32)
+    distance = np.where(np.isfinite(gbuffer.distance), gbuffer.distance,
+                        OPEN_WATER_DISTANCE).astype(np.float32)
+    surface[..., 0] = distance.view(np.uint32)
+    surface[..., 1] = np.ascontiguousarray(gbuffer.normal[..., 1], np.float32).view(np.uint32)
+    surface[..., 2] = pack_snorm16x2(oct_encode(gbuffer.normal))
+    surface[..., 3] = gbuffer.material
+    sigmoid = np.zeros((h, w, 4), dtype=np.float32)
+    sigmoid[..., :3] = gbuffer.sigmoid
+    return {"surface": surface, "sigmoid": sigmoid}
 
 
 def pack_gbuffer_storage(gbuffer: GBuffer) -> dict:
@@ -179,13 +258,9 @@ def pack_gbuffer_storage(gbuffer: GBuffer) -> dict:
     "sigmoid": (H*W, 4) f32}``.
     """
     tex = pack_gbuffer(gbuffer)
-    geometry, material = tex["geometry"].reshape(-1, 4), tex["material"].reshape(-1, 4)
-    surface = np.empty_like(material)
-    surface[:, :3] = geometry[:, :3].view(np.uint32)
-    surface[:, 3] = material[:, 3]
-    sigmoid = np.zeros(geometry.shape, dtype=np.float32)
-    sigmoid[:, :3] = material[:, :3].view(np.float32)
-    return {"distance": geometry[:, 3].copy(), "surface": surface, "sigmoid": sigmoid}
+    surface, sigmoid = tex["surface"].reshape(-1, 4), tex["sigmoid"].reshape(-1, 4)
+    return {"distance": surface[:, 0].view(np.float32).copy(), "surface": surface,
+            "sigmoid": sigmoid}
 
 
 def bind_group_layout(device, bindings):
@@ -293,18 +368,23 @@ class DeferredPass:
             device, npix * self.n_bands * 4 if self.debug_radiance else 4,
             label="deferred radiance")
         self._status = create_storage_buffer(device, 16, label="deferred status")
+        # The fused display transform (set_display, encode(display=True)).
+        from .display_pass import DISPLAY_LAYOUT
+        self._display_uniform = create_uniform_buffer(device, DISPLAY_LAYOUT,
+                                                      label="deferred display")
+        #: Packed RGBA8 output of ``encode(display=True)``, ``width * height`` u32.
+        self.display_buffer = create_storage_buffer(device, npix * 4, label="deferred rgba8")
+        self.display_settings = None
+        self._last_display = False
 
         self._layout = bind_group_layout(device, {
-            B_CAMERA: "uniform", B_GEOMETRY: "float", B_MATERIAL: "uint",
+            B_CAMERA: "uniform", B_SURFACE: "uint", B_SIGMOID: "float",
             B_BANDS: "uniform", B_MATERIALS: "read", B_RGB: "write", B_RADIANCE: "write",
-            B_STATUS: "write"})
-        module = device.create_shader_module(label="deferred.wgsl",
-                                             code=shader_source("deferred.wgsl", self.n_bands,
-                                                                self.debug_radiance))
-        self._pipeline = device.create_compute_pipeline(
-            label="deferred",
-            layout=device.create_pipeline_layout(bind_group_layouts=[self._layout]),
-            compute={"module": module, "entry_point": "main"})
+            B_STATUS: "write", B_DISPLAY: "uniform", B_RGBA: "write"})
+        # One pipeline per value of per_pixel (a compile-time constant of the
+        # shader), made when first used.
+        self._pipelines = {}
+        self._per_pixel = True
         self._bind_group = None
         #: Incremented whenever a bound buffer is replaced (CopyPass rebinds then).
         self.bindings_version = 0
@@ -316,8 +396,23 @@ class DeferredPass:
 
     # ---------------------------------------------------------------- inputs
     @property
+    def per_pixel(self) -> bool:
+        """Whether the G-buffer has per-pixel (sigmoid) materials, so the sigmoid texture is read.
+
+        Set by :meth:`set_gbuffer`, :meth:`use_gbuffer_textures` and the
+        geometry pass (:meth:`aquaspec.gpu.raster.RasterPass.render_to`).
+        """
+        return self._per_pixel
+
+    @per_pixel.setter
+    def per_pixel(self, value: bool) -> None:
+        if bool(value) != self._per_pixel:
+            self._per_pixel = bool(value)
+            self._uniform_dirty = True
+
+    @property
     def gbuffer_textures(self) -> dict:
-        """The G-buffer textures ``{"geometry", "material"}`` read by the pass."""
+        """The G-buffer textures ``{"surface", "sigmoid"}`` read by the pass."""
         return dict(self._textures)
 
     @property
@@ -356,20 +451,23 @@ class DeferredPass:
         if not np.all(np.isfinite(gbuffer.sigmoid[per_pixel])):
             raise AquaspecError("G-buffer sigmoid coefficients of per-pixel materials "
                                 "must be finite")
+        self.per_pixel = bool(per_pixel.any())
         for name, arr in pack_gbuffer(gbuffer).items():
             upload_texture(self.device, self._textures[name], arr)
         bufs = self.gbuffer_buffers
         for name, arr in pack_gbuffer_storage(gbuffer).items():
             upload_buffer(self.device, bufs[name], arr)
 
-    def use_gbuffer_textures(self, camera, **textures) -> None:
+    def use_gbuffer_textures(self, camera, *, per_pixel: bool = True, **textures) -> None:
         """Read the G-buffer from textures made elsewhere (e.g. a raster pass's targets).
 
         Parameters
         ----------
         camera : Camera
             The camera the G-buffer was rendered with.
-        geometry, material : wgpu.GPUTexture, optional
+        per_pixel : bool
+            Whether the sigmoid texture holds per-pixel materials to read.
+        surface, sigmoid : wgpu.GPUTexture, optional
             Textures in the formats of the module docstring, of this pass's
             size, with ``TEXTURE_BINDING`` usage; those not given stay as they
             are.
@@ -388,6 +486,7 @@ class DeferredPass:
             if not tex.usage & wgpu.TextureUsage.TEXTURE_BINDING:
                 raise AquaspecError(f"G-buffer {name} texture lacks TEXTURE_BINDING usage")
         self.set_camera(camera)
+        self.per_pixel = bool(per_pixel)
         if textures:
             self._textures.update(textures)
             self._bind_group = None
@@ -438,7 +537,7 @@ class DeferredPass:
             n_bands=self.n_bands, ambient_model=self._ambient_id or 0,
             n_materials=self._n_materials or 0, write_radiance=int(self.debug_radiance),
             snell_cos=model.snell_window_cos(model.N_WATER),
-            window_factor=model.N_WATER ** 2 / np.pi)
+            window_factor=model.N_WATER ** 2 / np.pi, per_pixel=int(self.per_pixel))
         upload_buffer(self.device, self._uniform, data)
         if self._medium_bands is not None:
             table = band_table(*self._medium_bands, depth_o=camera_depth(cam))
@@ -447,31 +546,94 @@ class DeferredPass:
 
     def _get_bind_group(self):
         if self._bind_group is None:
-            resources = {B_CAMERA: self._uniform, B_GEOMETRY: self._textures["geometry"],
-                         B_MATERIAL: self._textures["material"], B_BANDS: self._bands,
+            resources = {B_CAMERA: self._uniform, B_SURFACE: self._textures["surface"],
+                         B_SIGMOID: self._textures["sigmoid"], B_BANDS: self._bands,
                          B_MATERIALS: self._materials, B_RGB: self.rgb_buffer,
-                         B_RADIANCE: self._radiance, B_STATUS: self._status}
+                         B_RADIANCE: self._radiance, B_STATUS: self._status,
+                         B_DISPLAY: self._display_uniform, B_RGBA: self.display_buffer}
             self._bind_group = self.device.create_bind_group(
                 layout=self._layout, entries=bind_group_entries(resources))
         return self._bind_group
+
+    def _pipeline(self, tonemap=None):
+        key = (self.per_pixel, tonemap)
+        if key not in self._pipelines:
+            module = self.device.create_shader_module(
+                label="deferred.wgsl", code=shader_source("deferred.wgsl", self.n_bands,
+                                                          self.debug_radiance,
+                                                          per_pixel=self.per_pixel,
+                                                          tonemap=tonemap))
+            self._pipelines[key] = self.device.create_compute_pipeline(
+                label="deferred",
+                layout=self.device.create_pipeline_layout(bind_group_layouts=[self._layout]),
+                compute={"module": module, "entry_point": "main"})
+        return self._pipelines[key]
 
     def workgroups(self) -> tuple[int, int, int]:
         """Dispatch size covering the image."""
         per_x = WORKGROUP[0] * PIXELS_PER_INVOCATION
         return (-(-self.width // per_x), -(-self.height // WORKGROUP[1]), 1)
 
-    def encode(self, encoder, timestamp_writes=None) -> None:
-        """Record the shading into ``encoder`` (uniforms are uploaded first)."""
+    def set_display(self, *, exposure_ev, white_balance_gains=(1.0, 1.0, 1.0), matrix=None,
+                    tonemap="filmic") -> None:
+        """Settings of the fused display transform (``encode(display=True)``).
+
+        The same settings and checks as
+        :meth:`aquaspec.gpu.display_pass.DisplayPass.set_settings` (the
+        image-dependent ones, automatic exposure and grey-world gains, are
+        resolved beforehand, e.g. from an earlier frame, with
+        :func:`aquaspec.display.display_settings`).
+        """
+        from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS, folded_matrix
+        if not isinstance(tonemap, str) or tonemap not in TONEMAP_IDS:
+            raise AquaspecError(f"unknown tone map {tonemap!r}; accepted: "
+                                + ", ".join(repr(k) for k in TONEMAP_IDS))
+        m = folded_matrix(exposure_ev, white_balance_gains, matrix).astype(np.float32)
+        if not np.all(np.isfinite(m)):
+            raise AquaspecError(f"exposure EV {exposure_ev!r} with these gains overflows "
+                                "float32 on the GPU; accepted: a smaller exposure")
+        upload_buffer(self.device, self._display_uniform, DISPLAY_LAYOUT.pack(
+            m0=m[0], m1=m[1], m2=m[2], width=self.width, height=self.height,
+            tonemap=TONEMAP_IDS[tonemap]))
+        self.display_settings = {"exposure_ev": float(exposure_ev),
+                                 "white_balance_gains": [float(g) for g in white_balance_gains],
+                                 "matrix": None if matrix is None
+                                 else np.asarray(matrix, float).tolist(),
+                                 "tonemap": tonemap}
+
+    def encode(self, encoder, timestamp_writes=None, *, display: bool = False) -> None:
+        """Record the shading into ``encoder`` (uniforms are uploaded first).
+
+        ``display=True`` also applies the display transform of
+        :meth:`set_display` in the same pass and writes
+        :attr:`display_buffer` (read with :meth:`read_display`) instead of
+        linear RGB: one pass instead of two, and the linear image never goes
+        through memory.
+        """
         if self._n_materials is None:
             raise AquaspecError("no medium: call set_medium() before running")
         self.upload_uniforms()
-        encoder.clear_buffer(self._status, 0, self._status.size)
-        record_dispatch(encoder, self._pipeline, self._get_bind_group(), self.workgroups(),
-                        timestamp_writes)
+        tonemap = None
+        if display:
+            if self.display_settings is None:
+                raise AquaspecError("no display settings: call set_display() before "
+                                    "encoding with display=True")
+            tonemap = self.display_settings["tonemap"]
+            # status[3] is an atomicMin, so it starts at the maximum (a queue
+            # write runs before the next submission).
+            self.device.queue.write_buffer(self._status, 0,
+                                           np.array([0, 0, 0, 0xFFFFFFFF], np.uint32))
+        else:
+            encoder.clear_buffer(self._status, 0, self._status.size)
+        self._last_display = bool(display)
+        record_dispatch(encoder, self._pipeline(tonemap), self._get_bind_group(),
+                        self.workgroups(), timestamp_writes)
 
-    def run(self) -> None:
-        """Shade the current G-buffer (submits; does not wait)."""
-        submit_pass(self.device, self)
+    def run(self, *, display: bool = False) -> None:
+        """Shade the current G-buffer (submits; does not wait); ``display`` as in :meth:`encode`."""
+        encoder = self.device.create_command_encoder()
+        self.encode(encoder, display=display)
+        self.device.queue.submit([encoder.finish()])
 
     # ------------------------------------------------------------- outputs
     def _check_status(self):
@@ -480,12 +642,39 @@ class DeferredPass:
             raise AquaspecError(f"{bad} G-buffer pixels use a material index >= "
                                 f"{self._n_materials}, the number of material_bands rows")
 
+    def read_display(self) -> np.ndarray:
+        """The display image of the last ``run(display=True)``, (H, W, 3) uint8.
+
+        Raises :class:`AquaspecError` if a pixel referenced an undefined
+        material, or (with the count and the first pixel) if a value was not
+        finite or overflowed after exposure.
+        """
+        if not self._last_display:
+            raise AquaspecError("read_display() needs a run with display=True")
+        status = read_buffer(self.device, self._status, np.uint32, (4,))
+        if status[0]:
+            raise AquaspecError(f"{int(status[0])} G-buffer pixels use a material index >= "
+                                f"{self._n_materials}, the number of material_bands rows")
+        if status[2]:
+            row, col = divmod(int(status[3]), self.width)
+            raise AquaspecError(f"shading produced {int(status[2])} pixel(s) with non-finite "
+                                f"values (or overflow after exposure); the first is at "
+                                f"(row {row}, column {col}); check the water coefficients "
+                                "and G-buffer")
+        rgba = read_buffer(self.device, self.display_buffer, np.uint8,
+                           (self.height, self.width, 4))
+        return np.ascontiguousarray(rgba[..., :3])
+
     def read_rgb(self) -> np.ndarray:
         """Linear camera RGB of the last run, (H, W, 3) float32.
 
         Raises :class:`AquaspecError` if a pixel referenced an undefined
-        material or a value is not finite.
+        material or a value is not finite, or if the last run wrote the
+        display image instead.
         """
+        if self._last_display:
+            raise AquaspecError("the last run wrote the display image (display=True); "
+                                "read it with read_display(), or run without display")
         self._check_status()
         rgba = read_buffer(self.device, self.rgb_buffer, np.float32,
                            (self.height, self.width, 4))

@@ -17,10 +17,11 @@ buffer (shader ``shaders/gbuffer.wgsl``). Per pixel it writes
 
 GPU-resident layout (:attr:`RasterPass.targets`, valid after
 :meth:`RasterPass.encode`, the same as the deferred pass's G-buffer textures,
-:mod:`aquaspec.gpu.deferred`): ``"geometry"`` rgba32float (normal xyz, S;
-open water: normal 0, S = ``OPEN_WATER_DISTANCE``) and ``"material"``
-rgba32uint (the three coefficients' float32 bits, material index). 32 bytes
-per pixel, WebGPU's default colour-attachment budget.
+:mod:`aquaspec.gpu.deferred`): ``"surface"`` rgba32uint (S, n_y, octahedral
+normal, material index; open water: S = ``OPEN_WATER_DISTANCE``) and, only
+when the scene has textured or vertex-coloured meshes
+(:attr:`RasterPass.per_pixel`), ``"sigmoid"`` rgba32float (the three
+coefficients). Each draw mode has a pipeline per target set.
 
 :func:`raycast_gbuffer` computes the same G-buffer by brute-force ray-triangle
 intersection in float64 (vectorised; meant for small images and scenes) and
@@ -39,11 +40,15 @@ from ..camera import Camera
 from ..errors import AquaspecError
 from ..gbuffer import PER_PIXEL, GBuffer
 from ..scene.mesh import Mesh, Scene
+from .deferred import unpack_surface
 from .layout import UniformLayout
 from .shaders import load_wgsl
 
 CAMERA_LAYOUT = UniformLayout("RasterCamera", [("view_proj", "mat4x4<f32>"),
                                                ("position", "vec3<f32>")])
+
+#: Depth buffer format.
+DEPTH_FORMAT = "depth32float"
 
 #: Reflectance modes of a mesh; each has its own vertex layout and vertex and
 #: fragment entry points (and pipeline), :data:`_ENTRY`.
@@ -158,10 +163,11 @@ class RasterPass:
             from .device import get_device
             _, device = get_device()
         self.device = device
-        src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl())
-        module = device.create_shader_module(label="gbuffer.wgsl", code=src)
-        self._module = module
-        self._pack_pipeline = None
+        self._modules = {}
+        self._module = self._get_module(False)
+        self._pack_pipelines = {}
+        #: Whether the last scene encoded has per-pixel materials (two targets).
+        self.per_pixel = False
         self._cam_layout = device.create_bind_group_layout(entries=[
             {"binding": 0, "visibility": wgpu.ShaderStage.VERTEX | wgpu.ShaderStage.FRAGMENT,
              "buffer": {"type": wgpu.BufferBindingType.uniform}}])
@@ -185,15 +191,28 @@ class RasterPass:
         self._size = None
         self.targets = {}
 
-    def _pipeline(self, mode):
+    def _get_module(self, pack_sigmoid):
+        if pack_sigmoid not in self._modules:
+            src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl(),
+                            pack_sigmoid="true" if pack_sigmoid else "false")
+            self._modules[pack_sigmoid] = self.device.create_shader_module(
+                label="gbuffer.wgsl", code=src)
+        return self._modules[pack_sigmoid]
+
+    def _pipeline(self, mode, per_pixel):
         import wgpu
-        if mode in self._pipelines:
-            return self._pipelines[mode]
+        key = (mode, per_pixel)
+        if key in self._pipelines:
+            return self._pipelines[key]
         module = self._module
         f32x3, f32x2 = wgpu.VertexFormat.float32x3, wgpu.VertexFormat.float32x2
         extra = {MODE_MATERIAL: (wgpu.VertexFormat.uint32, 4),
                  MODE_TEXTURE: (f32x2, 8), MODE_VERTEX: (f32x3, 12)}[mode]
         name = _ENTRY[mode]
+        fragment = f"fs_{name}2" if per_pixel and mode == MODE_MATERIAL else f"fs_{name}"
+        targets = [{"format": wgpu.TextureFormat.rgba32uint}]
+        if per_pixel:
+            targets.append({"format": wgpu.TextureFormat.rgba32float})
         pipe = self.device.create_render_pipeline(
             label=f"gbuffer {name}",
             layout=self._pipeline_layouts[mode == MODE_TEXTURE],
@@ -206,14 +225,12 @@ class RasterPass:
                     {"format": extra[0], "offset": 24, "shader_location": 2}]}]},
             primitive={"topology": wgpu.PrimitiveTopology.triangle_list,
                        "cull_mode": wgpu.CullMode.none},
-            depth_stencil={"format": wgpu.TextureFormat.depth32float,
+            depth_stencil={"format": DEPTH_FORMAT,
                            "depth_write_enabled": True,
                            "depth_compare": wgpu.CompareFunction.less},
             multisample={"count": 1},
-            fragment={"module": module, "entry_point": f"fs_{name}", "targets": [
-                {"format": wgpu.TextureFormat.rgba32float},
-                {"format": wgpu.TextureFormat.rgba32uint}]})
-        self._pipelines[mode] = pipe
+            fragment={"module": module, "entry_point": fragment, "targets": targets})
+        self._pipelines[key] = pipe
         return pipe
 
     def invalidate(self):
@@ -239,6 +256,7 @@ class RasterPass:
                 draws.append(_Draw(self.device, MODE_TEXTURE, [m], group))
         self._draws = draws
         self._scene = scene
+        self.per_pixel = any(d.mode != MODE_MATERIAL for d in draws)
 
     def _ensure_targets(self, width, height):
         import wgpu
@@ -247,12 +265,12 @@ class RasterPass:
         usage = (wgpu.TextureUsage.RENDER_ATTACHMENT | wgpu.TextureUsage.COPY_SRC
                  | wgpu.TextureUsage.TEXTURE_BINDING)
         self.targets = {
-            "geometry": self.device.create_texture(
-                size=(width, height, 1), format=wgpu.TextureFormat.rgba32float, usage=usage),
-            "material": self.device.create_texture(
+            "surface": self.device.create_texture(
                 size=(width, height, 1), format=wgpu.TextureFormat.rgba32uint, usage=usage),
+            "sigmoid": self.device.create_texture(
+                size=(width, height, 1), format=wgpu.TextureFormat.rgba32float, usage=usage),
             "depth": self.device.create_texture(
-                size=(width, height, 1), format=wgpu.TextureFormat.depth32float,
+                size=(width, height, 1), format=DEPTH_FORMAT,
                 usage=wgpu.TextureUsage.RENDER_ATTACHMENT),
         }
         self._size = (width, height)
@@ -262,10 +280,12 @@ class RasterPass:
         """Record the geometry pass into ``encoder``.
 
         The results land in :attr:`targets`, or in ``targets``
-        (``{"geometry", "material"}`` textures of the camera's size in the
-        formats of :mod:`aquaspec.gpu.deferred`) when given. Open water is
-        cleared to normal 0 and distance
-        :data:`~aquaspec.gpu.deferred.OPEN_WATER_DISTANCE`.
+        (``{"surface", "sigmoid"}`` textures of the camera's size in the
+        formats of :mod:`aquaspec.gpu.deferred`) when given; the sigmoid
+        target is written only when the scene has per-pixel materials
+        (:attr:`per_pixel` tells after the call). Open water is cleared to
+        distance :data:`~aquaspec.gpu.deferred.OPEN_WATER_DISTANCE`, normal
+        0 and material 0.
         """
         import wgpu
         from .deferred import OPEN_WATER_DISTANCE
@@ -277,14 +297,16 @@ class RasterPass:
         self.device.queue.write_buffer(self._cam_buffer, 0, CAMERA_LAYOUT.pack(
             view_proj=np.asarray(view_proj.T, np.float32).reshape(-1),
             position=camera.position))
+        open_water = int(np.array(OPEN_WATER_DISTANCE, np.float32).view(np.uint32))
+        attachments = [{"view": out["surface"].create_view(),
+                        "clear_value": (open_water, 0, 0, 0),
+                        "load_op": wgpu.LoadOp.clear, "store_op": wgpu.StoreOp.store}]
+        if self.per_pixel:
+            attachments.append({"view": out["sigmoid"].create_view(),
+                                "clear_value": (0.0, 0.0, 0.0, 0.0),
+                                "load_op": wgpu.LoadOp.clear, "store_op": wgpu.StoreOp.store})
         rp = encoder.begin_render_pass(
-            color_attachments=[
-                {"view": out["geometry"].create_view(),
-                 "clear_value": (0.0, 0.0, 0.0, float(OPEN_WATER_DISTANCE)),
-                 "load_op": wgpu.LoadOp.clear, "store_op": wgpu.StoreOp.store},
-                {"view": out["material"].create_view(),
-                 "clear_value": (0, 0, 0, 0),
-                 "load_op": wgpu.LoadOp.clear, "store_op": wgpu.StoreOp.store}],
+            color_attachments=attachments,
             depth_stencil_attachment={
                 "view": self.targets["depth"].create_view(), "depth_clear_value": 1.0,
                 "depth_load_op": wgpu.LoadOp.clear, "depth_store_op": wgpu.StoreOp.discard},
@@ -294,7 +316,7 @@ class RasterPass:
         for d in self._draws:
             if d.mode != mode:
                 mode = d.mode
-                rp.set_pipeline(self._pipeline(mode))
+                rp.set_pipeline(self._pipeline(mode, self.per_pixel))
             if d.bind_group is not None:
                 rp.set_bind_group(1, d.bind_group)
             rp.set_vertex_buffer(0, d.vertex)
@@ -307,7 +329,7 @@ class RasterPass:
         """Rasterise straight into a :class:`~aquaspec.gpu.deferred.DeferredPass`'s G-buffer.
 
         Renders into ``deferred_pass.gbuffer_textures`` (nothing is read
-        back) and sets the deferred pass's camera; when
+        back) and sets the deferred pass's camera and ``per_pixel``; when
         ``deferred_pass.storage_gbuffer`` is true, a compute pass also
         repacks the result into ``deferred_pass.gbuffer_buffers``. With
         ``encoder`` the commands are only recorded; without, they are
@@ -331,28 +353,30 @@ class RasterPass:
         self.encode(encoder, scene, camera, timestamp_writes=begin, targets=tex)
         if pack:
             bufs = deferred_pass.gbuffer_buffers
+            pipeline = self._get_pack_pipeline(self.per_pixel)
             group = self.device.create_bind_group(
-                layout=self._get_pack_pipeline().get_bind_group_layout(0), entries=[
-                    {"binding": 10, "resource": tex["geometry"].create_view()},
-                    {"binding": 11, "resource": tex["material"].create_view()}] + [
+                layout=pipeline.get_bind_group_layout(0), entries=[
+                    {"binding": 10, "resource": tex["surface"].create_view()},
+                    {"binding": 11, "resource": tex["sigmoid"].create_view()}] + [
                     {"binding": b, "resource": {"buffer": bufs[name], "offset": 0,
                                                 "size": bufs[name].size}}
                     for b, name in ((12, "distance"), (13, "surface"), (14, "sigmoid"))])
             cp = encoder.begin_compute_pass(**({} if end is None else {"timestamp_writes": end}))
-            cp.set_pipeline(self._pack_pipeline)
+            cp.set_pipeline(pipeline)
             cp.set_bind_group(0, group)
             cp.dispatch_workgroups(-(-camera.width // 8), -(-camera.height // 8), 1)
             cp.end()
         deferred_pass.set_camera(camera)
+        deferred_pass.per_pixel = self.per_pixel
         if own:
             self.device.queue.submit([encoder.finish()])
 
-    def _get_pack_pipeline(self):
-        if self._pack_pipeline is None:
-            self._pack_pipeline = self.device.create_compute_pipeline(
+    def _get_pack_pipeline(self, per_pixel):
+        if per_pixel not in self._pack_pipelines:
+            self._pack_pipelines[per_pixel] = self.device.create_compute_pipeline(
                 label="gbuffer pack", layout="auto",
-                compute={"module": self._module, "entry_point": "pack_main"})
-        return self._pack_pipeline
+                compute={"module": self._get_module(per_pixel), "entry_point": "pack_main"})
+        return self._pack_pipelines[per_pixel]
 
     def render(self, scene: Scene, camera: Camera) -> GBuffer:
         """Rasterise ``scene`` seen by ``camera`` and read the G-buffer back.
@@ -367,13 +391,17 @@ class RasterPass:
         self.encode(encoder, scene, camera)
         self.device.queue.submit([encoder.finish()])
         w, h = camera.width, camera.height
-        geom = self._read(self.targets["geometry"], np.float32, w, h)
-        mat = self._read(self.targets["material"], np.uint32, w, h)
-        distance = geom[..., 3]
+        distance, normal, material = unpack_surface(
+            self._read(self.targets["surface"], np.uint32, w, h))
+        if self.per_pixel:
+            sigmoid = self._read(self.targets["sigmoid"], np.float32, w, h)[..., :3].copy()
+        else:
+            sigmoid = np.zeros((h, w, 3), np.float32)
         hit = distance >= 0
-        normal = np.where(hit[..., None], geom[..., :3], 0.0)
-        return GBuffer(camera, np.where(hit, distance, np.inf), normal, mat[..., 3],
-                       mat[..., :3].copy().view(np.float32), list(scene.materials))
+        normal = np.where(hit[..., None], normal, 0.0)
+        material = np.where(hit, material, 0).astype(np.uint32)
+        return GBuffer(camera, np.where(hit, distance, np.inf), normal, material, sigmoid,
+                       list(scene.materials))
 
     def _read(self, texture, dtype, w, h):
         data = self.device.queue.read_texture(

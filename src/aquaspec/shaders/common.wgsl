@@ -8,7 +8,7 @@
 // depend on the pixel come precomputed from aquaspec.gpu.deferred.band_table).
 // Conventions: metres, y up, water surface y = 0, depth d = -p.y; a, b, c, Kd
 // in 1/m; the camera ray starts at depth depth_o with unit direction v.
-// WGSL has no expm1/log1p: phi below uses a series near 0 where
+// WGSL has no expm1/log1p: l_ms_seeds_shared uses a series near 0 where
 // 1 - exp(-x) would cancel in f32.
 
 const PI: f32 = 3.14159265358979;
@@ -20,17 +20,6 @@ const SIGMOID_X_MAX: f32 = 1.0e6;
 // returns inf; the host rejects non-finite output.
 fn f32_inf() -> f32 {
     return bitcast<f32>(0x7f800000u);
-}
-
-// (1 - exp(-x)) / x for x >= 0 (model.ms_path_integral), limit 1 at x = 0. Branchless
-// (SIMD lanes on lavapipe run both sides of a divergent branch anyway):
-// below x = 0.1 the Taylor series of (1 - e^-x) / x (truncation x^5 / 720
-// relative, < 2e-8), above it the closed form, whose f32 rounding error is then
-// < 1e-5 of the result. max() keeps the unused closed form finite at x = 0.
-fn phi(x: vec4<f32>) -> vec4<f32> {
-    let series = 1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0))));
-    let closed = (1.0 - exp(-x)) / max(x, vec4<f32>(0.1));
-    return select(closed, series, x < vec4<f32>(0.1));
 }
 
 // model.ray_length: length of the ray under water. `s_finite` false means
@@ -55,28 +44,30 @@ fn transmittance(c: f32, s: vec4<f32>, s_finite: vec4<bool>) -> vec4<f32> {
 
 // model.l_ms_seeds = b E0 / (4 pi) * model.ms_path_integral (thesis Eq. 4.7):
 // b E0 / (4 pi) int_0^S exp(-c t) exp(-Kd d(t)) dt, d(t) = d_o - t v_y, for S
-// already cut by ray_length. Closed form b E0 / (4 pi) exp(-Kd d_o)
-// (1 - exp(-k S)) / k, k = c - Kd v_y, stable for k -> 0, k < 0 and S = inf
-// (needs k > 0). The factors that do not depend on the pixel come per band
-// from the host (aquaspec.gpu.deferred.band_table, float64):
-// ms_scale = b E0 / (4 pi) exp(-Kd d_o), be0 = b E0 / (4 pi), base = -Kd d_o.
-fn l_ms_seeds(k: vec4<f32>, s: vec4<f32>, s_finite: vec4<bool>, ms_scale: f32, be0: f32,
-              base: f32) -> vec4<f32> {
+// already cut by ray_length, in closed form b E0 / (4 pi) exp(-Kd d_o)
+// (1 - exp(-k S)) / k, k = c - Kd v_y. The factors that do not depend on the
+// pixel come per band from the host (aquaspec.gpu.deferred.band_table,
+// float64): ms_scale = b E0 / (4 pi) exp(-Kd d_o), be0 = b E0 / (4 pi).
+// It is written with exponentials the caller computes anyway, both =
+// exp(-c S) exp(-Kd d(S)) = exp(-Kd d_o) exp(-k S) (the transmittance and
+// the downwelling attenuation at the ray's end), as (ms_scale - be0 both) / k:
+// no exponential of its own, valid for either sign of k (k < 0 happens
+// looking up in clear water), and nothing overflows (the two factors of both
+// are <= 1 under water). Where |k S| < 0.1 that difference would cancel in
+// f32 and the Taylor series of ms_scale S (1 - e^-x) / x, x = k S, is used
+// instead (truncation x^5 / 720 relative, < 2e-8). S = inf: ms_scale / k
+// (inf if k <= 0; model.py does the same). Selects, not branches: SIMD lanes
+// on lavapipe run both sides of a divergent branch anyway, and a branch
+// around the rare case cost a third of the pass there.
+fn l_ms_seeds_shared(k: vec4<f32>, s: vec4<f32>, s_finite: vec4<bool>, ms_scale: f32,
+                     be0: f32, both: vec4<f32>) -> vec4<f32> {
     let x = k * s;
-    // x >= 0: ms_scale * S * (1 - e^-x) / x.
-    // x < 0 (up-rays with Kd v_y > c): with y = -x, exp(-Kd d_o) S (e^y - 1) / y
-    // = exp(-Kd d_o + y) S (1 - e^-y) / y, whose exponent -Kd d_o + y =
-    // -Kd d(S) - c S stays <= 0 for rays under water (no overflow); model.py
-    // writes it exp(-Kd d_o + log_psi(y)). Both cases are then
-    // scale * S * phi(|x|), with a select rather than a branch (a branch
-    // around the rare case still cost a third of the pass on lavapipe).
-    let neg = x < vec4<f32>(0.0);
-    let scale = select(vec4<f32>(ms_scale), be0 * exp(base - x), neg);
-    let finite = scale * s * phi(abs(x));
-    // S = inf: ms_scale / k (inf if k <= 0).
-    let k_pos = k > vec4<f32>(0.0);
-    let infinite = select(vec4<f32>(f32_inf()), ms_scale / select(vec4<f32>(1.0), k, k_pos),
-                          k_pos);
+    let inv_k = 1.0 / select(vec4<f32>(1.0), k, k != vec4<f32>(0.0));
+    let series = ms_scale * s * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0
+                 - x * (1.0 / 120.0)))));
+    let closed = (ms_scale - be0 * both) * inv_k;
+    let finite = select(closed, series, abs(x) < vec4<f32>(0.1));
+    let infinite = select(vec4<f32>(f32_inf()), ms_scale * inv_k, k > vec4<f32>(0.0));
     return select(infinite, finite, s_finite);
 }
 
@@ -90,15 +81,12 @@ fn ambient_factor(model_id: u32, n_y: vec4<f32>) -> vec4<f32> {
     }
 }
 
-// model.ambient_irradiance / pi: E0 exp(-Kd d) g(n_y) / pi, with the factor
-// g = ambient_factor(model, n_y) computed once per pixel and e0_over_pi = E0 / pi
-// per band from the host (the 1 / pi of lambertian_radiance moved here).
-fn ambient_irradiance_over_pi(e0_over_pi: f32, kd: f32, depth: vec4<f32>,
-                              g: vec4<f32>) -> vec4<f32> {
-    return e0_over_pi * exp(-kd * depth) * g;
-}
+// model.ambient_irradiance / pi is E0 exp(-Kd d) g(n_y) / pi: deferred.wgsl
+// forms it from e0_over_pi = E0 / pi per band (the 1 / pi of
+// lambertian_radiance moved there), exp(-Kd d) per band and pixel (shared
+// with l_ms_seeds_shared) and g = ambient_factor(...) once per pixel.
 
-// model.lambertian_radiance: rho E / pi (E / pi from ambient_irradiance_over_pi).
+// model.lambertian_radiance: rho E / pi (E / pi as above).
 fn lambertian_radiance(rho: vec4<f32>, irradiance_over_pi: vec4<f32>) -> vec4<f32> {
     return rho * irradiance_over_pi;
 }
@@ -116,5 +104,5 @@ fn surface_from_below(e0_window: f32, in_window: vec4<bool>) -> vec4<f32> {
 // (coefficients c0, c1, c2 of four pixels).
 fn sigmoid_reflectance(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, t: f32) -> vec4<f32> {
     let x = clamp((c0 * t + c1) * t + c2, vec4<f32>(-SIGMOID_X_MAX), vec4<f32>(SIGMOID_X_MAX));
-    return 0.5 + 0.5 * x / sqrt(1.0 + x * x);
+    return 0.5 + 0.5 * x * inverseSqrt(1.0 + x * x);
 }

@@ -9,8 +9,8 @@
 {{ camera_struct }}
 
 @group(0) @binding(0) var<uniform> cam: {{ camera_struct_name }};
-@group(0) @binding(1) var gb_geometry: texture_2d<f32>;
-@group(0) @binding(2) var gb_material: texture_2d<u32>;
+@group(0) @binding(1) var gb_surface: texture_2d<u32>;
+@group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
 @group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
 
 @compute @workgroup_size(8, 8)
@@ -18,8 +18,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= cam.width || gid.y >= cam.height) {
         return;
     }
-    let geo = textureLoad(gb_geometry, gid.xy, 0);
-    let mat = textureLoad(gb_material, gid.xy, 0);
-    rgb_out[gid.y * cam.width + gid.x] = vec4<f32>(geo.w, geo.y, bitcast<f32>(mat.z),
-                                                   f32(mat.w));
+    let surf = textureLoad(gb_surface, gid.xy, 0);
+    var sig_z = 0.0;
+    if (cam.per_pixel != 0u) {   // uniform: the same for every pixel
+        sig_z = textureLoad(gb_sigmoid, gid.xy, 0).z;
+    }
+    rgb_out[gid.y * cam.width + gid.x] = vec4<f32>(bitcast<f32>(surf.x), bitcast<f32>(surf.y),
+                                                   sig_z, f32(surf.w));
 }

@@ -1,4 +1,5 @@
-// Deferred spectral shading: G-buffer -> linear camera RGB (one invocation per pixel).
+// Deferred spectral shading: G-buffer -> linear camera RGB, or with DISPLAY
+// straight to display RGBA8 (one invocation per four pixels).
 //
 // Twin of aquaspec/shading.py (shade_gbuffer, float64 NumPy reference): same
 // per-pixel cases (hit before the water surface / open water), same model
@@ -19,20 +20,32 @@
 //   table entries are loaded once per four pixels.
 
 #include "common.wgsl"
+#include "tonemap.wgsl"
 
 {{ camera_struct }}
 
+{{ display_struct }}
+
 const N_BANDS: u32 = {{ n_bands }}u;
 const WRITE_RADIANCE: bool = {{ write_radiance }};
+// DISPLAY: also apply the display transform (display.wgsl) and write packed
+// RGBA8 instead of linear RGB, saving the display pass and the linear
+// image's round trip through memory; TONEMAP is its tone map id.
+const DISPLAY: bool = {{ display }};
+const TONEMAP: u32 = {{ tonemap_id }}u;
+// Whether the G-buffer has per-pixel (sigmoid) materials: when false the
+// sigmoid texture is not read and no sigmoid is evaluated.
+const PER_PIXEL_MATERIALS: bool = {{ per_pixel }};
 
 // Material index meaning "use this pixel's sigmoid coefficients" (gbuffer.PER_PIXEL).
 const PER_PIXEL: u32 = 0xffffffffu;
 
 @group(0) @binding(0) var<uniform> cam: {{ camera_struct_name }};
-// G-buffer: the geometry pass's render targets (normal xyz, S) and
-// (sigmoid coefficient bits xyz, material index).
-@group(0) @binding(1) var gb_geometry: texture_2d<f32>;
-@group(0) @binding(2) var gb_material: texture_2d<u32>;
+// G-buffer: the geometry pass's render targets (aquaspec.gpu.deferred):
+// surface (S bits, n_y bits, octahedral normal, material index) and sigmoid
+// (c0, c1, c2, unused).
+@group(0) @binding(1) var gb_surface: texture_2d<u32>;
+@group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
 // Three vec4 per band i (aquaspec.gpu.deferred.BAND_FIELDS):
 //   [3i]     c, kd, t, ms_scale = b E0 / (4 pi) exp(-Kd d_o)
 //   [3i + 1] w_r, w_g, w_b, e0_over_pi = E0 / pi
@@ -41,7 +54,12 @@ const PER_PIXEL: u32 = 0xffffffffu;
 @group(0) @binding(5) var<storage, read> material_bands: array<f32>;
 @group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> radiance_out: array<f32>;
+// status[0]: pixels with a material index out of range; with DISPLAY,
+// status[2]: pixels with a non-finite value (written black) and status[3]
+// the smallest such pixel index.
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
+@group(0) @binding(9) var<uniform> disp: {{ display_struct_name }};
+@group(0) @binding(10) var<storage, read_write> rgba_out: array<u32>;
 
 // Camera.ray_directions: the up component of the unit ray through the pixel
 // centres (j + 0.5, i + 0.5) of four pixels j = j0 .. j0 + 3 in row i.
@@ -70,15 +88,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var s_gb: vec4<f32>;
     var n_y: vec4<f32>;
     var material: vec4<u32>;
-    var sig: array<vec3<u32>, 4>;
+    var sig: array<vec3<f32>, 4>;
     for (var k = 0u; k < 4u; k = k + 1u) {
         let xy = vec2<u32>(min(j0 + k, cam.width - 1u), gid.y);
-        let geo = textureLoad(gb_geometry, xy, 0);
-        let mat = textureLoad(gb_material, xy, 0);
-        s_gb[k] = geo.w;
-        n_y[k] = geo.y;
-        material[k] = mat.w;
-        sig[k] = mat.xyz;
+        let surf = textureLoad(gb_surface, xy, 0);
+        s_gb[k] = bitcast<f32>(surf.x);
+        n_y[k] = bitcast<f32>(surf.y);
+        material[k] = surf.w;
+        if (PER_PIXEL_MATERIALS) {
+            sig[k] = textureLoad(gb_sigmoid, xy, 0).xyz;
+        }
     }
     // A hit counts only if the ray reaches it before the water surface.
     let up = v_y > vec4<f32>(0.0);
@@ -90,9 +109,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 
     // Per pixel, outside the band loop: the surface's depth and ambient
     // factor g(n_y), its reflectance source, and Snell's window.
-    let surface_depth = select(vec4<f32>(0.0), -(cam.position.y + s * v_y), hit);
+    // Depth where the ray ends (the surface point, or 0 at the water surface).
+    let end_depth = max(depth_o - s * v_y, vec4<f32>(0.0));
     let g = select(vec4<f32>(0.0), ambient_factor(cam.ambient_model, n_y), hit);
-    let use_sigmoid = hit & (material == vec4<u32>(PER_PIXEL));
+    let use_sigmoid = hit & (material == vec4<u32>(PER_PIXEL)) & vec4<bool>(PER_PIXEL_MATERIALS);
     let use_material = hit & !use_sigmoid & (material < vec4<u32>(cam.n_materials));
     var c0 = vec4<f32>(0.0);
     var c1 = vec4<f32>(0.0);
@@ -101,12 +121,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var k = 0u; k < 4u; k = k + 1u) {
         let valid = j0 + k < cam.width;
         if (valid && use_sigmoid[k]) {
-            let c = bitcast<vec3<f32>>(sig[k]);
+            let c = sig[k];
             c0[k] = c.x;
             c1[k] = c.y;
             c2[k] = c.z;
         }
         if (valid && hit[k] && !use_sigmoid[k] && !use_material[k]) {
+            // Out-of-range material index (or PER_PIXEL in a G-buffer declared
+            // without per-pixel materials).
             bad = bad + 1u;
         }
     }
@@ -128,16 +150,20 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let q2 = band_table[3u * i + 2u];
         let c = q0.x;
         let kd = q0.y;
-        let l_ms = l_ms_seeds(c - kd * v_y, s, s_finite, q0.w, q2.x, q2.y);
-        let mrho = vec4<f32>(material_bands[mrow.x + i], material_bands[mrow.y + i],
-                             material_bands[mrow.z + i], material_bands[mrow.w + i]);
-        let rho = select(select(vec4<f32>(0.0), mrho, use_material),
-                         sigmoid_reflectance(c0, c1, c2, q0.z), use_sigmoid);
-        let l_surf = select(
-            surface_from_below(q2.z, in_window),
-            lambertian_radiance(rho, ambient_irradiance_over_pi(q1.w, kd, surface_depth, g)),
-            hit);
+        // The two exponentials of the band: transmittance exp(-c S) and the
+        // downwelling attenuation exp(-Kd d_end) where the ray ends; the
+        // seeds' term and the ambient light are written with them.
         let tr = transmittance(c, s, s_finite);
+        let e_end = exp(-kd * end_depth);
+        let l_ms = l_ms_seeds_shared(c - kd * v_y, s, s_finite, q0.w, q2.x, tr * e_end);
+        var rho = select(vec4<f32>(0.0), vec4<f32>(material_bands[mrow.x + i],
+                         material_bands[mrow.y + i], material_bands[mrow.z + i],
+                         material_bands[mrow.w + i]), use_material);
+        if (PER_PIXEL_MATERIALS) {
+            rho = select(rho, sigmoid_reflectance(c0, c1, c2, q0.z), use_sigmoid);
+        }
+        let l_surf = select(surface_from_below(q2.z, in_window),
+                            lambertian_radiance(rho, q1.w * e_end * g), hit);
         let l = select(l_ms, tr * l_surf + l_ms, tr > vec4<f32>(0.0));
         r = r + l * q1.x;
         gr = gr + l * q1.y;
@@ -152,7 +178,22 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     for (var k = 0u; k < 4u; k = k + 1u) {
         if (j0 + k < cam.width) {
-            rgb_out[row_start + j0 + k] = vec4<f32>(r[k], gr[k], b[k], 1.0);
+            let p = row_start + j0 + k;
+            let lin = vec3<f32>(r[k], gr[k], b[k]);
+            if (DISPLAY) {
+                // display.wgsl's main, for this pixel.
+                let c = max(lin, vec3<f32>(0.0));
+                let x = vec3<f32>(dot(disp.m0, c), dot(disp.m1, c), dot(disp.m2, c));
+                if (any_non_finite(lin) || any_non_finite(x)) {
+                    atomicAdd(&status[2], 1u);
+                    atomicMin(&status[3], p);
+                    rgba_out[p] = 0xff000000u;
+                } else {
+                    rgba_out[p] = display_rgba8(x);
+                }
+            } else {
+                rgb_out[p] = vec4<f32>(lin, 1.0);
+            }
         }
     }
 }

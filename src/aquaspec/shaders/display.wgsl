@@ -25,49 +25,7 @@ const TONEMAP: u32 = {{ tonemap_id }}u;
 @group(0) @binding(2) var<storage, read_write> rgba_out: array<u32>;
 @group(0) @binding(3) var<storage, read_write> status: array<atomic<u32>>;
 
-const EXP_MASK: u32 = 0x7f800000u;
-// The filmic curves are at 1 long before this; the clamp keeps x * x finite.
-const SATURATED: f32 = 1e6;
-
-fn any_non_finite(v: vec3<f32>) -> bool {
-    let bits = bitcast<vec3<u32>>(v) & vec3<u32>(EXP_MASK);
-    return any(bits == vec3<u32>(EXP_MASK));
-}
-
-// Narkowicz 2015 ACES fit: x (2.51 x + 0.03) / (x (2.43 x + 0.59) + 0.14).
-fn tonemap_filmic(x: vec3<f32>) -> vec3<f32> {
-    let y = clamp(x, vec3<f32>(0.0), vec3<f32>(SATURATED));
-    return y * (2.51 * y + 0.03) / (y * (2.43 * y + 0.59) + 0.14);
-}
-
-// Hable 2010 ("Uncharted 2") with its published constants.
-fn hable_partial(x: vec3<f32>) -> vec3<f32> {
-    let a = 0.15; let b = 0.50; let c = 0.10; let d = 0.20; let e = 0.02; let f = 0.30;
-    return (x * (a * x + c * b) + d * e) / (x * (a * x + b) + d * f) - e / f;
-}
-
-fn tonemap_hable(x: vec3<f32>) -> vec3<f32> {
-    let y = clamp(x, vec3<f32>(0.0), vec3<f32>(SATURATED));
-    let white = hable_partial(vec3<f32>(11.2));
-    return hable_partial(2.0 * y) / white;
-}
-
-fn tonemap(x: vec3<f32>, id: u32) -> vec3<f32> {
-    var y: vec3<f32>;
-    switch id {
-        case 1u: { y = tonemap_filmic(x); }
-        case 2u: { y = tonemap_hable(x); }
-        case 3u: { let p = max(x, vec3<f32>(0.0)); y = p / (1.0 + p); }
-        default: { y = x; }
-    }
-    return clamp(y, vec3<f32>(0.0), vec3<f32>(1.0));
-}
-
-fn srgb_encode(x: vec3<f32>) -> vec3<f32> {
-    let lo = 12.92 * x;
-    let hi = 1.055 * pow(x, vec3<f32>(1.0 / 2.4)) - 0.055;
-    return select(hi, lo, x <= vec3<f32>(0.0031308));
-}
+#include "tonemap.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -84,7 +42,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         rgba_out[p] = 0xff000000u;
         return;
     }
-    // round() in WGSL rounds half to even, like numpy.rint in display.quantize.
-    let q = vec3<u32>(round(srgb_encode(tonemap(x, TONEMAP)) * 255.0));
-    rgba_out[p] = q.x | (q.y << 8u) | (q.z << 16u) | (255u << 24u);
+    rgba_out[p] = display_rgba8(x);
 }

@@ -1,11 +1,18 @@
 // Geometry pass: rasterise meshes into the G-buffer (see aquaspec/gpu/raster.py).
 //
-// Targets (32 bytes per pixel, the WebGPU default limit):
-//   0 rgba32float: world normal xyz (facing the camera), distance S in metres
-//                  from the camera centre (not z-depth; the clear value
-//                  OPEN_WATER_DISTANCE < 0 where no surface is seen)
-//   1 rgba32uint:  bitcast sigmoid coefficients c0, c1, c2 and the material
-//                  index (PER_PIXEL for textured / vertex-coloured meshes)
+// Targets (aquaspec/gpu/deferred.py, "G-buffer layout"):
+//   0 surface rgba32uint:  x: distance S in metres from the camera centre as
+//                          f32 bits (not z-depth; the clear value is the bits
+//                          of OPEN_WATER_DISTANCE < 0 where no surface is
+//                          seen); y: the normal's up component n_y as f32
+//                          bits (all the shading uses); z: the whole normal,
+//                          octahedral, pack2x16snorm; w: the material index
+//                          (PER_PIXEL for textured / vertex-coloured meshes)
+//   1 sigmoid rgba32float: sigmoid coefficients c0, c1, c2 (only scenes with
+//                          textured or vertex-coloured meshes have it)
+//
+// One 16-byte target instead of two made the pass about 40 % faster on
+// lavapipe for the built-in scene, which has no per-pixel materials.
 
 {{ camera_struct }}
 
@@ -60,9 +67,13 @@ struct VsVertexOut {
     @location(2) coeff: vec3<f32>,
 };
 
-struct FsOut {
-    @location(0) geometry: vec4<f32>,
-    @location(1) material: vec4<u32>,
+struct FsOut1 {
+    @location(0) surface: vec4<u32>,
+};
+
+struct FsOut2 {
+    @location(0) surface: vec4<u32>,
+    @location(1) sigmoid: vec4<f32>,
 };
 
 @vertex
@@ -120,55 +131,75 @@ fn facing_normal(rel: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
     return n;
 }
 
-fn gbuffer_out(rel: vec3<f32>, normal: vec3<f32>, coeff: vec3<f32>, material: u32) -> FsOut {
-    var out: FsOut;
-    out.geometry = vec4<f32>(facing_normal(rel, normal), length(rel));
-    out.material = vec4<u32>(bitcast<vec3<u32>>(coeff), material);
-    return out;
+// Octahedral map of a unit vector onto [-1, 1]^2 in the (x, z) plane, the
+// lower hemisphere (y < 0) folded over the diagonals (Meyer et al. 2010);
+// aquaspec.gpu.deferred.oct_decode inverts it.
+fn oct_encode(n: vec3<f32>) -> vec2<f32> {
+    let p = n.xz / (abs(n.x) + abs(n.y) + abs(n.z));
+    let s = select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
+    return select(p, (1.0 - abs(p.yx)) * s, n.y < 0.0);
 }
 
-// One fragment entry point per mode (MODE_*), each its own pipeline: on
-// lavapipe a branch on the mode still ran the texture filter for every
-// fragment of every mesh (SIMD lanes run both sides), which cost 40 % of the
-// geometry pass of the built-in scene, which has no textures.
+fn surface_out(rel: vec3<f32>, normal: vec3<f32>, material: u32) -> vec4<u32> {
+    let n = facing_normal(rel, normal);
+    return vec4<u32>(bitcast<u32>(length(rel)), bitcast<u32>(n.y), pack2x16snorm(oct_encode(n)),
+                     material);
+}
+
+// One fragment entry point per mode (MODE_*) and target set, each its own
+// pipeline: on lavapipe a branch on the mode still ran the texture filter
+// for every fragment of every mesh (SIMD lanes run both sides), which cost
+// 40 % of the geometry pass of the built-in scene, which has no textures.
 @fragment
-fn fs_material(in: VsMaterialOut) -> FsOut {
-    return gbuffer_out(in.rel, in.normal, vec3<f32>(0.0), in.material);
+fn fs_material(in: VsMaterialOut) -> FsOut1 {
+    return FsOut1(surface_out(in.rel, in.normal, in.material));
+}
+
+// The same, in a scene that also has per-pixel materials (two targets).
+@fragment
+fn fs_material2(in: VsMaterialOut) -> FsOut2 {
+    return FsOut2(surface_out(in.rel, in.normal, in.material), vec4<f32>(0.0));
 }
 
 @fragment
-fn fs_texture(in: VsTextureOut) -> FsOut {
-    return gbuffer_out(in.rel, in.normal, sample_coeff(in.uv), PER_PIXEL);
+fn fs_texture(in: VsTextureOut) -> FsOut2 {
+    return FsOut2(surface_out(in.rel, in.normal, PER_PIXEL), vec4<f32>(sample_coeff(in.uv), 0.0));
 }
 
 @fragment
-fn fs_vertex(in: VsVertexOut) -> FsOut {
-    return gbuffer_out(in.rel, in.normal, in.coeff, PER_PIXEL);
+fn fs_vertex(in: VsVertexOut) -> FsOut2 {
+    return FsOut2(surface_out(in.rel, in.normal, PER_PIXEL), vec4<f32>(in.coeff, 0.0));
 }
 
 // ---------------------------------------------------------------------------
 // Repack the render targets into the storage-buffer copy of the G-buffer
 // (aquaspec.gpu.deferred.DeferredPass.gbuffer_buffers, read by the
 // light-field pass). Its bindings live in group 0 at numbers the render
-// entry points do not use.
+// entry points do not use. PACK_SIGMOID is a compile-time constant: scenes
+// without per-pixel materials have no sigmoid target to read.
 
-@group(0) @binding(10) var geometry_in: texture_2d<f32>;
-@group(0) @binding(11) var material_in: texture_2d<u32>;
+const PACK_SIGMOID: bool = {{ pack_sigmoid }};
+
+@group(0) @binding(10) var surface_in: texture_2d<u32>;
+@group(0) @binding(11) var sigmoid_in: texture_2d<f32>;
 @group(0) @binding(12) var<storage, read_write> distance_out: array<f32>;
-@group(0) @binding(13) var<storage, read_write> surface_out: array<vec4<u32>>;
+@group(0) @binding(13) var<storage, read_write> surface_out_buf: array<vec4<u32>>;
 @group(0) @binding(14) var<storage, read_write> sigmoid_out: array<vec4<f32>>;
 
 @compute @workgroup_size(8, 8, 1)
 fn pack_main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(geometry_in);
+    let size = textureDimensions(surface_in);
     if (id.x >= size.x || id.y >= size.y) {
         return;
     }
     let p = id.y * size.x + id.x;
-    let g = textureLoad(geometry_in, vec2<u32>(id.xy), 0);
-    let m = textureLoad(material_in, vec2<u32>(id.xy), 0);
-    // Open water is already OPEN_WATER_DISTANCE (the targets' clear value).
-    distance_out[p] = g.w;
-    surface_out[p] = vec4<u32>(bitcast<vec3<u32>>(g.xyz), m.w);
-    sigmoid_out[p] = vec4<f32>(bitcast<vec3<f32>>(m.xyz), 0.0);
+    let g = textureLoad(surface_in, vec2<u32>(id.xy), 0);
+    // Open water is already OPEN_WATER_DISTANCE (the target's clear value).
+    distance_out[p] = bitcast<f32>(g.x);
+    surface_out_buf[p] = g;
+    if (PACK_SIGMOID) {
+        sigmoid_out[p] = textureLoad(sigmoid_in, vec2<u32>(id.xy), 0);
+    } else {
+        sigmoid_out[p] = vec4<f32>(0.0);
+    }
 }
