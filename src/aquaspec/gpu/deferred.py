@@ -113,7 +113,7 @@ CAMERA_LAYOUT = UniformLayout("DeferredCamera", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_bands", "u32"), ("ambient_model", "u32"),
     ("n_materials", "u32"), ("write_radiance", "u32"),
     ("snell_cos", "f32"), ("window_factor", "f32"),
-    ("per_pixel", "u32"),
+    ("per_pixel", "u32"), ("open_table", "u32"),
 ])
 
 #: Compute workgroup size (x, y) of deferred.wgsl, in invocations.
@@ -124,7 +124,10 @@ PIXELS_PER_INVOCATION = 4
 # Binding numbers (also in the WGSL files).
 B_CAMERA, B_SURFACE, B_SIGMOID = 0, 1, 2
 B_BANDS, B_MATERIALS, B_RGB, B_RADIANCE, B_STATUS = 4, 5, 6, 7, 8
-B_DISPLAY, B_RGBA = 9, 10
+B_DISPLAY, B_RGBA, B_OPEN_TABLE = 9, 10, 11
+
+#: Entries of the open-water table (:func:`open_water_table`) over v_y in [-1, 1].
+OPEN_TABLE_SIZE = 4096
 #: G-buffer textures: name -> (binding, texture format).
 GBUFFER_TEXTURES = {"surface": (B_SURFACE, "rgba32uint"),
                     "sigmoid": (B_SIGMOID, "rgba32float")}
@@ -153,7 +156,36 @@ def shader_source(name: str, n_bands: int = 1, write_radiance: bool = False,
                      band_table_len=len(BAND_FIELDS) // 4 * int(n_bands),
                      write_radiance="true" if write_radiance else "false",
                      per_pixel="true" if per_pixel else "false",
+                     open_table_size=OPEN_TABLE_SIZE,
                      workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
+
+
+def open_water_table(a, b, kd, e0, response_weights, depth_o, size: int = OPEN_TABLE_SIZE):
+    """Camera RGB of open water against the ray's up component, for the deferred pass.
+
+    A ray that hits nothing sees, per band, the seeds' multiple scattering
+    to infinity (down) or to the water surface (up), plus, inside Snell's
+    window, the sky through the water: both depend on the pixel only
+    through ``v_y`` (the camera depth is fixed). Sampled at ``size`` values
+    of ``v_y`` evenly over [-1, 1] with :mod:`aquaspec.model` in float64 and
+    summed over bands into camera RGB. Returns (size, 2, 4) float64: per
+    sample ``[0, :3]`` the scattering term, ``[1, :3]`` the window term
+    (``T(S) E0 n^2 / pi``, to be added inside the window only; it is smooth
+    across the window's rim, where the shader decides exactly per pixel).
+    """
+    a, b, kd, e0 = (np.asarray(x, dtype=np.float64) for x in (a, b, kd, e0))
+    w = np.asarray(response_weights, dtype=np.float64)
+    v = np.linspace(-1.0, 1.0, int(size))[:, None]
+    c = a + b
+    s = model.ray_length(np.inf, depth_o, v)
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        scatter = model.l_ms_seeds(b, c, kd, e0, depth_o, v, s)
+        window = np.where(v > 0, model.transmittance(c, s) * e0 * model.N_WATER ** 2 / np.pi,
+                          0.0)
+    out = np.zeros((int(size), 2, 4))
+    out[:, 0, :3] = scatter @ w
+    out[:, 1, :3] = window @ w
+    return out
 
 
 def band_table(a, b, kd, e0, response_weights, sigmoid_centers_t, depth_o) -> np.ndarray:
@@ -354,6 +386,9 @@ class DeferredPass:
         #: When true, the geometry pass also fills :attr:`gbuffer_buffers`
         #: (needed by the light-field pass; costs a compute repack per frame).
         self.storage_gbuffer = False
+        self._open_table = create_storage_buffer(device, OPEN_TABLE_SIZE * 32,
+                                                 label="deferred open-water table")
+        self._open_table_ok = False
         self._bands = device.create_buffer(
             label="deferred band table", size=self.n_bands * len(BAND_FIELDS) * 4,
             usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
@@ -380,11 +415,17 @@ class DeferredPass:
         self._layout = bind_group_layout(device, {
             B_CAMERA: "uniform", B_SURFACE: "uint", B_SIGMOID: "float",
             B_BANDS: "uniform", B_MATERIALS: "read", B_RGB: "write", B_RADIANCE: "write",
-            B_STATUS: "write", B_DISPLAY: "uniform", B_RGBA: "write"})
+            B_STATUS: "write", B_DISPLAY: "uniform", B_RGBA: "write",
+            B_OPEN_TABLE: "read"})
         # One pipeline per value of per_pixel (a compile-time constant of the
         # shader), made when first used.
         self._pipelines = {}
         self._per_pixel = True
+        #: Shade four-pixel groups that all see open water from the
+        #: open-water table (:func:`open_water_table`) instead of the band
+        #: loop; False forces the band loop everywhere (for comparisons).
+        self.use_open_table = True
+        self._uploaded_use_open_table = None
         self._bind_group = None
         #: Incremented whenever a bound buffer is replaced (CopyPass rebinds then).
         self.bindings_version = 0
@@ -529,19 +570,29 @@ class DeferredPass:
         """Write the camera/frame uniforms if they changed (needs a camera)."""
         if self.camera is None:
             raise AquaspecError("no camera: call set_gbuffer() or set_camera() before running")
-        if not self._uniform_dirty:
+        if not self._uniform_dirty and self._uploaded_use_open_table == self.use_open_table:
             return
+        self._uploaded_use_open_table = self.use_open_table
         cam = self.camera
+        if self._medium_bands is not None:
+            a, b, kd, e0, w, t = self._medium_bands
+            table = band_table(a, b, kd, e0, w, t, depth_o=camera_depth(cam))
+            upload_buffer(self.device, self._bands, table.astype(np.float32))
+            open_table = open_water_table(a, b, kd, e0, w, camera_depth(cam)).astype(np.float32)
+            # Non-finite entries (k <= 0 looking down: not a physical water)
+            # would spread through the interpolation: the exact band loop
+            # then shades every pixel and reports them.
+            self._open_table_ok = bool(np.all(np.isfinite(open_table)))
+            if self._open_table_ok:
+                upload_buffer(self.device, self._open_table, open_table)
         data = CAMERA_LAYOUT.pack(
             **camera_fields(cam), width=self.width, height=self.height,
             n_bands=self.n_bands, ambient_model=self._ambient_id or 0,
             n_materials=self._n_materials or 0, write_radiance=int(self.debug_radiance),
             snell_cos=model.snell_window_cos(model.N_WATER),
-            window_factor=model.N_WATER ** 2 / np.pi, per_pixel=int(self.per_pixel))
+            window_factor=model.N_WATER ** 2 / np.pi, per_pixel=int(self.per_pixel),
+            open_table=int(self._open_table_ok and self.use_open_table))
         upload_buffer(self.device, self._uniform, data)
-        if self._medium_bands is not None:
-            table = band_table(*self._medium_bands, depth_o=camera_depth(cam))
-            upload_buffer(self.device, self._bands, table.astype(np.float32))
         self._uniform_dirty = False
 
     def _get_bind_group(self):
@@ -550,7 +601,8 @@ class DeferredPass:
                          B_SIGMOID: self._textures["sigmoid"], B_BANDS: self._bands,
                          B_MATERIALS: self._materials, B_RGB: self.rgb_buffer,
                          B_RADIANCE: self._radiance, B_STATUS: self._status,
-                         B_DISPLAY: self._display_uniform, B_RGBA: self.display_buffer}
+                         B_DISPLAY: self._display_uniform, B_RGBA: self.display_buffer,
+                         B_OPEN_TABLE: self._open_table}
             self._bind_group = self.device.create_bind_group(
                 layout=self._layout, entries=bind_group_entries(resources))
         return self._bind_group

@@ -60,6 +60,11 @@ const PER_PIXEL: u32 = 0xffffffffu;
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(9) var<uniform> disp: {{ display_struct_name }};
 @group(0) @binding(10) var<storage, read_write> rgba_out: array<u32>;
+// Open-water table (aquaspec.gpu.deferred.open_water_table): camera RGB of a
+// ray that hits nothing, two vec4 per sample of v_y over [-1, 1]: [2j] the
+// scattering term, [2j + 1] the sky through Snell's window (added inside it).
+@group(0) @binding(11) var<storage, read> open_table: array<vec4<f32>>;
+const OPEN_TABLE_SIZE: u32 = {{ open_table_size }}u;
 
 // Camera.ray_directions: the up component of the unit ray through the pixel
 // centres (j + 0.5, i + 0.5) of four pixels j = j0 .. j0 + 3 in row i.
@@ -76,13 +81,21 @@ fn ray_direction_y(j0: u32, i: u32) -> vec4<f32> {
 // the per-band loads are shared by four pixels, and they were the larger
 // part of the band loop's cost.
 @compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let j0 = 4u * gid.x;
-    if (j0 >= cam.width || gid.y >= cam.height) {
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>,
+        @builtin(num_workgroups) nwg: vec3<u32>) {
+    // Rows of workgroups are interleaved, top half / bottom half: lavapipe
+    // gives each CPU thread a contiguous part of the dispatch, and the two
+    // halves of a typical frame (water above, seabed below) cost differently
+    // once open water takes the table path below.
+    let half = (nwg.y + 1u) / 2u;
+    let block = select(half + wg.y / 2u, wg.y / 2u, wg.y % 2u == 0u);
+    let row = block * {{ workgroup_y }}u + lid.y;
+    let j0 = 4u * (wg.x * {{ workgroup_x }}u + lid.x);
+    if (j0 >= cam.width || row >= cam.height) {
         return;
     }
-    let row_start = gid.y * cam.width;
-    let v_y = ray_direction_y(j0, gid.y);
+    let row_start = row * cam.width;
+    let v_y = ray_direction_y(j0, row);
     let depth_o = -cam.position.y;
 
     var s_gb: vec4<f32>;
@@ -90,7 +103,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var material: vec4<u32>;
     var sig: array<vec3<f32>, 4>;
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let xy = vec2<u32>(min(j0 + k, cam.width - 1u), gid.y);
+        let xy = vec2<u32>(min(j0 + k, cam.width - 1u), row);
         let surf = textureLoad(gb_surface, xy, 0);
         s_gb[k] = bitcast<f32>(surf.x);
         n_y[k] = bitcast<f32>(surf.y);
@@ -144,7 +157,30 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var r = vec4<f32>(0.0);
     var gr = vec4<f32>(0.0);
     var b = vec4<f32>(0.0);
-    for (var i = 0u; i < N_BANDS; i = i + 1u) {
+    // Where all four pixels see open water their colour depends on v_y alone:
+    // it comes from the open-water table and the band loop is skipped (a
+    // per-invocation trip count: lavapipe leaves a loop when no SIMD lane
+    // has iterations left, which a branch around it would not do).
+    let from_table = !any(hit) && cam.open_table != 0u && !WRITE_RADIANCE;
+    // (A loop rather than a branch for the same reason: lavapipe runs a
+    // branch's body for every lane, masked.)
+    let n_table = select(0u, 4u, from_table);
+    {
+        for (var k = 0u; k < n_table; k = k + 1u) {
+            let x = (clamp(v_y[k], -1.0, 1.0) + 1.0) * (0.5 * f32(OPEN_TABLE_SIZE - 1u));
+            let j = min(u32(x), OPEN_TABLE_SIZE - 2u);
+            let f = x - f32(j);
+            var rgb = mix(open_table[2u * j], open_table[2u * j + 2u], f);
+            if (in_window[k]) {
+                rgb = rgb + mix(open_table[2u * j + 1u], open_table[2u * j + 3u], f);
+            }
+            r[k] = rgb.x;
+            gr[k] = rgb.y;
+            b[k] = rgb.z;
+        }
+    }
+    let n_iter = select(N_BANDS, 0u, from_table);
+    for (var i = 0u; i < n_iter; i = i + 1u) {
         let q0 = band_table[3u * i];
         let q1 = band_table[3u * i + 1u];
         let q2 = band_table[3u * i + 2u];
@@ -176,23 +212,33 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
         }
     }
-    for (var k = 0u; k < 4u; k = k + 1u) {
-        if (j0 + k < cam.width) {
-            let p = row_start + j0 + k;
-            let lin = vec3<f32>(r[k], gr[k], b[k]);
-            if (DISPLAY) {
-                // display.wgsl's main, for this pixel.
+    if (DISPLAY) {
+        // display.wgsl's main for the four pixels; non-finite ones (or ones
+        // that overflow after exposure) are written black and reported once
+        // per invocation (atomics in a per-pixel branch cost a millisecond
+        // per 1280x720 frame on lavapipe, masked for every lane).
+        var n_bad = 0u;
+        var first_bad = 0xffffffffu;
+        for (var k = 0u; k < 4u; k = k + 1u) {
+            if (j0 + k < cam.width) {
+                let p = row_start + j0 + k;
+                let lin = vec3<f32>(r[k], gr[k], b[k]);
                 let c = max(lin, vec3<f32>(0.0));
                 let x = vec3<f32>(dot(disp.m0, c), dot(disp.m1, c), dot(disp.m2, c));
-                if (any_non_finite(lin) || any_non_finite(x)) {
-                    atomicAdd(&status[2], 1u);
-                    atomicMin(&status[3], p);
-                    rgba_out[p] = 0xff000000u;
-                } else {
-                    rgba_out[p] = display_rgba8(x);
-                }
-            } else {
-                rgb_out[p] = vec4<f32>(lin, 1.0);
+                let bad = any_non_finite(lin) || any_non_finite(x);
+                n_bad = n_bad + select(0u, 1u, bad);
+                first_bad = select(first_bad, min(first_bad, p), bad);
+                rgba_out[p] = select(display_rgba8(x), 0xff000000u, bad);
+            }
+        }
+        if (n_bad > 0u) {
+            atomicAdd(&status[2], n_bad);
+            atomicMin(&status[3], first_bad);
+        }
+    } else {
+        for (var k = 0u; k < 4u; k = k + 1u) {
+            if (j0 + k < cam.width) {
+                rgb_out[row_start + j0 + k] = vec4<f32>(r[k], gr[k], b[k], 1.0);
             }
         }
     }
