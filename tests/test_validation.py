@@ -181,6 +181,56 @@ class TestReference:
             stderr = r.std(axis=0) / np.sqrt(len(r))
             assert np.all(np.abs(got - want) < 4 * stderr + 0.05 * want), (wname, got, want)
 
+    @pytest.mark.parametrize("wname, depth, phase", [("IB", 5.0, "ff"), ("II", 3.0, "petzold")])
+    def test_open_water_matches_the_light_field_with_ocean_phase(self, wname, depth, phase):
+        """As above with Fournier-Forand and Petzold: Mitsuba's tabphase and the light
+        field's moments come from one table (a wrong table, sign or scale fails)."""
+        mitsuba()
+        from aquaspec.gpu.raster import raycast_gbuffer
+        from aquaspec.validation.reference import lightfield_phase, render_reference
+        from aquaspec.validation.scenes import board_scene, masks
+        from aquaspec.validation.study import _spectral
+        light = surface_light("overcast")
+        water = load_water(wname)
+        scene, cam = board_scene(depth, width=32, height=24)
+        gb = raycast_gbuffer(scene, cam)
+        sel = masks(gb)["background"] & (cam.ray_directions()[..., 1] <= 0)
+        ref = render_reference(scene, cam, water, light, spp=256, phase=phase)
+        method, params = lightfield_phase(phase)
+        lf = _spectral(gb, water, light, 30, "lightfield", method, params)[sel]
+        r = ref["band_radiance"][sel].reshape(-1, 3, 10).sum(axis=2)
+        want = lf.reshape(-1, 3, 10).sum(axis=2).mean(axis=0)
+        got = r.mean(axis=0)
+        stderr = r.std(axis=0) / np.sqrt(len(r))
+        assert np.all(np.abs(got - want) < 4 * stderr + 0.05 * want), (got, want)
+
+    def test_kd_meters_use_the_phase_function(self):
+        """Irradiance meters in grey water (a = 0.1, b = 0.4 1/m at every wavelength)
+        against the light field's E_d with the same tabulated phase function.
+
+        Forward-peaked scattering keeps 4.5x more light at 8 m than isotropic
+        scattering, so meters in a medium with another phase function fail.
+        """
+        mitsuba()
+        from aquaspec.lightfield import solve_lightfield
+        from aquaspec.validation.reference import lightfield_phase, measure_kd
+        water = Water("grey", "test", np.array([300.0, 800.0]), a=np.full(2, 0.1),
+                      b=np.full(2, 0.4), kd=np.full(2, 0.15))
+        light = surface_light("overcast")
+        b = Bands(3)
+        depths = np.array([1.0, 4.0, 8.0])
+        iso = solve_lightfield([0.1], [0.4], phase="isotropic")
+        e_iso = np.ravel(iso.irradiance(depths[:, None], np.ones((1, 1))))
+        for phase in ("ff", "petzold"):
+            res = measure_kd(water, light, depths_m=depths, spp=4000, bands=b, phase=phase)
+            method, params = lightfield_phase(phase)
+            lf = solve_lightfield([0.1], [0.4], phase=method, **dict(params))
+            e_lf = np.ravel(lf.irradiance(depths[:, None], np.ones((1, 1))))
+            assert e_iso[-1] < 0.5 * e_lf[-1]
+            got = res["e_d"] / light.on_bands(b)[None, :]
+            np.testing.assert_allclose(got, np.broadcast_to(e_lf[:, None], got.shape),
+                                       rtol=0.04, err_msg=phase)
+
     def test_kd_independent_of_depth_range(self):
         mitsuba()
         from aquaspec.validation.reference import measure_kd
@@ -247,7 +297,79 @@ def test_reference_cache(tmp_path):
     assert len(list(tmp_path.glob("*.npz"))) == 3     # Kd, render at 8 spp, render at 16 spp
 
 
+@pytest.mark.slow
+def test_small_study_with_fournier_forand(tmp_path):
+    """--phase ff end to end: the light-field rows exist and the study records the table."""
+    mitsuba()
+    from aquaspec.sensors import get_sensor
+    from aquaspec.validation.study import run_study
+    res = run_study(waters=("IB",), depths=(4.0,), sensors={"human": get_sensor("human")},
+                    size=(24, 18), spp=8, kd_spp=2000, band_counts=(8,), phase="ff",
+                    backscatter=0.03, ms_models=("lightfield",), cache_dir=tmp_path)
+    pf = res["params"]["phase_function"]
+    assert pf["name"] == "tabulated" and pf["of"]["name"] == "ff"
+    assert pf["backscatter_fraction"] == pytest.approx(0.03, rel=1e-4)
+    assert res["params"]["backscatter"] == 0.03
+    rows = [r for r in res["rows"] if r["method"] == "lightfield-n8"]
+    assert rows and all(np.isfinite(r["rmse_rel"]) for r in rows)
+
+
+def test_cache_keys_hold_the_phase_function():
+    from aquaspec.validation.reference import phase_key
+    # Isotropic and HG keys are what they were (existing caches stay valid).
+    assert phase_key("isotropic") == {"phase": "isotropic", "g": 0.0}
+    assert phase_key("hg", g=0.92) == {"phase": "hg", "g": 0.92}
+    ff = phase_key("ff", backscatter=0.0183)
+    assert ff["backscatter"] == 0.0183 and ff["table_nodes"] > 10_000
+    keys = [ff, phase_key("ff", backscatter=0.02), phase_key("petzold"), phase_key("hg", g=0.9)]
+    assert len({tuple(sorted(k.items())) for k in keys}) == len(keys)
+    assert phase_key("ff", g=0.5) == ff           # g does not belong to FF
+
+
+def test_reference_and_light_field_share_the_table():
+    """The values Mitsuba's tabphase is given are the light field's table (9 digits)."""
+    from aquaspec.validation.reference import (lightfield_phase, phase_function,
+                                               reference_phase)
+    for phase, kw in (("ff", {"backscatter": 0.01}), ("petzold", {})):
+        d = reference_phase(phase, **kw)
+        assert d["type"] == "tabphase"
+        values = np.array([float(v) for v in d["values"].split(",")])
+        tab = phase_function(phase, **kw)
+        np.testing.assert_allclose(values, tab.values, rtol=1e-8)
+        method, params = lightfield_phase(phase, **kw)
+        assert method == "tabulated" and dict(params)["of"] == phase
+    assert reference_phase("hg", g=0.8) == {"type": "hg", "g": 0.8}
+    assert lightfield_phase("hg", g=0.8) == ("hg", (("g", 0.8),))
+    with pytest.raises(AquaspecError, match="'rayleigh'; accepted: isotropic, hg, ff, petzold"):
+        reference_phase("rayleigh")
+
+
 class TestBadInput:
+    @pytest.mark.parametrize("argv, match", [
+        (["--phase", "ff", "--backscatter", "0.9"], "B=0.9 is not accepted"),
+        (["--phase", "ff", "--backscatter", "nan"], "B=nan is not accepted"),
+        (["--phase", "ff", "--backscatter", "-0.01"], "B=-0.01 is not accepted"),
+        (["--phase", "petzold", "--backscatter", "0.02"], "--backscatter .* needs --phase ff"),
+        (["--phase", "hg", "--g", "1.5"], "g=1.5 is not accepted"),
+        (["--g", "0.5"], "--g .* needs --phase hg, not --phase isotropic"),
+    ])
+    def test_bad_phase_parameters(self, argv, match, capsys, tmp_path, monkeypatch):
+        # Refused before Mitsuba is even imported, and before anything is rendered.
+        import aquaspec.validation.study as study
+        monkeypatch.setattr(study, "run_study", lambda **kw: pytest.fail("study ran"))
+        assert main(["validate", *argv, "-o", str(tmp_path)]) == 2
+        err = capsys.readouterr().err
+        assert "error:" in err
+        import re
+        assert re.search(match, err), err
+
+    def test_unknown_phase(self, capsys, tmp_path):
+        with pytest.raises(SystemExit) as exc:
+            main(["validate", "--phase", "rayleigh", "-o", str(tmp_path)])
+        assert exc.value.code == 2
+        assert "invalid choice: 'rayleigh'" in capsys.readouterr().err
+
+
     def test_unknown_camera(self, camspec_path, capsys, tmp_path):
         mitsuba()
         assert main(["validate", "--camspec", str(camspec_path), "--sensors", "Leica M9",

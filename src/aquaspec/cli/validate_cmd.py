@@ -24,9 +24,17 @@ def register(sub):
     p.add_argument("--size", default="96x72", metavar="WxH")
     p.add_argument("--spp", type=int, default=512, help="reference samples per pixel")
     p.add_argument("--kd-spp", type=int, default=50000, help="samples per irradiance meter")
-    p.add_argument("--phase", default="isotropic", choices=("isotropic", "hg"),
-                   help="phase function of the path-traced water")
-    p.add_argument("--g", type=float, default=0.92, help="Henyey-Greenstein g for --phase hg")
+    p.add_argument("--phase", default="isotropic", choices=("isotropic", "hg", "ff", "petzold"),
+                   help="phase function of the path-traced water, also given to aquaspec's "
+                        "light-field model: isotropic, Henyey-Greenstein (--g), Fournier-Forand "
+                        "(--backscatter) or Petzold's average particle phase function (alone, "
+                        "not mixed with pure water); ff and petzold are tabulated in cos(theta) "
+                        "(Mitsuba's tabphase), the same table on both sides")
+    p.add_argument("--g", type=float, default=None,
+                   help="Henyey-Greenstein g for --phase hg (default 0.92)")
+    p.add_argument("--backscatter", type=float, default=None, metavar="B",
+                   help="backscatter fraction of Fournier-Forand for --phase ff (default 0.0183, "
+                        "Petzold's average particle phase function)")
     p.add_argument("--ms-models", default="seeds", metavar="M,...",
                    help="aquaspec multiple-scattering models to compare (seeds,lightfield)")
     p.add_argument("--forward-cone", type=float, default=15.0, metavar="DEG",
@@ -47,9 +55,18 @@ def run(args):
     from ..model import MS_MODELS
     from ..renderer import parse_size
     from ..sensors import builtin_sensors, get_sensor, load_camspec
-    from ..validation.reference import require_mitsuba
+    from ..validation.reference import FF_DEFAULT_BACKSCATTER, check_phase, require_mitsuba
     from ..validation.study import (default_cache_dir, format_summary, format_timing, run_study,
                                     write_results)
+    if args.g is not None and args.phase != "hg":
+        raise AquaspecError(f"--g is the Henyey-Greenstein parameter: it needs --phase hg, "
+                            f"not --phase {args.phase}")
+    if args.backscatter is not None and args.phase != "ff":
+        raise AquaspecError(f"--backscatter is the Fournier-Forand parameter: it needs --phase ff, "
+                            f"not --phase {args.phase}")
+    g = (0.92 if args.g is None else args.g) if args.phase == "hg" else 0.0
+    backscatter = FF_DEFAULT_BACKSCATTER if args.backscatter is None else args.backscatter
+    check_phase(args.phase, g, backscatter)        # bad g or B: before anything is rendered
     require_mitsuba()
     try:
         depths = tuple(float(x) for x in args.depths.split(","))
@@ -73,7 +90,7 @@ def run(args):
     cache = None if args.no_cache else (args.cache or default_cache_dir())
     res = run_study(waters=waters, depths=depths, sensors=sensors, source=args.source, size=size,
                     spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
-                    g=args.g if args.phase == "hg" else 0.0, ms_models=ms_models,
+                    g=g, backscatter=backscatter, ms_models=ms_models,
                     forward_cone_deg=args.forward_cone, gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
     from ..validation.study import REGIONS

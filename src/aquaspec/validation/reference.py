@@ -7,7 +7,12 @@ irregular spectra), the water's a and b (a ``homogeneous`` medium filling a
 ``null`` BSDF, so light enters without refraction, and no exterior medium),
 the camera (inside the medium), and an overcast sky (a ``constant``
 environment of radiance E0 / pi, so that the downwelling irradiance just
-below the surface is E0). Integrator ``volpathmis`` (``volpath`` gives
+below the surface is E0). The water's phase function (:data:`PHASES`,
+:func:`reference_phase`) is Mitsuba's ``isotropic``, ``hg``, or for
+Fournier-Forand (``ff``, from its backscatter fraction) and Petzold's
+average particle phase function (``petzold``) a ``tabphase`` holding
+exactly the table that aquaspec's light-field model is given
+(:func:`lightfield_phase`, :func:`aquaspec.phase.tabulated_phase`). Integrator ``volpathmis`` (``volpath`` gives
 fireflies in water whose extinction varies strongly with wavelength), no
 path-length limit (see :data:`MAX_DEPTH`), box reconstruction filter.
 
@@ -30,6 +35,7 @@ import hashlib
 import json
 import tempfile
 import time
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -52,7 +58,98 @@ MAX_DEPTH = -1
 #: Half-size of the water box, metres (its sides are far enough that light
 #: entering through them is attenuated to nothing).
 WATER_BOX_M = 1000.0
-PHASES = ("isotropic", "hg")
+#: Phase functions of the path-traced water.
+#:
+#: ``"ff"`` and ``"petzold"`` are Mitsuba's ``tabphase``: values on a regular
+#: grid of ``mu = cos Theta`` over [-1, 1] (``mu = 1`` forward, as verified by
+#: sampling it), linear in between and normalised by the plugin, i.e. exactly
+#: :class:`aquaspec.phase.TabulatedPhase` with the same values. The table has
+#: :data:`aquaspec.phase.DEFAULT_TABLE_NODES` nodes (forward peak resolved to
+#: ~0.4 degree; B and g of the table within 2e-6 of the functions').
+#:
+#: ``"petzold"`` is Petzold's *particle* phase function alone, for all of b:
+#: a Mitsuba medium has one phase function for all wavelengths (``blendphase``
+#: takes a scalar weight, so it cannot mix in pure water by b_w/b per
+#: wavelength), so aquaspec's light-field model is given the same unmixed
+#: function for this comparison (unlike its ``"petzold"`` method, which mixes
+#: in pure water by band).
+PHASES = ("isotropic", "hg", "ff", "petzold")
+#: Default backscatter fraction of ``"ff"``: Petzold's average particle phase
+#: function (Mobley et al. 2002: B = 0.0183, n = 1.10, mu = 3.5835).
+FF_DEFAULT_BACKSCATTER = 0.0183
+
+
+def check_phase(phase: str, g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER):
+    """Raise :class:`AquaspecError` unless ``phase`` and its parameter are accepted."""
+    from ..phase import FournierForand, HenyeyGreenstein
+    if phase not in PHASES:
+        raise AquaspecError(f"reference phase function {phase!r}; accepted: {', '.join(PHASES)}")
+    if phase == "hg":
+        HenyeyGreenstein(float(g))
+    elif phase == "ff":
+        FournierForand(float(backscatter))
+
+
+def lightfield_phase(phase: str, g: float = 0.0,
+                     backscatter: float = FF_DEFAULT_BACKSCATTER) -> tuple[str, tuple]:
+    """``(method, params)`` of aquaspec's phase function equal to the reference's.
+
+    ``params`` is a tuple of ``(name, value)`` pairs for
+    :func:`aquaspec.phase.get_phase` (``SpectralSetup.phase_params``). ``ff``
+    and ``petzold`` are the tabulated functions whose values
+    :func:`reference_phase` gives Mitsuba (``petzold`` unmixed: see
+    :data:`PHASES`).
+    """
+    from ..phase import DEFAULT_TABLE_NODES
+    check_phase(phase, g, backscatter)
+    if phase == "isotropic":
+        return "isotropic", ()
+    if phase == "hg":
+        return "hg", (("g", float(g)),)
+    params = (("of", phase), ("n_nodes", DEFAULT_TABLE_NODES))
+    if phase == "ff":
+        params += (("backscatter", float(backscatter)),)
+    return "tabulated", params
+
+
+def phase_function(phase: str, g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER):
+    """The :class:`aquaspec.phase.PhaseFunction` of the reference's water."""
+    from ..phase import get_phase
+    method, params = lightfield_phase(phase, g, backscatter)
+    return get_phase(method, **dict(params))
+
+
+@lru_cache(maxsize=4)
+def _table_text(phase: str, g: float, backscatter: float) -> str:
+    # 9 significant digits: float32 (Mitsuba's storage) keeps them all.
+    return ", ".join(f"{v:.9g}" for v in phase_function(phase, g, backscatter).values)
+
+
+def reference_phase(phase: str, g: float = 0.0,
+                    backscatter: float = FF_DEFAULT_BACKSCATTER) -> dict:
+    """Mitsuba's phase-function dictionary for the reference's water."""
+    check_phase(phase, g, backscatter)
+    if phase == "isotropic":
+        return {"type": "isotropic"}
+    if phase == "hg":
+        return {"type": "hg", "g": float(g)}
+    return {"type": "tabphase", "values": _table_text(phase, float(g), float(backscatter))}
+
+
+def phase_key(phase: str, g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER) -> dict:
+    """The phase function's entries of a cache key.
+
+    ``phase`` and ``g`` as before (existing isotropic/HG caches stay valid);
+    for tabulated phases also the backscatter fraction (``ff``), the table
+    size and a digest of the table's values.
+    """
+    key = {"phase": phase, "g": float(g) if phase == "hg" else 0.0}
+    if phase in ("ff", "petzold"):
+        tab = phase_function(phase, g, backscatter)
+        key.update(table_nodes=int(tab.values.size), table=spectra_digest(tab.values))
+        if phase == "ff":
+            key["backscatter"] = float(backscatter)
+    return key
 
 
 def require_mitsuba():
@@ -98,14 +195,13 @@ def _film(bands, width, height):
     return film
 
 
-def _medium(water: Water, phase: str, g: float):
-    if phase not in PHASES:
-        raise AquaspecError(f"reference phase function {phase!r}; accepted: {', '.join(PHASES)}")
+def _medium(water: Water, phase: str, g: float, backscatter: float = FF_DEFAULT_BACKSCATTER):
+    phase_dict = reference_phase(phase, g, backscatter)
     wl = water.wavelength_nm
     c = water.a + water.b
     med = {"type": "homogeneous", "sigma_t": _spectrum(wl, c),
            "albedo": _spectrum(wl, np.clip(water.b / c, 0.0, 1.0)),
-           "phase": {"type": "isotropic"} if phase == "isotropic" else {"type": "hg", "g": g}}
+           "phase": phase_dict}
     return med
 
 
@@ -117,14 +213,14 @@ def _check_range(water, light, bands):
                                 f"samples {bands.lo_nm:g}-{bands.hi_nm:g} nm")
 
 
-def _base(water, light, phase, g):
+def _base(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER):
     mi = require_mitsuba()
     T = mi.ScalarTransform4f
     sky = _spectrum(light.wavelength_nm, np.asarray(light.values) / np.pi)
     return {
         "type": "scene",
         "integrator": {"type": "volpathmis", "max_depth": MAX_DEPTH},
-        "water_medium": _medium(water, phase, g),
+        "water_medium": _medium(water, phase, g, backscatter),
         "water": {"type": "cube",
                   "to_world": T().translate([0.0, -WATER_BOX_M / 2, 0.0]).scale(
                       [WATER_BOX_M, WATER_BOX_M / 2, WATER_BOX_M]),
@@ -136,14 +232,14 @@ def _base(water, light, phase, g):
 
 def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
                mesh_dir, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
-               g: float = 0.0) -> dict:
+               g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER) -> dict:
     """The Mitsuba scene dictionary (meshes are written as PLY into ``mesh_dir``)."""
     import trimesh
     mi = require_mitsuba()
     _check_range(water, light, bands)
     if abs(camera.cx - camera.width / 2) > 1e-6 or abs(camera.cy - camera.height / 2) > 1e-6:
         raise AquaspecError("the reference camera needs the principal point at the image centre")
-    d = _base(water, light, phase, g)
+    d = _base(water, light, phase, g, backscatter)
     fov_y = float(np.degrees(2 * np.arctan(camera.height / 2 / camera.fy)))
     d["sensor"] = {
         "type": "perspective", "fov": fov_y, "fov_axis": "y",
@@ -170,16 +266,17 @@ def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
 
 def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: int = 256,
                      seed: int = 0, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
-                     g: float = 0.0) -> dict:
+                     g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER) -> dict:
     """Path-trace the scene; returns ``band_radiance`` (H, W, n) and timing.
 
     ``band_radiance`` is the radiance averaged over each band of ``bands``
     (W m^-2 sr^-1 nm^-1), the same quantity aquaspec computes per band.
+    ``phase``, ``g`` (``hg``) and ``backscatter`` (``ff``): see :data:`PHASES`.
     """
     mi = require_mitsuba()
     with tempfile.TemporaryDirectory(prefix="aquaspec-ref-") as tmp:
         d = scene_dict(scene, camera, water, light, spp=spp, mesh_dir=tmp, bands=bands,
-                       phase=phase, g=g)
+                       phase=phase, g=g, backscatter=backscatter)
         t0 = time.perf_counter()
         mscene = mi.load_dict(d)
         img = np.array(mi.render(mscene, seed=seed), dtype=np.float64)
@@ -191,7 +288,7 @@ def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: i
 
 
 def preflight(scene, camera, water: Water, light: SurfaceLight, *, phase: str = "isotropic",
-              g: float = 0.0, bands: Bands = REFERENCE_BANDS, size=(8, 6), spp: int = 8) -> dict:
+              g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER, bands: Bands = REFERENCE_BANDS, size=(8, 6), spp: int = 8) -> dict:
     """Render a tiny version of the scene first, to fail in a second, not after minutes.
 
     Same scene, camera pose and field of view at ``size`` pixels and ``spp``
@@ -205,7 +302,7 @@ def preflight(scene, camera, water: Water, light: SurfaceLight, *, phase: str = 
     tiny = Camera.look_at(camera.position, camera.position + camera.forward, width=size[0],
                           height=size[1], fov_y_deg=fov_y, up=camera.true_up)
     res = render_reference(scene, tiny, water, light, spp=spp, seed=12345, bands=bands,
-                           phase=phase, g=g)
+                           phase=phase, g=g, backscatter=backscatter)
     img = res["band_radiance"]
     if np.any(img < 0):
         raise AquaspecError(f"the reference's test render has negative radiance "
@@ -221,12 +318,14 @@ def preflight(scene, camera, water: Water, light: SurfaceLight, *, phase: str = 
 
 def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.0, 5.0, 6.0),
                spp: int = 100_000, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
-               g: float = 0.0, seed: int = 0) -> dict:
+               g: float = 0.0, seed: int = 0,
+               backscatter: float = FF_DEFAULT_BACKSCATTER) -> dict:
     """Kd(lambda) of the path-traced water, from irradiance meters facing up.
 
     Returns ``depths_m``, ``e_d`` (n_depths, n) downwelling irradiance per
     band, ``kd`` (n,) from a least-squares fit of ``ln E_d`` against depth,
-    and ``kd_stderr`` (n,), the fit's standard error.
+    and ``kd_stderr`` (n,), the fit's standard error. The water (and the
+    meters' copy of it) has the phase function of :func:`render_reference`.
     """
     mi = require_mitsuba()
     _check_range(water, light, bands)
@@ -236,7 +335,7 @@ def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.
     T = mi.ScalarTransform4f
     e_d = []
     for i, depth in enumerate(depths):
-        d = _base(water, light, phase, g)
+        d = _base(water, light, phase, g, backscatter)
         d["meter"] = {
             "type": "rectangle",
             "to_world": T().translate([0.0, -float(depth), 0.0]).rotate([1, 0, 0], -90).scale(0.01),
@@ -247,7 +346,7 @@ def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.
             # refused by Mitsuba for sensors attached to shapes).
             "sensor": {"type": "irradiancemeter", "film": _film(bands, 1, 1),
                        "sampler": {"type": "independent", "sample_count": int(spp)},
-                       "medium": _medium(water, phase, g)},
+                       "medium": _medium(water, phase, g, backscatter)},
         }
         img = np.array(mi.render(mi.load_dict(d), seed=seed + i), dtype=np.float64)
         e_d.append(img.reshape(bands.n))

@@ -37,8 +37,9 @@ from ..light import surface_light
 from ..water import load_water
 from . import metrics
 from .baselines import render_baseline
-from .reference import (MAX_DEPTH, REFERENCE_BANDS, bands_to_rgb, cache_key, measure_kd,
-                        preflight, render_reference, spectra_digest, water_with_kd)
+from .reference import (FF_DEFAULT_BACKSCATTER, MAX_DEPTH, REFERENCE_BANDS, bands_to_rgb,
+                        cache_key, check_phase, lightfield_phase, measure_kd, phase_function,
+                        phase_key, preflight, render_reference, spectra_digest, water_with_kd)
 from .scenes import board_scene, masks
 
 DEFAULT_WATERS = ("I", "IA", "IB", "II", "3C")
@@ -117,7 +118,8 @@ def _region_means(rgb, m):
 
 def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, source="solonenko2015",
               size=(96, 72), spp: int = 256, kd_spp: int = 50_000, phase: str = "isotropic",
-              g: float = 0.0, band_counts=(8, 16), ms_models=("seeds",),
+              g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
+              band_counts=(8, 16), ms_models=("seeds",),
               kd_modes=("database", "measured"), forward_cone_deg: float = 15.0,
               cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
@@ -126,20 +128,35 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     aquaspec took to shade the same G-buffer in NumPy (float64, one core) per
     method, and with ``gpu_timing`` the median GPU frame time at the largest
     band count, so the speed-up at equal pixel count can be reported.
+
+    ``phase`` (with ``g`` for ``"hg"``, ``backscatter`` for ``"ff"``) is the
+    path-traced water's phase function (:data:`.reference.PHASES`); the
+    light-field model is given exactly the same function
+    (:func:`.reference.lightfield_phase`: for ``"ff"`` and ``"petzold"`` the
+    very table Mitsuba's ``tabphase`` holds; ``"petzold"`` is the particle
+    phase function alone, unmixed with pure water, on both sides).
     """
     from ..gpu.raster import raycast_gbuffer
     say = progress or (lambda m: None)
     if not sensors:
         raise AquaspecError("the study needs at least one sensor")
     light = surface_light("overcast")
-    phase_lf = "isotropic" if phase == "isotropic" else "hg"
+    g = float(g) if phase == "hg" else 0.0
+    backscatter = float(backscatter)
+    check_phase(phase, g, backscatter)
+    phase_lf, phase_params = lightfield_phase(phase, g, backscatter)
+    ph = phase_function(phase, g, backscatter)
+    phase_info = {**ph.describe(), "backscatter_fraction": ph.backscatter_fraction(),
+                  "mean_cosine": float(ph.legendre_moments(1)[1])}
+    pkey = phase_key(phase, g, backscatter)
     rows, scenes, images = [], [], {}
     total = len(waters) * len(depths)
     if waters and depths:
         # A broken scene should fail in a second, not after the Kd meters.
         say("checking the reference scene on an 8x6 test image")
         scene0, cam0 = board_scene(depths[0], width=size[0], height=size[1])
-        preflight(scene0, cam0, load_water(waters[0], source), light, phase=phase, g=g)
+        preflight(scene0, cam0, load_water(waters[0], source), light, phase=phase, g=g,
+                  backscatter=backscatter)
     k = 0
     for wname in waters:
         water = load_water(wname, source)
@@ -147,11 +164,12 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
         # the spectra (not only their names).
         data = spectra_digest(water.wavelength_nm, water.a, water.b, light.wavelength_nm,
                               light.values)
-        kd_key = cache_key(kind="kd", water=wname, source=source, phase=phase, g=g, spp=kd_spp,
+        kd_key = cache_key(kind="kd", water=wname, source=source, **pkey, spp=kd_spp,
                            bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
                            depths=list(KD_DEPTHS_M), data=data)
         kd_res, hit = _cached(cache_dir, kd_key, lambda: measure_kd(
-            water, light, depths_m=KD_DEPTHS_M, spp=kd_spp, phase=phase, g=g))
+            water, light, depths_m=KD_DEPTHS_M, spp=kd_spp, phase=phase, g=g,
+            backscatter=backscatter))
         say(f"[{wname}] Kd measured in the reference{' (cache)' if hit else ''}")
         waters_by_mode = {"database": water,
                           "measured": water_with_kd(water, np.asarray(kd_res["kd"]))}
@@ -174,12 +192,13 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                                       *[x for mat in scene.materials
                                         for x in (mat.wavelength_nm, mat.values)])
             key = cache_key(kind="render", scene=SCENE_VERSION, water=wname, source=source,
-                            depth=depth, size=list(size), spp=spp, phase=phase, g=g,
+                            depth=depth, size=list(size), spp=spp, **pkey,
                             bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
                             data=data, geometry=geometry)
             t0 = time.perf_counter()
             ref, hit = _cached(cache_dir, key, lambda: render_reference(
-                scene, cam, water, light, spp=spp, phase=phase, g=g))
+                scene, cam, water, light, spp=spp, phase=phase, g=g,
+                backscatter=backscatter))
             say(f"[{k}/{total}] {wname} {depth:g} m: reference "
                 f"{'from cache' if hit else f'{time.perf_counter() - t0:.1f} s'}")
             methods = {}
@@ -193,7 +212,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         t0 = time.perf_counter()
                         methods[(name, mode)] = ("bands", n, _spectral(
                             gb, waters_by_mode[mode], light, n, ms, phase_lf,
-                            (("g", g),) if phase_lf == "hg" else (), forward_cone_deg))
+                            phase_params, forward_cone_deg))
                         numpy_seconds[name] = time.perf_counter() - t0
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             for mode in kd_modes:       # the image-formation model's B_inf and J use Kd
@@ -244,6 +263,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     return {"rows": rows, "scenes": scenes, "images": images,
             "params": {"waters": list(waters), "depths": list(depths), "cameras": list(sensors),
                        "size": list(size), "spp": spp, "kd_spp": kd_spp, "phase": phase, "g": g,
+                       "backscatter": backscatter if phase == "ff" else None,
+                       "phase_function": phase_info,
                        "source": source, "band_counts": list(band_counts),
                        "ms_models": list(ms_models), "forward_cone_deg": forward_cone_deg}}
 
