@@ -109,8 +109,8 @@ class Renderer:
         key = (id(setup), tuple(id(m) for m in materials))
         if key != self._medium_key:
             self._use_lightfield = setup.ms_model == "lightfield"
-            # The light-field pass reads the G-buffer's storage-buffer copy.
-            self.deferred.storage_gbuffer = self._use_lightfield
+            # Both shading passes read the G-buffer textures: no storage copy.
+            self.deferred.storage_gbuffer = False
             if self._use_lightfield:
                 from .gpu.lightfield_pass import LightfieldPass
                 if self.lightfield is None:

@@ -1,164 +1,319 @@
 // Deferred spectral shading with the light-field multiple-scattering model
-// (ms_model = "lightfield"): G-buffer -> linear camera RGB, one pixel per
-// invocation.
+// (ms_model = "lightfield"): G-buffer -> linear camera RGB, or with DISPLAY
+// straight to display RGBA8; one invocation per four horizontally adjacent
+// pixels (vec4 lanes, pixel k in component k).
 //
-// Twin of aquaspec/lightfield.py (lightfield_pixel_radiance, lightfield_l_ms,
+// Twin of aquaspec/lightfield.py (lightfield_pixel_radiance, _two_point,
 // bilinear; float64 NumPy reference) as used by aquaspec/shading.py
 // (shade_gbuffer with light-field tables). Deep water only (no seabed
-// boundary in the tables). G-buffer layout: aquaspec/gpu/deferred.py.
+// boundary in the tables). Layouts: aquaspec/gpu/lightfield_pass.py (its
+// module docstring); G-buffer textures: aquaspec/gpu/deferred.py.
+//
+// The radiance of a pixel (lightfield_pixel_radiance) is, per band,
+//   L = L_bg(d_o, v) + T' (L_surf - R(d_S, v) - u_S L_top)   (ray ends at S)
+//   L = L_bg(d_o, v)                                          (open water down)
+// with the open-water field L_bg(d, v) = R(d, v) + u(d) L_top,
+// R(d, v) = F(d, v) b E0 / (4 pi) ms_path_integral(c, kappa_1, d, v, inf),
+// u(d) = exp(-c d / v) (up rays; 0 down), L_top = sky E0 inside Snell's
+// window (0 outside), T' = exp(-(c - f b) S) (f: forward-cone fraction).
+// - The first term depends on the pixel only through v (the camera depth
+//   d_o is fixed): its sum over bands in camera RGB comes from the host's
+//   float64 open-water table (lightfield_pass.open_water_table), sampled
+//   along the table's own direction axis. Open-water pixels (up rays end at
+//   the surface, where R(0, v) = 0 and u = 1, so their second term is 0) need
+//   nothing else: four-pixel groups without a hit skip the band loop.
+// - Hits: u_S T' = exp(-c d_o / v) exp(f b S), so without a forward cone
+//   (CONE false) the window terms cancel exactly and are left out.
+// - T' R(d_S) is written with the exponentials of the whole product,
+//   scale (exp(lnF - c' S - kappa_1 d_S) - exp(lnF - c' S - c d_S / v)) / k,
+//   k = c - kappa_1 v, c' = c - f b (the second term for up rays only; both
+//   exponents stay small, whatever the sign of k), and the series of
+//   (1 - e^-x) / x where |x| = |k d_S / v| < 0.1 would cancel in f32.
+//
+// Written for lavapipe (SIMD over 8 invocations on the CPU), as
+// deferred.wgsl (see its header): per-band constants in a uniform array
+// with a compile-time band count (and table sizes), per-pixel work (texel
+// coordinates: one arccosine per direction, one sqrt per depth; bilinear
+// weights) outside the band loop, selects instead of branches, and a
+// per-invocation trip count to skip the band loop.
 
-const PI: f32 = 3.14159265358979;
-const PER_PIXEL: u32 = 0xffffffffu;
-const SIGMOID_X_MAX: f32 = 1.0e6;
+#include "common.wgsl"
+#include "tonemap.wgsl"
 
 {{ params_struct }}
 
-@group(0) @binding(0) var<uniform> prm: LightfieldParams;
-@group(0) @binding(1) var<storage, read> gb_distance: array<f32>;
-@group(0) @binding(2) var<storage, read> gb_surface: array<vec4<u32>>;
-@group(0) @binding(3) var<storage, read> gb_sigmoid: array<vec4<f32>>;
-// Per band i: [3i] = (c, b, kappa_1, E0), [3i+1] = (w_r, w_g, w_b, t),
-// [3i+2] = (sky radiance per E0, f b, 0, 0) with f the forward-cone fraction.
-@group(0) @binding(4) var<storage, read> bands: array<vec4<f32>>;
+{{ display_struct }}
+
+const N_BANDS: u32 = {{ n_bands }}u;
+// Table axes (aquaspec.lightfield.table_depths / table_cosines).
+const N_DEPTH: u32 = {{ n_depth }}u;
+const N_MU: u32 = {{ n_mu }}u;
+// Whether any band has a forward-cone fraction f > 0.
+const CONE: bool = {{ cone }};
+// DISPLAY: apply the display transform (display.wgsl) and write packed
+// RGBA8 instead of linear RGB; TONEMAP is its tone map id (tonemap.wgsl).
+const DISPLAY: bool = {{ display }};
+const TONEMAP: u32 = {{ tonemap_id }}u;
+// Whether the G-buffer has per-pixel (sigmoid) materials: when false the
+// sigmoid texture is not read and no sigmoid is evaluated.
+const PER_PIXEL_MATERIALS: bool = {{ per_pixel }};
+// Material index meaning "use this pixel's sigmoid coefficients" (gbuffer.PER_PIXEL).
+const PER_PIXEL: u32 = 0xffffffffu;
+
+@group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
+// G-buffer: surface (S bits, n_y bits, octahedral normal, material index)
+// and sigmoid (c0, c1, c2, unused), aquaspec.gpu.deferred.
+@group(0) @binding(1) var gb_surface: texture_2d<u32>;
+@group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
+// Three vec4 per band i (lightfield_pass.BAND_FIELDS, float64 on the host):
+//   [3i]     c, kappa_1, c' = c - f b, scale = b E0 / (4 pi)
+//   [3i + 1] w_r, w_g, w_b, E0 / pi
+//   [3i + 2] t (sigmoid band centre), L_top = sky radiance per E0 * E0, 0, 0
+@group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
 @group(0) @binding(5) var<storage, read> material_bands: array<f32>;
-@group(0) @binding(6) var<storage, read> log_prefactor: array<f32>;
-@group(0) @binding(7) var<storage, read> irradiance: array<f32>;
-@group(0) @binding(8) var<storage, read_write> rgb_out: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
+// status[0]: pixels with a material index out of range; with DISPLAY,
+// status[2]: pixels with a non-finite value (written black) and status[3]
+// the smallest such pixel index.
+@group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
+@group(0) @binding(9) var<uniform> disp: {{ display_struct_name }};
+@group(0) @binding(10) var<storage, read_write> rgba_out: array<u32>;
+// Open-water table: two vec4 per sample m of the direction texel coordinate
+// y = m / table_sub: [2m] camera RGB of R(d_o, v), [2m + 1] of u(d_o) L_top
+// (added inside Snell's window).
+@group(0) @binding(11) var<storage, read> open_table: array<vec4<f32>>;
+// ln F and E / E0, band innermost: [(i N_MU + j) N_BANDS + band].
+@group(0) @binding(12) var<storage, read> log_prefactor: array<f32>;
+@group(0) @binding(13) var<storage, read> irradiance: array<f32>;
 
-// lightfield.bilinear: texel x = sqrt(d / D) (n_depth - 1), y = (1 - acos(v) / pi) (n_mu - 1).
-struct Texel { i: u32, j: u32, fx: f32, fy: f32 };
-
-fn texel(depth: f32, v: f32) -> Texel {
-    let nd = f32(prm.n_depth);
-    let nm = f32(prm.n_mu);
-    let x = sqrt(clamp(depth, 0.0, prm.max_depth) / prm.max_depth) * (nd - 1.0);
-    let y = (1.0 - acos(clamp(v, -1.0, 1.0)) / PI) * (nm - 1.0);
-    let i = min(u32(floor(x)), prm.n_depth - 2u);
-    let j = min(u32(floor(y)), prm.n_mu - 2u);
-    return Texel(i, j, x - f32(i), y - f32(j));
+// Camera.ray_directions: the up component of the unit ray through the pixel
+// centres (j + 0.5, i + 0.5) of four pixels j = j0 .. j0 + 3 in row i.
+fn ray_direction_y(j0: u32, i: u32) -> vec4<f32> {
+    let x = (vec4<f32>(f32(j0)) + vec4<f32>(0.5, 1.5, 2.5, 3.5) - prm.cx) / prm.fx;
+    let y = (f32(i) + 0.5 - prm.cy) / prm.fy;
+    let dx = prm.right.x * x + (prm.forward.x - prm.up.x * y);
+    let dy = prm.right.y * x + (prm.forward.y - prm.up.y * y);
+    let dz = prm.right.z * x + (prm.forward.z - prm.up.z * y);
+    return dy * inverseSqrt(dx * dx + dy * dy + dz * dz);
 }
 
-fn lookup_prefactor(band: u32, t: Texel) -> f32 {
-    let base = (band * prm.n_depth + t.i) * prm.n_mu + t.j;
-    let n = prm.n_mu;
-    return (1.0 - t.fx) * ((1.0 - t.fy) * log_prefactor[base] + t.fy * log_prefactor[base + 1u])
-         + t.fx * ((1.0 - t.fy) * log_prefactor[base + n] + t.fy * log_prefactor[base + n + 1u]);
+// arcsin of |z| <= 0.5 (Cephes asinf polynomial, about 1 ulp).
+fn asin_small(z: vec4<f32>) -> vec4<f32> {
+    let q = z * z;
+    return z + z * q * ((((4.2163199048e-2 * q + 2.4181311049e-2) * q + 4.5470025998e-2) * q
+        + 7.4953002686e-2) * q + 1.6666752422e-1);
 }
 
-fn lookup_irradiance(band: u32, t: Texel) -> f32 {
-    let base = (band * prm.n_depth + t.i) * prm.n_mu + t.j;
-    let n = prm.n_mu;
-    return (1.0 - t.fx) * ((1.0 - t.fy) * irradiance[base] + t.fy * irradiance[base + 1u])
-         + t.fx * ((1.0 - t.fy) * irradiance[base + n] + t.fy * irradiance[base + n + 1u]);
+// lightfield.bilinear's direction coordinate y = (1 - acos(v) / pi) (N_MU - 1).
+// Not WGSL's acos: lavapipe's is off by up to 1.6e-4 rad (3e-3 of a table
+// cell with 65 directions), visible against the float64 reference.
+// acos(v) = pi / 2 - asin(v) for |v| <= 1/2, else 2 asin(sqrt((1 - |v|) / 2))
+// (pi minus that for v < 0).
+fn cos_coord(v: vec4<f32>) -> vec4<f32> {
+    let a = min(abs(v), vec4<f32>(1.0));
+    let far = 2.0 * asin_small(sqrt(0.5 - 0.5 * a));
+    let acos_v = select(0.5 * PI - asin_small(v), select(far, PI - far, v < vec4<f32>(0.0)),
+                        a > vec4<f32>(0.5));
+    return (1.0 - acos_v / PI) * f32(N_MU - 1u);
 }
 
-// (1 - exp(-x)) / x, x >= 0, as in model.ms_path_integral (series below 0.1, as common.wgsl).
-fn phi(x: f32) -> f32 {
-    if (x < 0.1) {
-        return 1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0))));
-    }
-    return (1.0 - exp(-x)) / x;
+// lightfield.bilinear for four pixels: the index of corner (i, j) of each
+// pixel's cell (band 0) and the weights of corners (i, j), (i, j + 1),
+// (i + 1, j), (i + 1, j + 1); depth coordinate x = sqrt(d / D) (N_DEPTH - 1).
+struct Cell { base: vec4<u32>, w00: vec4<f32>, w01: vec4<f32>, w10: vec4<f32>, w11: vec4<f32> };
+
+fn cell(depth: vec4<f32>, y: vec4<f32>) -> Cell {
+    let x = sqrt(clamp(depth, vec4<f32>(0.0), vec4<f32>(prm.max_depth)) / prm.max_depth)
+        * f32(N_DEPTH - 1u);
+    let i = min(vec4<u32>(floor(x)), vec4<u32>(N_DEPTH - 2u));
+    let j = min(vec4<u32>(floor(y)), vec4<u32>(N_MU - 2u));
+    let fx = x - vec4<f32>(i);
+    let fy = y - vec4<f32>(j);
+    return Cell((i * N_MU + j) * N_BANDS, (1.0 - fx) * (1.0 - fy), (1.0 - fx) * fy,
+                fx * (1.0 - fy), fx * fy);
 }
 
-// model.ms_path_integral(c, kappa_1, d, v, inf): the ray to infinity, or to
-// the surface for up rays. For k < 0, exp(-K d) S (e^y - 1) / y is written
-// exp(-K d + y) S phi(y), y = -k S, whose exponent stays <= 0 under water.
-fn ms_integral_inf(c: f32, k1: f32, d: f32, v: f32) -> f32 {
-    let k = c - k1 * v;
-    if (v > 0.0) {
-        let s = d / v;
-        let x = k * s;
-        if (x >= 0.0) {
-            return exp(-k1 * d) * s * phi(x);
-        }
-        return exp(-k1 * d - x) * s * phi(-x);
-    }
-    return exp(-k1 * d) / k;
+const D01: u32 = N_BANDS;
+const D10: u32 = N_MU * N_BANDS;
+const D11: u32 = (N_MU + 1u) * N_BANDS;
+
+fn lookup_prefactor(t: Cell, band: u32) -> vec4<f32> {
+    let b = t.base + vec4<u32>(band);
+    return t.w00 * vec4<f32>(log_prefactor[b.x], log_prefactor[b.y], log_prefactor[b.z],
+                             log_prefactor[b.w])
+         + t.w01 * vec4<f32>(log_prefactor[b.x + D01], log_prefactor[b.y + D01],
+                             log_prefactor[b.z + D01], log_prefactor[b.w + D01])
+         + t.w10 * vec4<f32>(log_prefactor[b.x + D10], log_prefactor[b.y + D10],
+                             log_prefactor[b.z + D10], log_prefactor[b.w + D10])
+         + t.w11 * vec4<f32>(log_prefactor[b.x + D11], log_prefactor[b.y + D11],
+                             log_prefactor[b.z + D11], log_prefactor[b.w + D11]);
 }
 
-fn sigmoid_reflectance(co: vec3<f32>, t: f32) -> f32 {
-    let x = clamp((co.x * t + co.y) * t + co.z, -SIGMOID_X_MAX, SIGMOID_X_MAX);
-    return 0.5 + 0.5 * x / sqrt(1.0 + x * x);
+fn lookup_irradiance(t: Cell, band: u32) -> vec4<f32> {
+    let b = t.base + vec4<u32>(band);
+    return t.w00 * vec4<f32>(irradiance[b.x], irradiance[b.y], irradiance[b.z], irradiance[b.w])
+         + t.w01 * vec4<f32>(irradiance[b.x + D01], irradiance[b.y + D01],
+                             irradiance[b.z + D01], irradiance[b.w + D01])
+         + t.w10 * vec4<f32>(irradiance[b.x + D10], irradiance[b.y + D10],
+                             irradiance[b.z + D10], irradiance[b.w + D10])
+         + t.w11 * vec4<f32>(irradiance[b.x + D11], irradiance[b.y + D11],
+                             irradiance[b.z + D11], irradiance[b.w + D11]);
 }
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if (gid.x >= prm.width || gid.y >= prm.height) {
+@compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>,
+        @builtin(num_workgroups) nwg: vec3<u32>) {
+    // Rows of workgroups interleaved, top half / bottom half, as in
+    // deferred.wgsl: the two lavapipe threads each get open water and hits.
+    let half = (nwg.y + 1u) / 2u;
+    let block = select(half + wg.y / 2u, wg.y / 2u, wg.y % 2u == 0u);
+    let row = block * {{ workgroup_y }}u + lid.y;
+    let j0 = 4u * (wg.x * {{ workgroup_x }}u + lid.x);
+    if (j0 >= prm.width || row >= prm.height) {
         return;
     }
-    let p = gid.y * prm.width + gid.x;
-    let xn = (f32(gid.x) + 0.5 - prm.cx) / prm.fx;
-    let yn = (f32(gid.y) + 0.5 - prm.cy) / prm.fy;
-    let v = normalize(prm.right * xn - prm.up * yn + prm.forward).y;
+    let row_start = row * prm.width;
+    let v_y = ray_direction_y(j0, row);
     let d_o = prm.depth_o;
 
-    let s_gb = gb_distance[p];
-    var hit = s_gb >= 0.0;
-    if (hit && v > 0.0) {
-        hit = s_gb <= d_o / v;
+    var s_gb: vec4<f32>;
+    var n_y: vec4<f32>;
+    var material: vec4<u32>;
+    var sig: array<vec3<f32>, 4>;
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let xy = vec2<u32>(min(j0 + k, prm.width - 1u), row);
+        let surf = textureLoad(gb_surface, xy, 0);
+        s_gb[k] = bitcast<f32>(surf.x);
+        n_y[k] = bitcast<f32>(surf.y);
+        material[k] = surf.w;
+        if (PER_PIXEL_MATERIALS) {
+            sig[k] = textureLoad(gb_sigmoid, xy, 0).xyz;
+        }
     }
-    var s = 0.0;
-    var finite = false;
-    if (hit) {
-        s = s_gb;
-        finite = true;
-    } else if (v > 0.0) {
-        s = d_o / v;
-        finite = true;
-    }
-    let surf = gb_surface[p];
-    let n_y = bitcast<f32>(surf.y);
-    let material = surf.w;
-    let sig = gb_sigmoid[p].xyz;
-    let surface_depth = d_o - s * v;
-    let t_o = texel(d_o, v);
-    let t_s = texel(max(d_o - s * v, 0.0), v);
-    let t_n = texel(surface_depth, n_y);
+    // A hit counts only if the ray reaches it before the water surface.
+    let up = v_y > vec4<f32>(0.0);
+    let v_safe = select(vec4<f32>(1.0), v_y, up);
+    let hit = (s_gb >= vec4<f32>(0.0)) & (!up | (s_gb <= d_o / v_safe));
+    let s = select(vec4<f32>(0.0), s_gb, hit);
+    // Depth of the hit (the camera's depth for open water: unused there).
+    let d_s = max(d_o - s * v_y, vec4<f32>(0.0));
+    let y = cos_coord(v_y);
+    let in_window = v_y > vec4<f32>(prm.window_cos);
 
-    var rgb = vec3<f32>(0.0);
-    for (var i = 0u; i < prm.n_bands; i = i + 1u) {
-        let cbke = bands[3u * i];
-        let wt = bands[3u * i + 1u];
-        let sky_fb = bands[3u * i + 2u];
-        let c = cbke.x;
-        let b = cbke.y;
-        let k1 = cbke.z;
-        let e0 = cbke.w;
-        let scale = e0 * b / (4.0 * PI);
-        let r_o = exp(lookup_prefactor(i, t_o)) * scale * ms_integral_inf(c, k1, d_o, v);
-        // lightfield_pixel_radiance: with the open-water field
-        // L_bg(d) = R(d) + exp(-c d / v) L_top (up rays), the radiance is
-        // L_bg(d_o) + T' (L_surf - L_bg(d_S)), T' = exp(-(c - f b) S).
-        var l_top = 0.0;
-        var u_o = 0.0;
-        if (v > prm.window_cos) {
-            l_top = sky_fb.x * e0;
+    // Open-water field at the camera, L_bg(d_o, v), from the table.
+    var r: vec4<f32>;
+    var gr: vec4<f32>;
+    var b: vec4<f32>;
+    let add_window = in_window & (!hit | vec4<bool>(CONE));
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let x = y[k] * f32(prm.table_sub);
+        let m = min(u32(x), prm.table_last - 1u);
+        let f = x - f32(m);
+        var rgb = mix(open_table[2u * m], open_table[2u * m + 2u], f);
+        if (add_window[k]) {
+            rgb = rgb + mix(open_table[2u * m + 1u], open_table[2u * m + 3u], f);
         }
-        if (v > 0.0) {
-            u_o = exp(-c * d_o / v);
-        }
-        var l = r_o + u_o * l_top;
-        if (finite) {
-            let d_s = max(d_o - s * v, 0.0);
-            let r_s = exp(lookup_prefactor(i, t_s)) * scale * ms_integral_inf(c, k1, d_s, v);
-            var u_s = 0.0;
-            if (v > 0.0) {
-                u_s = exp(-c * d_s / v);
-            }
-            let tr = exp(-(c - sky_fb.y) * s);
-            var l_surf = l_top;
-            if (hit) {
-                var rho = 0.0;
-                if (material == PER_PIXEL) {
-                    rho = sigmoid_reflectance(sig, wt.w);
-                } else if (material < prm.n_materials) {
-                    rho = material_bands[material * prm.n_bands + i];
-                }
-                l_surf = rho * lookup_irradiance(i, t_n) * e0 / PI;
-            }
-            l = l + tr * (l_surf - r_s - u_s * l_top);
-        }
-        rgb = rgb + l * wt.xyz;
+        r[k] = rgb.x;
+        gr[k] = rgb.y;
+        b[k] = rgb.z;
     }
-    rgb_out[p] = vec4<f32>(rgb, 1.0);
+
+    // Materials, as deferred.wgsl.
+    let use_sigmoid = hit & (material == vec4<u32>(PER_PIXEL)) & vec4<bool>(PER_PIXEL_MATERIALS);
+    let use_material = hit & !use_sigmoid & (material < vec4<u32>(prm.n_materials));
+    var c0 = vec4<f32>(0.0);
+    var c1 = vec4<f32>(0.0);
+    var c2 = vec4<f32>(0.0);
+    var bad = 0u;
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        let valid = j0 + k < prm.width;
+        if (valid && use_sigmoid[k]) {
+            let c = sig[k];
+            c0[k] = c.x;
+            c1[k] = c.y;
+            c2[k] = c.z;
+        }
+        if (valid && hit[k] && !use_sigmoid[k] && !use_material[k]) {
+            // Out-of-range material index (or PER_PIXEL in a G-buffer
+            // declared without per-pixel materials): reported, rho = 0.
+            bad = bad + 1u;
+        }
+    }
+    if (bad > 0u) {
+        atomicAdd(&status[0], bad);
+    }
+    let mrow = select(vec4<u32>(0u), material * N_BANDS, use_material);
+
+    // Per pixel, outside the band loop: the table cells of R(d_S, v) and of
+    // E(d_S, n_y), and the ray's length from the hit to the surface (up).
+    let cell_s = cell(d_s, y);
+    let cell_n = cell(d_s, cos_coord(n_y));
+    let len_up = d_s / v_safe;
+    let cone_window = hit & in_window & vec4<bool>(CONE);
+
+    // Only hits have a band loop (a per-invocation trip count: lavapipe
+    // leaves a loop when no SIMD lane has iterations left).
+    let n_iter = select(0u, N_BANDS, any(hit));
+    for (var i = 0u; i < n_iter; i = i + 1u) {
+        let q0 = band_table[3u * i];
+        let q1 = band_table[3u * i + 1u];
+        let q2 = band_table[3u * i + 2u];
+        let c = q0.x;
+        let k1 = q0.y;
+        let c_beam = q0.z;
+        let ln_f = lookup_prefactor(cell_s, i);
+        let tr = exp(-c_beam * s);
+        // T' R(d_S, v) / scale (see the header).
+        let a = ln_f - c_beam * s;
+        let k = c - k1 * v_y;
+        let e1 = exp(a - k1 * d_s);
+        let e2 = select(vec4<f32>(0.0), exp(a - c * len_up), up);
+        let x = k * len_up;
+        let inv_k = 1.0 / select(vec4<f32>(1.0), k, k != vec4<f32>(0.0));
+        let series = e1 * len_up * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0
+                     - x * (1.0 / 120.0)))));
+        let r_s = select((e1 - e2) * inv_k, series, up & (abs(x) < vec4<f32>(0.1)));
+        var rho = select(vec4<f32>(0.0), vec4<f32>(material_bands[mrow.x + i],
+                         material_bands[mrow.y + i], material_bands[mrow.z + i],
+                         material_bands[mrow.w + i]), use_material);
+        if (PER_PIXEL_MATERIALS) {
+            rho = select(rho, sigmoid_reflectance(c0, c1, c2, q2.x), use_sigmoid);
+        }
+        var l = tr * rho * lookup_irradiance(cell_n, i) * q1.w - q0.w * r_s;
+        if (CONE) {
+            // - T' u_S L_top inside the window.
+            l = l - select(vec4<f32>(0.0), exp(-c_beam * s - c * len_up) * q2.y, cone_window);
+        }
+        l = select(vec4<f32>(0.0), l, hit);
+        r = r + l * q1.x;
+        gr = gr + l * q1.y;
+        b = b + l * q1.z;
+    }
+    if (DISPLAY) {
+        // display.wgsl's main for the four pixels, as in deferred.wgsl.
+        var n_bad = 0u;
+        var first_bad = 0xffffffffu;
+        for (var k = 0u; k < 4u; k = k + 1u) {
+            if (j0 + k < prm.width) {
+                let p = row_start + j0 + k;
+                let lin = vec3<f32>(r[k], gr[k], b[k]);
+                let c = max(lin, vec3<f32>(0.0));
+                let x = vec3<f32>(dot(disp.m0, c), dot(disp.m1, c), dot(disp.m2, c));
+                let bad_px = any_non_finite(lin) || any_non_finite(x);
+                n_bad = n_bad + select(0u, 1u, bad_px);
+                first_bad = select(first_bad, min(first_bad, p), bad_px);
+                rgba_out[p] = select(display_rgba8(x), 0xff000000u, bad_px);
+            }
+        }
+        if (n_bad > 0u) {
+            atomicAdd(&status[2], n_bad);
+            atomicMin(&status[3], first_bad);
+        }
+    } else {
+        for (var k = 0u; k < 4u; k = k + 1u) {
+            if (j0 + k < prm.width) {
+                rgb_out[row_start + j0 + k] = vec4<f32>(r[k], gr[k], b[k], 1.0);
+            }
+        }
+    }
 }
