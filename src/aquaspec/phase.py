@@ -22,6 +22,13 @@ scattering is a separate phase function (:class:`PureWaterPhase`); the
 ``b_w / b_p`` split of each band (:func:`band_moments`), because the b of the
 Jerlov types includes pure water's scattering.
 
+``"tabulated"`` (:func:`tabulated_phase`, :class:`TabulatedPhase`) is any of
+them on a regular grid in ``mu``, linear in between: the representation of
+Mitsuba 3's ``tabphase``, so the validation's path tracer and the light-field
+model use one function (its integrals are exact for the table). A table is
+one function for every wavelength: tabulated ``"petzold"`` is the particle
+phase function alone, not mixed with pure water.
+
 References
 ----------
 .. [HG1941] L. G. Henyey and J. L. Greenstein, "Diffuse radiation in the

@@ -12,7 +12,8 @@ below the surface is E0). The water's phase function (:data:`PHASES`,
 Fournier-Forand (``ff``, from its backscatter fraction) and Petzold's
 average particle phase function (``petzold``) a ``tabphase`` holding
 exactly the table that aquaspec's light-field model is given
-(:func:`lightfield_phase`, :func:`aquaspec.phase.tabulated_phase`). Integrator ``volpathmis`` (``volpath`` gives
+(:func:`lightfield_phase`, :func:`aquaspec.phase.tabulated_phase`).
+Integrator ``volpathmis`` (``volpath`` gives
 fireflies in water whose extinction varies strongly with wavelength), no
 path-length limit (see :data:`MAX_DEPTH`), box reconstruction filter.
 
@@ -288,7 +289,8 @@ def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: i
 
 
 def preflight(scene, camera, water: Water, light: SurfaceLight, *, phase: str = "isotropic",
-              g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER, bands: Bands = REFERENCE_BANDS, size=(8, 6), spp: int = 8) -> dict:
+              g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
+              bands: Bands = REFERENCE_BANDS, size=(8, 6), spp: int = 8) -> dict:
     """Render a tiny version of the scene first, to fail in a second, not after minutes.
 
     Same scene, camera pose and field of view at ``size`` pixels and ``spp``
