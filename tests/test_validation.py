@@ -253,9 +253,17 @@ def test_small_study(tmp_path, camspec_path, capsys):
     assert code == 0
     out = capsys.readouterr().out
     assert "time per image at equal pixel count" in out
+    assert "mean over scenes whose reference converged" in out
     import json
     doc = json.loads((tmp_path / "validation.json").read_text())
     rows = doc["rows"]
+    # At 32 spp and 48x36 the references are noisy: every scene reports its
+    # standard error, and the 3C 9 m one (the darkest) is flagged.
+    for sc in doc["scenes"]:
+        assert set(sc["reference_stderr"]) == {"grey", "background"}
+        assert sc["converged"] == (max(sc["reference_stderr"].values()) <= 0.05)
+    assert not next(sc for sc in doc["scenes"]
+                    if (sc["water"], sc["depth_m"]) == ("3C", 9.0))["converged"]
     assert {r["region"] for r in rows} == {"image", "patches", "grey", "background",
                                            "background_down", "patch_means"}
     for sc in doc["scenes"]:
@@ -394,3 +402,35 @@ class TestBadInput:
         monkeypatch.setattr(builtins, "__import__", fake)
         assert main(["validate", "-o", str(tmp_path)]) == 2
         assert "pip install 'aquaspec[validation]'" in capsys.readouterr().err
+
+
+def test_reference_stderr_of_known_noise():
+    """Standard error of a region mean: sigma / sqrt(N) / mean per third of the spectrum."""
+    from aquaspec.validation.study import reference_stderr
+    rng = np.random.default_rng(0)
+    n = 40000
+    img = np.empty((200, 200, 30))
+    img[..., :10] = 2.0 + 0.4 * rng.standard_normal((200, 200, 10)) / np.sqrt(10)
+    img[..., 10:20] = 1.0
+    img[..., 20:] = 1.0 + 0.1 * rng.standard_normal((200, 200, 10)) / np.sqrt(10)
+    mask = np.ones((200, 200), bool)
+    # Blue third: the sum of its 10 bands has mean 20 and sigma 0.4 (relative
+    # error of the mean 0.02 / sqrt(N)); red: mean 10, sigma 0.1 (0.01 /
+    # sqrt(N)); green: no noise. The largest is reported.
+    got = reference_stderr(img, mask)
+    assert got == pytest.approx(0.4 / np.sqrt(n) / 20.0, rel=0.05)
+    img[..., 20:] = 0.0
+    assert reference_stderr(img, mask) == float("inf")       # no light in the red third
+    assert reference_stderr(img, np.zeros((200, 200), bool)) == float("inf")
+
+
+def test_converged_means_leave_out_noisy_scenes():
+    from aquaspec.validation.study import converged_means, format_converged
+    rows = [{"water": w, "depth_m": d, "camera": "c", "method": "m", "kd": "database",
+             "region": "grey", "rmse_rel": e, "hsv": 0.0, "hue_deg": 1.0, "ciede2000": 0.0,
+             "mean_ratio": 1.0 + e} for w, d, e in (("I", 3.0, 0.1), ("7C", 12.0, 50.0))]
+    scenes = [{"water": "I", "depth_m": 3.0, "converged": True},
+              {"water": "7C", "depth_m": 12.0, "converged": False}]
+    (r,) = converged_means(rows, scenes, region="grey")
+    assert r["scenes"] == 1 and r["rmse_rel"] == pytest.approx(0.1)
+    assert "left out: 7C 12 m" in format_converged(rows, scenes, regions=("grey",))

@@ -48,6 +48,35 @@ SCENE_VERSION = "board-v1"
 #: Depths of the irradiance meters that measure Kd in the reference, m.
 KD_DEPTHS_M = (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
 REGIONS = ("image", "patches", "grey", "background", "background_down", "patch_means")
+#: A scene's reference counts as converged when the standard error of the
+#: mean of its grey patch and of its open-water background, in each third
+#: of the spectrum, is at most this fraction of the mean (half of the 10 %
+#: tolerance the light-field issue sets; see :func:`reference_stderr`).
+CONVERGED_STDERR = 0.05
+
+
+def reference_stderr(band_radiance, mask, groups: int = 3) -> float:
+    """Relative standard error of a region's mean in a path-traced image.
+
+    The region's pixels are summed over ``groups`` consecutive runs of
+    bands (thirds of the spectrum by default: blue, green, red light,
+    camera-independent); for each, the spread of the pixels over the root of
+    their number, relative to their mean. Returns the largest; ``inf`` when
+    a mean is not positive (no light reached the region). Real variation
+    inside the region counts as noise here, so this bounds the Monte Carlo
+    error of the mean from above.
+    """
+    x = np.asarray(band_radiance, dtype=np.float64)[np.asarray(mask, bool)]
+    if x.shape[0] < 2:
+        return float("inf")
+    worst = 0.0
+    for part in np.array_split(np.arange(x.shape[-1]), groups):
+        v = x[:, part].sum(axis=-1)
+        mean = v.mean()
+        if not mean > 0:
+            return float("inf")
+        worst = max(worst, float(v.std(ddof=1) / np.sqrt(v.size) / mean))
+    return worst
 
 
 def default_cache_dir() -> Path:
@@ -249,6 +278,14 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                     "kd_measured": np.asarray(kd_res["kd"]).tolist(),
                     "kd_measured_stderr": np.asarray(kd_res["kd_stderr"]).tolist(),
                     "kd_database": water.on_bands(REFERENCE_BANDS).kd.tolist()}
+            stderr = {r: reference_stderr(ref["band_radiance"], region_masks[r])
+                      for r in ("grey", "background") if r in region_masks}
+            info["reference_stderr"] = stderr
+            info["converged"] = bool(stderr) and max(stderr.values()) <= CONVERGED_STDERR
+            say("  reference standard error of the mean: " + ", ".join(
+                f"{r} {v:.1%}" for r, v in stderr.items())
+                + ("" if info["converged"] else
+                   f" (above {CONVERGED_STDERR:.0%}: not converged at {spp} spp)"))
             if gpu_timing:
                 n_max = max(band_counts)
                 secs, why = gpu_frame_seconds(scene, cam, water, light, n_max)
@@ -283,6 +320,41 @@ def summarise(rows, *, region="image") -> list[dict]:
                        for k in ("rmse_rel", "hsv", "hue_deg", "ciede2000", "mean_ratio")
                        + (("ssim",) if region == "image" else ())}})
     return out
+
+
+def converged_means(rows, scenes, *, region) -> list[dict]:
+    """Mean over the converged scenes (and cameras) per (method, kd) for one region.
+
+    ``scenes`` are the study's scene records (``converged`` from
+    :func:`reference_stderr`); an error in a scene whose reference is
+    mostly Monte Carlo noise says nothing about the model.
+    """
+    ok = {(sc["water"], sc["depth_m"]) for sc in scenes if sc.get("converged")}
+    per_scene = [r for r in summarise(rows, region=region) if (r["water"], r["depth_m"]) in ok]
+    groups = {}
+    for r in per_scene:
+        groups.setdefault((r["method"], r["kd"]), []).append(r)
+    return [{"method": m, "kd": kd, "scenes": len(rs),
+             **{k: float(np.mean([r[k] for r in rs]))
+                for k in ("rmse_rel", "hsv", "hue_deg", "ciede2000", "mean_ratio")}}
+            for (m, kd), rs in sorted(groups.items())]
+
+
+def format_converged(rows, scenes, regions=("grey", "patch_means", "background")) -> str:
+    """Table of :func:`converged_means` for ``regions``, with the scenes left out."""
+    left_out = [f"{sc['water']} {sc['depth_m']:g} m" for sc in scenes if not sc.get("converged")]
+    lines = [f"mean over scenes whose reference converged (standard error of the grey and "
+             f"background means <= {CONVERGED_STDERR:.0%}); left out: "
+             + (", ".join(left_out) or "none")]
+    cols = ["rmse_rel", "hue_deg", "mean_ratio", "hsv", "ciede2000"]
+    for region in regions:
+        lines.append(f"region: {region}")
+        lines.append(f"{'method':>20s} {'Kd':>9s} {'scenes':>6s} "
+                     + " ".join(f"{c:>10s}" for c in cols))
+        for r in converged_means(rows, scenes, region=region):
+            lines.append(f"{r['method']:>20s} {r['kd']:>9s} {r['scenes']:6d} "
+                         + " ".join(f"{r[c]:10.4f}" for c in cols))
+    return "\n".join(lines)
 
 
 def format_summary(rows, region="image") -> str:
