@@ -21,8 +21,8 @@ One invocation shades four horizontally adjacent pixels. Bindings:
 2   texture ``rgba32float``             G-buffer sigmoid (read when per_pixel)
 4   uniform ``array<vec4<f32>, 3 n>``   per band :data:`BAND_FIELDS` (float64 on
                                         the host, :func:`band_table`)
-5   storage ``array<f32>``              material band reflectances,
-                                        ``material * n + band``
+5   texture ``r32float`` (n, M)         material band reflectances, texel
+                                        ``(band, material)``
 6   storage ``array<vec4<f32>>``        linear camera RGB out (w = 1), pixel
                                         ``p = row * width + column``
 8   storage ``array<atomic<u32>>``      status: [0] pixels with a material index
@@ -32,8 +32,11 @@ One invocation shades four horizontally adjacent pixels. Bindings:
                                         (:mod:`aquaspec.gpu.display_pass`)
 10  storage ``array<u32>``              display RGBA8 out (``display=True``)
 11  storage ``array<vec4<f32>>``        open-water table (:func:`open_water_table`)
-12  storage ``array<f32>``              ``ln F``, ``[(i n_mu + j) n + band]``
-13  storage ``array<f32>``              ``E / E0``, same layout
+12  texture ``rgba32float``             ``ln F``: texel ``(band, i (n_mu - 1) + j)``
+    (n, (n_depth - 1) (n_mu - 1))       holds the corners ``(i, j), (i, j + 1),
+                                        (i + 1, j), (i + 1, j + 1)`` of cell
+                                        ``(i, j)`` (:func:`corner_texture`)
+13  texture ``rgba32float``             ``E / E0``, same layout
 ==  ==================================  ==========================================
 """
 
@@ -45,7 +48,7 @@ from ..errors import AquaspecError
 from ..lightfield import _seeds_shape, bilinear
 from ..shading import camera_depth
 from .buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
-                      record_dispatch, upload_buffer)
+                      create_texture, record_dispatch, upload_buffer, upload_texture)
 from .deferred import CAMERA_FIELDS, bind_group_entries, bind_group_layout, camera_fields
 from .layout import UniformLayout
 from .shaders import load_wgsl
@@ -73,6 +76,19 @@ B_STATUS, B_DISPLAY, B_RGBA, B_OPEN_TABLE, B_LOG_PREFACTOR, B_IRRADIANCE = 8, 9,
 #: camera just below the surface: up rays near the horizon need more).
 OPEN_TABLE_SUBS = (64, 128, 256, 512, 1024)
 OPEN_TABLE_TOLERANCE = 1e-5
+
+
+def corner_texture(table) -> np.ndarray:
+    """Texels of a table (n, n_depth, n_mu): (cells, n, 4) float32, cell ``i (n_mu - 1) + j``.
+
+    Texel ``(band, cell)`` holds ``table[band]`` at the cell's corners
+    ``(i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1)``: one fetch per
+    bilinear lookup.
+    """
+    t = np.moveaxis(np.asarray(table, dtype=np.float32), 0, -1)   # (n_depth, n_mu, n)
+    corners = np.stack([t[:-1, :-1], t[:-1, 1:], t[1:, :-1], t[1:, 1:]], axis=-1)
+    nd, nm, n = t.shape
+    return np.ascontiguousarray(corners.reshape((nd - 1) * (nm - 1), n, 4))
 
 
 def band_table(a, b, e0, response_weights, sigmoid_centers_t, tables) -> np.ndarray:
@@ -182,9 +198,9 @@ class LightfieldPass:
         self._last_display = False
         self._layout = bind_group_layout(dev, {
             B_PARAMS: "uniform", B_SURFACE: "uint", B_SIGMOID: "float", B_BANDS: "uniform",
-            B_MATERIALS: "read", B_RGB: "write", B_STATUS: "write", B_DISPLAY: "uniform",
-            B_RGBA: "write", B_OPEN_TABLE: "read", B_LOG_PREFACTOR: "read",
-            B_IRRADIANCE: "read"})
+            B_MATERIALS: "float", B_RGB: "write", B_STATUS: "write", B_DISPLAY: "uniform",
+            B_RGBA: "write", B_OPEN_TABLE: "read", B_LOG_PREFACTOR: "float",
+            B_IRRADIANCE: "float"})
         self._pipelines = {}
         self._buffers = None
         self._shape = None
@@ -211,7 +227,7 @@ class LightfieldPass:
         if lp.shape[0] != n:
             raise AquaspecError(f"tables have {lp.shape[0]} bands; the medium has {n}")
         band = band_table(a, b, e0, response_weights, sigmoid_centers_t, tables)
-        mb = np.asarray(material_bands, dtype=np.float32).reshape(-1)
+        mb = np.asarray(material_bands, dtype=np.float32).reshape(-1, n)
         import wgpu
         dev = self.device
         bands = dev.create_buffer(label="lightfield bands", size=band.size * 4,
@@ -221,17 +237,26 @@ class LightfieldPass:
             raise AquaspecError(f"{n} bands need a {bands.size}-byte band table; this "
                                 f"device binds at most {limit}")
         upload_buffer(dev, bands, band.astype(np.float32))
-        # Band innermost: a pixel's corners for all bands are close together.
+        usage = wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST
+        lp_tex, irr_tex = corner_texture(lp), corner_texture(irr)
+        max_2d = dev.limits.get("max-texture-dimension-2d", 8192)
+        if max(lp_tex.shape[:2]) > max_2d:
+            raise AquaspecError(f"light-field tables of {n} bands and {lp.shape[1]}x{lp.shape[2]} "
+                                f"samples need a {lp_tex.shape[1]}x{lp_tex.shape[0]} texture; "
+                                f"this device allows at most {max_2d} per side; accepted: "
+                                "smaller n_depth or n_mu")
+
+        def texture(data, fmt, label):
+            tex = create_texture(dev, data.shape[1], data.shape[0], fmt, label=label, usage=usage)
+            upload_texture(dev, tex, data)
+            return tex
+
         self._buffers = {
             B_BANDS: bands,
-            B_MATERIALS: create_storage_buffer(dev, mb if mb.size else np.zeros(1, np.float32),
-                                               label="lightfield materials"),
-            B_LOG_PREFACTOR: create_storage_buffer(
-                dev, np.ascontiguousarray(np.moveaxis(lp, 0, -1)).reshape(-1),
-                label="lightfield ln F"),
-            B_IRRADIANCE: create_storage_buffer(
-                dev, np.ascontiguousarray(np.moveaxis(irr, 0, -1)).reshape(-1),
-                label="lightfield irradiance"),
+            B_MATERIALS: texture(mb if mb.size else np.zeros((1, n), np.float32), "r32float",
+                                 "lightfield materials"),
+            B_LOG_PREFACTOR: texture(lp_tex, "rgba32float", "lightfield ln F"),
+            B_IRRADIANCE: texture(irr_tex, "rgba32float", "lightfield irradiance"),
         }
         f = np.asarray(tables.get("forward_fraction", np.zeros(n)), dtype=float)
         self._shape = dict(n_bands=n, n_materials=int(np.asarray(material_bands).shape[0]),

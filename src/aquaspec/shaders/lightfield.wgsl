@@ -70,7 +70,8 @@ const PER_PIXEL: u32 = 0xffffffffu;
 //   [3i + 1] w_r, w_g, w_b, E0 / pi
 //   [3i + 2] t (sigmoid band centre), L_top = sky radiance per E0 * E0, 0, 0
 @group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
-@group(0) @binding(5) var<storage, read> material_bands: array<f32>;
+// Material band reflectances: texel (band, material).
+@group(0) @binding(5) var material_bands: texture_2d<f32>;
 @group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
 // status[0]: pixels with a material index out of range; with DISPLAY,
 // status[2]: pixels with a non-finite value (written black) and status[3]
@@ -82,9 +83,13 @@ const PER_PIXEL: u32 = 0xffffffffu;
 // y = m / table_sub: [2m] camera RGB of R(d_o, v), [2m + 1] of u(d_o) L_top
 // (added inside Snell's window).
 @group(0) @binding(11) var<storage, read> open_table: array<vec4<f32>>;
-// ln F and E / E0, band innermost: [(i N_MU + j) N_BANDS + band].
-@group(0) @binding(12) var<storage, read> log_prefactor: array<f32>;
-@group(0) @binding(13) var<storage, read> irradiance: array<f32>;
+// ln F and E / E0: texel (band, i (N_MU - 1) + j) holds the four corners
+// (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1) of table cell (i, j). Texel
+// fetches, not storage loads: lavapipe (Mesa 22) loads storage buffers lane
+// by lane with a bounds-check branch per component, and those loads were
+// two thirds of the pass.
+@group(0) @binding(12) var log_prefactor: texture_2d<f32>;
+@group(0) @binding(13) var irradiance: texture_2d<f32>;
 
 // Camera.ray_directions: the up component of the unit ray through the pixel
 // centres (j + 0.5, i + 0.5) of four pixels j = j0 .. j0 + 3 in row i.
@@ -117,10 +122,10 @@ fn cos_coord(v: vec4<f32>) -> vec4<f32> {
     return (1.0 - acos_v / PI) * f32(N_MU - 1u);
 }
 
-// lightfield.bilinear for four pixels: the index of corner (i, j) of each
-// pixel's cell (band 0) and the weights of corners (i, j), (i, j + 1),
-// (i + 1, j), (i + 1, j + 1); depth coordinate x = sqrt(d / D) (N_DEPTH - 1).
-struct Cell { base: vec4<u32>, w00: vec4<f32>, w01: vec4<f32>, w10: vec4<f32>, w11: vec4<f32> };
+// lightfield.bilinear for four pixels: each pixel's cell row (i (N_MU - 1) + j)
+// and the weights of the cell's corners (i, j), (i, j + 1), (i + 1, j),
+// (i + 1, j + 1), pixel k in w[k]; depth coordinate x = sqrt(d / D) (N_DEPTH - 1).
+struct Cell { row: vec4<u32>, w: array<vec4<f32>, 4> };
 
 fn cell(depth: vec4<f32>, y: vec4<f32>) -> Cell {
     let x = sqrt(clamp(depth, vec4<f32>(0.0), vec4<f32>(prm.max_depth)) / prm.max_depth)
@@ -129,35 +134,20 @@ fn cell(depth: vec4<f32>, y: vec4<f32>) -> Cell {
     let j = min(vec4<u32>(floor(y)), vec4<u32>(N_MU - 2u));
     let fx = x - vec4<f32>(i);
     let fy = y - vec4<f32>(j);
-    return Cell((i * N_MU + j) * N_BANDS, (1.0 - fx) * (1.0 - fy), (1.0 - fx) * fy,
-                fx * (1.0 - fy), fx * fy);
+    var out: Cell;
+    out.row = i * (N_MU - 1u) + j;
+    for (var k = 0u; k < 4u; k = k + 1u) {
+        out.w[k] = vec4<f32>((1.0 - fx[k]) * (1.0 - fy[k]), (1.0 - fx[k]) * fy[k],
+                             fx[k] * (1.0 - fy[k]), fx[k] * fy[k]);
+    }
+    return out;
 }
 
-const D01: u32 = N_BANDS;
-const D10: u32 = N_MU * N_BANDS;
-const D11: u32 = (N_MU + 1u) * N_BANDS;
-
-fn lookup_prefactor(t: Cell, band: u32) -> vec4<f32> {
-    let b = t.base + vec4<u32>(band);
-    return t.w00 * vec4<f32>(log_prefactor[b.x], log_prefactor[b.y], log_prefactor[b.z],
-                             log_prefactor[b.w])
-         + t.w01 * vec4<f32>(log_prefactor[b.x + D01], log_prefactor[b.y + D01],
-                             log_prefactor[b.z + D01], log_prefactor[b.w + D01])
-         + t.w10 * vec4<f32>(log_prefactor[b.x + D10], log_prefactor[b.y + D10],
-                             log_prefactor[b.z + D10], log_prefactor[b.w + D10])
-         + t.w11 * vec4<f32>(log_prefactor[b.x + D11], log_prefactor[b.y + D11],
-                             log_prefactor[b.z + D11], log_prefactor[b.w + D11]);
-}
-
-fn lookup_irradiance(t: Cell, band: u32) -> vec4<f32> {
-    let b = t.base + vec4<u32>(band);
-    return t.w00 * vec4<f32>(irradiance[b.x], irradiance[b.y], irradiance[b.z], irradiance[b.w])
-         + t.w01 * vec4<f32>(irradiance[b.x + D01], irradiance[b.y + D01],
-                             irradiance[b.z + D01], irradiance[b.w + D01])
-         + t.w10 * vec4<f32>(irradiance[b.x + D10], irradiance[b.y + D10],
-                             irradiance[b.z + D10], irradiance[b.w + D10])
-         + t.w11 * vec4<f32>(irradiance[b.x + D11], irradiance[b.y + D11],
-                             irradiance[b.z + D11], irradiance[b.w + D11]);
+fn lookup(table: texture_2d<f32>, t: Cell, band: u32) -> vec4<f32> {
+    return vec4<f32>(dot(textureLoad(table, vec2<u32>(band, t.row.x), 0), t.w[0]),
+                     dot(textureLoad(table, vec2<u32>(band, t.row.y), 0), t.w[1]),
+                     dot(textureLoad(table, vec2<u32>(band, t.row.z), 0), t.w[2]),
+                     dot(textureLoad(table, vec2<u32>(band, t.row.w), 0), t.w[3]));
 }
 
 @compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
@@ -242,7 +232,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     if (bad > 0u) {
         atomicAdd(&status[0], bad);
     }
-    let mrow = select(vec4<u32>(0u), material * N_BANDS, use_material);
+    let mrow = select(vec4<u32>(0u), material, use_material);
 
     // Per pixel, outside the band loop: the table cells of R(d_S, v) and of
     // E(d_S, n_y), and the ray's length from the hit to the surface (up).
@@ -261,7 +251,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         let c = q0.x;
         let k1 = q0.y;
         let c_beam = q0.z;
-        let ln_f = lookup_prefactor(cell_s, i);
+        let ln_f = lookup(log_prefactor, cell_s, i);
         let tr = exp(-c_beam * s);
         // T' R(d_S, v) / scale (see the header).
         let a = ln_f - c_beam * s;
@@ -273,13 +263,15 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         let series = e1 * len_up * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0
                      - x * (1.0 / 120.0)))));
         let r_s = select((e1 - e2) * inv_k, series, up & (abs(x) < vec4<f32>(0.1)));
-        var rho = select(vec4<f32>(0.0), vec4<f32>(material_bands[mrow.x + i],
-                         material_bands[mrow.y + i], material_bands[mrow.z + i],
-                         material_bands[mrow.w + i]), use_material);
+        var rho = select(vec4<f32>(0.0), vec4<f32>(
+            textureLoad(material_bands, vec2<u32>(i, mrow.x), 0).x,
+            textureLoad(material_bands, vec2<u32>(i, mrow.y), 0).x,
+            textureLoad(material_bands, vec2<u32>(i, mrow.z), 0).x,
+            textureLoad(material_bands, vec2<u32>(i, mrow.w), 0).x), use_material);
         if (PER_PIXEL_MATERIALS) {
             rho = select(rho, sigmoid_reflectance(c0, c1, c2, q2.x), use_sigmoid);
         }
-        var l = tr * rho * lookup_irradiance(cell_n, i) * q1.w - q0.w * r_s;
+        var l = tr * rho * lookup(irradiance, cell_n, i) * q1.w - q0.w * r_s;
         if (CONE) {
             // - T' u_S L_top inside the window.
             l = l - select(vec4<f32>(0.0), exp(-c_beam * s - c * len_up) * q2.y, cone_window);
