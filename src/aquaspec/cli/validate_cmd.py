@@ -56,8 +56,8 @@ def run(args):
     from ..renderer import parse_size
     from ..sensors import builtin_sensors, get_sensor, load_camspec
     from ..validation.reference import FF_DEFAULT_BACKSCATTER, check_phase, require_mitsuba
-    from ..validation.study import (default_cache_dir, format_converged, format_summary,
-                                    format_timing, run_study, write_results)
+    from ..validation.study import (default_cache_dir, format_attenuation, format_converged,
+                                    format_summary, format_timing, run_study, write_results)
     if args.g is not None and args.phase != "hg":
         raise AquaspecError(f"--g is the Henyey-Greenstein parameter: it needs --phase hg, "
                             f"not --phase {args.phase}")
@@ -98,6 +98,8 @@ def run(args):
         print(format_summary(res["rows"], region=region))
         print()
     print(format_converged(res["rows"], res["scenes"]))
+    print()
+    print(format_attenuation(res["waters"]))
     print()
     print(format_timing(res["scenes"]))
     print()

@@ -79,6 +79,43 @@ def reference_stderr(band_radiance, mask, groups: int = 3) -> float:
     return worst
 
 
+def lightfield_kd(water, phase_lf, phase_params=(), depths_m=KD_DEPTHS_M) -> dict:
+    """The light-field model's diffuse attenuation on the reference's bands (1/m).
+
+    ``kd_fit``: the least-squares slope of ``ln E_d`` over ``depths_m``, the
+    depths of the reference's irradiance meters (:func:`measure_kd` fits the
+    path tracer's the same way); ``k_inf``: the asymptotic kappa_1 of the
+    discrete-ordinates solution, the attenuation far below the surface.
+    """
+    from ..lightfield import solve_lightfield
+    wb = water.on_bands(REFERENCE_BANDS)
+    lf = solve_lightfield(wb.a, wb.b, phase=phase_lf, wavelength_nm=REFERENCE_BANDS.centers_nm,
+                          **dict(phase_params))
+    d = np.asarray(depths_m, dtype=float)
+    slope = np.polyfit(d, np.log(lf.e_d(d)).T, 1)[0]
+    return {"kd_fit": -slope, "k_inf": np.asarray(lf.k_inf, dtype=float)}
+
+
+def format_attenuation(waters: dict, wavelengths_nm=(450.0, 550.0, 650.0)) -> str:
+    """Table of database, path-traced and light-field Kd per water (1/m) at a few wavelengths.
+
+    ``waters`` maps a water name to its ``attenuation`` record (study result
+    ``"waters"``): ``kd_database``, ``kd_measured``, ``kd_lightfield``,
+    ``k_inf_lightfield`` on the reference bands.
+    """
+    c = REFERENCE_BANDS.centers_nm
+    cols = ("kd_database", "kd_measured", "kd_lightfield", "k_inf_lightfield")
+    lines = ["diffuse attenuation (1/m): database Kd, Kd measured in the path tracer, the "
+             f"light-field model's Kd over the meters' depths {KD_DEPTHS_M[0]:g}-"
+             f"{KD_DEPTHS_M[-1]:g} m and its kappa_1",
+             f"{'water':>5s} {'nm':>5s} " + " ".join(f"{k:>16s}" for k in cols)]
+    for name, rec in waters.items():
+        for wl in wavelengths_nm:
+            lines.append(f"{name:>5s} {wl:5.0f} " + " ".join(
+                f"{np.interp(wl, c, rec[k]):16.4f}" for k in cols))
+    return "\n".join(lines)
+
+
 def default_cache_dir() -> Path:
     import os
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
@@ -178,7 +215,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     phase_info = {**ph.describe(), "backscatter_fraction": ph.backscatter_fraction(),
                   "mean_cosine": float(ph.legendre_moments(1)[1])}
     pkey = phase_key(phase, g, backscatter)
-    rows, scenes, images = [], [], {}
+    rows, scenes, images, attenuation = [], [], {}, {}
     total = len(waters) * len(depths)
     if waters and depths:
         # A broken scene should fail in a second, not after the Kd meters.
@@ -200,6 +237,13 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
             water, light, depths_m=KD_DEPTHS_M, spp=kd_spp, phase=phase, g=g,
             backscatter=backscatter))
         say(f"[{wname}] Kd measured in the reference{' (cache)' if hit else ''}")
+        lf_att = lightfield_kd(water, phase_lf, phase_params)
+        attenuation[wname] = {
+            "kd_database": water.on_bands(REFERENCE_BANDS).kd.tolist(),
+            "kd_measured": np.asarray(kd_res["kd"]).tolist(),
+            "kd_measured_stderr": np.asarray(kd_res["kd_stderr"]).tolist(),
+            "kd_lightfield": lf_att["kd_fit"].tolist(),
+            "k_inf_lightfield": lf_att["k_inf"].tolist()}
         waters_by_mode = {"database": water,
                           "measured": water_with_kd(water, np.asarray(kd_res["kd"]))}
         for depth in depths:
@@ -297,7 +341,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                     say(f"  GPU frame n={n_max}: {secs * 1e3:.1f} ms; reference "
                         f"{info['reference_seconds']:.1f} s")
             scenes.append(info)
-    return {"rows": rows, "scenes": scenes, "images": images,
+    return {"rows": rows, "scenes": scenes, "images": images, "waters": attenuation,
             "params": {"waters": list(waters), "depths": list(depths), "cameras": list(sensors),
                        "size": list(size), "spp": spp, "kd_spp": kd_spp, "phase": phase, "g": g,
                        "backscatter": backscatter if phase == "ff" else None,
@@ -406,6 +450,7 @@ def write_results(result, out_dir) -> dict:
              "panels": out / "panels.png"}
     write_file_atomically(paths["csv"], lambda t: Path(t).write_text(text))
     doc = json.dumps({"params": result["params"], "scenes": result["scenes"],
+                      "waters": result.get("waters", {}),
                       "summary": {reg: summarise(rows, region=reg) for reg in REGIONS},
                       "rows": rows}, indent=1)
     write_file_atomically(paths["json"], lambda t: Path(t).write_text(doc))
