@@ -31,7 +31,9 @@ One invocation shades four horizontally adjacent pixels. Bindings:
 9   uniform ``DISPLAY_LAYOUT``          fused display transform
                                         (:mod:`aquaspec.gpu.display_pass`)
 10  storage ``array<u32>``              display RGBA8 out (``display=True``)
-11  storage ``array<vec4<f32>>``        open-water table (:func:`open_water_table`)
+11  texture ``rgba32float``             open-water table (:func:`open_water_table`):
+                                        sample ``m``, part ``h`` at texel
+                                        ``(2 (m % OPEN_ROW) + h, m / OPEN_ROW)``
 12  texture ``rgba32float``             ``ln F``: texel ``(band, i (n_mu - 1) + j)``
     (n, (n_depth - 1) (n_mu - 1))       holds the corners ``(i, j), (i, j + 1),
                                         (i + 1, j), (i + 1, j + 1)`` of cell
@@ -76,6 +78,8 @@ B_STATUS, B_DISPLAY, B_RGBA, B_OPEN_TABLE, B_LOG_PREFACTOR, B_IRRADIANCE = 8, 9,
 #: camera just below the surface: up rays near the horizon need more).
 OPEN_TABLE_SUBS = (64, 128, 256, 512, 1024)
 OPEN_TABLE_TOLERANCE = 1e-5
+#: Samples of the open-water table per texture row.
+OPEN_ROW = 2048
 
 
 def corner_texture(table) -> np.ndarray:
@@ -199,7 +203,7 @@ class LightfieldPass:
         self._layout = bind_group_layout(dev, {
             B_PARAMS: "uniform", B_SURFACE: "uint", B_SIGMOID: "float", B_BANDS: "uniform",
             B_MATERIALS: "float", B_RGB: "write", B_STATUS: "write", B_DISPLAY: "uniform",
-            B_RGBA: "write", B_OPEN_TABLE: "read", B_LOG_PREFACTOR: "float",
+            B_RGBA: "write", B_OPEN_TABLE: "float", B_LOG_PREFACTOR: "float",
             B_IRRADIANCE: "float"})
         self._pipelines = {}
         self._buffers = None
@@ -284,6 +288,7 @@ class LightfieldPass:
                             cone="true" if sh["cone"] else "false",
                             per_pixel="true" if per_pixel else "false",
                             band_table_len=len(BAND_FIELDS) // 4 * sh["n_bands"],
+                            open_row=OPEN_ROW,
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
             module = self.device.create_shader_module(label="lightfield.wgsl", code=src)
             self._pipelines[key] = self.device.create_compute_pipeline(
@@ -298,16 +303,20 @@ class LightfieldPass:
             return
         tables, a, b, e0, w = self._medium
         table, sub, err = open_water_table(tables, a, b, e0, w, depth_o)
-        data = table.astype(np.float32)
-        if not np.all(np.isfinite(data)):
+        if not np.all(np.isfinite(table)):
             raise AquaspecError("the light-field open-water table came out non-finite; "
                                 "check the water coefficients and tables")
-        if self._open_table is None or self._open_table.size < data.nbytes:
-            self._open_table = create_storage_buffer(self.device, data,
-                                                     label="lightfield open-water table")
+        rows = -(-table.shape[0] // OPEN_ROW)
+        data = np.zeros((rows * OPEN_ROW, 2, 4), np.float32)
+        data[:table.shape[0]] = table
+        data = data.reshape(rows, 2 * OPEN_ROW, 4)
+        if self._open_table is None or self._open_table.size[1] != rows:
+            import wgpu
+            self._open_table = create_texture(
+                self.device, 2 * OPEN_ROW, rows, "rgba32float", label="lightfield open water",
+                usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST)
             self._group = None
-        else:
-            upload_buffer(self.device, self._open_table, data)
+        upload_texture(self.device, self._open_table, data)
         self.open_table_sub, self.open_table_error = sub, err
         self._open_last = table.shape[0] - 1
         self._open_key = depth_o

@@ -79,10 +79,16 @@ const PER_PIXEL: u32 = 0xffffffffu;
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(9) var<uniform> disp: {{ display_struct_name }};
 @group(0) @binding(10) var<storage, read_write> rgba_out: array<u32>;
-// Open-water table: two vec4 per sample m of the direction texel coordinate
-// y = m / table_sub: [2m] camera RGB of R(d_o, v), [2m + 1] of u(d_o) L_top
-// (added inside Snell's window).
-@group(0) @binding(11) var<storage, read> open_table: array<vec4<f32>>;
+// Open-water table, sample m of the direction coordinate y = m / table_sub
+// in texels (2 (m % OPEN_ROW) + h, m / OPEN_ROW): h = 0 camera RGB of
+// R(d_o, v), h = 1 of u(d_o) L_top (added inside Snell's window). A texture
+// for the same reason as the tables below.
+@group(0) @binding(11) var open_table: texture_2d<f32>;
+const OPEN_ROW: u32 = {{ open_row }}u;
+
+fn open_texel(m: u32, h: u32) -> vec4<f32> {
+    return textureLoad(open_table, vec2<u32>(2u * (m % OPEN_ROW) + h, m / OPEN_ROW), 0);
+}
 // ln F and E / E0: texel (band, i (N_MU - 1) + j) holds the four corners
 // (i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1) of table cell (i, j). Texel
 // fetches, not storage loads: lavapipe (Mesa 22) loads storage buffers lane
@@ -195,17 +201,27 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     var gr: vec4<f32>;
     var b: vec4<f32>;
     let add_window = in_window & (!hit | vec4<bool>(CONE));
+    let x_table = y * f32(prm.table_sub);
+    let m_table = min(vec4<u32>(x_table), vec4<u32>(prm.table_last - 1u));
+    let f_table = x_table - vec4<f32>(m_table);
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let x = y[k] * f32(prm.table_sub);
-        let m = min(u32(x), prm.table_last - 1u);
-        let f = x - f32(m);
-        var rgb = mix(open_table[2u * m], open_table[2u * m + 2u], f);
-        if (add_window[k]) {
-            rgb = rgb + mix(open_table[2u * m + 1u], open_table[2u * m + 3u], f);
-        }
+        let m = m_table[k];
+        let rgb = mix(open_texel(m, 0u), open_texel(m + 1u, 0u), f_table[k]);
         r[k] = rgb.x;
         gr[k] = rgb.y;
         b[k] = rgb.z;
+    }
+    // The window term (a per-invocation trip count: most groups skip it).
+    let n_window = select(0u, 1u, any(add_window));
+    for (var q = 0u; q < n_window; q = q + 1u) {
+        for (var k = 0u; k < 4u; k = k + 1u) {
+            let m = m_table[k];
+            let rgb = select(vec4<f32>(0.0), mix(open_texel(m, 1u), open_texel(m + 1u, 1u),
+                             f_table[k]), add_window[k]);
+            r[k] = r[k] + rgb.x;
+            gr[k] = gr[k] + rgb.y;
+            b[k] = b[k] + rgb.z;
+        }
     }
 
     // Materials, as deferred.wgsl.
