@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from aquaspec.bands import Bands
+from aquaspec.errors import AquaspecError
+from aquaspec.gbuffer import PER_PIXEL
 from aquaspec.light import surface_light
 from aquaspec.renderer import SpectralSetup
 from aquaspec.sensors import get_sensor
@@ -28,6 +32,42 @@ def gbuffer_of(kind, depth):
         cam = Camera.look_at([0, -depth, 1.0], [0, -depth + 2.5, -3.0], width=64, height=48,
                              fov_y_deg=90)
     return RasterPass().render(scene, cam)
+
+
+def with_per_pixel_materials(gb):
+    """The G-buffer with two of every three hit pixels (so four-pixel groups
+    mix both kinds) given their own sigmoid reflectances (varying, some steep)."""
+    material = gb.material.copy()
+    sigmoid = gb.sigmoid.copy()
+    rows, cols = np.indices(gb.material.shape)
+    sel = gb.hit & ((rows + cols) % 3 != 0)
+    material[sel] = PER_PIXEL
+    cols = np.broadcast_to(np.arange(gb.camera.width)[None, :], sel.shape)[sel]
+    sigmoid[sel] = np.stack([0.3 * np.sin(cols / 7.0), 2.0 * np.cos(cols / 5.0),
+                             -1.0 + cols / gb.camera.width], axis=1)
+    return dataclasses.replace(gb, material=material, sigmoid=sigmoid)
+
+
+def setup_of(water, n, phase, cone=0.0, sensor="nikon-5100-npl"):
+    return SpectralSetup(load_water(water), get_sensor(sensor), surface_light("overcast"),
+                         Bands(n), ms_model="lightfield", phase=phase, forward_cone_deg=cone)
+
+
+def gpu_pass(gb, setup, e0_scale=1.0):
+    from aquaspec.gpu.deferred import DeferredPass
+    from aquaspec.gpu.lightfield_pass import LightfieldPass
+    d = DeferredPass(gb.camera.width, gb.camera.height, setup.bands.n)
+    d.set_gbuffer(gb)
+    lp = LightfieldPass(d)
+    medium = setup.medium(gb.materials)
+    medium["e0"] = medium["e0"] * e0_scale
+    lp.set_medium(**medium, tables=setup.lightfield_tables())
+    return lp
+
+
+def assert_matches(got, ref):
+    scale = np.abs(ref).max()
+    np.testing.assert_allclose(got, ref, rtol=1e-3, atol=2e-6 * scale)
 
 
 @pytest.mark.parametrize("water,n,phase,kind,depth,cone", [
@@ -70,3 +110,106 @@ def test_render_api_uses_the_lightfield_pass():
     # Different rasterisers (GPU vs ray casting) agree away from silhouettes.
     close = np.isclose(gpu.linear_rgb, cpu.linear_rgb, rtol=1e-3).all(axis=-1)
     assert close.mean() > 0.9
+
+
+@pytest.mark.parametrize("kind,depth,cone", [("builtin", 5.0, 0.0), ("up", 4.0, 15.0)])
+def test_per_pixel_materials(kind, depth, cone):
+    """per_pixel True compiles the pipeline that reads the sigmoid texture."""
+    gb = with_per_pixel_materials(gbuffer_of(kind, depth))
+    setup = setup_of("IB", 8, "petzold", cone)
+    lp = gpu_pass(gb, setup)
+    assert lp.deferred.per_pixel
+    lp.run()
+    got = lp.read_rgb()
+    ref = shade_gbuffer(gb, **setup.medium(gb.materials),
+                        lightfield=setup.lightfield_tables())["camera_rgb"]
+    assert_matches(got, ref)
+    # The sigmoid pixels really differ from what their mesh material gives.
+    plain = shade_gbuffer(gbuffer_of(kind, depth), **setup.medium(gb.materials),
+                          lightfield=setup.lightfield_tables())["camera_rgb"]
+    changed = gb.material == PER_PIXEL
+    assert np.abs(plain - ref)[changed].max() > 0.05 * np.abs(ref).max()
+
+
+def test_per_pixel_false_ignores_the_sigmoid_texture():
+    """per_pixel False: the sigmoid texture is not read (garbage there changes
+    nothing), and a PER_PIXEL material then is reported as a bad index."""
+    from aquaspec.gpu.buffers import upload_texture
+    from aquaspec.gpu.deferred import pack_gbuffer
+    gb = gbuffer_of("builtin", 5.0)
+    setup = setup_of("IB", 8, "petzold")
+    lp = gpu_pass(gb, setup)
+    assert not lp.deferred.per_pixel
+    lp.run()
+    clean = lp.read_rgb()
+    upload_texture(lp.device, lp.deferred.gbuffer_textures["sigmoid"],
+                   np.full((gb.camera.height, gb.camera.width, 4), np.nan, np.float32))
+    lp.run()
+    np.testing.assert_array_equal(lp.read_rgb(), clean)
+    pp = with_per_pixel_materials(gb)
+    lp.deferred.use_gbuffer_textures(gb.camera, per_pixel=False)
+    upload_texture(lp.device, lp.deferred.gbuffer_textures["surface"],
+                   pack_gbuffer(pp)["surface"])
+    lp.run()
+    with pytest.raises(AquaspecError, match="material index"):
+        lp.read_rgb()
+
+
+@pytest.mark.parametrize("kind,depth,cone,tonemap", [("builtin", 5.0, 0.0, "filmic"),
+                                                     ("up", 4.0, 15.0, "none")])
+def test_fused_display_equals_display_pass(kind, depth, cone, tonemap):
+    from aquaspec import display
+    from aquaspec.gpu.display_pass import DisplayPass
+    gb = gbuffer_of(kind, depth)
+    setup = setup_of("IB", 8, "hg", cone)
+    lp = gpu_pass(gb, setup)
+    lp.run()
+    linear = lp.read_rgb()
+    settings = display.display_settings(linear, white_balance="grey-world")
+    kw = dict(exposure_ev=settings["exposure_ev"],
+              white_balance_gains=settings["white_balance_gains"], tonemap=tonemap)
+    two_pass = DisplayPass(gb.camera.width, gb.camera.height, device=lp.device)
+    two_pass.use_input(lp.rgb_buffer)
+    two_pass.set_settings(**kw)
+    two_pass.run()
+    expected = two_pass.read()
+    lp.set_display(**kw)
+    lp.run(display=True)
+    fused = lp.read_display()
+    assert fused.shape == expected.shape and fused.dtype == np.uint8
+    diff = np.abs(fused.astype(int) - expected.astype(int))
+    assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
+    assert len(np.unique(fused.reshape(-1, 3), axis=0)) > 50   # a real picture
+    with pytest.raises(AquaspecError, match="display image"):
+        lp.read_rgb()
+    lp.run()   # and back to linear output
+    np.testing.assert_array_equal(lp.read_rgb(), linear)
+
+
+def test_read_display_errors():
+    from aquaspec.gpu.buffers import upload_texture
+    from aquaspec.gpu.deferred import pack_gbuffer
+    gb = gbuffer_of("builtin", 5.0)
+    setup = setup_of("IB", 3, "isotropic")
+    lp = gpu_pass(gb, setup, e0_scale=1e36)
+    with pytest.raises(AquaspecError, match="set_display"):
+        lp.run(display=True)
+    lp.run()
+    with pytest.raises(AquaspecError, match="display=True"):
+        lp.read_display()
+    with pytest.raises(AquaspecError, match="unknown tone map 'aces'"):
+        lp.set_display(exposure_ev=0.0, tonemap="aces")
+    # Overflow after exposure (E0 scaled by 1e36): counted, and the first
+    # pixel named (row 0, column 0 sees open water, so it is the first).
+    lp.set_display(exposure_ev=20.0)
+    lp.run(display=True)
+    with pytest.raises(AquaspecError, match=r"non-finite .* first is at \(row 0, column 0\)"):
+        lp.read_display()
+    # A material index out of range is reported first.
+    packed = pack_gbuffer(gb)
+    packed["surface"][gb.hit, 3] = 1000
+    upload_texture(lp.device, lp.deferred.gbuffer_textures["surface"], packed["surface"])
+    lp.set_display(exposure_ev=-64.0)
+    lp.run(display=True)
+    with pytest.raises(AquaspecError, match="material index >= "):
+        lp.read_display()
