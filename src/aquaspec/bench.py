@@ -39,7 +39,7 @@ DEFAULT_BANDS = (3, 8, 16, 32, 64)
 
 
 class _Geometry:
-    """The geometry pass (plus repacking when the shading pass needs it), as one timed pass."""
+    """The geometry pass (rasterising into the shading pass's G-buffer textures), as one timed pass."""
 
     def __init__(self, renderer, scene, camera):
         self.r, self.scene, self.camera = renderer, scene, camera

@@ -109,8 +109,6 @@ class Renderer:
         key = (id(setup), tuple(id(m) for m in materials))
         if key != self._medium_key:
             self._use_lightfield = setup.ms_model == "lightfield"
-            # Both shading passes read the G-buffer textures: no storage copy.
-            self.deferred.storage_gbuffer = False
             if self._use_lightfield:
                 from .gpu.lightfield_pass import LightfieldPass
                 if self.lightfield is None:

@@ -46,16 +46,6 @@ material as an integer (rather than a float bit pattern) keeps
 ``0xffffffff`` from ever passing through a float register, where a NaN
 payload is not guaranteed to survive.
 
-Storage-buffer copy (for :class:`~aquaspec.gpu.lightfield_pass.LightfieldPass`)
--------------------------------------------------------------------------------
-:attr:`DeferredPass.gbuffer_buffers` holds the same G-buffer in three storage
-buffers, one element per pixel ``p = row * width + column``: ``distance``
-``array<f32>``; ``surface`` ``array<vec4<u32>>`` (the surface texel);
-``sigmoid`` ``array<vec4<f32>>`` (c0, c1, c2, unused; 0 unless per-pixel); see
-:func:`pack_gbuffer_storage`. :meth:`DeferredPass.set_gbuffer` fills them
-always; the geometry pass fills them (with a compute repack) only when
-:attr:`DeferredPass.storage_gbuffer` is true.
-
 Per-band inputs (:meth:`DeferredPass.set_medium`): binding 4 is a uniform
 ``array<vec4<f32>, 3 n>``, :func:`band_table` (the per-band factors that do
 not depend on the pixel, precomputed in float64 for the camera's depth; 12
@@ -131,8 +121,6 @@ OPEN_TABLE_SIZE = 4096
 #: G-buffer textures: name -> (binding, texture format).
 GBUFFER_TEXTURES = {"surface": (B_SURFACE, "rgba32uint"),
                     "sigmoid": (B_SIGMOID, "rgba32float")}
-#: Bytes per element of the storage-buffer copy (:attr:`DeferredPass.gbuffer_buffers`).
-GBUFFER_BUFFER_BYTES = {"distance": 4, "surface": 16, "sigmoid": 16}
 
 
 def shader_source(name: str, n_bands: int = 1, write_radiance: bool = False,
@@ -283,18 +271,6 @@ def pack_gbuffer(gbuffer: GBuffer) -> dict:
     return {"surface": surface, "sigmoid": sigmoid}
 
 
-def pack_gbuffer_storage(gbuffer: GBuffer) -> dict:
-    """Host arrays in the storage-buffer layout of :attr:`DeferredPass.gbuffer_buffers`.
-
-    Returns ``{"distance": (H*W,) f32, "surface": (H*W, 4) u32,
-    "sigmoid": (H*W, 4) f32}``.
-    """
-    tex = pack_gbuffer(gbuffer)
-    surface, sigmoid = tex["surface"].reshape(-1, 4), tex["sigmoid"].reshape(-1, 4)
-    return {"distance": surface[:, 0].view(np.float32).copy(), "surface": surface,
-            "sigmoid": sigmoid}
-
-
 def bind_group_layout(device, bindings):
     """Compute-stage layout for ``bindings``: {binding: kind}.
 
@@ -382,10 +358,6 @@ class DeferredPass:
         self._textures = {name: create_texture(device, self.width, self.height, fmt,
                                                label=f"gbuffer {name}", usage=usage)
                           for name, (_, fmt) in GBUFFER_TEXTURES.items()}
-        self._buffers = None        # storage-buffer copy, made when first needed
-        #: When true, the geometry pass also fills :attr:`gbuffer_buffers`
-        #: (needed by the light-field pass; costs a compute repack per frame).
-        self.storage_gbuffer = False
         self._open_table = create_storage_buffer(device, OPEN_TABLE_SIZE * 32,
                                                  label="deferred open-water table")
         self._open_table_ok = False
@@ -456,20 +428,6 @@ class DeferredPass:
         """The G-buffer textures ``{"surface", "sigmoid"}`` read by the pass."""
         return dict(self._textures)
 
-    @property
-    def gbuffer_buffers(self) -> dict:
-        """The storage-buffer copy ``{"distance", "surface", "sigmoid"}`` (module docstring).
-
-        Kept up to date by :meth:`set_gbuffer`, and by the geometry pass when
-        :attr:`storage_gbuffer` is true.
-        """
-        if self._buffers is None:
-            npix = self.width * self.height
-            self._buffers = {name: create_storage_buffer(self.device, npix * nbytes,
-                                                         label=f"gbuffer {name}")
-                             for name, nbytes in GBUFFER_BUFFER_BYTES.items()}
-        return dict(self._buffers)
-
     def set_camera(self, camera) -> None:
         """Set the camera whose rays the G-buffer was made with (size must match)."""
         if (camera.width, camera.height) != (self.width, self.height):
@@ -480,10 +438,7 @@ class DeferredPass:
         self._uniform_dirty = True
 
     def set_gbuffer(self, gbuffer: GBuffer) -> None:
-        """Upload a host G-buffer (and its camera) into :attr:`gbuffer_textures`.
-
-        The storage-buffer copy :attr:`gbuffer_buffers` is filled too.
-        """
+        """Upload a host G-buffer (and its camera) into :attr:`gbuffer_textures`."""
         if not isinstance(gbuffer, GBuffer):
             raise AquaspecError(f"gbuffer must be an aquaspec.gbuffer.GBuffer, got "
                                 f"{type(gbuffer).__name__}")
@@ -495,9 +450,6 @@ class DeferredPass:
         self.per_pixel = bool(per_pixel.any())
         for name, arr in pack_gbuffer(gbuffer).items():
             upload_texture(self.device, self._textures[name], arr)
-        bufs = self.gbuffer_buffers
-        for name, arr in pack_gbuffer_storage(gbuffer).items():
-            upload_buffer(self.device, bufs[name], arr)
 
     def use_gbuffer_textures(self, camera, *, per_pixel: bool = True, **textures) -> None:
         """Read the G-buffer from textures made elsewhere (e.g. a raster pass's targets).

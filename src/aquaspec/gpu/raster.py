@@ -163,9 +163,8 @@ class RasterPass:
             from .device import get_device
             _, device = get_device()
         self.device = device
-        self._modules = {}
-        self._module = self._get_module(False)
-        self._pack_pipelines = {}
+        src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl())
+        self._module = device.create_shader_module(label="gbuffer.wgsl", code=src)
         #: Whether the last scene encoded has per-pixel materials (two targets).
         self.per_pixel = False
         self._cam_layout = device.create_bind_group_layout(entries=[
@@ -190,14 +189,6 @@ class RasterPass:
         self._draws = []
         self._size = None
         self.targets = {}
-
-    def _get_module(self, pack_sigmoid):
-        if pack_sigmoid not in self._modules:
-            src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl(),
-                            pack_sigmoid="true" if pack_sigmoid else "false")
-            self._modules[pack_sigmoid] = self.device.create_shader_module(
-                label="gbuffer.wgsl", code=src)
-        return self._modules[pack_sigmoid]
 
     def _pipeline(self, mode, per_pixel):
         import wgpu
@@ -329,11 +320,9 @@ class RasterPass:
         """Rasterise straight into a :class:`~aquaspec.gpu.deferred.DeferredPass`'s G-buffer.
 
         Renders into ``deferred_pass.gbuffer_textures`` (nothing is read
-        back) and sets the deferred pass's camera and ``per_pixel``; when
-        ``deferred_pass.storage_gbuffer`` is true, a compute pass also
-        repacks the result into ``deferred_pass.gbuffer_buffers``. With
-        ``encoder`` the commands are only recorded; without, they are
-        submitted. ``timestamp_writes`` brackets all passes recorded.
+        back, nothing is copied) and sets the deferred pass's camera and
+        ``per_pixel``. With ``encoder`` the commands are only recorded;
+        without, they are submitted.
         """
         if (camera.width, camera.height) != (deferred_pass.width, deferred_pass.height):
             raise AquaspecError(f"camera is {camera.width}x{camera.height} but the deferred "
@@ -341,42 +330,12 @@ class RasterPass:
         own = encoder is None
         if own:
             encoder = self.device.create_command_encoder()
-        pack = bool(deferred_pass.storage_gbuffer)
-        begin = end = timestamp_writes
-        if timestamp_writes is not None and pack:
-            qs = timestamp_writes["query_set"]
-            begin = {"query_set": qs, "beginning_of_pass_write_index":
-                     timestamp_writes["beginning_of_pass_write_index"]}
-            end = {"query_set": qs, "end_of_pass_write_index":
-                   timestamp_writes["end_of_pass_write_index"]}
-        tex = deferred_pass.gbuffer_textures
-        self.encode(encoder, scene, camera, timestamp_writes=begin, targets=tex)
-        if pack:
-            bufs = deferred_pass.gbuffer_buffers
-            pipeline = self._get_pack_pipeline(self.per_pixel)
-            group = self.device.create_bind_group(
-                layout=pipeline.get_bind_group_layout(0), entries=[
-                    {"binding": 10, "resource": tex["surface"].create_view()},
-                    {"binding": 11, "resource": tex["sigmoid"].create_view()}] + [
-                    {"binding": b, "resource": {"buffer": bufs[name], "offset": 0,
-                                                "size": bufs[name].size}}
-                    for b, name in ((12, "distance"), (13, "surface"), (14, "sigmoid"))])
-            cp = encoder.begin_compute_pass(**({} if end is None else {"timestamp_writes": end}))
-            cp.set_pipeline(pipeline)
-            cp.set_bind_group(0, group)
-            cp.dispatch_workgroups(-(-camera.width // 8), -(-camera.height // 8), 1)
-            cp.end()
+        self.encode(encoder, scene, camera, timestamp_writes=timestamp_writes,
+                    targets=deferred_pass.gbuffer_textures)
         deferred_pass.set_camera(camera)
         deferred_pass.per_pixel = self.per_pixel
         if own:
             self.device.queue.submit([encoder.finish()])
-
-    def _get_pack_pipeline(self, per_pixel):
-        if per_pixel not in self._pack_pipelines:
-            self._pack_pipelines[per_pixel] = self.device.create_compute_pipeline(
-                label="gbuffer pack", layout="auto",
-                compute={"module": self._get_module(per_pixel), "entry_point": "pack_main"})
-        return self._pack_pipelines[per_pixel]
 
     def render(self, scene: Scene, camera: Camera) -> GBuffer:
         """Rasterise ``scene`` seen by ``camera`` and read the G-buffer back.

@@ -170,36 +170,3 @@ fn fs_texture(in: VsTextureOut) -> FsOut2 {
 fn fs_vertex(in: VsVertexOut) -> FsOut2 {
     return FsOut2(surface_out(in.rel, in.normal, PER_PIXEL), vec4<f32>(in.coeff, 0.0));
 }
-
-// ---------------------------------------------------------------------------
-// Repack the render targets into the storage-buffer copy of the G-buffer
-// (aquaspec.gpu.deferred.DeferredPass.gbuffer_buffers, read by the
-// light-field pass). Its bindings live in group 0 at numbers the render
-// entry points do not use. PACK_SIGMOID is a compile-time constant: scenes
-// without per-pixel materials have no sigmoid target to read.
-
-const PACK_SIGMOID: bool = {{ pack_sigmoid }};
-
-@group(0) @binding(10) var surface_in: texture_2d<u32>;
-@group(0) @binding(11) var sigmoid_in: texture_2d<f32>;
-@group(0) @binding(12) var<storage, read_write> distance_out: array<f32>;
-@group(0) @binding(13) var<storage, read_write> surface_out_buf: array<vec4<u32>>;
-@group(0) @binding(14) var<storage, read_write> sigmoid_out: array<vec4<f32>>;
-
-@compute @workgroup_size(8, 8, 1)
-fn pack_main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(surface_in);
-    if (id.x >= size.x || id.y >= size.y) {
-        return;
-    }
-    let p = id.y * size.x + id.x;
-    let g = textureLoad(surface_in, vec2<u32>(id.xy), 0);
-    // Open water is already OPEN_WATER_DISTANCE (the target's clear value).
-    distance_out[p] = bitcast<f32>(g.x);
-    surface_out_buf[p] = g;
-    if (PACK_SIGMOID) {
-        sigmoid_out[p] = textureLoad(sigmoid_in, vec2<u32>(id.xy), 0);
-    } else {
-        sigmoid_out[p] = vec4<f32>(0.0);
-    }
-}
