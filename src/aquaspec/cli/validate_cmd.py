@@ -43,6 +43,10 @@ def register(sub):
     p.add_argument("--gpu-timing", action="store_true",
                    help="also time aquaspec's GPU renderer per scene (n = largest band count) "
                         "for the speed-up over the reference at equal pixel count")
+    p.add_argument("--tyler", action="store_true",
+                   help="only compare the light-field model's deep radiance distribution with "
+                        "Tyler's measurement (1958, Lake Pend Oreille, from jerlov) for several "
+                        "phase functions; needs no path tracer; writes tyler.json and tyler.png")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/aquaspec)")
     p.add_argument("--no-cache", action="store_true")
     p.add_argument("-o", "--out", default="validation", metavar="DIR",
@@ -67,6 +71,8 @@ def run(args):
     g = (0.92 if args.g is None else args.g) if args.phase == "hg" else 0.0
     backscatter = FF_DEFAULT_BACKSCATTER if args.backscatter is None else args.backscatter
     check_phase(args.phase, g, backscatter)        # bad g or B: before anything is rendered
+    if args.tyler:
+        return _run_tyler(args.out)
     require_mitsuba()
     try:
         depths = tuple(float(x) for x in args.depths.split(","))
@@ -105,4 +111,21 @@ def run(args):
     print()
     paths = write_results(res, args.out)
     print("wrote " + ", ".join(paths.values()))
+    return 0
+
+
+def _run_tyler(out_dir):
+    import json
+    from pathlib import Path
+
+    from ..output import write_file_atomically
+    from ..validation.tyler import format_tyler, plot_tyler, tyler_check
+    res = tyler_check()
+    print(format_tyler(res))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    doc = json.dumps(res, indent=1)
+    js = write_file_atomically(out / "tyler.json", lambda t: Path(t).write_text(doc))
+    png = plot_tyler(res, out / "tyler.png")
+    print(f"wrote {js}, {png}")
     return 0

@@ -9,4 +9,6 @@
 - :mod:`.baselines`: the RGB (3-band) implementation, Unreal's single-layer
   water, and the per-channel image-formation model.
 - :mod:`.study`: waters x depths x cameras, cache, CSV/JSON, plots.
+- :mod:`.tyler`: the light-field model's deep radiance distribution against
+  Tyler's measurement in Lake Pend Oreille (1958), with no free parameter.
 """
