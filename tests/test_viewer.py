@@ -40,3 +40,32 @@ def test_unknown_setting():
 def test_no_display_is_a_clear_error(capsys):
     assert main(["view", "--size", "64x36"]) == 2
     assert "cannot open a window" in capsys.readouterr().err
+
+
+def test_ms_model_switch_and_cached_setups(recwarn):
+    import matplotlib.pyplot as plt
+    fig = plt.figure()
+    v = Viewer(96, 54, water="3C", depth_m=5.0, bands=4).attach(fig)
+    seeds = v.linear.copy()
+    n_warn = len(recwarn)
+    assert n_warn > 0          # 3C's filled red values are reported once ...
+    v.controls["ms_model"].set_active(list(t.get_text() for t in
+                                           v.controls["ms_model"].labels).index("lightfield"))
+    assert v.state["ms_model"] == "lightfield" and "light field" in v.title()
+    lf = v.linear.copy()
+    assert np.all(np.isfinite(lf)) and not np.allclose(lf, seeds, rtol=1e-3)
+    setup = v._setup("3C", "human", 4, "lightfield")
+    v.update(depth_m=6.0)
+    v.update(water="IB")
+    v.update(water="3C")
+    # ... not again when the water comes back, and its setup is the same object.
+    assert not [w for w in recwarn.list[n_warn:] if "3C" in str(w.message)]
+    assert v._setup("3C", "human", 4, "lightfield") is setup
+    plt.close(fig)
+
+
+def test_unknown_ms_model():
+    with pytest.raises(AquaspecError, match="unknown multiple-scattering model 'mie'.*seeds"):
+        Viewer(32, 18, ms_model="mie")
+    with pytest.raises(AquaspecError, match="unknown multiple-scattering model 'mie'"):
+        Viewer(32, 18).update(ms_model="mie")

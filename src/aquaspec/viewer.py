@@ -1,10 +1,13 @@
 """The interactive viewer: the built-in scene with live controls.
 
 A matplotlib window (any interactive backend: Qt, Tk, GTK, macOS) with
-sliders for depth, number of bands and exposure, and choices of water type
-and sensor. Every change re-renders the frame on the GPU through one
+sliders for depth, number of bands and exposure, and choices of water type,
+sensor and multiple-scattering model (the seeds' formula or the light
+field). Every change re-renders the frame on the GPU through one
 :class:`aquaspec.renderer.Renderer`, which is rebuilt only when the band
-count changes, so a new depth or water costs one frame.
+count changes, so a new depth or water costs one frame. Waters, sensors and
+spectral setups are kept once made: going back to a water neither reloads
+it (nor repeats its data warnings) nor re-uploads its tables.
 
 :class:`Viewer` does not open a window by itself (it takes a matplotlib
 figure), so it can be driven and tested headless.
@@ -20,6 +23,7 @@ from .bands import Bands
 from .display import to_display
 from .errors import AquaspecError
 from .light import surface_light
+from .model import MS_MODELS
 from .renderer import Renderer, SpectralSetup
 from .scene.builtin import builtin_scene
 from .sensors import builtin_sensors, get_sensor
@@ -33,18 +37,23 @@ class Viewer:
     ----------
     width, height : int
         Frame size in pixels.
-    water, depth_m, bands, sensor, exposure : initial settings
-        ``exposure`` is ``"auto"`` or EV.
+    water, depth_m, bands, sensor, exposure, ms_model : initial settings
+        ``exposure`` is ``"auto"`` or EV; ``ms_model`` a key of
+        :data:`aquaspec.model.MS_MODELS`.
     camspec : path, optional
         Makes the cameras of a camspec file selectable.
     """
 
     def __init__(self, width=640, height=360, *, water="IB", depth_m=5.0, bands=8,
-                 sensor="human", exposure="auto", camspec=None):
+                 sensor="human", exposure="auto", ms_model="seeds", camspec=None):
         self.width, self.height = width, height
         self.camspec = camspec
         self.state = {"water": water, "depth_m": float(depth_m), "bands": int(bands),
-                      "sensor": sensor, "exposure": exposure}
+                      "sensor": sensor, "exposure": exposure, "ms_model": ms_model}
+        self._waters, self._sensors, self._setups = {}, {}, {}
+        if ms_model not in MS_MODELS:
+            raise AquaspecError(f"unknown multiple-scattering model {ms_model!r}; known: "
+                                f"{', '.join(MS_MODELS)}")
         self._renderer = None
         self._scene_depth = None
         self.last_frame_ms = None
@@ -64,6 +73,9 @@ class Viewer:
         if unknown:
             raise AquaspecError(f"unknown viewer setting(s) {sorted(unknown)}; accepted: "
                                 f"{', '.join(self.state)}")
+        if "ms_model" in changes and changes["ms_model"] not in MS_MODELS:
+            raise AquaspecError(f"unknown multiple-scattering model {changes['ms_model']!r}; "
+                                f"known: {', '.join(MS_MODELS)}")
         self.state.update(changes)
         s = self.state
         t0 = time.perf_counter()
@@ -73,19 +85,33 @@ class Viewer:
             self._scene, self._camera = builtin_scene(s["depth_m"], width=self.width,
                                                       height=self.height)
             self._scene_depth = s["depth_m"]
-        sensor = get_sensor(s["sensor"], self.camspec)
-        setup = SpectralSetup(load_water(s["water"]), sensor, surface_light("overcast"),
-                              Bands(s["bands"]))
+        setup = self._setup(s["water"], s["sensor"], s["bands"], s["ms_model"])
+        sensor = setup.sensor
         self.linear = self._renderer.render_scene(self._scene, self._camera, setup)
         self.image, _ = to_display(self.linear, exposure=s["exposure"],
                                    matrix=sensor.srgb_matrix())
         self.last_frame_ms = (time.perf_counter() - t0) * 1e3
         return self.image
 
+    def _setup(self, water, sensor, bands, ms_model) -> SpectralSetup:
+        """The spectral setup of these settings, made once (the renderer
+        re-uploads the medium only when the setup object changes)."""
+        key = (water, sensor, bands, ms_model)
+        if key not in self._setups:
+            if water not in self._waters:
+                self._waters[water] = load_water(water)
+            if sensor not in self._sensors:
+                self._sensors[sensor] = get_sensor(sensor, self.camspec)
+            self._setups[key] = SpectralSetup(self._waters[water], self._sensors[sensor],
+                                              surface_light("overcast"), Bands(bands),
+                                              ms_model=ms_model)
+        return self._setups[key]
+
     def title(self) -> str:
         s = self.state
+        model = "light field" if s["ms_model"] == "lightfield" else "seeds' model"
         return (f"Jerlov {s['water']}, {s['depth_m']:.1f} m, {s['bands']} bands, "
-                f"{s['sensor']}, {self.last_frame_ms:.0f} ms")
+                f"{s['sensor']}, {model}, {self.last_frame_ms:.0f} ms")
 
     def attach(self, fig):
         """Build the image and the controls in a matplotlib figure."""
@@ -105,8 +131,10 @@ class Viewer:
                                valinit=0.0),
             "water": RadioButtons(fig.add_axes([0.01, 0.45, 0.12, 0.5]), JERLOV_TYPES,
                                   active=JERLOV_TYPES.index(self.state["water"])),
-            "sensor": RadioButtons(fig.add_axes([0.01, 0.05, 0.19, 0.35]), self.sensors()[:12],
+            "sensor": RadioButtons(fig.add_axes([0.01, 0.12, 0.19, 0.28]), self.sensors()[:12],
                                    active=0),
+            "ms_model": RadioButtons(fig.add_axes([0.01, 0.01, 0.19, 0.09]), list(MS_MODELS),
+                                     active=list(MS_MODELS).index(self.state["ms_model"])),
         }
         c = self.controls
         c["depth"].on_changed(lambda v: self._changed(depth_m=float(v)))
@@ -114,6 +142,7 @@ class Viewer:
         c["exposure"].on_changed(lambda v: self._changed(exposure="auto" if v == 0 else float(v)))
         c["water"].on_clicked(lambda label: self._changed(water=label))
         c["sensor"].on_clicked(lambda label: self._changed(sensor=label))
+        c["ms_model"].on_clicked(lambda label: self._changed(ms_model=label))
         return self
 
     def _changed(self, **changes):

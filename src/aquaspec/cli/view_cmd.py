@@ -6,12 +6,15 @@ from __future__ import annotations
 def register(sub):
     p = sub.add_parser("view", help="interactive window with live controls",
                        description="Open a window showing the built-in scene, with sliders for "
-                                   "depth, bands and exposure and choices of water and sensor. "
+                                   "depth, bands and exposure and choices of water, sensor and "
+                                   "multiple-scattering model. "
                                    "Needs a display and a matplotlib GUI backend.")
     p.add_argument("--water", default="IB")
     p.add_argument("--depth", type=float, default=5.0)
     p.add_argument("--bands", type=int, default=8)
     p.add_argument("--sensor", default="human")
+    p.add_argument("--ms-model", default="seeds", metavar="MODEL",
+                   help="multiple-scattering model to start with: seeds or lightfield")
     p.add_argument("--camspec", metavar="PATH")
     p.add_argument("--size", default="640x360", metavar="WxH")
     p.set_defaults(func=run, command="view")
@@ -22,5 +25,5 @@ def run(args):
     from ..viewer import run_viewer
     w, h = parse_size(args.size)
     run_viewer(width=w, height=h, water=args.water, depth_m=args.depth, bands=args.bands,
-               sensor=args.sensor, camspec=args.camspec)
+               sensor=args.sensor, ms_model=args.ms_model, camspec=args.camspec)
     return 0
