@@ -69,3 +69,14 @@ def test_unknown_ms_model():
         Viewer(32, 18, ms_model="mie")
     with pytest.raises(AquaspecError, match="unknown multiple-scattering model 'mie'"):
         Viewer(32, 18).update(ms_model="mie")
+
+
+def test_exposure_alone_reuses_the_linear_image():
+    v = Viewer(64, 36, bands=4)
+    v.update()
+    lin = v.linear
+    dark = v.update(exposure=-3.0).astype(float).mean()
+    assert v.linear is lin                       # not rendered again
+    assert v.update(exposure=1.0).astype(float).mean() > dark
+    v.update(depth_m=8.0)
+    assert v.linear is not lin

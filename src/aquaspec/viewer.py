@@ -87,7 +87,9 @@ class Viewer:
             self._scene_depth = s["depth_m"]
         setup = self._setup(s["water"], s["sensor"], s["bands"], s["ms_model"])
         sensor = setup.sensor
-        self.linear = self._renderer.render_scene(self._scene, self._camera, setup)
+        # The exposure acts on the linear image: changing only it re-renders nothing.
+        if self.linear is None or set(changes) - {"exposure"}:
+            self.linear = self._renderer.render_scene(self._scene, self._camera, setup)
         self.image, _ = to_display(self.linear, exposure=s["exposure"],
                                    matrix=sensor.srgb_matrix())
         self.last_frame_ms = (time.perf_counter() - t0) * 1e3
