@@ -19,11 +19,12 @@ import time
 
 import numpy as np
 
+from .appearance import check_ms_model
 from .bands import Bands
 from .display import to_display
 from .errors import AquaspecError
 from .light import surface_light
-from .model import MS_MODELS
+from .model import DEFAULT_MS_MODEL, MS_MODELS
 from .renderer import Renderer, SpectralSetup
 from .scene.builtin import builtin_scene
 from .sensors import builtin_sensors, get_sensor
@@ -45,15 +46,13 @@ class Viewer:
     """
 
     def __init__(self, width=640, height=360, *, water="IB", depth_m=5.0, bands=8,
-                 sensor="human", exposure="auto", ms_model="seeds", camspec=None):
+                 sensor="human", exposure="auto", ms_model=DEFAULT_MS_MODEL, camspec=None):
         self.width, self.height = width, height
         self.camspec = camspec
         self.state = {"water": water, "depth_m": float(depth_m), "bands": int(bands),
                       "sensor": sensor, "exposure": exposure, "ms_model": ms_model}
         self._waters, self._sensors, self._setups = {}, {}, {}
-        if ms_model not in MS_MODELS:
-            raise AquaspecError(f"unknown multiple-scattering model {ms_model!r}; known: "
-                                f"{', '.join(MS_MODELS)}")
+        check_ms_model(ms_model)
         self._renderer = None
         self._scene_depth = None
         self.last_frame_ms = None
@@ -73,9 +72,8 @@ class Viewer:
         if unknown:
             raise AquaspecError(f"unknown viewer setting(s) {sorted(unknown)}; accepted: "
                                 f"{', '.join(self.state)}")
-        if "ms_model" in changes and changes["ms_model"] not in MS_MODELS:
-            raise AquaspecError(f"unknown multiple-scattering model {changes['ms_model']!r}; "
-                                f"known: {', '.join(MS_MODELS)}")
+        if "ms_model" in changes:
+            check_ms_model(changes["ms_model"])
         self.state.update(changes)
         s = self.state
         t0 = time.perf_counter()

@@ -13,8 +13,9 @@ def register(sub):
     p.add_argument("--depth", type=float, default=5.0)
     p.add_argument("--bands", type=int, default=8)
     p.add_argument("--sensor", default="human")
-    p.add_argument("--ms-model", default="seeds", metavar="MODEL",
-                   help="multiple-scattering model to start with: seeds or lightfield")
+    from ..model import DEFAULT_MS_MODEL, MS_MODELS
+    p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODELS),
+                   help=f"multiple-scattering model to start with (default {DEFAULT_MS_MODEL})")
     p.add_argument("--camspec", metavar="PATH")
     p.add_argument("--size", default="640x360", metavar="WxH")
     p.set_defaults(func=run, command="view")
