@@ -73,3 +73,15 @@ def test_cli_writes_json_and_plot(tmp_path, capsys):
     doc = json.loads((tmp_path / "tyler.json").read_text())
     assert {r["phase"] for r in doc["results"]} == {"petzold", "ff", "hg", "isotropic"}
     assert (tmp_path / "tyler.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize("phase,kw", [("hg", {"g": 0.92}), ("isotropic", {})])
+def test_asymptotic_shape_is_the_deep_radiance(phase, kw):
+    from aquaspec.lightfield import solve_lightfield
+    from aquaspec.validation.tyler import asymptotic_radiance
+    lf = solve_lightfield([0.1], [0.3], phase=phase, n_streams=24, **kw)
+    mu = np.linspace(-1, 1, 41)
+    depth = 40.0 / (lf.kappa[0, 1] - lf.kappa[0, 0])
+    deep = lf.radiance(depth, mu)[0]
+    shape = asymptotic_radiance(lf, mu)
+    np.testing.assert_allclose(shape / shape[-1], deep / deep[-1], rtol=1e-6)
