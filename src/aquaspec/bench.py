@@ -19,7 +19,10 @@ too. Reported:
   display of the same G-buffer against our frame; n = 8 against n = 3 (the
   cost of going spectral); the deferred pass against a trivial pass that
   only reads the G-buffer and writes the output (distance from the memory
-  floor).
+  floor);
+- with ``compare_seeds`` (``--ms-model lightfield --compare-seeds``), the
+  seeds' frame on the same G-buffer, timed in the same run beside the
+  light-field frame, and their ratio (the cost of the better model).
 
 The machine may be shared and noisy: compare ratios from one run, not
 absolute times across runs.
@@ -77,7 +80,8 @@ def _frame_wall_ms(renderer, passes, frames, warmup):
 
 def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, warmup: int = 3,
               water="IB", depth_m: float = 5.0, sensor="human", numpy_reference: bool = True,
-              ms_model: str = "seeds", phase: str = "petzold", progress=None) -> dict:
+              ms_model: str = "seeds", phase: str = "petzold", compare_seeds: bool = False,
+              progress=None) -> dict:
     """Run the cost study; returns a JSON-ready dict (see the module docstring)."""
     from .display import display_settings, to_display
     from .gpu.buffers import time_passes
@@ -96,6 +100,9 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
         say(f"note: {frames} frames (the study asks for at least 20)")
     if not sizes or not bands:
         raise AquaspecError("bench needs at least one size and one band count")
+    if compare_seeds and ms_model == "seeds":
+        raise AquaspecError("compare_seeds times the seeds' frame beside another model's: it "
+                            "needs ms_model='lightfield'")
     w_obj, s_obj, light = get_water(water), get_sensor(sensor), surface_light("overcast")
     # lavapipe runs a command buffer when it is submitted and its timestamps
     # do not bracket the work of each pass (seen here: 0.1 ms for a deferred
@@ -126,6 +133,15 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                                     white_balance_gains=settings["white_balance_gains"],
                                     matrix=settings["matrix"], tonemap=settings["tonemap"])
                 passes["shade_display"] = _Fused(shading)
+            if compare_seeds:
+                # The seeds' shading of the same G-buffer, with the same display
+                # settings, in the same timing run.
+                seeds = SpectralSetup(w_obj, s_obj, light, Bands(n))
+                r.deferred.set_medium(**seeds.medium(scene.materials))
+                r.deferred.set_display(exposure_ev=settings["exposure_ev"],
+                                       white_balance_gains=settings["white_balance_gains"],
+                                       matrix=settings["matrix"], tonemap=settings["tonemap"])
+                passes["shade_display_seeds"] = _Fused(r.deferred)
             times = time_passes(passes, method=timing, frames=frames, warmup=warmup,
                                 device=r.deferred.device)
             unfused = times.ms["geometry"] + times.ms["deferred"] + times.ms["display"]
@@ -139,6 +155,11 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
             row = {"width": width, "height": height, "bands": n, **{f"{k}_ms": v for k, v in
                    times.ms.items()}, "frame_ms": frame, "fps": 1e3 / frame,
                    "frame_wall_ms": wall, "frame_unfused_ms": unfused, "timing": times.method}
+            if compare_seeds:
+                row["seeds_frame_ms"] = times.ms["geometry"] + times.ms["shade_display_seeds"]
+                row["over_seeds"] = frame / row["seeds_frame_ms"]
+                say(f"{width}x{height} n={n:3d}: seeds' frame {row['seeds_frame_ms']:7.2f} ms in "
+                    f"the same run: {ms_model} / seeds = {row['over_seeds']:.3f}")
             rows.append(row)
             say(f"{width}x{height} n={n:3d}: frame {frame:7.2f} ms ({1e3 / frame:6.1f} fps) "
                 f"= geometry {times.ms['geometry']:.2f} + shade+display "
@@ -175,6 +196,8 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
             entry["n8_over_n3"] = by_n[8]["frame_ms"] / by_n[3]["frame_ms"]
         if 8 in by_n:
             entry["deferred_over_copy_n8"] = by_n[8]["deferred_ms"] / by_n[8]["copy_ms"]
+            if "over_seeds" in by_n[8]:
+                entry[f"{ms_model}_over_seeds_n8"] = by_n[8]["over_seeds"]
         for x in numpy_rows:
             if (x["width"], x["height"]) == (width, height):
                 entry["numpy_over_gpu_n8"] = x["numpy_over_gpu"]
@@ -193,11 +216,17 @@ def format_table(result: dict) -> str:
              "submitted at once",
              f"{'size':>10s} {'n':>4s} {'geometry':>9s} {'shade+disp':>10s} {'frame':>8s} "
              f"{'fps':>6s} {'wall':>7s} | {'deferred':>8s} {'display':>8s} {'copy':>6s}  (ms)"]
+    compare = any("over_seeds" in x for x in result["rows"])
+    if compare:
+        lines[-1] += f" | {'seeds':>7s} {'ratio':>6s}"
     for x in result["rows"]:
-        lines.append(f"{x['width']:>5d}x{x['height']:<4d} {x['bands']:>4d} {x['geometry_ms']:9.2f} "
-                     f"{x['shade_display_ms']:10.2f} {x['frame_ms']:8.2f} {x['fps']:6.1f} "
-                     f"{x['frame_wall_ms']:7.2f} | {x['deferred_ms']:8.2f} "
-                     f"{x['display_ms']:8.2f} {x['copy_ms']:6.2f}")
+        line = (f"{x['width']:>5d}x{x['height']:<4d} {x['bands']:>4d} {x['geometry_ms']:9.2f} "
+                f"{x['shade_display_ms']:10.2f} {x['frame_ms']:8.2f} {x['fps']:6.1f} "
+                f"{x['frame_wall_ms']:7.2f} | {x['deferred_ms']:8.2f} "
+                f"{x['display_ms']:8.2f} {x['copy_ms']:6.2f}")
+        if compare:
+            line += f" | {x['seeds_frame_ms']:7.2f} {x['over_seeds']:6.3f}"
+        lines.append(line)
     for f in result["fits"]:
         lines.append(f"fit {f['width']}x{f['height']}: t(n) = {f['t0_ms']:.2f} ms + n * "
                      f"{f['t1_ms_per_band']:.3f} ms (deferred alone: {f['deferred_t0_ms']:.2f} + "

@@ -22,6 +22,9 @@ def register(sub):
     p.add_argument("--ms-model", default="seeds", choices=("seeds", "lightfield"),
                    help="multiple-scattering model to time (default seeds)")
     p.add_argument("--phase", default="petzold", help="phase function for --ms-model lightfield")
+    p.add_argument("--compare-seeds", action="store_true",
+                   help="with --ms-model lightfield: also time the seeds' frame on the same "
+                        "G-buffer in the same run and report lightfield / seeds")
     p.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference ratio")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="plot t(n)")
@@ -44,7 +47,7 @@ def run(args):
         raise AquaspecError(f"--bands {args.bands!r} must be comma-separated integers") from None
     result = run_bench(sizes=sizes, bands=bands, frames=args.frames, warmup=args.warmup,
                        water=args.water, depth_m=args.depth, numpy_reference=not args.no_numpy,
-                       ms_model=args.ms_model, phase=args.phase,
+                       ms_model=args.ms_model, phase=args.phase, compare_seeds=args.compare_seeds,
                        progress=lambda m: print(m, file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:
