@@ -383,6 +383,20 @@ class TestBadInput:
         import re
         assert re.search(match, err), err
 
+    @pytest.mark.parametrize("tyler", [False, True])
+    def test_unusable_output_directory_before_any_work(self, tyler, capsys, tmp_path,
+                                                       monkeypatch):
+        import aquaspec.validation.study as study
+        import aquaspec.validation.tyler as tyler_mod
+        monkeypatch.setattr(study, "run_study", lambda **kw: pytest.fail("study ran"))
+        monkeypatch.setattr(tyler_mod, "tyler_check", lambda: pytest.fail("check ran"))
+        blocker = tmp_path / "a_file"
+        blocker.write_text("")
+        argv = ["validate", "-o", str(blocker / "out")] + (["--tyler"] if tyler else [])
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "cannot create the output directory" in err and "a_file" in err
+
     def test_unknown_phase(self, capsys, tmp_path):
         with pytest.raises(SystemExit) as exc:
             main(["validate", "--phase", "rayleigh", "-o", str(tmp_path)])

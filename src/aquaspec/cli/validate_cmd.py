@@ -71,8 +71,9 @@ def run(args):
     g = (0.92 if args.g is None else args.g) if args.phase == "hg" else 0.0
     backscatter = FF_DEFAULT_BACKSCATTER if args.backscatter is None else args.backscatter
     check_phase(args.phase, g, backscatter)        # bad g or B: before anything is rendered
+    out_dir = _output_dir(args.out, "tyler.json" if args.tyler else "validation.json")
     if args.tyler:
-        return _run_tyler(args.out)
+        return _run_tyler(out_dir)
     require_mitsuba()
     try:
         depths = tuple(float(x) for x in args.depths.split(","))
@@ -109,12 +110,28 @@ def run(args):
     print()
     print(format_timing(res["scenes"]))
     print()
-    paths = write_results(res, args.out)
+    paths = write_results(res, out_dir)
     print("wrote " + ", ".join(paths.values()))
     return 0
 
 
-def _run_tyler(out_dir):
+def _output_dir(path, probe_name):
+    """Create the output directory and check it is writable, before any work."""
+    from pathlib import Path
+
+    from ..errors import AquaspecError
+    from ..output import check_writable
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise AquaspecError(f"cannot create the output directory {str(out)!r} "
+                            f"({exc.strerror or exc}); give another -o") from None
+    check_writable(out / probe_name)
+    return out
+
+
+def _run_tyler(out):
     import json
     from pathlib import Path
 
@@ -122,8 +139,6 @@ def _run_tyler(out_dir):
     from ..validation.tyler import format_tyler, plot_tyler, tyler_check
     res = tyler_check()
     print(format_tyler(res))
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     doc = json.dumps(res, indent=1)
     js = write_file_atomically(out / "tyler.json", lambda t: Path(t).write_text(doc))
     png = plot_tyler(res, out / "tyler.png")
