@@ -322,6 +322,22 @@ class LightField:
         return j + (self.f * self.b).reshape((-1,) + (1,) * len(shape)) \
             * self.radiance(depth_m, v_y)
 
+    def asymptotic_radiance(self, mu):
+        """Shape of the slowest mode at any cosines ``mu``; (n_bands, ...), arbitrary scale.
+
+        Deep down ``L(d, mu) = exp(-kappa_1 d) Lambda(mu)``; in the delta-M
+        scaled RTE (``mu dL/dd = -c* L + j*``) that gives ``Lambda(mu) =
+        j*_1(mu) / (c* - kappa_1 mu)``, with ``j*_1`` the mode's source from
+        its values at the nodes. ``c* > kappa_1``, so the denominator never
+        vanishes. Per band the eigenvector's sign is chosen so that the
+        largest value is positive (the slowest mode is then positive).
+        """
+        mu = np.asarray(mu, dtype=float)
+        psi_dec, _ = self._mode_sources(mu)
+        lam = psi_dec[:, :, 0] / (self.c_star[:, None] - self.kappa[:, :1] * mu.ravel()[None, :])
+        big = np.take_along_axis(lam, np.argmax(np.abs(lam), axis=1)[:, None], axis=1)
+        return (lam * np.sign(big)).reshape((lam.shape[0],) + mu.shape)
+
     def l_ms(self, depth_o, v_y, s):
         """Exact ``L_MS = int_0^S exp(-c t) j(d_o - t v_y, v) dt``; (n_bands, ...).
 

@@ -117,23 +117,6 @@ def fit_albedo(k_inf: float, c: float, phase, *, n_streams: int = 32, **phase_pa
     return float(brentq(excess, lo, hi, xtol=1e-10))
 
 
-def asymptotic_radiance(lf, mu) -> np.ndarray:
-    """Shape of the slowest mode of a one-band light field at any cosines ``mu``.
-
-    Deep down ``L(d, mu) = exp(-kappa_1 d) Lambda(mu)``; in the delta-M scaled
-    RTE (``mu dL/dd = -c* L + j*``) that gives ``Lambda(mu) = j*_1(mu) /
-    (c* - kappa_1 mu)``, with ``j*_1`` the mode's source from its values at
-    the quadrature nodes (:meth:`aquaspec.lightfield.LightField._mode_sources`).
-    ``c* > kappa_1``, so the denominator never vanishes. Arbitrary scale; the
-    sign of the eigenvector is chosen so that the largest value is positive
-    (the slowest mode is then positive everywhere).
-    """
-    mu = np.asarray(mu, dtype=float)
-    psi_dec, _ = lf._mode_sources(mu)
-    lam = psi_dec[0, :, 0] / (lf.c_star[0] - lf.kappa[0, 0] * mu)
-    return lam * np.sign(lam[np.argmax(np.abs(lam))])
-
-
 def tyler_check(phases=DEFAULT_PHASES, *, depths_m=(53.7, 66.1), c: float = TYLER_C,
                 n_streams: int = 32) -> dict:
     """Compare the model's asymptotic radiance shape with Tyler's, per phase function.
@@ -151,7 +134,7 @@ def tyler_check(phases=DEFAULT_PHASES, *, depths_m=(53.7, 66.1), c: float = TYLE
     for phase, params in phases:
         w0 = fit_albedo(k_inf, c, phase, n_streams=n_streams, **params)
         lf = _single_band(c, w0, phase, n_streams, **params)
-        rad = asymptotic_radiance(lf, mu)
+        rad = lf.asymptotic_radiance(mu)[0]
         if not (np.all(np.isfinite(rad)) and np.all(rad > 0)):
             raise AquaspecError(f"the model's asymptotic radiance is not positive and finite "
                                 f"for phase {phase!r} (omega0 = {w0:.4g})")
