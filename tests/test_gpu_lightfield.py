@@ -76,8 +76,13 @@ def assert_matches(got, ref):
     ("I", 16, "hg", "up", 4.0, 0.0),
     ("IB", 8, "hg", "up", 4.0, 15.0),
     ("II", 8, "petzold", "builtin", 5.0, 15.0),
+    # A last group of four bands with one band in it.
+    ("IB", 5, "petzold", "up", 4.0, 15.0),
 ])
-def test_matches_reference(water, n, phase, kind, depth, cone):
+@pytest.mark.parametrize("filtering", [None, False])
+def test_matches_reference(water, n, phase, kind, depth, cone, filtering):
+    """Both table reads (the sampler's filtering where the device has
+    float32-filterable, the shader's own bilinear interpolation) match."""
     from aquaspec.gpu.deferred import DeferredPass
     from aquaspec.gpu.lightfield_pass import LightfieldPass
     gb = gbuffer_of(kind, depth)
@@ -89,7 +94,7 @@ def test_matches_reference(water, n, phase, kind, depth, cone):
     ref = shade_gbuffer(gb, **medium, lightfield=tables)["camera_rgb"]
     d = DeferredPass(gb.camera.width, gb.camera.height, n)
     d.set_gbuffer(gb)
-    lp = LightfieldPass(d)
+    lp = LightfieldPass(d, filtering=filtering)
     lp.set_medium(**medium, tables=tables)
     lp.run()
     got = lp.read_rgb()
@@ -98,6 +103,37 @@ def test_matches_reference(water, n, phase, kind, depth, cone):
     # exp(-cS) R(d_S) cancels for near hits, which f32 amplifies (measured up
     # to 5e-4 relative on the built-in scene).
     np.testing.assert_allclose(got, ref, rtol=1e-3, atol=2e-6 * scale)
+
+
+def test_band_group_texture_layout():
+    from aquaspec.gpu.lightfield_pass import band_group_texture
+    n, nd, nm = 6, 3, 5
+    table = np.arange(n * nd * nm, dtype=np.float64).reshape(n, nd, nm)
+    tex = band_group_texture(table)
+    assert tex.shape == (2, nd, nm, 4) and tex.dtype == np.float32
+    for band in range(n):
+        np.testing.assert_array_equal(tex[band // 4, :, :, band % 4], table[band])
+    # The last group's unused channels are zero.
+    assert not tex[1, :, :, 2:].any()
+
+
+def test_filtering_needs_the_device_feature():
+    from aquaspec.gpu.deferred import DeferredPass
+    from aquaspec.gpu.lightfield_pass import LightfieldPass
+    d = DeferredPass(8, 4, 3)
+
+    class NoFeatures:
+        def __init__(self, dev):
+            self._dev = dev
+            self.features = set()
+
+        def __getattr__(self, name):
+            return getattr(self._dev, name)
+
+    d.device = NoFeatures(d.device)
+    assert LightfieldPass(d).filtering is False
+    with pytest.raises(AquaspecError, match="float32-filterable"):
+        LightfieldPass(d, filtering=True)
 
 
 def test_render_api_uses_the_lightfield_pass():

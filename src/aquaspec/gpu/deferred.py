@@ -275,20 +275,30 @@ def bind_group_layout(device, bindings):
     """Compute-stage layout for ``bindings``: {binding: kind}.
 
     Kinds: ``"uniform"``, ``"read"`` / ``"write"`` (storage buffers),
-    ``"float"`` / ``"uint"`` (unfilterable 2-D textures of that sample type).
+    ``"float"`` / ``"uint"`` (unfilterable 2-D textures of that sample type),
+    ``"float_array"`` / ``"filterable_array"`` (2-D array textures,
+    unfilterable / filterable float), ``"sampler"`` / ``"nonfiltering_sampler"``.
     """
     import wgpu
     kinds = {"uniform": wgpu.BufferBindingType.uniform,
              "read": wgpu.BufferBindingType.read_only_storage,
              "write": wgpu.BufferBindingType.storage}
-    samples = {"float": wgpu.TextureSampleType.unfilterable_float,
-               "uint": wgpu.TextureSampleType.uint}
+    samples = {"float": (wgpu.TextureSampleType.unfilterable_float, wgpu.TextureViewDimension.d2),
+               "uint": (wgpu.TextureSampleType.uint, wgpu.TextureViewDimension.d2),
+               "float_array": (wgpu.TextureSampleType.unfilterable_float,
+                               wgpu.TextureViewDimension.d2_array),
+               "filterable_array": (wgpu.TextureSampleType.float,
+                                    wgpu.TextureViewDimension.d2_array)}
+    samplers = {"sampler": wgpu.SamplerBindingType.filtering,
+                "nonfiltering_sampler": wgpu.SamplerBindingType.non_filtering}
 
     def entry(b, k):
         if k in samples:
             return {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
-                    "texture": {"sample_type": samples[k],
-                                "view_dimension": wgpu.TextureViewDimension.d2}}
+                    "texture": {"sample_type": samples[k][0], "view_dimension": samples[k][1]}}
+        if k in samplers:
+            return {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
+                    "sampler": {"type": samplers[k]}}
         return {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
                 "buffer": {"type": kinds[k]}}
 
@@ -297,11 +307,14 @@ def bind_group_layout(device, bindings):
 
 
 def bind_group_entries(resources) -> list:
-    """Bind-group entries for {binding: buffer or texture} (whole buffers, default views)."""
+    """Bind-group entries for {binding: buffer, texture, texture view or sampler}
+    (whole buffers, default texture views)."""
     out = []
     for b, r in sorted(resources.items()):
         if hasattr(r, "create_view"):
             out.append({"binding": b, "resource": r.create_view()})
+        elif type(r).__name__.endswith(("Sampler", "TextureView")):
+            out.append({"binding": b, "resource": r})
         else:
             out.append({"binding": b, "resource": {"buffer": r, "offset": 0, "size": r.size}})
     return out

@@ -71,7 +71,9 @@ def get_device():
                 "max-texture-dimension-2d", "max-storage-buffers-per-shader-stage"):
         if key in adapter.limits:
             limits[key] = adapter.limits[key]
-    features = [f for f in ("timestamp-query",) if f in adapter.features]
+    # float32-filterable: the light-field pass samples its float tables with
+    # bilinear filtering when the device allows it (else it interpolates itself).
+    features = [f for f in ("timestamp-query", "float32-filterable") if f in adapter.features]
     device = adapter.request_device_sync(required_limits=limits,
                                          required_features=features)
     return adapter, device

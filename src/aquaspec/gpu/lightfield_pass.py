@@ -21,8 +21,8 @@ One invocation shades four horizontally adjacent pixels. Bindings:
 2   texture ``rgba32float``             G-buffer sigmoid (read when per_pixel)
 4   uniform ``array<vec4<f32>, 3 n>``   per band :data:`BAND_FIELDS` (float64 on
                                         the host, :func:`band_table`)
-5   texture ``r32float`` (n, M)         material band reflectances, texel
-                                        ``(band, material)``
+5   storage ``array<f32>``              material band reflectances, row-major
+                                        ``(material, band)``
 6   storage ``array<vec4<f32>>``        linear camera RGB out (w = 1), pixel
                                         ``p = row * width + column``
 8   storage ``array<atomic<u32>>``      status: [0] pixels with a material index
@@ -34,12 +34,18 @@ One invocation shades four horizontally adjacent pixels. Bindings:
 11  texture ``rgba32float``             open-water table (:func:`open_water_table`):
                                         sample ``m``, part ``h`` at texel
                                         ``(2 (m % OPEN_ROW) + h, m / OPEN_ROW)``
-12  texture ``rgba32float``             ``ln F``: texel ``(band, i (n_mu - 1) + j)``
-    (n, (n_depth - 1) (n_mu - 1))       holds the corners ``(i, j), (i, j + 1),
-                                        (i + 1, j), (i + 1, j + 1)`` of cell
-                                        ``(i, j)`` (:func:`corner_texture`)
-13  texture ``rgba32float``             ``E / E0``, same layout
+12  2-D array texture ``rgba32float``  ``ln F``: layer ``g``, texel ``(j, i)``
+    (n_mu, n_depth, ceil(n / 4))        (direction, depth) holds bands
+                                        ``4g .. 4g + 3`` (:func:`band_group_texture`)
+13  2-D array texture ``rgba32float``  ``E / E0``, same layout
+14  sampler                             bilinear (``filtering``) or nearest
 ==  ==================================  ==========================================
+
+The tables are read with the sampler's bilinear filtering when the device
+has ``float32-filterable`` (lavapipe has it): one sample gives four bands,
+where a fetch per band and pixel had been most of the pass's time; without
+it the shader interpolates from four fetches (``filtering=False``, tested
+too).
 """
 
 from __future__ import annotations
@@ -71,6 +77,7 @@ PIXELS_PER_INVOCATION = 4
 
 B_PARAMS, B_SURFACE, B_SIGMOID, B_BANDS, B_MATERIALS, B_RGB = 0, 1, 2, 4, 5, 6
 B_STATUS, B_DISPLAY, B_RGBA, B_OPEN_TABLE, B_LOG_PREFACTOR, B_IRRADIANCE = 8, 9, 10, 11, 12, 13
+B_SAMPLER = 14
 
 #: Samples of the open-water table per cell of the tables' direction axis,
 #: the first whose estimated interpolation error is below
@@ -82,17 +89,68 @@ OPEN_TABLE_TOLERANCE = 1e-5
 OPEN_ROW = 2048
 
 
-def corner_texture(table) -> np.ndarray:
-    """Texels of a table (n, n_depth, n_mu): (cells, n, 4) float32, cell ``i (n_mu - 1) + j``.
+def band_group_texture(table) -> np.ndarray:
+    """Texels of a table (n, n_depth, n_mu): (ceil(n / 4), n_depth, n_mu, 4) float32.
 
-    Texel ``(band, cell)`` holds ``table[band]`` at the cell's corners
-    ``(i, j), (i, j + 1), (i + 1, j), (i + 1, j + 1)``: one fetch per
-    bilinear lookup.
+    Layer ``g``, texel ``(j, i)`` (direction, depth) holds bands
+    ``4g .. 4g + 3`` at node ``(i, j)``, zero past the last band: one
+    (filtered) sample gives four bands.
     """
-    t = np.moveaxis(np.asarray(table, dtype=np.float32), 0, -1)   # (n_depth, n_mu, n)
-    corners = np.stack([t[:-1, :-1], t[:-1, 1:], t[1:, :-1], t[1:, 1:]], axis=-1)
-    nd, nm, n = t.shape
-    return np.ascontiguousarray(corners.reshape((nd - 1) * (nm - 1), n, 4))
+    t = np.asarray(table, dtype=np.float32)
+    n, nd, nm = t.shape
+    groups = -(-n // 4)
+    out = np.zeros((groups * 4, nd, nm), np.float32)
+    out[:n] = t
+    return np.ascontiguousarray(np.moveaxis(out.reshape(groups, 4, nd, nm), 1, -1))
+
+
+#: One band's step of the band loop in lightfield.wgsl, for band ``i = 4 g + {k}``
+#: whose table values are component ``{c}`` of the four pixels' samples.
+#: Bands past the last of the last group are skipped (a branch every lane
+#: takes the same way).
+BAND_STEP = """        if (4u * g + {k}u < N_BANDS) {{
+            let i = 4u * g + {k}u;
+            let ln_f = vec4<f32>(f0.{c}, f1.{c}, f2.{c}, f3.{c});
+            let irr = vec4<f32>(h0.{c}, h1.{c}, h2.{c}, h3.{c});
+            let q0 = band_table[3u * i];
+            let q1 = band_table[3u * i + 1u];
+            let q2 = band_table[3u * i + 2u];
+            let c = q0.x;
+            let k1 = q0.y;
+            let c_beam = q0.z;
+            let tr = exp(-c_beam * s);
+            // T' R(d_S, v) / scale (see the header).
+            let a = ln_f - c_beam * s;
+            let k = c - k1 * v_y;
+            let e1 = exp(a - k1 * d_s);
+            let e2 = select(vec4<f32>(0.0), exp(a - c * len_up), up);
+            let x = k * len_up;
+            let inv_k = 1.0 / select(vec4<f32>(1.0), k, k != vec4<f32>(0.0));
+            let series = e1 * len_up * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0
+                         - x * (1.0 / 120.0)))));
+            let r_s = select((e1 - e2) * inv_k, series, up & (abs(x) < vec4<f32>(0.1)));
+            var rho = select(vec4<f32>(0.0), vec4<f32>(material_bands[mrow.x + i],
+                             material_bands[mrow.y + i], material_bands[mrow.z + i],
+                             material_bands[mrow.w + i]), use_material);
+            if (PER_PIXEL_MATERIALS) {{
+                rho = select(rho, sigmoid_reflectance(c0, c1, c2, q2.x), use_sigmoid);
+            }}
+            var l = tr * rho * irr * q1.w - q0.w * r_s;
+            if (CONE) {{
+                // - T' u_S L_top inside the window.
+                l = l - select(vec4<f32>(0.0), exp(-c_beam * s - c * len_up) * q2.y,
+                               cone_window);
+            }}
+            l = select(vec4<f32>(0.0), l, hit);
+            r = r + l * q1.x;
+            gr = gr + l * q1.y;
+            b = b + l * q1.z;
+        }}"""
+
+
+def band_steps() -> str:
+    """The four band steps of one band-loop iteration (:data:`BAND_STEP`)."""
+    return "\n".join(BAND_STEP.format(k=k, c=c) for k, c in enumerate("xyzw"))
 
 
 def band_table(a, b, e0, response_weights, sigmoid_centers_t, tables) -> np.ndarray:
@@ -185,10 +243,18 @@ class LightfieldPass:
     the water, light, sensor or tables change.
     """
 
-    def __init__(self, deferred):
+    def __init__(self, deferred, *, filtering: bool | None = None):
         from .display_pass import DISPLAY_LAYOUT
         self.deferred = deferred
         dev = self.device = deferred.device
+        #: Whether the tables are read with the sampler's bilinear filtering
+        #: (needs float32-filterable; default: when the device has it) or
+        #: interpolated in the shader from four fetches.
+        self.filtering = ("float32-filterable" in dev.features) if filtering is None \
+            else bool(filtering)
+        if self.filtering and "float32-filterable" not in dev.features:
+            raise AquaspecError("filtering=True needs a device with float32-filterable; "
+                                "accepted: filtering=False or None")
         self.width, self.height = deferred.width, deferred.height
         npix = self.width * self.height
         self._uniform = create_uniform_buffer(dev, PARAMS_LAYOUT, label="lightfield params")
@@ -200,11 +266,17 @@ class LightfieldPass:
         self.display_buffer = create_storage_buffer(dev, npix * 4, label="lightfield rgba8")
         self.display_settings = None
         self._last_display = False
+        table_kind = "filterable_array" if self.filtering else "float_array"
         self._layout = bind_group_layout(dev, {
             B_PARAMS: "uniform", B_SURFACE: "uint", B_SIGMOID: "float", B_BANDS: "uniform",
-            B_MATERIALS: "float", B_RGB: "write", B_STATUS: "write", B_DISPLAY: "uniform",
-            B_RGBA: "write", B_OPEN_TABLE: "float", B_LOG_PREFACTOR: "float",
-            B_IRRADIANCE: "float"})
+            B_MATERIALS: "read", B_RGB: "write", B_STATUS: "write", B_DISPLAY: "uniform",
+            B_RGBA: "write", B_OPEN_TABLE: "float", B_LOG_PREFACTOR: table_kind,
+            B_IRRADIANCE: table_kind,
+            B_SAMPLER: "sampler" if self.filtering else "nonfiltering_sampler"})
+        mode = "linear" if self.filtering else "nearest"
+        self._sampler = dev.create_sampler(label="lightfield tables", mag_filter=mode,
+                                           min_filter=mode, address_mode_u="clamp-to-edge",
+                                           address_mode_v="clamp-to-edge")
         self._pipelines = {}
         self._buffers = None
         self._shape = None
@@ -242,25 +314,32 @@ class LightfieldPass:
                                 f"device binds at most {limit}")
         upload_buffer(dev, bands, band.astype(np.float32))
         usage = wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST
-        lp_tex, irr_tex = corner_texture(lp), corner_texture(irr)
         max_2d = dev.limits.get("max-texture-dimension-2d", 8192)
-        if max(lp_tex.shape[:2]) > max_2d:
-            raise AquaspecError(f"light-field tables of {n} bands and {lp.shape[1]}x{lp.shape[2]} "
-                                f"samples need a {lp_tex.shape[1]}x{lp_tex.shape[0]} texture; "
-                                f"this device allows at most {max_2d} per side; accepted: "
+        if max(lp.shape[1:]) > max_2d:
+            raise AquaspecError(f"light-field tables of {lp.shape[1]}x{lp.shape[2]} samples "
+                                f"exceed this device's {max_2d} texels per side; accepted: "
                                 "smaller n_depth or n_mu")
 
-        def texture(data, fmt, label):
-            tex = create_texture(dev, data.shape[1], data.shape[0], fmt, label=label, usage=usage)
-            upload_texture(dev, tex, data)
-            return tex
+        def array_texture(table, label):
+            data = band_group_texture(table)          # (layers, n_depth, n_mu, 4)
+            layers, nd, nm = data.shape[:3]
+            tex = dev.create_texture(label=label, size=(nm, nd, layers), format="rgba32float",
+                                     usage=usage, dimension="2d", mip_level_count=1,
+                                     sample_count=1)
+            dev.queue.write_texture({"texture": tex, "mip_level": 0, "origin": (0, 0, 0)},
+                                    data, {"offset": 0, "bytes_per_row": nm * 16,
+                                           "rows_per_image": nd}, (nm, nd, layers))
+            return tex.create_view(dimension="2d-array")
 
+        materials = create_storage_buffer(dev, max(mb.nbytes, 4), label="lightfield materials")
+        if mb.size:
+            upload_buffer(dev, materials, mb.reshape(-1))
         self._buffers = {
             B_BANDS: bands,
-            B_MATERIALS: texture(mb if mb.size else np.zeros((1, n), np.float32), "r32float",
-                                 "lightfield materials"),
-            B_LOG_PREFACTOR: texture(lp_tex, "rgba32float", "lightfield ln F"),
-            B_IRRADIANCE: texture(irr_tex, "rgba32float", "lightfield irradiance"),
+            B_MATERIALS: materials,
+            B_LOG_PREFACTOR: array_texture(lp, "lightfield ln F"),
+            B_IRRADIANCE: array_texture(irr, "lightfield irradiance"),
+            B_SAMPLER: self._sampler,
         }
         f = np.asarray(tables.get("forward_fraction", np.zeros(n)), dtype=float)
         self._shape = dict(n_bands=n, n_materials=int(np.asarray(material_bands).shape[0]),
@@ -276,7 +355,8 @@ class LightfieldPass:
     def _pipeline(self, per_pixel, tonemap):
         from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS
         sh = self._shape
-        key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["cone"], per_pixel, tonemap)
+        key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["cone"], per_pixel, tonemap,
+               self.filtering)
         if key not in self._pipelines:
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
                             params_struct_name=PARAMS_LAYOUT.name,
@@ -287,6 +367,8 @@ class LightfieldPass:
                             n_bands=sh["n_bands"], n_depth=sh["n_depth"], n_mu=sh["n_mu"],
                             cone="true" if sh["cone"] else "false",
                             per_pixel="true" if per_pixel else "false",
+                            filter="true" if self.filtering else "false",
+                            band_steps=band_steps(),
                             band_table_len=len(BAND_FIELDS) // 4 * sh["n_bands"],
                             open_row=OPEN_ROW,
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
