@@ -136,6 +136,14 @@ def test_filtering_needs_the_device_feature():
         LightfieldPass(d, filtering=True)
 
 
+def test_cone_spread_is_refused_on_the_gpu():
+    gb = gbuffer_of("builtin", 5.0)
+    setup = dataclasses.replace(setup_of("IB", 4, "ff", cone=30.0), phase_params=(("backscatter", 0.0183),),
+                                cone_spread=True)
+    with pytest.raises(AquaspecError, match="NumPy shading only"):
+        gpu_pass(gb, setup)
+
+
 def test_render_api_uses_the_lightfield_pass():
     from aquaspec.renderer import render
     gpu = render(water="IB", depth_m=5.0, size=(48, 27), bands=4, ms_model="lightfield",

@@ -181,3 +181,42 @@ def test_forward_cone_zero_limit_and_effect():
                                rtol=1e-12)
     contrast_cone = np.abs(lightfield_pixel_radiance(cone, **kw) - background)
     assert np.all(contrast_cone > np.abs(plain - background))
+
+
+def test_cone_spread_kernel_holds_the_offset_distribution():
+    """The kernel sums to 1, is symmetric, and its mass within radius r pixels
+    is the CDF of the apparent offset at r / fy radians."""
+    from aquaspec.lightfield import cone_spread_kernel
+    from aquaspec.phase import band_cone_offset_cdf
+    offsets = np.radians(20.0) * np.concatenate([[0.0], np.geomspace(1e-5, 1.0, 255)])
+    cdf = band_cone_offset_cdf("ff", 20.0, offsets, backscatter=0.0183)[0]
+    fy = 60.0
+    k = cone_spread_kernel(offsets, cdf, fy, subsamples=16)
+    r = k.shape[0] // 2
+    assert k.shape == (2 * r + 1, 2 * r + 1) and r == int(np.ceil(np.radians(20.0) * fy))
+    assert k.sum() == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(k, k[::-1, ::-1], atol=1e-15)
+    np.testing.assert_allclose(k, k.T, atol=1e-15)
+    y, x = np.indices(k.shape) - r
+    dist = np.hypot(x, y)
+    for radius in (3.0, 6.0, 12.0):
+        inside = k[dist <= radius].sum()
+        want = np.interp(radius / fy, offsets, cdf)
+        # Pixel cells straddle the circle: compare within the CDF between
+        # radius -+ half a cell diagonal.
+        lo = np.interp((radius - 0.71) / fy, offsets, cdf)
+        hi = np.interp((radius + 0.71) / fy, offsets, cdf)
+        assert lo - 1e-3 <= inside <= hi + 1e-3, (radius, inside, want)
+    with pytest.raises(AquaspecError, match="pixels_per_radian"):
+        cone_spread_kernel(offsets, cdf, 0.0)
+
+
+def test_cone_spread_needs_a_cone():
+    from aquaspec.bands import Bands
+    from aquaspec.water import load_water
+    bw = load_water("IB").on_bands(Bands(3))
+    with pytest.raises(AquaspecError, match="cone_spread needs a forward cone"):
+        lightfield_tables(bw, phase="ff", backscatter=0.0183, cone_spread=True)
+    t = lightfield_tables(bw, phase="ff", backscatter=0.0183, forward_cone_deg=30.0,
+                          cone_spread=True)
+    assert t["cone_offset_cdf"].shape == (3, t["cone_offset_rad"].size)

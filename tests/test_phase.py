@@ -258,3 +258,32 @@ class TestMitsubaTabphase:
         g = tab.legendre_moments(1)[1]
         assert g > 0.9
         assert abs(mu.mean() - g) < 5 * mu.std() / np.sqrt(n)
+
+
+def test_cone_offset_cdf_isotropic_closed_form():
+    """Isotropic scattering: F(a) = [1 - cos a + a (Si(theta_c) - Si(a))] / (1 - cos theta_c)."""
+    from scipy.special import sici
+    from aquaspec.phase import band_cone_offset_cdf
+    tc = np.radians(30.0)
+    a = np.linspace(0.0, tc, 13)
+    got = band_cone_offset_cdf("isotropic", 30.0, a, b=[0.1, 0.2])
+    want = ((1 - np.cos(a)) + a * (sici(tc)[0] - sici(a)[0])) / (1 - np.cos(tc))
+    assert got.shape == (2, a.size)
+    np.testing.assert_allclose(got[0], want, atol=1e-5)
+    np.testing.assert_array_equal(got[0], got[1])
+
+
+def test_cone_offset_cdf_forward_peaked_and_mixed():
+    """A forward-peaked cone puts its light close to the pixel; Petzold's bands
+    mix in pure water (wider) the more of b it is; beyond the cone F = 1."""
+    from aquaspec.phase import band_cone_offset_cdf
+    a = np.radians([0.5, 2.0, 10.0, 40.0, 50.0])
+    ff = band_cone_offset_cdf("ff", 40.0, a, backscatter=0.0183)[0]
+    iso = band_cone_offset_cdf("isotropic", 40.0, a)[0]
+    assert np.all(np.diff(ff) >= 0) and ff[-1] == pytest.approx(1.0) and ff[-2] == ff[-1]
+    assert np.all(ff[:3] > iso[:3])
+    pz = band_cone_offset_cdf("petzold", 40.0, a, b=[0.003, 0.3], wavelength_nm=[450.0, 450.0])
+    # The band with little particle scattering is more like pure water: spread wider.
+    assert np.all(pz[0, :3] < pz[1, :3])
+    with pytest.raises(AquaspecError, match="half-angle"):
+        band_cone_offset_cdf("ff", 0.0, a)

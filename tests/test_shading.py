@@ -235,3 +235,78 @@ def test_lightfield_shading_matches_pixel_radiance():
         want = lightfield_pixel_radiance(tables, a=bw.a, b=bw.b, e0=e0, depth_o=4.0,
                                          v_y=np.array([v_y]), s=np.array([dist[i, j]]), **kw)
         np.testing.assert_allclose(out["radiance"][i, j], np.ravel(want), rtol=1e-12)
+
+
+def _spread_case(dist, fov_y_deg, cone_spread, cone_deg=30.0):
+    """Light-field shading of a G-buffer: camera at 5 m looking along -z, a
+    grey surface facing it where ``dist`` is finite."""
+    from aquaspec.bands import Bands
+    from aquaspec.lightfield import lightfield_tables
+    from aquaspec.reflectance import Reflectance
+    from aquaspec.water import load_water
+    h, w = dist.shape
+    bands = Bands(4)
+    bw = load_water("II").on_bands(bands)
+    tables = lightfield_tables(bw, phase="ff", backscatter=0.0183, forward_cone_deg=cone_deg,
+                               cone_spread=cone_spread)
+    cam = Camera.look_at([0, -5, 0], [0, -5, -3], width=w, height=h, fov_y_deg=fov_y_deg)
+    normal = np.zeros((h, w, 3))
+    normal[..., 2] = 1.0
+    grey = Reflectance.constant(0.3)
+    gb = GBuffer(cam, dist, normal, np.zeros((h, w), np.uint32), np.zeros((h, w, 3)), [grey])
+    return shade_gbuffer(gb, a=bw.a, b=bw.b, kd=bw.kd, e0=np.full(4, 0.4),
+                         response_weights=np.eye(4)[:, :3],
+                         material_bands=grey.on_bands(bands)[None], sigmoid_centers_t=np.zeros(4),
+                         return_radiance=True, lightfield=tables)["radiance"]
+
+
+def test_cone_spread_is_the_per_pixel_cone_convolved():
+    """The split keeps the per-pixel sum (radiance without the cone + cone term
+    = the per-pixel cone model); the convolution leaves a uniform cone term
+    alone and turns a single pixel's into the kernel."""
+    from aquaspec.bands import Bands
+    from aquaspec.lightfield import (cone_spread_kernel, lightfield_pixel_radiance,
+                                     lightfield_tables, spread_cone_light)
+    from aquaspec.water import load_water
+    bw = load_water("II").on_bands(Bands(3))
+    t = lightfield_tables(bw, phase="ff", backscatter=0.0183, forward_cone_deg=20.0,
+                          cone_spread=True)
+    v = np.array([[-0.5], [0.0], [0.3], [0.9]])
+    s_ = np.array([[2.0], [3.0], [3.0], [np.inf]])
+    kw = dict(a=bw.a, b=bw.b, e0=np.full(3, 0.3), depth_o=5.0, v_y=v, s=s_,
+              rho=np.full(3, 0.2), surface_depth=5.0 - np.where(np.isfinite(s_), s_, 0) * v,
+              n_y=np.zeros((4, 1)))
+    base, cone = lightfield_pixel_radiance(t, split_cone=True, **kw)
+    np.testing.assert_allclose(base + cone, lightfield_pixel_radiance(t, **kw), rtol=1e-12)
+    assert np.all(cone[:3] != 0)
+    fy = 30.0
+    uniform = np.broadcast_to(cone[1], (20, 30, 3)).copy()
+    np.testing.assert_allclose(spread_cone_light(uniform, t, fy), uniform, rtol=1e-10)
+    k = cone_spread_kernel(t["cone_offset_rad"], t["cone_offset_cdf"][0], fy)
+    r = k.shape[0] // 2
+    delta = np.zeros((2 * r + 9, 2 * r + 9, 3))
+    delta[r + 4, r + 4] = 1.0
+    out = spread_cone_light(delta, t, fy)
+    np.testing.assert_allclose(out[4:-4, 4:-4, 0], k, atol=1e-12)
+
+
+def test_cone_spread_moves_light_without_losing_it():
+    """A small target in open water: its cone light goes partly to the water
+    around it (brighter there), the target keeps less, and the image's sum
+    (the total light, open water at the border) is the same."""
+    dist = np.full((80, 80), np.inf)
+    dist[36:44, 36:44] = 3.0
+    # A 10 degree cone is 20 pixels here: all of it stays inside the frame.
+    spread = _spread_case(dist, 40.0, True, cone_deg=10.0)
+    plain = _spread_case(dist, 40.0, False, cone_deg=10.0)
+    np.testing.assert_allclose(spread.sum(axis=(0, 1)), plain.sum(axis=(0, 1)), rtol=1e-9)
+    ring = np.zeros((80, 80), bool)
+    ring[34:46, 34:46] = True
+    ring[36:44, 36:44] = False
+    moved = np.abs(spread - plain)
+    assert np.all(moved[ring].max(axis=0) > 1e-3 * np.abs(plain[ring]).max(axis=0))
+    # The target's cone term leaves its centre and arrives around it.
+    centre = (spread - plain)[39:41, 39:41]
+    around = (spread - plain)[ring]
+    assert np.all(np.sign(centre.sum(axis=(0, 1))) == -np.sign(around.sum(axis=0)))
+    np.testing.assert_allclose(spread[:10], plain[:10], rtol=1e-12)

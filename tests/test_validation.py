@@ -332,6 +332,16 @@ def test_small_study_with_fournier_forand(tmp_path):
     assert res["params"]["backscatter"] == 0.03
     rows = [r for r in res["rows"] if r["method"] == "lightfield-n8"]
     assert rows and all(np.isfinite(r["rmse_rel"]) for r in rows)
+    assert res["params"]["cone_spread"] is False
+    # The cone spread over the image: same (cached) reference, other numbers.
+    spread = run_study(waters=("IB",), depths=(4.0,), sensors={"human": get_sensor("human")},
+                       size=(24, 18), spp=8, kd_spp=2000, band_counts=(8,), phase="ff",
+                       backscatter=0.03, ms_models=("lightfield",), cache_dir=tmp_path,
+                       forward_cone_deg=30.0, cone_spread=True)
+    assert spread["params"]["cone_spread"] is True
+    srows = [r for r in spread["rows"] if r["method"] == "lightfield-n8"]
+    assert len(srows) == len(rows) and all(np.isfinite(r["rmse_rel"]) for r in srows)
+    assert any(a["mean_ratio"] != b["mean_ratio"] for a, b in zip(rows, srows))
 
 
 def test_cache_keys_hold_the_phase_function():

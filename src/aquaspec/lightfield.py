@@ -515,7 +515,8 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
                       seabed_albedo=0.0, n_depth: int = DEFAULT_N_DEPTH,
                       n_mu: int = DEFAULT_N_MU, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
                       n_streams: int = 32, surface: str = "null",
-                      forward_cone_deg: float = 0.0, **phase_params) -> dict:
+                      forward_cone_deg: float = 0.0, cone_spread: bool = False,
+                      **phase_params) -> dict:
     """Per-band tables of the light field for the renderer (float32).
 
     Parameters
@@ -534,6 +535,13 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         ``c - f b`` (``f`` = ``"forward_fraction"``, the share of ``b`` in the
         cone). A target then blocks the light that the 1-D field would have
         scattered forward from behind it (SPEC: 10-20 degrees). 0 = off.
+    cone_spread : bool
+        The cone's light comes from where the cone points in the image, not
+        from the pixel's own surface: :func:`aquaspec.shading.shade_gbuffer`
+        spreads it over the image with :func:`cone_spread_kernel` (NumPy
+        only so far). Adds ``"cone_offset_rad"`` (m,) and
+        ``"cone_offset_cdf"`` (n, m), :func:`aquaspec.phase.band_cone_offset_cdf`.
+        Needs ``forward_cone_deg > 0``.
 
     Returns
     -------
@@ -578,10 +586,20 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
     irr = lf.irradiance(depth[:, None], cos[None, :])
     if not (np.all(np.isfinite(pref)) and np.all(pref > 0) and np.all(np.isfinite(irr))):
         raise AquaspecError("light-field tables came out non-finite; check a, b and the phase")
-    from .phase import band_cone_fraction
+    from .phase import band_cone_fraction, band_cone_offset_cdf
     f_cone = band_cone_fraction(phase, forward_cone_deg, b, wl, **phase_params)
     f32 = np.float32
-    return {
+    extra = {}
+    if cone_spread:
+        if not forward_cone_deg > 0:
+            raise AquaspecError(f"cone_spread needs a forward cone; forward_cone_deg="
+                                f"{forward_cone_deg!r}; accepted: above 0 and below 90")
+        offsets = np.radians(forward_cone_deg) * np.concatenate(
+            [[0.0], np.geomspace(1e-5, 1.0, CONE_OFFSET_SAMPLES - 1)])
+        extra = {"cone_offset_rad": offsets,
+                 "cone_offset_cdf": band_cone_offset_cdf(phase, forward_cone_deg, offsets, b,
+                                                         wl, **phase_params)}
+    return {**extra,
         "forward_fraction": f_cone.astype(f32),
         "ms_log_prefactor": np.log(pref).astype(f32),
         "irradiance_per_e0": irr.astype(f32),
@@ -594,6 +612,69 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         "cosine": cos.astype(f32),
         "max_depth_m": np.array([d_max], f32),
     }
+
+
+#: Samples of the cone-offset CDF in the tables (geometric towards 0).
+CONE_OFFSET_SAMPLES = 256
+
+
+def cone_spread_kernel(offsets_rad, cdf, pixels_per_radian: float,
+                       subsamples: int = 8) -> np.ndarray:
+    """The image-space kernel of the forward cone's light, (2r + 1, 2r + 1), summing to 1.
+
+    ``cdf`` is ``P(alpha <= offsets_rad)`` for one band (the apparent angular
+    offset, :func:`aquaspec.phase.band_cone_offset_cdf`), radially symmetric,
+    turned into pixels with ``pixels_per_radian`` (the camera's ``fy``: the
+    small-angle scale at the image centre). Each pixel cell gets the
+    density ``F'(r) / (2 pi r)`` integrated on ``subsamples`` x
+    ``subsamples`` points; the centre cell gets the rest (the density is
+    singular at 0, and most of a forward-peaked cone's light stays in its
+    own pixel).
+    """
+    off = np.asarray(offsets_rad, dtype=float) * float(pixels_per_radian)   # in pixels
+    cdf = np.asarray(cdf, dtype=float)
+    if not (pixels_per_radian > 0 and np.all(np.diff(off) > 0)):
+        raise AquaspecError(f"pixels_per_radian={pixels_per_radian!r}; accepted: > 0")
+    r_max = off[-1]
+    rad = int(np.ceil(r_max))
+    # Density per unit area as a function of radius: dF/dr / (2 pi r), from
+    # the CDF's differences (piecewise constant between samples).
+    dens = np.diff(cdf) / (np.pi * (off[1:] ** 2 - off[:-1] ** 2))
+    sub = (np.arange(subsamples) + 0.5) / subsamples - 0.5
+    ax = np.arange(-rad, rad + 1, dtype=float)
+    x = (ax[:, None] + sub[None, :]).reshape(-1)
+    r = np.hypot(x[:, None], x[None, :])
+    k = np.searchsorted(off, r, side="right") - 1
+    inside = (k >= 0) & (k < dens.size)
+    w = np.where(inside, dens[np.clip(k, 0, dens.size - 1)], 0.0)
+    n = ax.size
+    kern = w.reshape(n, subsamples, n, subsamples).mean(axis=(1, 3))
+    kern[rad, rad] = 0.0
+    kern[rad, rad] = max(0.0, 1.0 - kern.sum())
+    return kern / kern.sum()
+
+
+def spread_cone_light(cone_term, tables, pixels_per_radian: float) -> np.ndarray:
+    """Convolve the per-pixel forward-cone term (H, W, n) with each band's kernel.
+
+    The image is extended beyond its border with its edge values (the scene
+    goes on past the frame) before the convolution.
+    """
+    from scipy.signal import fftconvolve
+    c = np.asarray(cone_term, dtype=float)
+    out = np.empty_like(c)
+    cdf = np.asarray(tables["cone_offset_cdf"], dtype=float)
+    offsets = np.asarray(tables["cone_offset_rad"], dtype=float)
+    kernels = {}
+    for i in range(c.shape[-1]):
+        key = cdf[i].tobytes()
+        if key not in kernels:
+            kernels[key] = cone_spread_kernel(offsets, cdf[i], pixels_per_radian)
+        kern = kernels[key]
+        rad = kern.shape[0] // 2
+        padded = np.pad(c[..., i], rad, mode="edge")
+        out[..., i] = fftconvolve(padded, kern, mode="valid")
+    return out
 
 
 def bilinear(table, depth_m, cos, max_depth_m):
@@ -687,7 +768,8 @@ def _cut_at_seabed(s, d_o, v, bed):
 
 
 def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
-                              surface_depth=None, n_y=None, form: str = "two_point"):
+                              surface_depth=None, n_y=None, form: str = "two_point",
+                              split_cone: bool = False):
     """Band radiance along camera rays from the light-field tables.
 
     Same shape of call as :func:`aquaspec.model.pixel_radiance` (per-ray
@@ -699,6 +781,11 @@ def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
     (``albedo E(H, +1)/pi``). A hit surface of reflectance ``rho`` at
     ``surface_depth`` with normal ``n_y`` gets ``rho E(d, n_y)/pi`` from the
     irradiance table.
+
+    ``split_cone=True`` returns ``(L without the cone, cone term)``: the
+    radiance with the beam's full extinction ``c`` and the part the forward
+    cone adds, ``(T' - T)(L_surf - L_bg(d_S, v))`` (zero for open water), whose
+    sum is the radiance (:func:`spread_cone_light` moves the second term).
     """
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
@@ -740,10 +827,20 @@ def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
         u_o = np.where(up, np.exp(-c * d_o / v_safe), 0.0)
         u_s = np.where(up, np.exp(-c * d_s / v_safe), 0.0)
         t_beam = np.where(fin, np.exp(-_beam_extinction(tables, a, b) * s_f), 0.0)
-        out = r_o + u_o * l_top + np.where(fin, t_beam * (l_surf - r_s - u_s * l_top), 0.0)
+        blocked = np.where(fin, l_surf - r_s - u_s * l_top, 0.0)
+        if split_cone:
+            t = np.where(fin, np.exp(-c * s_f), 0.0)
+            out = r_o + u_o * l_top + t * blocked
+            cone = (t_beam - t) * blocked
+            if not (np.all(np.isfinite(out)) and np.all(np.isfinite(cone))):
+                raise AquaspecError("light-field radiance came out non-finite; check the inputs")
+            return out, cone
+        out = r_o + u_o * l_top + t_beam * blocked
     else:
         t = model.transmittance(c, s_eff)
         out = np.where(t > 0, t * l_surf, 0.0) + l_ms
     if not np.all(np.isfinite(out)):
         raise AquaspecError("light-field radiance came out non-finite; check the inputs")
+    if split_cone:
+        return out, np.zeros_like(out)
     return out

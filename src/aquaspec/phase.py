@@ -689,6 +689,58 @@ def band_cone_fraction(method, half_angle_deg: float, b=None, wavelength_nm=None
     return f
 
 
+def _cone_offset_cdf_one(ph, theta_c, offsets):
+    """Cone mass and the CDF of ``alpha = theta U`` at ``offsets`` for one phase function."""
+    theta = np.concatenate([[0.0], np.geomspace(1e-7, theta_c, 4000)])
+    g = 2 * np.pi * ph.value(np.cos(theta)) * np.sin(theta)
+    # Cumulative int_0^theta g and int_0^theta g / theta (g / theta -> 2 pi p(1) at 0).
+    g_over = np.concatenate([[2 * np.pi * float(ph.value(1.0))], g[1:] / theta[1:]])
+    dt = np.diff(theta)
+    cum_g = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * dt)])
+    cum_go = np.concatenate([[0.0], np.cumsum(0.5 * (g_over[1:] + g_over[:-1]) * dt)])
+    a = np.clip(offsets, 0.0, theta_c)
+    mass = cum_g[-1]
+    below = np.interp(a, theta, cum_g)
+    beyond = cum_go[-1] - np.interp(a, theta, cum_go)
+    return mass, (below + a * beyond) / mass
+
+
+def band_cone_offset_cdf(method, half_angle_deg: float, offsets_rad, b=None,
+                         wavelength_nm=None, **params) -> np.ndarray:
+    """Where the forward cone's light appears to come from, seen from the camera, per band.
+
+    Light that reaches the camera after one scattering by ``theta`` (within
+    the cone ``half_angle_deg``) at a point a fraction ``1 - U`` of the way
+    from the camera to a target left the target at an angular offset
+    ``alpha = theta U`` from the pixel's own direction; along a ray of
+    length S every point is equally likely (the path from the target to the
+    camera has length S wherever the scattering happens), so ``U`` is
+    uniform on [0, 1]. Returns ``P(alpha <= a)`` at ``offsets_rad`` (radians),
+    shape ``(n_bands, len(offsets))``:
+    ``F(a) = [int_0^a g + a int_a^theta_c g(theta)/theta dtheta] / int_0^theta_c g``,
+    ``g = 2 pi p(cos theta) sin theta`` (the band phase function, mixed with
+    pure water by band for ``"petzold"`` as :func:`band_cone_fraction`).
+    """
+    if not 0.0 < half_angle_deg < 90.0:
+        raise AquaspecError(f"forward cone half-angle {half_angle_deg!r} deg; accepted: "
+                            "above 0 and below 90")
+    offsets = np.asarray(offsets_rad, dtype=float)
+    b_arr = np.atleast_1d(np.asarray(1.0 if b is None else b, dtype=float))
+    phase = method if isinstance(method, PhaseFunction) else get_phase(method, **params)
+    theta_c = np.radians(half_angle_deg)
+    mass, cdf = _cone_offset_cdf_one(phase, theta_c, offsets)
+    out = np.tile(cdf, (b_arr.size, 1))
+    if phase.name in MIXED_WITH_WATER:
+        import jerlov
+        wl = np.atleast_1d(np.asarray(wavelength_nm, dtype=float))
+        bw = np.minimum(np.asarray(jerlov.pure_water_scattering(wl), dtype=float), b_arr)
+        frac_w = np.where(b_arr > 0, bw / np.where(b_arr > 0, b_arr, 1.0), 1.0)[:, None]
+        mass_w, cdf_w = _cone_offset_cdf_one(PureWaterPhase(), theta_c, offsets)
+        m_w, m_p = frac_w * mass_w, (1.0 - frac_w) * mass
+        out = (m_w * cdf_w + m_p * cdf) / (m_w + m_p)
+    return out
+
+
 def redistribution_matrix(moments, mu_out, mu_in, weight_in):
     """Azimuthally averaged redistribution ``Q[..., i, j]`` for DO quadrature.
 

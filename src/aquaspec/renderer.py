@@ -48,6 +48,9 @@ class SpectralSetup:
     #: Forward cone counted as unscattered towards targets (light field),
     #: degrees; 15 was best in the HG 0.92 validation (10-20 tried).
     forward_cone_deg: float = 15.0
+    #: Spread the cone's light over the image from where the cone points
+    #: (:func:`aquaspec.lightfield.spread_cone_light`; NumPy shading only so far).
+    cone_spread: bool = False
 
     def lightfield_tables(self) -> dict | None:
         """Light-field tables for ``ms_model="lightfield"`` (None for the seeds' model)."""
@@ -58,6 +61,7 @@ class SpectralSetup:
             from .lightfield import lightfield_tables
             cached = lightfield_tables(self.water.on_bands(self.bands), phase=self.phase,
                                        forward_cone_deg=self.forward_cone_deg,
+                                       cone_spread=self.cone_spread,
                                        **dict(self.phase_params))
             object.__setattr__(self, "_tables", cached)
         return cached
@@ -76,7 +80,8 @@ class SpectralSetup:
     def describe(self) -> dict:
         model_params = ({"ambient_model": self.ambient} if self.ms_model == "seeds"
                         else {"phase": self.phase, **dict(self.phase_params),
-                              "forward_cone_deg": self.forward_cone_deg})
+                              "forward_cone_deg": self.forward_cone_deg,
+                              "cone_spread": self.cone_spread})
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),
                 "light": self.light.describe(), "bands": self.bands.describe(),
                 "ms_model": self.ms_model, **model_params,
@@ -200,7 +205,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
-           forward_cone_deg: float = 15.0, exposure="auto", white_balance="none", tonemap="filmic", colour_matrix="auto",
+           forward_cone_deg: float = 15.0, cone_spread: bool = False,
+           exposure="auto", white_balance="none", tonemap="filmic", colour_matrix="auto",
            return_radiance: bool = False, backend: str = "gpu",
            progress=None) -> RenderResult:
     """Render one image.
@@ -237,7 +243,10 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         Multiple-scattering model (:data:`aquaspec.model.MS_MODELS`):
         ``"seeds"`` or ``"lightfield"`` (with phase function ``phase``;
         scattering within ``forward_cone_deg`` of forward stays in the beam
-        towards surfaces, see :func:`aquaspec.lightfield.lightfield_tables`).
+        towards surfaces, see :func:`aquaspec.lightfield.lightfield_tables`;
+        ``cone_spread=True`` spreads that light over the image from where the
+        cone points, :func:`aquaspec.lightfield.spread_cone_light`; NumPy
+        backend only so far).
     outside : {"error", "zero"}
         Sensor response outside its range.
     exposure : "auto" or float EV; white_balance, tonemap : str
@@ -271,7 +280,10 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     from .appearance import check_ms_model
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase,
-                          forward_cone_deg=forward_cone_deg)
+                          forward_cone_deg=forward_cone_deg, cone_spread=bool(cone_spread))
+    if cone_spread and backend == "gpu":
+        raise AquaspecError("cone_spread is implemented in the NumPy shading only so far; "
+                            "accepted: backend='numpy', or cone_spread=False")
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
 

@@ -172,10 +172,25 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         from .lightfield import lightfield_pixel_radiance
 
         def radiance_of(ambient=None, **kw):
-            return lightfield_pixel_radiance(lightfield, a=a, b=b, e0=e0, depth_o=d_o, **kw)
+            return lightfield_pixel_radiance(lightfield, a=a, b=b, e0=e0, depth_o=d_o,
+                                             split_cone=spread, **kw)
 
+    # The light-field model's forward cone spread over the image
+    # (lightfield_tables(cone_spread=True)): each pixel's cone term is kept
+    # apart, convolved with the cone's kernel, then added.
+    spread = lightfield is not None and "cone_offset_cdf" in lightfield
     rgb = np.empty((hgt, wid, 3))
-    radiance = np.empty((hgt, wid, n)) if return_radiance else None
+    radiance = np.empty((hgt, wid, n)) if (return_radiance or spread) else None
+    cone_img = np.zeros((hgt, wid, n)) if spread else None
+
+    def split(result, where, r0):
+        if not spread:
+            return result
+        base, cone = result
+        flat = cone_img[r0:r0 + rows].reshape(-1, n)
+        flat[where] = cone
+        cone_img[r0:r0 + rows] = flat.reshape(cone_img[r0:r0 + rows].shape)
+        return base
     dirs = cam.ray_directions()
     rows = max(1, _CHUNK_ELEMENTS // max(1, wid * n))
     for r0 in range(0, hgt, rows):
@@ -193,7 +208,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         lrad = np.empty((v_y.size, n))
         ow = ~hit
         if np.any(ow):
-            lrad[ow] = radiance_of(v_y=v_y[ow, None], s=s[ow, None])
+            lrad[ow] = split(radiance_of(v_y=v_y[ow, None], s=s[ow, None]), ow, r0)
         if np.any(hit):
             m = mat[hit]
             pp = m == PER_PIXEL
@@ -201,16 +216,21 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
             rho[pp] = sigmoid_reflectance(sig[hit][pp], t)
             rho[~pp] = mb[m[~pp]]
             surface_depth = -(o_y + s[hit] * v_y[hit])
-            lrad[hit] = radiance_of(
+            lrad[hit] = split(radiance_of(
                 v_y=v_y[hit, None], s=s[hit, None], rho=rho,
-                surface_depth=surface_depth[:, None], n_y=n_y[hit, None], ambient=ambient)
+                surface_depth=surface_depth[:, None], n_y=n_y[hit, None], ambient=ambient),
+                hit, r0)
         if not np.all(np.isfinite(lrad)):
             raise AquaspecError("shading produced a non-finite radiance; check the water "
                                 "coefficients and the G-buffer")
         rgb[r0:r1] = model.radiance_to_rgb(lrad, w).reshape(r1 - r0, wid, 3)
         if radiance is not None:
             radiance[r0:r1] = lrad.reshape(r1 - r0, wid, n)
+    if spread:
+        from .lightfield import spread_cone_light
+        radiance += spread_cone_light(cone_img, lightfield, cam.fy)
+        rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}
-    if radiance is not None:
+    if return_radiance:
         out["radiance"] = radiance
     return out

@@ -39,6 +39,9 @@ def register(sub):
                    help="an RGB image and its metric depth map (16-bit PNG in mm, .npy or .exr "
                         "in m): the photograph is seen through the water")
     p.add_argument("--intrinsics", metavar="fx,fy,cx,cy", help="pinhole intrinsics for --rgbd, pixels")
+    p.add_argument("--cone-spread", action="store_true",
+                   help="--ms-model lightfield: the forward cone's light comes from where the "
+                        "cone points in the image (a convolution; --backend numpy only so far)")
     p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
                    help="gpu (WGSL through wgpu) or numpy (the slow reference)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")
@@ -93,7 +96,7 @@ def run(args):
                  irradiance_w_m2=args.irradiance, sun_elevation_deg=args.sun_elevation,
                  ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                  ms_model=args.ms_model, phase=args.phase,
-                 forward_cone_deg=args.forward_cone,
+                 forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
                  exposure=exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
                  backend=args.backend, progress=progress)

@@ -40,6 +40,9 @@ def register(sub):
     p.add_argument("--forward-cone", type=float, default=15.0, metavar="DEG",
                    help="light-field model: scattering within DEG of forward stays in the beam "
                         "towards targets (default 15; 0 = off)")
+    p.add_argument("--cone-spread", action="store_true",
+                   help="light-field model: the forward cone's light comes from where the cone "
+                        "points in the image (a convolution), not from the pixel's own surface")
     p.add_argument("--gpu-timing", action="store_true",
                    help="also time aquaspec's GPU renderer per scene (n = largest band count) "
                         "for the speed-up over the reference at equal pixel count")
@@ -98,7 +101,8 @@ def run(args):
     res = run_study(waters=waters, depths=depths, sensors=sensors, source=args.source, size=size,
                     spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
                     g=g, backscatter=backscatter, ms_models=ms_models,
-                    forward_cone_deg=args.forward_cone, gpu_timing=args.gpu_timing,
+                    forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
+                    gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
     from ..validation.study import REGIONS
     for region in REGIONS:

@@ -296,6 +296,10 @@ class LightfieldPass:
         if np.isfinite(float(tables["seabed_depth_m"][0])):
             raise AquaspecError("the GPU light-field pass supports deep water only (tables "
                                 "without a seabed); use backend='numpy' for a seabed")
+        if "cone_offset_cdf" in tables:
+            raise AquaspecError("the forward cone spread over the image (cone_spread=True) "
+                                "is implemented in the NumPy shading only so far; use "
+                                "backend='numpy', or cone_spread=False on the GPU")
         a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
         n = a.size
         lp = np.asarray(tables["ms_log_prefactor"], dtype=np.float32)

@@ -139,13 +139,15 @@ def _cached(cache_dir, key, compute):
         return {k: z[k] for k in z.files}, False
 
 
-def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=15.0):
+def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=15.0,
+              cone_spread=False):
     from ..renderer import SpectralSetup
     from ..sensors import get_sensor
     from ..shading import shade_gbuffer
     setup = SpectralSetup(water, get_sensor("human"), light, Bands(n), ms_model=ms_model,
                           phase=phase_lf, phase_params=phase_params,
-                          forward_cone_deg=forward_cone_deg)
+                          forward_cone_deg=forward_cone_deg,
+                          cone_spread=cone_spread and ms_model == "lightfield")
     out = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
                         lightfield=setup.lightfield_tables())
     return out["radiance"]
@@ -187,6 +189,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
               g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
               band_counts=(8, 16), ms_models=("seeds",),
               kd_modes=("database", "measured"), forward_cone_deg: float = 15.0,
+              cone_spread: bool = False,
               cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
 
@@ -201,6 +204,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     (:func:`.reference.lightfield_phase`: for ``"ff"`` and ``"petzold"`` the
     very table Mitsuba's ``tabphase`` holds; ``"petzold"`` is the particle
     phase function alone, unmixed with pure water, on both sides).
+    ``cone_spread`` spreads the light-field model's forward cone over the
+    image (:func:`aquaspec.lightfield.spread_cone_light`).
     """
     from ..gpu.raster import raycast_gbuffer
     say = progress or (lambda m: None)
@@ -285,7 +290,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         t0 = time.perf_counter()
                         methods[(name, mode)] = ("bands", n, _spectral(
                             gb, waters_by_mode[mode], light, n, ms, phase_lf,
-                            phase_params, forward_cone_deg))
+                            phase_params, forward_cone_deg, cone_spread))
                         numpy_seconds[name] = time.perf_counter() - t0
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             for mode in kd_modes:       # the image-formation model's B_inf and J use Kd
@@ -347,7 +352,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                        "backscatter": backscatter if phase == "ff" else None,
                        "phase_function": phase_info,
                        "source": source, "band_counts": list(band_counts),
-                       "ms_models": list(ms_models), "forward_cone_deg": forward_cone_deg}}
+                       "ms_models": list(ms_models), "forward_cone_deg": forward_cone_deg,
+                       "cone_spread": bool(cone_spread)}}
 
 
 def summarise(rows, *, region="image") -> list[dict]:
