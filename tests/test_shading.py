@@ -299,7 +299,7 @@ def test_cone_spread_moves_light_without_losing_it():
     # A 10 degree cone is 20 pixels here: all of it stays inside the frame.
     spread = _spread_case(dist, 40.0, True, cone_deg=10.0)
     plain = _spread_case(dist, 40.0, False, cone_deg=10.0)
-    np.testing.assert_allclose(spread.sum(axis=(0, 1)), plain.sum(axis=(0, 1)), rtol=1e-9)
+    np.testing.assert_allclose(spread.sum(axis=(0, 1)), plain.sum(axis=(0, 1)), rtol=1e-6)
     ring = np.zeros((80, 80), bool)
     ring[34:46, 34:46] = True
     ring[36:44, 36:44] = False
@@ -309,4 +309,6 @@ def test_cone_spread_moves_light_without_losing_it():
     centre = (spread - plain)[39:41, 39:41]
     around = (spread - plain)[ring]
     assert np.all(np.sign(centre.sum(axis=(0, 1))) == -np.sign(around.sum(axis=0)))
-    np.testing.assert_allclose(spread[:10], plain[:10], rtol=1e-12)
+    # Far from the target (three kernel radii) next to nothing arrives (the
+    # pyramid's widest level reaches a little past the kernel).
+    np.testing.assert_allclose(spread[:10], plain[:10], rtol=1e-4)

@@ -538,9 +538,9 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
     cone_spread : bool
         The cone's light comes from where the cone points in the image, not
         from the pixel's own surface: :func:`aquaspec.shading.shade_gbuffer`
-        spreads it over the image with :func:`cone_spread_kernel` (NumPy
-        only so far). Adds ``"cone_offset_rad"`` (m,) and
-        ``"cone_offset_cdf"`` (n, m), :func:`aquaspec.phase.band_cone_offset_cdf`.
+        spreads it over the image (:mod:`aquaspec.conespread`). Adds ``"cone_offset_rad"`` (m,),
+        ``"cone_offset_cdf"`` (n, m) (:func:`aquaspec.phase.band_cone_offset_cdf`)
+        and ``"cone_weight"`` (n,) = ``f b``.
         Needs ``forward_cone_deg > 0``.
 
     Returns
@@ -598,7 +598,8 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
             [[0.0], np.geomspace(1e-5, 1.0, CONE_OFFSET_SAMPLES - 1)])
         extra = {"cone_offset_rad": offsets,
                  "cone_offset_cdf": band_cone_offset_cdf(phase, forward_cone_deg, offsets, b,
-                                                         wl, **phase_params)}
+                                                         wl, **phase_params),
+                 "cone_weight": f_cone * b}
     return {**extra,
         "forward_fraction": f_cone.astype(f32),
         "ms_log_prefactor": np.log(pref).astype(f32),

@@ -227,8 +227,8 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         if radiance is not None:
             radiance[r0:r1] = lrad.reshape(r1 - r0, wid, n)
     if spread:
-        from .lightfield import spread_cone_light
-        radiance += spread_cone_light(cone_img, lightfield, cam.fy)
+        from .conespread import pyramid_weights, spread as pyramid_spread
+        radiance += pyramid_spread(cone_img, pyramid_weights(lightfield, cam.fy, hgt, wid))
         rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}
     if return_radiance:
