@@ -49,7 +49,7 @@ class SpectralSetup:
     #: degrees; 15 was best in the HG 0.92 validation (10-20 tried).
     forward_cone_deg: float = 15.0
     #: Spread the cone's light over the image from where the cone points
-    #: (:func:`aquaspec.lightfield.spread_cone_light`; NumPy shading only so far).
+    #: (:mod:`aquaspec.conespread`, an image pyramid; GPU and NumPy).
     cone_spread: bool = False
 
     def lightfield_tables(self) -> dict | None:
@@ -205,7 +205,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
-           forward_cone_deg: float = 15.0, cone_spread: bool = False,
+           forward_cone_deg: float | None = None, cone_spread: bool = False,
            exposure="auto", white_balance="none", tonemap="filmic", colour_matrix="auto",
            return_radiance: bool = False, backend: str = "gpu",
            progress=None) -> RenderResult:
@@ -244,9 +244,9 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         ``"seeds"`` or ``"lightfield"`` (with phase function ``phase``;
         scattering within ``forward_cone_deg`` of forward stays in the beam
         towards surfaces, see :func:`aquaspec.lightfield.lightfield_tables`;
+        None: 15, or 40 with ``cone_spread``;
         ``cone_spread=True`` spreads that light over the image from where the
-        cone points, :func:`aquaspec.lightfield.spread_cone_light`; NumPy
-        backend only so far).
+        cone points, :mod:`aquaspec.conespread`).
     outside : {"error", "zero"}
         Sensor response outside its range.
     exposure : "auto" or float EV; white_balance, tonemap : str
@@ -278,12 +278,11 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     light_obj = light if isinstance(light, SurfaceLight) else surface_light(
         light, total_w_m2=irradiance_w_m2, sun_elevation_deg=sun_elevation_deg)
     from .appearance import check_ms_model
+    from .lightfield import forward_cone as lf_forward_cone
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase,
-                          forward_cone_deg=forward_cone_deg, cone_spread=bool(cone_spread))
-    if cone_spread and backend == "gpu":
-        raise AquaspecError("cone_spread is implemented in the NumPy shading only so far; "
-                            "accepted: backend='numpy', or cone_spread=False")
+                          forward_cone_deg=lf_forward_cone(forward_cone_deg, cone_spread),
+                          cone_spread=bool(cone_spread))
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
 

@@ -28,11 +28,12 @@ def register(sub):
 
 def run(args):
     from ..appearance import water_colour
+    from ..lightfield import forward_cone
     res = water_colour(water_from(args), sensor_from(args), bands_from(args),
                        depth_m=args.depth, distance_m=args.distance, light=light_from(args),
                        ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                        ms_model=args.ms_model, phase=args.phase,
-                       forward_cone_deg=args.forward_cone)
+                       forward_cone_deg=forward_cone(args.forward_cone, False))
     if args.json:
         print(json.dumps(res, indent=2))
     else:

@@ -51,9 +51,9 @@ def add_light_options(p):
                         f"(default {DEFAULT_MS_MODEL})")
     p.add_argument("--phase", default="petzold", choices=("petzold", "ff", "hg", "isotropic"),
                    help="phase function for --ms-model lightfield (default petzold)")
-    p.add_argument("--forward-cone", type=float, default=15.0, metavar="DEG",
+    p.add_argument("--forward-cone", type=float, default=None, metavar="DEG",
                    help="--ms-model lightfield: scattering within DEG of forward stays in the "
-                        "beam towards surfaces (default 15; 0 = off)")
+                        "beam towards surfaces (default 15, or 40 with --cone-spread; 0 = off)")
 
 
 def parse_range(text):

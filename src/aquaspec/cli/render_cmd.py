@@ -41,7 +41,7 @@ def register(sub):
     p.add_argument("--intrinsics", metavar="fx,fy,cx,cy", help="pinhole intrinsics for --rgbd, pixels")
     p.add_argument("--cone-spread", action="store_true",
                    help="--ms-model lightfield: the forward cone's light comes from where the "
-                        "cone points in the image (a convolution; --backend numpy only so far)")
+                        "cone points in the image (an image pyramid; use with --forward-cone 40)")
     p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
                    help="gpu (WGSL through wgpu) or numpy (the slow reference)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")

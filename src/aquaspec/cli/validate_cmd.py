@@ -37,9 +37,9 @@ def register(sub):
                         "Petzold's average particle phase function)")
     p.add_argument("--ms-models", default="seeds", metavar="M,...",
                    help="aquaspec multiple-scattering models to compare (seeds,lightfield)")
-    p.add_argument("--forward-cone", type=float, default=15.0, metavar="DEG",
+    p.add_argument("--forward-cone", type=float, default=None, metavar="DEG",
                    help="light-field model: scattering within DEG of forward stays in the beam "
-                        "towards targets (default 15; 0 = off)")
+                        "towards targets (default 15, or 40 with --cone-spread; 0 = off)")
     p.add_argument("--cone-spread", action="store_true",
                    help="light-field model: the forward cone's light comes from where the cone "
                         "points in the image (a convolution), not from the pixel's own surface")
@@ -98,10 +98,12 @@ def run(args):
         sensors = {name: get_sensor(name, args.camspec) for name in args.sensors.split(",")}
     size = parse_size(args.size)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
+    from ..lightfield import forward_cone
     res = run_study(waters=waters, depths=depths, sensors=sensors, source=args.source, size=size,
                     spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
                     g=g, backscatter=backscatter, ms_models=ms_models,
-                    forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
+                    forward_cone_deg=forward_cone(args.forward_cone, args.cone_spread),
+                    cone_spread=args.cone_spread,
                     gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
     from ..validation.study import REGIONS

@@ -276,8 +276,10 @@ def bind_group_layout(device, bindings):
 
     Kinds: ``"uniform"``, ``"read"`` / ``"write"`` (storage buffers),
     ``"float"`` / ``"uint"`` (unfilterable 2-D textures of that sample type),
-    ``"float_array"`` / ``"filterable_array"`` (2-D array textures,
-    unfilterable / filterable float), ``"sampler"`` / ``"nonfiltering_sampler"``.
+    ``"filterable"`` (2-D filterable float), ``"float_array"`` /
+    ``"filterable_array"`` (2-D array textures, unfilterable / filterable
+    float), ``"storage_rgba32float"`` (write-only storage texture),
+    ``"sampler"`` / ``"nonfiltering_sampler"``.
     """
     import wgpu
     kinds = {"uniform": wgpu.BufferBindingType.uniform,
@@ -288,7 +290,8 @@ def bind_group_layout(device, bindings):
                "float_array": (wgpu.TextureSampleType.unfilterable_float,
                                wgpu.TextureViewDimension.d2_array),
                "filterable_array": (wgpu.TextureSampleType.float,
-                                    wgpu.TextureViewDimension.d2_array)}
+                                    wgpu.TextureViewDimension.d2_array),
+               "filterable": (wgpu.TextureSampleType.float, wgpu.TextureViewDimension.d2)}
     samplers = {"sampler": wgpu.SamplerBindingType.filtering,
                 "nonfiltering_sampler": wgpu.SamplerBindingType.non_filtering}
 
@@ -296,6 +299,11 @@ def bind_group_layout(device, bindings):
         if k in samples:
             return {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
                     "texture": {"sample_type": samples[k][0], "view_dimension": samples[k][1]}}
+        if k == "storage_rgba32float":
+            return {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
+                    "storage_texture": {"access": wgpu.StorageTextureAccess.write_only,
+                                        "format": wgpu.TextureFormat.rgba32float,
+                                        "view_dimension": wgpu.TextureViewDimension.d2}}
         if k in samplers:
             return {"binding": b, "visibility": wgpu.ShaderStage.COMPUTE,
                     "sampler": {"type": samplers[k]}}

@@ -68,7 +68,7 @@ PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
 
 #: Per-band fields of the band table (binding 4), three vec4 per band.
 BAND_FIELDS = ("c", "k_inf", "c_beam", "scale", "w_r", "w_g", "w_b", "e0_over_pi",
-               "t", "l_top", "unused0", "unused1")
+               "t", "l_top", "fb", "unused")
 
 #: Compute workgroup size (x, y) of lightfield.wgsl, in invocations.
 WORKGROUP = (8, 8)
@@ -77,7 +77,7 @@ PIXELS_PER_INVOCATION = 4
 
 B_PARAMS, B_SURFACE, B_SIGMOID, B_BANDS, B_MATERIALS, B_RGB = 0, 1, 2, 4, 5, 6
 B_STATUS, B_DISPLAY, B_RGBA, B_OPEN_TABLE, B_LOG_PREFACTOR, B_IRRADIANCE = 8, 9, 10, 11, 12, 13
-B_SAMPLER = 14
+B_SAMPLER, B_CONE = 14, 15
 
 #: Samples of the open-water table per cell of the tables' direction axis,
 #: the first whose estimated interpolation error is below
@@ -142,6 +142,15 @@ BAND_STEP = """        if (4u * g + {k}u < N_BANDS) {{
                                cone_window);
             }}
             l = select(vec4<f32>(0.0), l, hit);
+            if (SPREAD) {{
+                // The cone's term (T' - T) (...) = l (1 - exp(-f b S)), kept apart.
+                let base_l = l * exp(-q2.z * s);
+                let cone_l = l - base_l;
+                cr = cr + cone_l * q1.x;
+                cg = cg + cone_l * q1.y;
+                cb = cb + cone_l * q1.z;
+                l = base_l;
+            }}
             r = r + l * q1.x;
             gr = gr + l * q1.y;
             b = b + l * q1.z;
@@ -159,7 +168,8 @@ def band_table(a, b, e0, response_weights, sigmoid_centers_t, tables) -> np.ndar
     ``c = a + b``, ``k_inf`` (kappa_1), ``c_beam = c - f b`` (beam
     extinction with the forward cone), ``scale = b E0 / (4 pi)``, the RGB
     weights, ``E0 / pi``, the sigmoid band centre ``t`` and ``l_top`` the
-    sky radiance below the surface (``sky_radiance_per_e0 E0``).
+    sky radiance below the surface (``sky_radiance_per_e0 E0``), ``fb`` the
+    forward cone's share of ``b``.
     """
     a, b, e0, t = (np.asarray(x, dtype=np.float64) for x in (a, b, e0, sigmoid_centers_t))
     w = np.asarray(response_weights, dtype=np.float64)
@@ -169,7 +179,7 @@ def band_table(a, b, e0, response_weights, sigmoid_centers_t, tables) -> np.ndar
     zero = np.zeros(n)
     return np.stack([c, np.asarray(tables["k_inf"], np.float64), c - f * b,
                      b * e0 / (4.0 * np.pi), w[:, 0], w[:, 1], w[:, 2], e0 / np.pi, t,
-                     np.asarray(tables["sky_radiance_per_e0"], np.float64) * e0, zero, zero],
+                     np.asarray(tables["sky_radiance_per_e0"], np.float64) * e0, f * b, zero],
                     axis=1)
 
 
@@ -272,7 +282,8 @@ class LightfieldPass:
             B_MATERIALS: "read", B_RGB: "write", B_STATUS: "write", B_DISPLAY: "uniform",
             B_RGBA: "write", B_OPEN_TABLE: "float", B_LOG_PREFACTOR: table_kind,
             B_IRRADIANCE: table_kind,
-            B_SAMPLER: "sampler" if self.filtering else "nonfiltering_sampler"})
+            B_SAMPLER: "sampler" if self.filtering else "nonfiltering_sampler",
+            B_CONE: "storage_rgba32float"})
         mode = "linear" if self.filtering else "nearest"
         self._sampler = dev.create_sampler(label="lightfield tables", mag_filter=mode,
                                            min_filter=mode, address_mode_u="clamp-to-edge",
@@ -296,10 +307,6 @@ class LightfieldPass:
         if np.isfinite(float(tables["seabed_depth_m"][0])):
             raise AquaspecError("the GPU light-field pass supports deep water only (tables "
                                 "without a seabed); use backend='numpy' for a seabed")
-        if "cone_offset_cdf" in tables:
-            raise AquaspecError("the forward cone spread over the image (cone_spread=True) "
-                                "is implemented in the NumPy shading only so far; use "
-                                "backend='numpy', or cone_spread=False on the GPU")
         a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
         n = a.size
         lp = np.asarray(tables["ms_log_prefactor"], dtype=np.float32)
@@ -352,6 +359,10 @@ class LightfieldPass:
                            window_cos=float(tables["window_cos"][0]),
                            cone=bool(np.any(f * b > 0)))
         self._medium = (tables, a, b, e0, np.asarray(response_weights, dtype=float))
+        #: Whether the forward cone is spread over the image (tables with
+        #: lightfield_tables(cone_spread=True)): :class:`ConeSpreadPass` after this one.
+        self.spread = "cone_offset_cdf" in tables
+        self._spread_pass = None
         self._open_key = None
         self._group = None
 
@@ -360,7 +371,7 @@ class LightfieldPass:
         from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS
         sh = self._shape
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["cone"], per_pixel, tonemap,
-               self.filtering)
+               self.filtering, self.spread)
         if key not in self._pipelines:
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
                             params_struct_name=PARAMS_LAYOUT.name,
@@ -372,6 +383,7 @@ class LightfieldPass:
                             cone="true" if sh["cone"] else "false",
                             per_pixel="true" if per_pixel else "false",
                             filter="true" if self.filtering else "false",
+                            spread="true" if self.spread else "false",
                             band_steps=band_steps(),
                             band_table_len=len(BAND_FIELDS) // 4 * sh["n_bands"],
                             open_row=OPEN_ROW,
@@ -409,17 +421,42 @@ class LightfieldPass:
 
     def _bind_group(self):
         # The deferred pass counts replacements of its textures.
-        key = self.deferred.bindings_version
+        cone = self._spread_pass.cone_texture if self._spread_pass else self._no_cone()
+        key = (self.deferred.bindings_version, id(cone))
         if self._group is None or self._group_key != key:
             tex = self.deferred.gbuffer_textures
             resources = {B_PARAMS: self._uniform, B_SURFACE: tex["surface"],
                          B_SIGMOID: tex["sigmoid"], **self._buffers, B_RGB: self.rgb_buffer,
                          B_STATUS: self._status, B_DISPLAY: self._display_uniform,
-                         B_RGBA: self.display_buffer, B_OPEN_TABLE: self._open_table}
+                         B_RGBA: self.display_buffer, B_OPEN_TABLE: self._open_table,
+                         B_CONE: cone}
             self._group = self.device.create_bind_group(layout=self._layout,
                                                         entries=bind_group_entries(resources))
             self._group_key = key
         return self._group
+
+    def _no_cone(self):
+        """A 1x1 texture for the cone binding when the cone is not spread."""
+        if getattr(self, "_cone_dummy", None) is None:
+            import wgpu
+            self._cone_dummy = create_texture(
+                self.device, 1, 1, "rgba32float", label="lightfield no cone",
+                usage=wgpu.TextureUsage.STORAGE_BINDING | wgpu.TextureUsage.TEXTURE_BINDING)
+        return self._cone_dummy
+
+    def _update_spread(self, cam):
+        """The pyramid pass and its weights for this camera (fy) and image size."""
+        from ..conespread import pyramid_weights
+        from .conespread_pass import ConeSpreadPass
+        w = pyramid_weights(self._medium[0], float(cam.fy), self.height, self.width)
+        levels = w.size - 1
+        if self._spread_pass is None or self._spread_pass.levels != levels:
+            self._spread_pass = ConeSpreadPass(
+                self.device, self.width, self.height, levels, filtering=self.filtering,
+                rgb_buffer=self.rgb_buffer, status_buffer=self._status,
+                display_uniform=self._display_uniform, display_buffer=self.display_buffer)
+            self._group = None
+        self._spread_pass.set_weights(w)
 
     def workgroups(self) -> tuple[int, int, int]:
         """Dispatch size covering the image."""
@@ -484,6 +521,14 @@ class LightfieldPass:
         else:
             encoder.clear_buffer(self._status, 0, self._status.size)
         self._last_display = bool(display)
+        if self.spread:
+            # Linear RGB and the cone term first; the pyramid adds the spread
+            # cone and applies the display transform.
+            self._update_spread(cam)
+            record_dispatch(encoder, self._pipeline(bool(d.per_pixel), None),
+                            self._bind_group(), self.workgroups(), timestamp_writes)
+            self._spread_pass.encode(encoder, tonemap=tonemap)
+            return
         record_dispatch(encoder, self._pipeline(bool(d.per_pixel), tonemap), self._bind_group(),
                         self.workgroups(), timestamp_writes)
 

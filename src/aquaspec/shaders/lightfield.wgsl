@@ -70,7 +70,8 @@ const PER_PIXEL: u32 = 0xffffffffu;
 // Three vec4 per band i (lightfield_pass.BAND_FIELDS, float64 on the host):
 //   [3i]     c, kappa_1, c' = c - f b, scale = b E0 / (4 pi)
 //   [3i + 1] w_r, w_g, w_b, E0 / pi
-//   [3i + 2] t (sigmoid band centre), L_top = sky radiance per E0 * E0, 0, 0
+//   [3i + 2] t (sigmoid band centre), L_top = sky radiance per E0 * E0,
+//            f b (the forward cone's share of b), 0
 @group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
 // Material band reflectances, row-major (material, band), as deferred.wgsl
 // (a storage load per band costs half a texel fetch on lavapipe).
@@ -103,6 +104,11 @@ fn open_texel(m: u32, h: u32) -> vec4<f32> {
 @group(0) @binding(13) var irradiance: texture_2d_array<f32>;
 @group(0) @binding(14) var table_sampler: sampler;
 const FILTER: bool = {{ filter }};
+// SPREAD: the forward cone's term goes to cone_out (camera RGB), the rest to
+// rgb_out, for the pyramid that spreads it over the image
+// (aquaspec/gpu/conespread_pass.py); DISPLAY is then false here.
+const SPREAD: bool = {{ spread }};
+@group(0) @binding(15) var cone_out: texture_storage_2d<rgba32float, write>;
 const N_GROUPS: u32 = (N_BANDS + 3u) / 4u;
 
 // Camera.ray_directions: the up component of the unit ray through the pixel
@@ -265,6 +271,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     // Only hits have a band loop (a per-invocation trip count: lavapipe
     // leaves a loop when no SIMD lane has iterations left), four bands per
     // step: one table sample per pixel and table gives all four.
+    var cr = vec4<f32>(0.0);
+    var cg = vec4<f32>(0.0);
+    var cb = vec4<f32>(0.0);
     let n_iter = select(0u, N_GROUPS, any(hit));
     for (var g = 0u; g < n_iter; g = g + 1u) {
         let f0 = bilinear4(log_prefactor, y[0], x_s[0], g);
@@ -304,6 +313,10 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         for (var k = 0u; k < 4u; k = k + 1u) {
             if (j0 + k < prm.width) {
                 rgb_out[row_start + j0 + k] = vec4<f32>(r[k], gr[k], b[k], 1.0);
+                if (SPREAD) {
+                    textureStore(cone_out, vec2<u32>(j0 + k, row),
+                                 vec4<f32>(cr[k], cg[k], cb[k], 0.0));
+                }
             }
         }
     }
