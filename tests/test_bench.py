@@ -53,6 +53,16 @@ def test_lightfield_against_seeds_in_the_same_run():
     assert "seeds" in format_table(res).splitlines()[2]
 
 
+def test_lightfield_with_the_cone_spread():
+    """The spread runs in the timed shading; the result records it."""
+    plain = run_bench(sizes=SIZE, bands=[8], frames=2, warmup=1, numpy_reference=False,
+                      ms_model="lightfield")
+    res = run_bench(sizes=SIZE, bands=[8], frames=2, warmup=1, numpy_reference=False,
+                    ms_model="lightfield", cone_spread=True)
+    assert res["cone_spread"] is True and plain["cone_spread"] is False
+    assert res["rows"][0]["frame_ms"] > 0
+
+
 def test_cli_json_and_plot(tmp_path, capsys):
     out, png = tmp_path / "b.json", tmp_path / "b.png"
     assert main(["bench", "--sizes", "64x36", "--bands", "3,8", "--frames", "2", "--warmup", "0",
@@ -66,6 +76,7 @@ def test_cli_json_and_plot(tmp_path, capsys):
 @pytest.mark.parametrize("argv,match", [
     (["--bands", "3,x"], r"--bands '3,x' must be comma-separated integers"),
     (["--compare-seeds"], r"needs ms_model='lightfield'"),
+    (["--cone-spread"], r"cone_spread is part of the light-field model"),
     (["--json", "out.txt"], r"\.txt"),
 ])
 def test_bad_input(argv, match, capsys, tmp_path, monkeypatch):

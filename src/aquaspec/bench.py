@@ -81,7 +81,7 @@ def _frame_wall_ms(renderer, passes, frames, warmup):
 def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, warmup: int = 3,
               water="IB", depth_m: float = 5.0, sensor="human", numpy_reference: bool = True,
               ms_model: str = "seeds", phase: str = "petzold", compare_seeds: bool = False,
-              progress=None) -> dict:
+              cone_spread: bool = False, progress=None) -> dict:
     """Run the cost study; returns a JSON-ready dict (see the module docstring)."""
     from .display import display_settings, to_display
     from .gpu.buffers import time_passes
@@ -89,6 +89,7 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
     from .gpu.device import adapter_info
     from .gpu.display_pass import DisplayPass
     from .light import surface_light
+    from .lightfield import forward_cone
     from .renderer import Renderer, SpectralSetup
     from .scene.builtin import builtin_scene
     from .sensors import get_sensor
@@ -100,6 +101,9 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
         say(f"note: {frames} frames (the study asks for at least 20)")
     if not sizes or not bands:
         raise AquaspecError("bench needs at least one size and one band count")
+    if cone_spread and ms_model != "lightfield":
+        raise AquaspecError("cone_spread is part of the light-field model: it needs "
+                            "ms_model='lightfield'")
     if compare_seeds and ms_model == "seeds":
         raise AquaspecError("compare_seeds times the seeds' frame beside another model's: it "
                             "needs ms_model='lightfield'")
@@ -114,7 +118,9 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
     for width, height in sizes:
         scene, camera = builtin_scene(depth_m, width=width, height=height)
         for n in bands:
-            setup = SpectralSetup(w_obj, s_obj, light, Bands(n), ms_model=ms_model, phase=phase)
+            setup = SpectralSetup(w_obj, s_obj, light, Bands(n), ms_model=ms_model, phase=phase,
+                                  forward_cone_deg=forward_cone(None, cone_spread),
+                                  cone_spread=cone_spread)
             r = Renderer(width, height, n)
             geometry = _Geometry(r, scene, camera)
             r.set_spectral(setup, scene.materials)
@@ -203,7 +209,8 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                 entry["numpy_over_gpu_n8"] = x["numpy_over_gpu"]
         ratios.append(entry)
     return {"adapter": adapter_info(), "frames": frames, "warmup": warmup,
-            "ms_model": ms_model, **({"phase": phase} if ms_model != "seeds" else {}),
+            "ms_model": ms_model, **({"phase": phase, "cone_spread": cone_spread}
+                                     if ms_model != "seeds" else {}),
             "water": w_obj.describe(), "sensor": s_obj.describe(), "depth_m": depth_m,
             "rows": rows, "numpy_reference": numpy_rows, "fits": fits, "ratios": ratios}
 

@@ -169,7 +169,11 @@ def cone_cdf(tables) -> tuple:
 
 
 def pyramid_weights(tables, pixels_per_radian: float, height: int, width: int) -> np.ndarray:
-    """The weights the renderer uses for an image of this size and camera."""
+    """The weights the renderer uses for an image of this size and camera
+    (levels up to the last with a weight above zero)."""
     offsets, cdf = cone_cdf(tables)
     levels = level_count(height, width, offsets[-1] * pixels_per_radian)
-    return fit_weights(offsets, cdf, pixels_per_radian, levels)
+    w = fit_weights(offsets, cdf, pixels_per_radian, levels)
+    # Coarsest levels the fit left at zero cost a dispatch each for nothing.
+    last = max(1, int(np.flatnonzero(w > 0)[-1])) if np.any(w[1:] > 0) else 1
+    return w[:last + 1]

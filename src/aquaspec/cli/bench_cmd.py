@@ -22,6 +22,9 @@ def register(sub):
     p.add_argument("--ms-model", default="seeds", choices=("seeds", "lightfield"),
                    help="multiple-scattering model to time (default seeds)")
     p.add_argument("--phase", default="petzold", help="phase function for --ms-model lightfield")
+    p.add_argument("--cone-spread", action="store_true",
+                   help="--ms-model lightfield: with the forward cone spread over the image "
+                        "(the pyramid passes; forward cone 40 degrees)")
     p.add_argument("--compare-seeds", action="store_true",
                    help="with --ms-model lightfield: also time the seeds' frame on the same "
                         "G-buffer in the same run and report lightfield / seeds")
@@ -48,6 +51,7 @@ def run(args):
     result = run_bench(sizes=sizes, bands=bands, frames=args.frames, warmup=args.warmup,
                        water=args.water, depth_m=args.depth, numpy_reference=not args.no_numpy,
                        ms_model=args.ms_model, phase=args.phase, compare_seeds=args.compare_seeds,
+                       cone_spread=args.cone_spread,
                        progress=lambda m: print(m, file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:
