@@ -61,7 +61,22 @@ def test_ms_model_switch_and_cached_setups(recwarn):
     # ... not again when the water comes back, and its setup is the same object.
     assert not [w for w in recwarn.list[n_warn:] if "3C" in str(w.message)]
     assert v._setup("3C", "human", 4, "lightfield") is setup
+    # The cone spread check box: another light-field image, and back.
+    plain = v.linear.copy()
+    v.controls["cone_spread"].set_active(0)
+    assert v.state["cone_spread"] and "cone spread" in v.title()
+    assert not np.allclose(v.linear, plain, rtol=1e-3)
+    v.controls["cone_spread"].set_active(0)
+    assert not v.state["cone_spread"]
+    np.testing.assert_allclose(v.linear, plain, rtol=1e-6)
     plt.close(fig)
+
+
+def test_cone_spread_leaves_the_seeds_model_alone():
+    v = Viewer(64, 36, bands=4)
+    seeds = v.update().copy()
+    assert "cone spread" not in v.title()
+    np.testing.assert_array_equal(v.update(cone_spread=True), seeds)
 
 
 def test_unknown_ms_model():

@@ -38,19 +38,22 @@ class Viewer:
     ----------
     width, height : int
         Frame size in pixels.
-    water, depth_m, bands, sensor, exposure, ms_model : initial settings
+    water, depth_m, bands, sensor, exposure, ms_model, cone_spread : initial settings
         ``exposure`` is ``"auto"`` or EV; ``ms_model`` a key of
-        :data:`aquaspec.model.MS_MODELS`.
+        :data:`aquaspec.model.MS_MODELS`; ``cone_spread`` (light field only)
+        spreads the forward cone's light over the image (cone 40 degrees).
     camspec : path, optional
         Makes the cameras of a camspec file selectable.
     """
 
     def __init__(self, width=640, height=360, *, water="IB", depth_m=5.0, bands=8,
-                 sensor="human", exposure="auto", ms_model=DEFAULT_MS_MODEL, camspec=None):
+                 sensor="human", exposure="auto", ms_model=DEFAULT_MS_MODEL, cone_spread=False,
+                 camspec=None):
         self.width, self.height = width, height
         self.camspec = camspec
         self.state = {"water": water, "depth_m": float(depth_m), "bands": int(bands),
-                      "sensor": sensor, "exposure": exposure, "ms_model": ms_model}
+                      "sensor": sensor, "exposure": exposure, "ms_model": ms_model,
+                      "cone_spread": bool(cone_spread)}
         self._waters, self._sensors, self._setups = {}, {}, {}
         check_ms_model(ms_model)
         self._renderer = None
@@ -83,7 +86,8 @@ class Viewer:
             self._scene, self._camera = builtin_scene(s["depth_m"], width=self.width,
                                                       height=self.height)
             self._scene_depth = s["depth_m"]
-        setup = self._setup(s["water"], s["sensor"], s["bands"], s["ms_model"])
+        setup = self._setup(s["water"], s["sensor"], s["bands"], s["ms_model"],
+                            s["cone_spread"] and s["ms_model"] == "lightfield")
         sensor = setup.sensor
         # The exposure acts on the linear image: changing only it re-renders nothing.
         if self.linear is None or set(changes) - {"exposure"}:
@@ -93,10 +97,11 @@ class Viewer:
         self.last_frame_ms = (time.perf_counter() - t0) * 1e3
         return self.image
 
-    def _setup(self, water, sensor, bands, ms_model) -> SpectralSetup:
+    def _setup(self, water, sensor, bands, ms_model, spread=False) -> SpectralSetup:
         """The spectral setup of these settings, made once (the renderer
         re-uploads the medium only when the setup object changes)."""
-        key = (water, sensor, bands, ms_model)
+        from .lightfield import forward_cone
+        key = (water, sensor, bands, ms_model, bool(spread))
         if key not in self._setups:
             if water not in self._waters:
                 self._waters[water] = load_water(water)
@@ -104,18 +109,21 @@ class Viewer:
                 self._sensors[sensor] = get_sensor(sensor, self.camspec)
             self._setups[key] = SpectralSetup(self._waters[water], self._sensors[sensor],
                                               surface_light("overcast"), Bands(bands),
-                                              ms_model=ms_model)
+                                              ms_model=ms_model, cone_spread=bool(spread),
+                                              forward_cone_deg=forward_cone(None, spread))
         return self._setups[key]
 
     def title(self) -> str:
         s = self.state
         model = "light field" if s["ms_model"] == "lightfield" else "seeds' model"
+        if s["ms_model"] == "lightfield" and s["cone_spread"]:
+            model += " + cone spread"
         return (f"Jerlov {s['water']}, {s['depth_m']:.1f} m, {s['bands']} bands, "
                 f"{s['sensor']}, {model}, {self.last_frame_ms:.0f} ms")
 
     def attach(self, fig):
         """Build the image and the controls in a matplotlib figure."""
-        from matplotlib.widgets import RadioButtons, Slider
+        from matplotlib.widgets import CheckButtons, RadioButtons, Slider
         self.update()
         ax = fig.add_axes([0.22, 0.25, 0.76, 0.72])
         ax.set_axis_off()
@@ -135,6 +143,8 @@ class Viewer:
                                    active=0),
             "ms_model": RadioButtons(fig.add_axes([0.01, 0.01, 0.19, 0.09]), list(MS_MODELS),
                                      active=list(MS_MODELS).index(self.state["ms_model"])),
+            "cone_spread": CheckButtons(fig.add_axes([0.22, 0.01, 0.12, 0.05]), ["cone spread"],
+                                        [self.state["cone_spread"]]),
         }
         c = self.controls
         c["depth"].on_changed(lambda v: self._changed(depth_m=float(v)))
@@ -143,6 +153,8 @@ class Viewer:
         c["water"].on_clicked(lambda label: self._changed(water=label))
         c["sensor"].on_clicked(lambda label: self._changed(sensor=label))
         c["ms_model"].on_clicked(lambda label: self._changed(ms_model=label))
+        c["cone_spread"].on_clicked(
+            lambda label: self._changed(cone_spread=not self.state["cone_spread"]))
         return self
 
     def _changed(self, **changes):

@@ -16,6 +16,8 @@ def register(sub):
     from ..model import DEFAULT_MS_MODEL, MS_MODELS
     p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODELS),
                    help=f"multiple-scattering model to start with (default {DEFAULT_MS_MODEL})")
+    p.add_argument("--cone-spread", action="store_true",
+                   help="start with the light field's forward cone spread over the image")
     p.add_argument("--camspec", metavar="PATH")
     p.add_argument("--size", default="640x360", metavar="WxH")
     p.set_defaults(func=run, command="view")
@@ -26,5 +28,6 @@ def run(args):
     from ..viewer import run_viewer
     w, h = parse_size(args.size)
     run_viewer(width=w, height=h, water=args.water, depth_m=args.depth, bands=args.bands,
-               sensor=args.sensor, ms_model=args.ms_model, camspec=args.camspec)
+               sensor=args.sensor, ms_model=args.ms_model, cone_spread=args.cone_spread,
+               camspec=args.camspec)
     return 0
