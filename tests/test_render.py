@@ -193,3 +193,7 @@ class TestRenderCommand:
 
     def test_bad_exposure(self, tmp_path, capsys):
         self.bad(tmp_path, capsys, ["--exposure", "bright"], "exposure 'bright'")
+
+    def test_cone_spread_needs_the_light_field(self, tmp_path, capsys):
+        self.bad(tmp_path, capsys, ["--ms-model", "seeds", "--cone-spread"],
+                 "cone_spread is part of the light-field model.*'seeds'")

@@ -342,6 +342,9 @@ def test_small_study_with_fournier_forand(tmp_path):
     srows = [r for r in spread["rows"] if r["method"] == "lightfield-n8"]
     assert len(srows) == len(rows) and all(np.isfinite(r["rmse_rel"]) for r in srows)
     assert any(a["mean_ratio"] != b["mean_ratio"] for a, b in zip(rows, srows))
+    with pytest.raises(AquaspecError, match="cone_spread is part of the light-field model"):
+        run_study(waters=("IB",), depths=(4.0,), sensors={"human": get_sensor("human")},
+                  ms_models=("seeds",), cone_spread=True, cache_dir=tmp_path)
 
 
 def test_cache_keys_hold_the_phase_function():

@@ -279,6 +279,9 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         light, total_w_m2=irradiance_w_m2, sun_elevation_deg=sun_elevation_deg)
     from .appearance import check_ms_model
     from .lightfield import forward_cone as lf_forward_cone
+    if cone_spread and ms_model != "lightfield":
+        raise AquaspecError(f"cone_spread is part of the light-field model; ms_model="
+                            f"{ms_model!r}; accepted: ms_model='lightfield'")
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase,
                           forward_cone_deg=lf_forward_cone(forward_cone_deg, cone_spread),

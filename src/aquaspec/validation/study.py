@@ -211,6 +211,9 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     say = progress or (lambda m: None)
     if not sensors:
         raise AquaspecError("the study needs at least one sensor")
+    if cone_spread and "lightfield" not in ms_models:
+        raise AquaspecError(f"cone_spread is part of the light-field model; ms_models="
+                            f"{list(ms_models)}; accepted: a list with 'lightfield'")
     light = surface_light("overcast")
     g = float(g) if phase == "hg" else 0.0
     backscatter = float(backscatter)
