@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..conespread import level_shapes
+from ..errors import AquaspecError
 from .buffers import create_texture, record_dispatch, upload_buffer
 from .layout import UniformLayout
 from .shaders import load_wgsl
@@ -102,7 +103,8 @@ class ConeSpreadPass:
         """Level weights (levels + 1,), :func:`aquaspec.conespread.fit_weights`."""
         w = np.asarray(weights, dtype=float)
         if w.shape != (self.levels + 1,):
-            raise ValueError(f"{w.size} weights for {self.levels} levels")
+            raise AquaspecError(f"{w.size} pyramid weights for {self.levels} levels; "
+                                f"accepted: {self.levels + 1}")
         if self._weights is not None and np.array_equal(w, self._weights):
             return
         self._weights = w
@@ -153,7 +155,7 @@ class ConeSpreadPass:
     def encode(self, encoder, *, tonemap=None) -> None:
         """Record the pyramid after the light-field pass (weights set first)."""
         if self._steps is None:
-            raise ValueError("set_weights() before encode()")
+            raise AquaspecError("ConeSpreadPass needs set_weights() before encode()")
         for entry, group, groups in self._steps:
             record_dispatch(encoder, self._pipeline(entry, tonemap if entry == "finish" else None),
                             group, groups)

@@ -290,6 +290,9 @@ class LightfieldPass:
                                            address_mode_v="clamp-to-edge")
         self._pipelines = {}
         self._buffers = None
+        self.spread = False
+        self._spread_pass = None
+        self._spread_key = None
         self._shape = None
         self._medium = None
         self._open_table = None
@@ -363,6 +366,7 @@ class LightfieldPass:
         #: lightfield_tables(cone_spread=True)): :class:`ConeSpreadPass` after this one.
         self.spread = "cone_offset_cdf" in tables
         self._spread_pass = None
+        self._spread_key = None
         self._open_key = None
         self._group = None
 
@@ -448,7 +452,12 @@ class LightfieldPass:
         """The pyramid pass and its weights for this camera (fy) and image size."""
         from ..conespread import pyramid_weights
         from .conespread_pass import ConeSpreadPass
-        w = pyramid_weights(self._medium[0], float(cam.fy), self.height, self.width)
+        key = (id(self._medium[0]), float(cam.fy))
+        if self._spread_key != key:
+            self._spread_weights = pyramid_weights(self._medium[0], float(cam.fy),
+                                                   self.height, self.width)
+            self._spread_key = key
+        w = self._spread_weights
         levels = w.size - 1
         if self._spread_pass is None or self._spread_pass.levels != levels:
             self._spread_pass = ConeSpreadPass(
