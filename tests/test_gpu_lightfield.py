@@ -65,6 +65,20 @@ def gpu_pass(gb, setup, e0_scale=1.0):
     return lp
 
 
+def fused_and_two_pass(lp, camera, **settings):
+    """The pass's fused display image and the display pass run on its linear
+    output (the pass must have just run without display), same settings."""
+    from aquaspec.gpu.display_pass import DisplayPass
+    two_pass = DisplayPass(camera.width, camera.height, device=lp.device)
+    two_pass.use_input(lp.rgb_buffer)
+    two_pass.set_settings(**settings)
+    two_pass.run()
+    expected = two_pass.read()
+    lp.set_display(**settings)
+    lp.run(display=True)
+    return lp.read_display(), expected
+
+
 def assert_matches(got, ref):
     scale = np.abs(ref).max()
     np.testing.assert_allclose(got, ref, rtol=1e-3, atol=2e-6 * scale)
@@ -164,16 +178,8 @@ def test_cone_spread_matches_reference(kind, n, cone, filtering):
     lp.run()
     linear = lp.read_rgb()
     assert_matches(linear, ref)
-    from aquaspec.gpu.display_pass import DisplayPass
-    kw = dict(exposure_ev=2.0, tonemap="filmic")
-    two_pass = DisplayPass(gb.camera.width, gb.camera.height, device=lp.device)
-    two_pass.use_input(lp.rgb_buffer)
-    two_pass.set_settings(**kw)
-    two_pass.run()
-    expected = two_pass.read()
-    lp.set_display(**kw)
-    lp.run(display=True)
-    diff = np.abs(lp.read_display().astype(int) - expected.astype(int))
+    fused, expected = fused_and_two_pass(lp, gb.camera, exposure_ev=2.0, tonemap="filmic")
+    diff = np.abs(fused.astype(int) - expected.astype(int))
     assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
 
 
@@ -236,7 +242,6 @@ def test_per_pixel_false_ignores_the_sigmoid_texture():
                                                      ("up", 4.0, 15.0, "none")])
 def test_fused_display_equals_display_pass(kind, depth, cone, tonemap):
     from aquaspec import display
-    from aquaspec.gpu.display_pass import DisplayPass
     gb = gbuffer_of(kind, depth)
     setup = setup_of("IB", 8, "hg", cone)
     lp = gpu_pass(gb, setup)
@@ -245,14 +250,7 @@ def test_fused_display_equals_display_pass(kind, depth, cone, tonemap):
     settings = display.display_settings(linear, white_balance="grey-world")
     kw = dict(exposure_ev=settings["exposure_ev"],
               white_balance_gains=settings["white_balance_gains"], tonemap=tonemap)
-    two_pass = DisplayPass(gb.camera.width, gb.camera.height, device=lp.device)
-    two_pass.use_input(lp.rgb_buffer)
-    two_pass.set_settings(**kw)
-    two_pass.run()
-    expected = two_pass.read()
-    lp.set_display(**kw)
-    lp.run(display=True)
-    fused = lp.read_display()
+    fused, expected = fused_and_two_pass(lp, gb.camera, **kw)
     assert fused.shape == expected.shape and fused.dtype == np.uint8
     diff = np.abs(fused.astype(int) - expected.astype(int))
     assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
