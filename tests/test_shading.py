@@ -312,3 +312,12 @@ def test_cone_spread_moves_light_without_losing_it():
     # Far from the target (three kernel radii) next to nothing arrives (the
     # pyramid's widest level reaches a little past the kernel).
     np.testing.assert_allclose(spread[:10], plain[:10], rtol=1e-4)
+
+
+def test_cone_spread_with_row_chunks(monkeypatch):
+    """The cone terms of all row chunks reach the convolution (NumPy shades in chunks)."""
+    dist = np.full((24, 24), np.inf)
+    dist[8:16, 8:16] = 3.0
+    whole = _spread_case(dist, 40.0, True, cone_deg=10.0)
+    monkeypatch.setattr(shading, "_CHUNK_ELEMENTS", 24 * 4 * 5)    # five rows per chunk
+    np.testing.assert_allclose(_spread_case(dist, 40.0, True, cone_deg=10.0), whole, rtol=1e-12)

@@ -181,15 +181,16 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     spread = lightfield is not None and "cone_offset_cdf" in lightfield
     rgb = np.empty((hgt, wid, 3))
     radiance = np.empty((hgt, wid, n)) if (return_radiance or spread) else None
-    cone_img = np.zeros((hgt, wid, n)) if spread else None
+    cone_flat = np.zeros((hgt * wid, n)) if spread else None
 
     def split(result, where, r0):
+        """The radiance of ``result``; with the spread, its cone term is stored
+        for the chunk's pixels ``where`` (rows from ``r0``)."""
         if not spread:
             return result
         base, cone = result
-        flat = cone_img[r0:r0 + rows].reshape(-1, n)
-        flat[where] = cone
-        cone_img[r0:r0 + rows] = flat.reshape(cone_img[r0:r0 + rows].shape)
+        start = r0 * wid
+        cone_flat[start:start + where.size][where] = cone   # a slice is a view
         return base
     dirs = cam.ray_directions()
     rows = max(1, _CHUNK_ELEMENTS // max(1, wid * n))
@@ -228,7 +229,8 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
             radiance[r0:r1] = lrad.reshape(r1 - r0, wid, n)
     if spread:
         from .conespread import pyramid_weights, spread as pyramid_spread
-        radiance += pyramid_spread(cone_img, pyramid_weights(lightfield, cam.fy, hgt, wid))
+        radiance += pyramid_spread(cone_flat.reshape(hgt, wid, n),
+                                   pyramid_weights(lightfield, cam.fy, hgt, wid))
         rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}
     if return_radiance:
