@@ -125,6 +125,21 @@ class TestRenderCommand:
         assert side["water"]["name"] == "IB" and side["bands"]["n"] == 8
         assert side["depth_m"] == 5.0 and side["camera"]["height"] == 180
 
+    def test_light_field_with_the_cone_spread(self, tmp_path):
+        """GPU render with --cone-spread: the parameters reach the sidecar (cone
+        40 degrees by default) and the image is the NumPy backend's."""
+        out, lin = tmp_path / "s.png", tmp_path / "s.npy"
+        args = ["render", "--water", "II", "--size", "64x36", "--bands", "4", "--ms-model",
+                "lightfield", "--phase", "ff", "--cone-spread", "--exposure", "0"]
+        assert main([*args, "-o", str(out), "--linear", str(lin)]) == 0
+        side = json.loads((tmp_path / "s.png.json").read_text())
+        assert side["cone_spread"] is True and side["forward_cone_deg"] == 40.0
+        ref = tmp_path / "r.npy"
+        assert main([*args, "--backend", "numpy", "-o", str(tmp_path / "r.png"),
+                     "--linear", str(ref)]) == 0
+        np.testing.assert_allclose(np.load(lin), np.load(ref), rtol=2e-3,
+                                   atol=1e-6 * np.abs(np.load(ref)).max())
+
     def test_linear_exr(self, tmp_path):
         from aquaspec.output import read_linear
         out, lin = tmp_path / "x.png", tmp_path / "x.exr"
