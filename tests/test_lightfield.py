@@ -220,3 +220,21 @@ def test_cone_spread_needs_a_cone():
     t = lightfield_tables(bw, phase="ff", backscatter=0.0183, forward_cone_deg=30.0,
                           cone_spread=True)
     assert t["cone_offset_cdf"].shape == (3, t["cone_offset_rad"].size)
+
+
+def test_forward_cone_defaults():
+    """No cone given: 15 degrees, 40 with the spread; a given one is kept."""
+    from aquaspec.bands import Bands
+    from aquaspec.light import surface_light
+    from aquaspec.lightfield import forward_cone
+    from aquaspec.renderer import SpectralSetup
+    from aquaspec.sensors import get_sensor
+    from aquaspec.water import load_water
+    assert forward_cone(None, False) == 15.0 and forward_cone(None, True) == 40.0
+    assert forward_cone(25, True) == 25.0
+    base = dict(water=load_water("IB"), sensor=get_sensor("human"),
+                light=surface_light("overcast"), bands=Bands(3), ms_model="lightfield")
+    assert SpectralSetup(**base).describe()["forward_cone_deg"] == 15.0
+    spread = SpectralSetup(**base, cone_spread=True)
+    assert spread.describe()["forward_cone_deg"] == 40.0 and spread.describe()["cone_spread"]
+    assert SpectralSetup(**base, cone_spread=True, forward_cone_deg=30.0).cone_deg == 30.0

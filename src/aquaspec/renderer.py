@@ -46,11 +46,18 @@ class SpectralSetup:
     #: Parameters of the phase function, e.g. ``(("g", 0.92),)`` for ``hg``.
     phase_params: tuple = ()
     #: Forward cone counted as unscattered towards targets (light field),
-    #: degrees; 15 was best in the HG 0.92 validation (10-20 tried).
-    forward_cone_deg: float = 15.0
+    #: degrees; None: the model's default (:func:`aquaspec.lightfield.forward_cone`:
+    #: 15, or 40 with ``cone_spread``).
+    forward_cone_deg: float | None = None
     #: Spread the cone's light over the image from where the cone points
     #: (:mod:`aquaspec.conespread`, an image pyramid; GPU and NumPy).
     cone_spread: bool = False
+
+    @property
+    def cone_deg(self) -> float:
+        """The forward cone in degrees, ``forward_cone_deg`` or the model's default."""
+        from .lightfield import forward_cone
+        return forward_cone(self.forward_cone_deg, self.cone_spread)
 
     def lightfield_tables(self) -> dict | None:
         """Light-field tables for ``ms_model="lightfield"`` (None for the seeds' model)."""
@@ -60,7 +67,7 @@ class SpectralSetup:
         if cached is None:
             from .lightfield import lightfield_tables
             cached = lightfield_tables(self.water.on_bands(self.bands), phase=self.phase,
-                                       forward_cone_deg=self.forward_cone_deg,
+                                       forward_cone_deg=self.cone_deg,
                                        cone_spread=self.cone_spread,
                                        **dict(self.phase_params))
             object.__setattr__(self, "_tables", cached)
@@ -80,7 +87,7 @@ class SpectralSetup:
     def describe(self) -> dict:
         model_params = ({"ambient_model": self.ambient} if self.ms_model == "seeds"
                         else {"phase": self.phase, **dict(self.phase_params),
-                              "forward_cone_deg": self.forward_cone_deg,
+                              "forward_cone_deg": self.cone_deg,
                               "cone_spread": self.cone_spread})
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),
                 "light": self.light.describe(), "bands": self.bands.describe(),
@@ -278,14 +285,12 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     light_obj = light if isinstance(light, SurfaceLight) else surface_light(
         light, total_w_m2=irradiance_w_m2, sun_elevation_deg=sun_elevation_deg)
     from .appearance import check_ms_model
-    from .lightfield import forward_cone as lf_forward_cone
     if cone_spread and ms_model != "lightfield":
         raise AquaspecError(f"cone_spread is part of the light-field model; ms_model="
                             f"{ms_model!r}; accepted: ms_model='lightfield'")
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase,
-                          forward_cone_deg=lf_forward_cone(forward_cone_deg, cone_spread),
-                          cone_spread=bool(cone_spread))
+                          forward_cone_deg=forward_cone_deg, cone_spread=bool(cone_spread))
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
 
@@ -356,7 +361,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         reference = water_colour(water_obj, sensor_obj, setup.bands, depth_m=depth,
                                  distance_m=WHITE_CARD_DISTANCE_M, light=light_obj,
                                  ambient=ambient, outside=outside, ms_model=ms_model,
-                                 phase=phase, forward_cone_deg=forward_cone_deg)["grey_card_rgb"]
+                                 phase=phase, forward_cone_deg=setup.cone_deg)["grey_card_rgb"]
     if isinstance(colour_matrix, str):
         if colour_matrix != "auto":
             raise AquaspecError(f"colour_matrix {colour_matrix!r} is not accepted; use 'auto', "

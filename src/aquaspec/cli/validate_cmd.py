@@ -98,12 +98,10 @@ def run(args):
         sensors = {name: get_sensor(name, args.camspec) for name in args.sensors.split(",")}
     size = parse_size(args.size)
     cache = None if args.no_cache else (args.cache or default_cache_dir())
-    from ..lightfield import forward_cone
     res = run_study(waters=waters, depths=depths, sensors=sensors, source=args.source, size=size,
                     spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
                     g=g, backscatter=backscatter, ms_models=ms_models,
-                    forward_cone_deg=forward_cone(args.forward_cone, args.cone_spread),
-                    cone_spread=args.cone_spread,
+                    forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
                     gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
     from ..validation.study import REGIONS

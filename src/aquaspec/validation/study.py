@@ -139,7 +139,7 @@ def _cached(cache_dir, key, compute):
         return {k: z[k] for k in z.files}, False
 
 
-def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=15.0,
+def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=None,
               cone_spread=False):
     from ..renderer import SpectralSetup
     from ..sensors import get_sensor
@@ -188,7 +188,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
               size=(96, 72), spp: int = 256, kd_spp: int = 50_000, phase: str = "isotropic",
               g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
               band_counts=(8, 16), ms_models=("seeds",),
-              kd_modes=("database", "measured"), forward_cone_deg: float = 15.0,
+              kd_modes=("database", "measured"), forward_cone_deg: float | None = None,
               cone_spread: bool = False,
               cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
@@ -205,7 +205,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     very table Mitsuba's ``tabphase`` holds; ``"petzold"`` is the particle
     phase function alone, unmixed with pure water, on both sides).
     ``cone_spread`` spreads the light-field model's forward cone over the
-    image (:func:`aquaspec.lightfield.spread_cone_light`).
+    image (:mod:`aquaspec.conespread`); ``forward_cone_deg`` None is the
+    model's default cone (15 degrees, 40 with the spread).
     """
     from ..gpu.raster import raycast_gbuffer
     say = progress or (lambda m: None)
@@ -214,6 +215,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     if cone_spread and "lightfield" not in ms_models:
         raise AquaspecError(f"cone_spread is part of the light-field model; ms_models="
                             f"{list(ms_models)}; accepted: a list with 'lightfield'")
+    from ..lightfield import forward_cone
+    forward_cone_deg = forward_cone(forward_cone_deg, cone_spread)
     light = surface_light("overcast")
     g = float(g) if phase == "hg" else 0.0
     backscatter = float(backscatter)
