@@ -89,7 +89,6 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
     from .gpu.device import adapter_info
     from .gpu.display_pass import DisplayPass
     from .light import surface_light
-    from .lightfield import forward_cone
     from .renderer import Renderer, SpectralSetup
     from .scene.builtin import builtin_scene
     from .sensors import get_sensor
@@ -119,7 +118,6 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
         scene, camera = builtin_scene(depth_m, width=width, height=height)
         for n in bands:
             setup = SpectralSetup(w_obj, s_obj, light, Bands(n), ms_model=ms_model, phase=phase,
-                                  forward_cone_deg=forward_cone(None, cone_spread),
                                   cone_spread=cone_spread)
             r = Renderer(width, height, n)
             geometry = _Geometry(r, scene, camera)

@@ -100,7 +100,6 @@ class Viewer:
     def _setup(self, water, sensor, bands, ms_model, spread=False) -> SpectralSetup:
         """The spectral setup of these settings, made once (the renderer
         re-uploads the medium only when the setup object changes)."""
-        from .lightfield import forward_cone
         key = (water, sensor, bands, ms_model, bool(spread))
         if key not in self._setups:
             if water not in self._waters:
@@ -109,8 +108,7 @@ class Viewer:
                 self._sensors[sensor] = get_sensor(sensor, self.camspec)
             self._setups[key] = SpectralSetup(self._waters[water], self._sensors[sensor],
                                               surface_light("overcast"), Bands(bands),
-                                              ms_model=ms_model, cone_spread=bool(spread),
-                                              forward_cone_deg=forward_cone(None, spread))
+                                              ms_model=ms_model, cone_spread=bool(spread))
         return self._setups[key]
 
     def title(self) -> str:
