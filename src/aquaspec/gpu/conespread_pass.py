@@ -130,10 +130,10 @@ class ConeSpreadPass:
 
         sh = self.shapes
         for k in range(1, L + 1):
-            # (a texture may not be both read and written in one dispatch; the
-            # coarse binding is unused by `down`)
-            step("down", self._p[k - 1], self._p[min(k + 1, L)] if k < L else self._p[k - 1],
-                 self._p[k], 0.0, 0.0, sh[k], sh[k - 1], sh[k - 1])
+            # `down` does not read the coarse binding; it gets the source level
+            # again (a texture may not be read and written in one dispatch).
+            step("down", self._p[k - 1], self._p[k - 1], self._p[k], 0.0, 0.0,
+                 sh[k], sh[k - 1], sh[k - 1])
         for k in range(L - 1, 0, -1):
             coarse, b = (self._p[L], w[L]) if k == L - 1 else (self._u[k + 1], 1.0)
             step("compose", self._p[k], coarse, self._u[k], w[k], b, sh[k], sh[k], sh[k + 1])
