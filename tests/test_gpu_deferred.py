@@ -536,9 +536,9 @@ class TestFusedDisplay:
 
     @pytest.mark.parametrize("tonemap", ["filmic", "none"])
     @pytest.mark.parametrize("scene", ["seabed", "up"])
-    def test_equals_display_pass_of_linear_output(self, device, scene, tonemap):
+    def test_equals_display_pass_of_linear_output(self, device, scene, tonemap,
+                                                  fused_and_two_pass):
         from aquaspec import display
-        from aquaspec.gpu.display_pass import DisplayPass
         gb = SCENES[scene]()
         n = 8
         med = medium("IB", n)
@@ -547,14 +547,7 @@ class TestFusedDisplay:
         settings = display.display_settings(linear, white_balance="grey-world")
         kw = dict(exposure_ev=settings["exposure_ev"],
                   white_balance_gains=settings["white_balance_gains"], tonemap=tonemap)
-        two_pass = DisplayPass(W, H, device=device)
-        two_pass.use_input(p.rgb_buffer)
-        two_pass.set_settings(**kw)
-        two_pass.run()
-        expected = two_pass.read()
-        p.set_display(**kw)
-        p.run(display=True)
-        fused = p.read_display()
+        fused, expected = fused_and_two_pass(p, W, H, **kw)
         assert fused.shape == (H, W, 3) and fused.dtype == np.uint8
         # Same f32 arithmetic, but the compiler may fuse operations
         # differently in the two shaders: codes may differ by one at ties.

@@ -65,20 +65,6 @@ def gpu_pass(gb, setup, e0_scale=1.0):
     return lp
 
 
-def fused_and_two_pass(lp, camera, **settings):
-    """The pass's fused display image and the display pass run on its linear
-    output (the pass must have just run without display), same settings."""
-    from aquaspec.gpu.display_pass import DisplayPass
-    two_pass = DisplayPass(camera.width, camera.height, device=lp.device)
-    two_pass.use_input(lp.rgb_buffer)
-    two_pass.set_settings(**settings)
-    two_pass.run()
-    expected = two_pass.read()
-    lp.set_display(**settings)
-    lp.run(display=True)
-    return lp.read_display(), expected
-
-
 def assert_matches(got, ref):
     scale = np.abs(ref).max()
     np.testing.assert_allclose(got, ref, rtol=1e-3, atol=2e-6 * scale)
@@ -155,7 +141,7 @@ def test_filtering_needs_the_device_feature():
     ("up", 5, 30.0, None),
     ("up", 4, 40.0, False),
 ])
-def test_cone_spread_matches_reference(kind, n, cone, filtering):
+def test_cone_spread_matches_reference(kind, n, cone, filtering, fused_and_two_pass):
     """The pyramid on the GPU (the light-field pass split into radiance and
     cone term, then conespread.wgsl) against shade_gbuffer's NumPy pyramid,
     linear RGB and the fused display."""
@@ -178,7 +164,8 @@ def test_cone_spread_matches_reference(kind, n, cone, filtering):
     lp.run()
     linear = lp.read_rgb()
     assert_matches(linear, ref)
-    fused, expected = fused_and_two_pass(lp, gb.camera, exposure_ev=2.0, tonemap="filmic")
+    fused, expected = fused_and_two_pass(lp, gb.camera.width, gb.camera.height,
+                                         exposure_ev=2.0, tonemap="filmic")
     diff = np.abs(fused.astype(int) - expected.astype(int))
     assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
 
@@ -240,7 +227,7 @@ def test_per_pixel_false_ignores_the_sigmoid_texture():
 
 @pytest.mark.parametrize("kind,depth,cone,tonemap", [("builtin", 5.0, 0.0, "filmic"),
                                                      ("up", 4.0, 15.0, "none")])
-def test_fused_display_equals_display_pass(kind, depth, cone, tonemap):
+def test_fused_display_equals_display_pass(kind, depth, cone, tonemap, fused_and_two_pass):
     from aquaspec import display
     gb = gbuffer_of(kind, depth)
     setup = setup_of("IB", 8, "hg", cone)
@@ -250,7 +237,7 @@ def test_fused_display_equals_display_pass(kind, depth, cone, tonemap):
     settings = display.display_settings(linear, white_balance="grey-world")
     kw = dict(exposure_ev=settings["exposure_ev"],
               white_balance_gains=settings["white_balance_gains"], tonemap=tonemap)
-    fused, expected = fused_and_two_pass(lp, gb.camera, **kw)
+    fused, expected = fused_and_two_pass(lp, gb.camera.width, gb.camera.height, **kw)
     assert fused.shape == expected.shape and fused.dtype == np.uint8
     diff = np.abs(fused.astype(int) - expected.astype(int))
     assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
