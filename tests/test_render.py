@@ -127,7 +127,9 @@ class TestRenderCommand:
 
     def test_light_field_with_the_cone_spread(self, tmp_path):
         """GPU render with --cone-spread: the parameters reach the sidecar (cone
-        40 degrees by default) and the image is the NumPy backend's."""
+        40 degrees by default) and the image is the NumPy backend's, within the
+        compiled model's interpolation (the GPU's water table; measured 1.2e-3 of
+        the image's largest value)."""
         out, lin = tmp_path / "s.png", tmp_path / "s.npy"
         args = ["render", "--water", "II", "--size", "64x36", "--bands", "4", "--ms-model",
                 "lightfield", "--phase", "ff", "--cone-spread", "--exposure", "0"]
@@ -138,7 +140,7 @@ class TestRenderCommand:
         assert main([*args, "--backend", "numpy", "-o", str(tmp_path / "r.png"),
                      "--linear", str(ref)]) == 0
         np.testing.assert_allclose(np.load(lin), np.load(ref), rtol=2e-3,
-                                   atol=1e-6 * np.abs(np.load(ref)).max())
+                                   atol=2e-3 * np.abs(np.load(ref)).max())
 
     def test_linear_exr(self, tmp_path):
         from aquaspec.output import read_linear

@@ -1,43 +1,28 @@
 // Deferred spectral shading with the light-field multiple-scattering model
-// (ms_model = "lightfield"): G-buffer -> linear camera RGB, or with DISPLAY
-// straight to display RGBA8; one invocation per four horizontally adjacent
-// pixels (vec4 lanes, pixel k in component k).
+// (ms_model = "lightfield"), compiled for the camera's depth: G-buffer ->
+// linear camera RGB, or with DISPLAY straight to display RGBA8; one
+// invocation per four horizontally adjacent pixels (vec4 lanes, pixel k in
+// component k).
 //
-// Twin of aquaspec/lightfield.py (lightfield_pixel_radiance, _two_point,
-// bilinear; float64 NumPy reference) as used by aquaspec/shading.py
-// (shade_gbuffer with light-field tables). Deep water only (no seabed
-// boundary in the tables). Layouts: aquaspec/gpu/lightfield_pass.py (its
-// module docstring); G-buffer textures: aquaspec/gpu/deferred.py.
-//
-// The radiance of a pixel (lightfield_pixel_radiance) is, per band,
-//   L = L_bg(d_o, v) + T' (L_surf - R(d_S, v) - u_S L_top)   (ray ends at S)
-//   L = L_bg(d_o, v)                                          (open water down)
-// with the open-water field L_bg(d, v) = R(d, v) + u(d) L_top,
-// R(d, v) = F(d, v) b E0 / (4 pi) ms_path_integral(c, kappa_1, d, v, inf),
-// u(d) = exp(-c d / v) (up rays; 0 down), L_top = sky E0 inside Snell's
-// window (0 outside), T' = exp(-(c - f b) S) (f: forward-cone fraction).
-// - The first term depends on the pixel only through v (the camera depth
-//   d_o is fixed): its sum over bands in camera RGB comes from the host's
-//   float64 open-water table (lightfield_pass.open_water_table), sampled
-//   along the table's own direction axis. Open-water pixels (up rays end at
-//   the surface, where R(0, v) = 0 and u = 1, so their second term is 0) need
-//   nothing else: four-pixel groups without a hit skip the band loop.
-// - Hits: u_S T' = exp(-c d_o / v) exp(f b S), so without a forward cone
-//   (CONE false) the window terms cancel exactly and are left out.
-// - T' R(d_S) is written with the exponentials of the whole product,
-//   scale (exp(lnF - c' S - kappa_1 d_S) - exp(lnF - c' S - c d_S / v)) / k,
-//   k = c - kappa_1 v, c' = c - f b (the second term for up rays only; both
-//   exponents stay small, whatever the sign of k), and the series of
-//   (1 - e^-x) / x where |x| = |k d_S / v| < 0.1 would cancel in f32.
+// Twin of aquaspec/lightfield_compiled.py (shade_compiled, float64 NumPy),
+// whose module docstring gives the formulas; the host side is
+// aquaspec/gpu/lightfield_pass.py. Per pixel:
+//   RGB = W(v_y, S)                                   (water table, one sample)
+//       + sum_i w'_i rho_i exp(K_i d_S - c'_i S + sum_r G_ir U_r(d_S, n_y))
+// where the second term is there only for hits, U comes from one texture
+// sample (RANK / 4 with rank 8) and w'_i = w_i E0_i / pi exp(C_i). With
+// SPREAD the water table's second layer and the factor (1 - exp(-f b S)) of
+// the surface term give the forward cone's share, written to cone_out for
+// the pyramid (aquaspec/gpu/conespread_pass.py); DISPLAY is then false here.
 //
 // Written for lavapipe (SIMD over 8 invocations on the CPU), as
 // deferred.wgsl (see its header): per-band constants in a uniform array
-// with a compile-time band count (and table sizes), per-pixel work (table
-// coordinates: one arccosine per direction, one sqrt per depth) outside the
-// band loop, four bands per table sample, selects instead of branches, and
-// a per-invocation trip count to skip the band loop. Measured there
-// (1280x720, per pixel and frame): a texel fetch about 0.9 ms, a filtered
-// sample 1.5 ms, a storage load 0.4 ms, an exp 0.06 ms.
+// with a compile-time band count, per-pixel work (table coordinates)
+// outside the band loop, selects instead of branches, and per-invocation
+// trip counts to skip work no lane needs. Measured there (1280x720, per
+// pixel and frame): a texel fetch about 0.9 ms, a filtered sample 1.5 ms, a
+// storage load 0.4 ms, an exp 0.06 ms; the band loop is one exp and a few
+// multiply-adds per band, as the seeds' model's two exps.
 
 #include "common.wgsl"
 #include "tonemap.wgsl"
@@ -47,11 +32,19 @@
 {{ display_struct }}
 
 const N_BANDS: u32 = {{ n_bands }}u;
-// Table axes (aquaspec.lightfield.table_depths / table_cosines).
+// Axes of the irradiance basis U (aquaspec.lightfield.table_depths /
+// table_cosines) and its rank (4 or 8: one or two layers).
 const N_DEPTH: u32 = {{ n_depth }}u;
 const N_MU: u32 = {{ n_mu }}u;
-// Whether any band has a forward-cone fraction f > 0.
-const CONE: bool = {{ cone }};
+const RANK: u32 = {{ rank }}u;
+// Water table: DIRECTIONS_OUTSIDE + DIRECTIONS_INSIDE rows (v_y), DISTANCES
+// columns (S, open water last); aquaspec.lightfield_compiled.
+const W_OUT: u32 = {{ directions_outside }}u;
+const W_IN: u32 = {{ directions_inside }}u;
+const W_DIST: u32 = {{ distances }}u;
+const LENGTH_SCALE: f32 = {{ length_scale }};
+// Vec4 per band in band_table.
+const BAND_VEC4: u32 = {{ band_vec4 }}u;
 // DISPLAY: apply the display transform (display.wgsl) and write packed
 // RGBA8 instead of linear RGB; TONEMAP is its tone map id (tonemap.wgsl).
 const DISPLAY: bool = {{ display }};
@@ -61,20 +54,23 @@ const TONEMAP: u32 = {{ tonemap_id }}u;
 const PER_PIXEL_MATERIALS: bool = {{ per_pixel }};
 // Material index meaning "use this pixel's sigmoid coefficients" (gbuffer.PER_PIXEL).
 const PER_PIXEL: u32 = 0xffffffffu;
+// FILTER: the tables are read with the sampler's bilinear filtering (needs
+// float32-filterable); else the same bilinear interpolation from four fetches.
+const FILTER: bool = {{ filter }};
+// SPREAD: the forward cone's share goes to cone_out (camera RGB).
+const SPREAD: bool = {{ spread }};
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // G-buffer: surface (S bits, n_y bits, octahedral normal, material index)
 // and sigmoid (c0, c1, c2, unused), aquaspec.gpu.deferred.
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
-// Three vec4 per band i (lightfield_pass.BAND_FIELDS, float64 on the host):
-//   [3i]     c, kappa_1, c' = c - f b, scale = b E0 / (4 pi)
-//   [3i + 1] w_r, w_g, w_b, E0 / pi
-//   [3i + 2] t (sigmoid band centre), L_top = sky radiance per E0 * E0,
-//            f b (the forward cone's share of b), 0
+// BAND_VEC4 vec4 per band i (lightfield_pass.band_table, float64 on the host):
+//   [B i]             K (1/m), c' = c - f b, f b, t (sigmoid band centre)
+//   [B i + 1 (+ 2)]   G_i0 .. G_i3 (G_i4 .. G_i7 with RANK 8)
+//   [B i + B - 1]     w'_r, w'_g, w'_b, 0
 @group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
-// Material band reflectances, row-major (material, band), as deferred.wgsl
-// (a storage load per band costs half a texel fetch on lavapipe).
+// Material band reflectances, row-major (material, band), as deferred.wgsl.
 @group(0) @binding(5) var<storage, read> material_bands: array<f32>;
 @group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
 // status[0]: pixels with a material index out of range; with DISPLAY,
@@ -83,33 +79,13 @@ const PER_PIXEL: u32 = 0xffffffffu;
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(9) var<uniform> disp: {{ display_struct_name }};
 @group(0) @binding(10) var<storage, read_write> rgba_out: array<u32>;
-// Open-water table, sample m of the direction coordinate y = m / table_sub
-// in texels (2 (m % OPEN_ROW) + h, m / OPEN_ROW): h = 0 camera RGB of
-// R(d_o, v), h = 1 of u(d_o) L_top (added inside Snell's window). A texture
-// for the same reason as the tables below.
-@group(0) @binding(11) var open_table: texture_2d<f32>;
-const OPEN_ROW: u32 = {{ open_row }}u;
-
-fn open_texel(m: u32, h: u32) -> vec4<f32> {
-    return textureLoad(open_table, vec2<u32>(2u * (m % OPEN_ROW) + h, m / OPEN_ROW), 0);
-}
-// ln F and E / E0 on the tables' nodes, four bands per texel: layer g,
-// texel (direction j, depth i) holds bands 4g .. 4g + 3 (padded with 0).
-// With FILTER one filtered sample (the sampler's bilinear interpolation)
-// gives four bands; lavapipe takes about as long for it as for 1.7 texel
-// fetches, and a fetch per band and pixel was most of the pass. Without
-// FILTER (no float32-filterable on the device) the same bilinear
-// interpolation from four fetches.
-@group(0) @binding(12) var log_prefactor: texture_2d_array<f32>;
-@group(0) @binding(13) var irradiance: texture_2d_array<f32>;
+// Water table: layer 0 the water's camera RGB, layer 1 (SPREAD) the cone's
+// share; texel (distance column, direction row).
+@group(0) @binding(11) var water_table: texture_2d_array<f32>;
+// Irradiance basis U: layer g, texel (direction j, depth i) holds U_4g .. U_4g+3.
+@group(0) @binding(12) var basis_table: texture_2d_array<f32>;
 @group(0) @binding(14) var table_sampler: sampler;
-const FILTER: bool = {{ filter }};
-// SPREAD: the forward cone's term goes to cone_out (camera RGB), the rest to
-// rgb_out, for the pyramid that spreads it over the image
-// (aquaspec/gpu/conespread_pass.py); DISPLAY is then false here.
-const SPREAD: bool = {{ spread }};
 @group(0) @binding(15) var cone_out: texture_storage_2d<rgba32float, write>;
-const N_GROUPS: u32 = (N_BANDS + 3u) / 4u;
 
 // Camera.ray_directions: the up component of the unit ray through the pixel
 // centres (j + 0.5, i + 0.5) of four pixels j = j0 .. j0 + 3 in row i.
@@ -148,23 +124,34 @@ fn depth_coord(depth: vec4<f32>) -> vec4<f32> {
         * f32(N_DEPTH - 1u);
 }
 
-// lightfield.bilinear of four bands (layer g) at table coordinates (y, x):
-// direction y in [0, N_MU - 1], depth x in [0, N_DEPTH - 1] (texel centres
-// at (k + 0.5) / N in the sampler's coordinates).
-fn bilinear4(table: texture_2d_array<f32>, y: f32, x: f32, g: u32) -> vec4<f32> {
+// Bilinear interpolation of layer g of a table with cols x rows texels at
+// texel coordinates (col, row) (texel k centred at k; clamped at the edges).
+fn bilinear4(table: texture_2d_array<f32>, col: f32, row: f32, g: u32, cols: u32,
+             rows: u32) -> vec4<f32> {
     if (FILTER) {
-        let uv = vec2<f32>((y + 0.5) / f32(N_MU), (x + 0.5) / f32(N_DEPTH));
+        let uv = vec2<f32>((col + 0.5) / f32(cols), (row + 0.5) / f32(rows));
         return textureSampleLevel(table, table_sampler, uv, g, 0.0);
     }
-    let j = min(u32(max(y, 0.0)), N_MU - 2u);
-    let i = min(u32(max(x, 0.0)), N_DEPTH - 2u);
-    let fy = y - f32(j);
-    let fx = x - f32(i);
+    let j = min(u32(max(col, 0.0)), cols - 2u);
+    let i = min(u32(max(row, 0.0)), rows - 2u);
+    let fj = clamp(col - f32(j), 0.0, 1.0);
+    let fi = clamp(row - f32(i), 0.0, 1.0);
     let lo = mix(textureLoad(table, vec2<u32>(j, i), g, 0),
-                 textureLoad(table, vec2<u32>(j + 1u, i), g, 0), fy);
+                 textureLoad(table, vec2<u32>(j + 1u, i), g, 0), fj);
     let hi = mix(textureLoad(table, vec2<u32>(j, i + 1u), g, 0),
-                 textureLoad(table, vec2<u32>(j + 1u, i + 1u), g, 0), fy);
-    return mix(lo, hi, fx);
+                 textureLoad(table, vec2<u32>(j + 1u, i + 1u), g, 0), fj);
+    return mix(lo, hi, fi);
+}
+
+// lightfield_compiled.direction_coordinate: q = sign(v) sqrt(|v|), rows
+// 0 .. W_OUT - 1 outside Snell's window, W_OUT .. W_OUT + W_IN - 1 inside.
+fn direction_row(v: vec4<f32>) -> vec4<f32> {
+    let vc = clamp(v, vec4<f32>(-1.0), vec4<f32>(1.0));
+    let q = sign(vc) * sqrt(abs(vc));
+    let q_w = sqrt(prm.window_cos);
+    let outside = (q + 1.0) / (q_w + 1.0) * f32(W_OUT - 1u);
+    let inside = f32(W_OUT) + (q - q_w) / (1.0 - q_w) * f32(W_IN - 1u);
+    return select(outside, inside, v > vec4<f32>(prm.window_cos));
 }
 
 @compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
@@ -202,36 +189,31 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     let v_safe = select(vec4<f32>(1.0), v_y, up);
     let hit = (s_gb >= vec4<f32>(0.0)) & (!up | (s_gb <= d_o / v_safe));
     let s = select(vec4<f32>(0.0), s_gb, hit);
-    // Depth of the hit (the camera's depth for open water: unused there).
+    // Depth of the hit (unused for open water).
     let d_s = max(d_o - s * v_y, vec4<f32>(0.0));
-    let y = cos_coord(v_y);
-    let in_window = v_y > vec4<f32>(prm.window_cos);
 
-    // Open-water field at the camera, L_bg(d_o, v), from the table.
+    // The water: one sample of the water table per pixel (column: the hit's
+    // distance, or open water).
+    let w_row = direction_row(v_y);
+    let w_col = select(vec4<f32>(f32(W_DIST - 1u)), s / (s + LENGTH_SCALE) * f32(W_DIST - 2u),
+                       hit);
+    let w_rows = W_OUT + W_IN;
     var r: vec4<f32>;
     var gr: vec4<f32>;
     var b: vec4<f32>;
-    let add_window = in_window & (!hit | vec4<bool>(CONE));
-    let x_table = y * f32(prm.table_sub);
-    let m_table = min(vec4<u32>(x_table), vec4<u32>(prm.table_last - 1u));
-    let f_table = x_table - vec4<f32>(m_table);
+    var cr = vec4<f32>(0.0);
+    var cg = vec4<f32>(0.0);
+    var cb = vec4<f32>(0.0);
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let m = m_table[k];
-        let rgb = mix(open_texel(m, 0u), open_texel(m + 1u, 0u), f_table[k]);
-        r[k] = rgb.x;
-        gr[k] = rgb.y;
-        b[k] = rgb.z;
-    }
-    // The window term (a per-invocation trip count: most groups skip it).
-    let n_window = select(0u, 1u, any(add_window));
-    for (var q = 0u; q < n_window; q = q + 1u) {
-        for (var k = 0u; k < 4u; k = k + 1u) {
-            let m = m_table[k];
-            let rgb = select(vec4<f32>(0.0), mix(open_texel(m, 1u), open_texel(m + 1u, 1u),
-                             f_table[k]), add_window[k]);
-            r[k] = r[k] + rgb.x;
-            gr[k] = gr[k] + rgb.y;
-            b[k] = b[k] + rgb.z;
+        let w = bilinear4(water_table, w_col[k], w_row[k], 0u, W_DIST, w_rows);
+        r[k] = w.x;
+        gr[k] = w.y;
+        b[k] = w.z;
+        if (SPREAD) {
+            let wc = bilinear4(water_table, w_col[k], w_row[k], 1u, W_DIST, w_rows);
+            cr[k] = wc.x;
+            cg[k] = wc.y;
+            cb[k] = wc.z;
         }
     }
 
@@ -261,34 +243,67 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     }
     let mrow = select(vec4<u32>(0u), material * N_BANDS, use_material);
 
-    // Per pixel, outside the band loop: the table coordinates of R(d_S, v)
-    // and of E(d_S, n_y), and the ray's length from the hit to the surface (up).
-    let x_s = depth_coord(d_s);
-    let y_n = cos_coord(n_y);
-    let len_up = d_s / v_safe;
-    let cone_window = hit & in_window & vec4<bool>(CONE);
+    // The irradiance basis at (d_S, n_y). Read for every pixel: in control
+    // flow that differs between invocations (a trip count of any(hit))
+    // lavapipe's texture sampling cost 2 ms more per 1280x720 frame.
+    var u0 = vec4<f32>(0.0);
+    var u1 = vec4<f32>(0.0);
+    var u2 = vec4<f32>(0.0);
+    var u3 = vec4<f32>(0.0);
+    var u4 = vec4<f32>(0.0);
+    var u5 = vec4<f32>(0.0);
+    var u6 = vec4<f32>(0.0);
+    var u7 = vec4<f32>(0.0);
+    let any_hit = any(hit);
+    {
+        let x_s = depth_coord(d_s);
+        let y_n = cos_coord(n_y);
+        for (var k = 0u; k < 4u; k = k + 1u) {
+            let u = bilinear4(basis_table, y_n[k], x_s[k], 0u, N_MU, N_DEPTH);
+            u0[k] = u.x;
+            u1[k] = u.y;
+            u2[k] = u.z;
+            u3[k] = u.w;
+            if (RANK > 4u) {
+                let v = bilinear4(basis_table, y_n[k], x_s[k], 1u, N_MU, N_DEPTH);
+                u4[k] = v.x;
+                u5[k] = v.y;
+                u6[k] = v.z;
+                u7[k] = v.w;
+            }
+        }
+    }
 
-    // Only hits have a band loop (a per-invocation trip count: lavapipe
-    // leaves a loop when no SIMD lane has iterations left), four bands per
-    // step: one table sample per pixel and table gives all four.
-    var cr = vec4<f32>(0.0);
-    var cg = vec4<f32>(0.0);
-    var cb = vec4<f32>(0.0);
-    let n_iter = select(0u, N_GROUPS, any(hit));
-    for (var g = 0u; g < n_iter; g = g + 1u) {
-        let f0 = bilinear4(log_prefactor, y[0], x_s[0], g);
-        let f1 = bilinear4(log_prefactor, y[1], x_s[1], g);
-        let f2 = bilinear4(log_prefactor, y[2], x_s[2], g);
-        let f3 = bilinear4(log_prefactor, y[3], x_s[3], g);
-        let h0 = bilinear4(irradiance, y_n[0], x_s[0], g);
-        let h1 = bilinear4(irradiance, y_n[1], x_s[1], g);
-        let h2 = bilinear4(irradiance, y_n[2], x_s[2], g);
-        let h3 = bilinear4(irradiance, y_n[3], x_s[3], g);
-        // Bands 4g .. 4g + 3 (lightfield_pass.band_steps: the same step four
-        // times, written out, for the components x, y, z, w; a function
-        // taking the pixel group's values as a struct cost 2-3 ms more at
-        // 1280x720, n = 8).
-{{ band_steps }}
+    // The targets' own light, one exponential per band.
+    let n_iter = select(0u, N_BANDS, any_hit);
+    for (var i = 0u; i < n_iter; i = i + 1u) {
+        let q0 = band_table[BAND_VEC4 * i];
+        let g0 = band_table[BAND_VEC4 * i + 1u];
+        let wt = band_table[BAND_VEC4 * i + BAND_VEC4 - 1u];
+        var ln_e = q0.x * d_s - q0.y * s + g0.x * u0 + g0.y * u1 + g0.z * u2 + g0.w * u3;
+        if (RANK > 4u) {
+            let g1 = band_table[BAND_VEC4 * i + 2u];
+            ln_e = ln_e + g1.x * u4 + g1.y * u5 + g1.z * u6 + g1.w * u7;
+        }
+        var rho = select(vec4<f32>(0.0), vec4<f32>(material_bands[mrow.x + i],
+                         material_bands[mrow.y + i], material_bands[mrow.z + i],
+                         material_bands[mrow.w + i]), use_material);
+        if (PER_PIXEL_MATERIALS) {
+            rho = select(rho, sigmoid_reflectance(c0, c1, c2, q0.w), use_sigmoid);
+        }
+        var l = select(vec4<f32>(0.0), rho * exp(ln_e), hit);
+        if (SPREAD) {
+            // The cone's share T' - T of the target's light.
+            let base_l = l * exp(-q0.z * s);
+            let cone_l = l - base_l;
+            cr = cr + cone_l * wt.x;
+            cg = cg + cone_l * wt.y;
+            cb = cb + cone_l * wt.z;
+            l = base_l;
+        }
+        r = r + l * wt.x;
+        gr = gr + l * wt.y;
+        b = b + l * wt.z;
     }
     if (DISPLAY) {
         // display.wgsl's main for the four pixels, as in deferred.wgsl.

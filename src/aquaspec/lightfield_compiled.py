@@ -1,0 +1,353 @@
+"""The light-field model compiled for the GPU at one camera depth.
+
+:mod:`aquaspec.lightfield` gives per band the in-scattering prefactor
+``F(d, v_y)`` and the irradiance ``E(d, n_y)`` as tables; evaluating them per
+band and pixel (two table reads and three exponentials per band) made the
+light-field frame 1.6 times the seeds' on a CPU rasteriser. This module
+rewrites the same model so that the per-pixel cost is that of the seeds'
+model (SPEC: keep the per-pixel cost near the seeds'):
+
+- **Water table** ``W(v_y, S)``: everything the water adds to a pixel whose
+  ray (direction ``v``, up component ``v_y``) ends on a surface at distance
+  ``S``, in camera RGB, for the camera's depth ``d_o``. With the open-water
+  field ``L_bg(d, v) = R(d, v) + u(d) L_top`` of
+  :func:`aquaspec.lightfield.lightfield_pixel_radiance`,
+  ``W = sum_i w_i [L_bg(d_o, v) - T'(S) L_bg(d_S, v)]`` (``T' = exp(-c' S)``,
+  ``c' = c - f b`` the beam extinction with the forward cone, ``d_S = d_o - S
+  v_y``): the radiance of a black target. It depends on the pixel only
+  through ``(v_y, S)`` (horizontally uniform water), so a 2-D table for the
+  camera's depth gives it for all bands at once. A last column holds open
+  water (the ray hits nothing). With the cone spread a second layer holds the
+  cone's share ``-(T' - T) L_bg(d_S, v)`` and the first uses ``T = exp(-c S)``.
+- **Factored irradiance**: the target's own light ``T'(S) rho E(d_S, n_y) / pi``
+  needs ``E`` per band. Its logarithm is fitted, over the tables' nodes, as
+  ``ln(E_i(d, n_y) / E0_i) ~ C_i + K_i d + sum_r G_ir U_r(d, n_y)`` with
+  :data:`IRRADIANCE_RANK` functions ``U_r`` shared by all bands (one
+  four-channel texture read per pixel) and per-band coefficients
+  (alternating least squares, :func:`irradiance_factors`). With
+  ``n <= rank`` bands the factorisation is exact.
+
+Per pixel the GPU then reads the water table once (twice with the spread)
+and the ``U`` texture once, and per band evaluates one exponential
+``exp(K_i d_S - c'_i S + sum_r G_ir U_r)`` times the reflectance. The NumPy
+twin of the GPU pass is :func:`shade_compiled`; how far the compiled model is
+from :func:`aquaspec.shading.shade_gbuffer` (the model itself) is measured
+by the tests (``tests/test_lightfield_compiled.py``) and by
+:attr:`Compiled.irradiance_error`.
+
+Table axes (texel units, texel ``k`` centred at ``k``, as a GPU sampler's
+``(k + 0.5) / size``):
+
+- direction: ``q = sign(v_y) sqrt(|v_y|)`` (dense near the horizon, where an
+  up ray from a shallow camera changes fast); :data:`DIRECTIONS_OUTSIDE`
+  nodes over ``q in [-1, q_w]`` outside Snell's window (``v_y <= window_cos``,
+  ``q_w = sqrt(window_cos)``), then :data:`DIRECTIONS_INSIDE` nodes over
+  ``[q_w, 1]`` inside it. The window's edge falls between two texels that
+  the lookup never blends, so its jump stays sharp.
+- distance: ``x = S / (S + length) (K - 2)`` for a hit (``S = inf`` at
+  ``K - 2``), ``K - 1`` for open water; ``length`` = :data:`LENGTH_SCALE_M`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import AquaspecError
+
+#: Functions U_r shared by all bands in the factored irradiance: four fill one
+#: texture read (RGBA). Measured on the tables' nodes (depth <= 30 m, phase
+#: Petzold): largest error of E 0.5 % (Jerlov 3C, 8 bands) to 5 % (Jerlov I,
+#: 32 bands, surfaces facing down near the surface), rms 0.06-0.6 %.
+IRRADIANCE_RANK = 4
+#: Ranks tried in turn by :func:`choose_irradiance_factors` (a multiple of 4
+#: each: whole texture reads) until the largest error is within
+#: :data:`IRRADIANCE_TOLERANCE` (else the last).
+IRRADIANCE_RANKS = (4, 8)
+IRRADIANCE_TOLERANCE = 0.02
+#: Direction nodes of the water table outside and inside Snell's window.
+DIRECTIONS_OUTSIDE = 224
+DIRECTIONS_INSIDE = 32
+#: Distance nodes of the water table (the last is open water).
+DISTANCES = 512
+#: Length scale of the distance axis, m.
+LENGTH_SCALE_M = 4.0
+#: Alternating least-squares sweeps of :func:`irradiance_factors`.
+ALS_SWEEPS = 40
+#: Depth up to which :func:`irradiance_factors` reports its error, m.
+ERROR_DEPTH_M = 30.0
+
+
+def irradiance_factors(tables, rank: int = IRRADIANCE_RANK, sweeps: int = ALS_SWEEPS) -> dict:
+    """Fit ``ln(E_i(d, n_y)/E0_i) ~ C_i + K_i d + sum_r G_ir U_r(d, n_y)`` on the tables' nodes.
+
+    Returns ``{"coef": (n, 2 + rank) [C, K, G_0 ..], "basis": (rank, n_depth,
+    n_mu) U on the nodes, "max_error", "rms_error"}``: the largest and rms
+    relative error of ``E`` over the nodes down to :data:`ERROR_DEPTH_M`.
+    Least squares in ``ln E``; with ``n <= rank`` bands exact (``U_i = ln E_i``).
+    """
+    if not (isinstance(rank, (int, np.integer)) and rank >= 1):
+        raise AquaspecError(f"rank={rank!r}; accepted: an integer >= 1")
+    e = np.asarray(tables["irradiance_per_e0"], dtype=float)
+    if not np.all(np.isfinite(e) & (e >= 0)):
+        raise AquaspecError("irradiance table has negative or non-finite values")
+    n, nd, nm = e.shape
+    depth = np.asarray(tables["depth_m"], dtype=float)
+    m = np.log(np.maximum(e, 1e-30)).reshape(n, -1)
+    dd = np.repeat(depth, nm)
+    fixed = np.stack([np.ones_like(dd), dd])                  # (2, P)
+    if n <= rank:
+        coef = np.zeros((n, 2 + rank))
+        coef[:, 2:2 + n] = np.eye(n)
+        basis = np.zeros((rank, nd * nm))
+        basis[:n] = m
+    else:
+        c_fixed = np.linalg.lstsq(fixed.T, m.T, rcond=None)[0].T
+        _, sv, vt = np.linalg.svd(m - c_fixed @ fixed, full_matrices=False)
+        basis = vt[:rank] * sv[:rank, None]
+        for _ in range(sweeps):
+            a = np.vstack([fixed, basis])
+            coef = np.linalg.lstsq(a.T, m.T, rcond=None)[0].T
+            basis = np.linalg.lstsq(coef[:, 2:], m - coef[:, :2] @ fixed, rcond=None)[0]
+        coef = np.linalg.lstsq(np.vstack([fixed, basis]).T, m.T, rcond=None)[0].T
+    fit = coef @ np.vstack([fixed, basis])
+    rel = np.expm1(fit - m)[:, dd <= ERROR_DEPTH_M]
+    if not np.all(np.isfinite(coef)) or not np.all(np.isfinite(basis)):
+        raise AquaspecError("the irradiance factorisation came out non-finite")
+    return {"coef": coef, "basis": basis.reshape(rank, nd, nm),
+            "max_error": float(np.abs(rel).max()), "rms_error": float(np.sqrt(np.mean(rel ** 2)))}
+
+
+def choose_irradiance_factors(tables) -> dict:
+    """:func:`irradiance_factors` with the first rank of :data:`IRRADIANCE_RANKS`
+    whose largest error is within :data:`IRRADIANCE_TOLERANCE` (else the last)."""
+    for rank in IRRADIANCE_RANKS:
+        fac = irradiance_factors(tables, rank)
+        if fac["max_error"] <= IRRADIANCE_TOLERANCE:
+            break
+    return fac
+
+
+def direction_coordinate(v_y, window_cos: float):
+    """Texel coordinate of the water table's direction axis (see the module docstring)."""
+    v = np.clip(np.asarray(v_y, dtype=float), -1.0, 1.0)
+    q = np.sign(v) * np.sqrt(np.abs(v))
+    q_w = np.sqrt(window_cos)
+    outside = (q + 1.0) / (q_w + 1.0) * (DIRECTIONS_OUTSIDE - 1)
+    inside = DIRECTIONS_OUTSIDE + (q - q_w) / (1.0 - q_w) * (DIRECTIONS_INSIDE - 1)
+    return np.where(v > window_cos, inside, outside)
+
+
+def direction_nodes(window_cos: float):
+    """``v_y`` of the direction nodes and whether each is inside the window."""
+    q_w = np.sqrt(window_cos)
+    q = np.concatenate([np.linspace(-1.0, q_w, DIRECTIONS_OUTSIDE),
+                        np.linspace(q_w, 1.0, DIRECTIONS_INSIDE)])
+    v = np.sign(q) * q * q
+    inside = np.arange(q.size) >= DIRECTIONS_OUTSIDE
+    # The first inside node is the window edge seen from inside.
+    v[DIRECTIONS_OUTSIDE] = np.nextafter(window_cos, 2.0)
+    return v, inside
+
+
+def distance_coordinate(s, hit):
+    """Texel coordinate of the distance axis: ``S / (S + length)`` scaled, open water last."""
+    s = np.asarray(s, dtype=float)
+    with np.errstate(invalid="ignore"):
+        x = np.where(np.isfinite(s), s / (s + LENGTH_SCALE_M), 1.0) * (DISTANCES - 2)
+    return np.where(hit, x, DISTANCES - 1.0)
+
+
+def distance_nodes():
+    """``S`` of the hit nodes (the last is ``inf``)."""
+    x = np.arange(DISTANCES - 1) / (DISTANCES - 2)
+    with np.errstate(divide="ignore"):
+        return np.where(x < 1.0, LENGTH_SCALE_M * x / np.where(x < 1.0, 1.0 - x, 1.0), np.inf)
+
+
+def water_table(tables, *, a, b, e0, response_weights, depth_o: float, split: bool):
+    """The water table ``(layers, directions, DISTANCES, 3)`` in camera RGB, float64.
+
+    Layer 0: ``sum_i w_i [L_bg(d_o, v) - T_i L_bg(d_S, v)]`` with ``T = T'``
+    (``split=False``) or ``exp(-c S)`` (``split=True``); layer 1 (split only):
+    the cone's share ``-sum_i w_i (T' - T) L_bg(d_S, v)``. Column
+    ``DISTANCES - 1``: open water. The terms of
+    :func:`aquaspec.lightfield.lightfield_pixel_radiance` for a black target
+    (deep water), evaluated directly on the nodes (the test compares the two).
+    """
+    from .lightfield import _seeds_shape, bilinear
+    a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
+    w = np.asarray(response_weights, dtype=float)
+    c = a + b
+    f = np.asarray(tables.get("forward_fraction", np.zeros(a.size)), dtype=float)
+    c_beam = c - f * b
+    k1 = np.asarray(tables["k_inf"], dtype=float)
+    d_max = float(tables["max_depth_m"][0])
+    wc = float(tables["window_cos"][0])
+    sky = np.asarray(tables["sky_radiance_per_e0"], dtype=float) * e0
+    v, inside = direction_nodes(wc)
+    s_nodes = distance_nodes()                         # hit nodes, the last inf
+
+    def r_at(depth, vv):
+        """R(d, v) per band: (P, n)."""
+        pref = np.exp(bilinear(tables["ms_log_prefactor"], depth, vv, d_max))
+        return pref * e0 * _seeds_shape(b, c, k1, depth[:, None], vv[:, None], np.inf)
+
+    # Up rays within 1e-30 of level reach the surface at a distance that
+    # overflows: exp(-inf) = 0 is the limit.
+    with np.errstate(over="ignore"):
+        up = v > 0
+        v_safe = np.where(up, v, 1.0)
+        l_top = np.where(inside[:, None], sky, 0.0)                            # (J, n)
+        u_o = np.where(up[:, None], np.exp(-c * depth_o / v_safe[:, None]), 0.0)
+        open_l = r_at(np.full(v.size, depth_o), v) + u_o * l_top              # L_bg(d_o, v)
+        vv, ss = np.meshgrid(v, s_nodes, indexing="ij")
+        to_surface = np.where(vv > 0, depth_o / np.where(vv > 0, vv, 1.0), np.inf)
+        ss = np.minimum(ss, to_surface).reshape(-1)
+        vv = vv.reshape(-1)
+        # S = inf (rays going down or level): open water, T = 0.
+        far = ~np.isfinite(ss)
+        ss = np.where(far, 0.0, ss)
+        d_s = np.maximum(depth_o - ss * vv, 0.0)
+        upp = vv > 0
+        u_s = np.where(upp[:, None], np.exp(-c * d_s[:, None] / np.where(upp, vv, 1.0)[:, None]),
+                       0.0)
+        rows = np.repeat(np.arange(v.size), s_nodes.size)
+        blocked = r_at(d_s, vv) + u_s * l_top[rows]                          # L_bg(d_S, v)
+        t_beam = np.where(far[:, None], 0.0, np.exp(-c_beam * ss[:, None]))
+        t = np.where(far[:, None], 0.0, np.exp(-c * ss[:, None])) if split else t_beam
+        base = open_l[rows] - t * blocked
+    out = np.zeros((2 if split else 1, v.size, DISTANCES, 3))
+    out[0, :, :DISTANCES - 1] = (base @ w).reshape(v.size, s_nodes.size, 3)
+    if split:
+        out[1, :, :DISTANCES - 1] = (-(t_beam - t) * blocked @ w).reshape(v.size, -1, 3)
+    out[0, :, DISTANCES - 1] = open_l @ w
+    if not np.all(np.isfinite(out)):
+        raise AquaspecError("the light-field water table came out non-finite; check the "
+                            "water coefficients and tables")
+    return out
+
+
+def lookup_water(table, v_y, s, hit, window_cos: float):
+    """Bilinear lookup of the water table as the GPU sampler does: (..., layers, 3)."""
+    t = np.asarray(table, dtype=float)
+    y = direction_coordinate(v_y, window_cos)
+    x = distance_coordinate(s, hit)
+    ny, nx = t.shape[1], t.shape[2]
+    j = np.clip(np.floor(y).astype(int), 0, ny - 2)
+    i = np.clip(np.floor(x).astype(int), 0, nx - 2)
+    fy = np.clip(y - j, 0.0, 1.0)[..., None, None]
+    fx = np.clip(x - i, 0.0, 1.0)[..., None, None]
+    tt = np.moveaxis(t, 0, -2)      # (ny, nx, layers, 3)
+    return ((1 - fy) * ((1 - fx) * tt[j, i] + fx * tt[j, i + 1])
+            + fy * ((1 - fx) * tt[j + 1, i] + fx * tt[j + 1, i + 1]))
+
+
+@dataclass
+class Compiled:
+    """The light-field model compiled for one camera depth (see the module docstring)."""
+
+    depth_o: float
+    split: bool
+    #: (layers, directions, DISTANCES, 3) camera RGB (:func:`water_table`).
+    water: np.ndarray
+    #: (rank, n_depth, n_mu): U on the tables' nodes.
+    basis: np.ndarray
+    #: Per band (n,): K (1/m), c' (1/m), f b (1/m); G (n, rank); surface weights
+    #: (n, 3) = w E0 / pi exp(C).
+    k_depth: np.ndarray
+    c_beam: np.ndarray
+    fb: np.ndarray
+    g: np.ndarray
+    surface_weights: np.ndarray
+    window_cos: float
+    max_depth: float
+    #: Largest and rms relative error of the factored E on the nodes (<= 30 m).
+    irradiance_error: tuple
+
+
+def compile_lightfield(tables, *, a, b, e0, response_weights, depth_o: float,
+                       factors: dict | None = None) -> Compiled:
+    """Compile the model for the camera depth ``depth_o`` (``factors`` reused if given)."""
+    if np.isfinite(float(tables["seabed_depth_m"][0])):
+        raise AquaspecError("the compiled light field is for deep water only (tables "
+                            "without a seabed); use backend='numpy' for a seabed")
+    a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
+    w = np.asarray(response_weights, dtype=float)
+    fac = factors if factors is not None else choose_irradiance_factors(tables)
+    f = np.asarray(tables.get("forward_fraction", np.zeros(a.size)), dtype=float)
+    split = "cone_offset_cdf" in tables
+    water = water_table(tables, a=a, b=b, e0=e0, response_weights=w, depth_o=float(depth_o),
+                        split=split)
+    coef = fac["coef"]
+    return Compiled(depth_o=float(depth_o), split=split, water=water, basis=fac["basis"],
+                    k_depth=coef[:, 1], c_beam=a + (1.0 - f) * b, fb=f * b, g=coef[:, 2:],
+                    surface_weights=w * (e0 / np.pi * np.exp(coef[:, 0]))[:, None],
+                    window_cos=float(tables["window_cos"][0]),
+                    max_depth=float(tables["max_depth_m"][0]),
+                    irradiance_error=(fac["max_error"], fac["rms_error"]))
+
+
+def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y):
+    """Camera RGB of the targets' own light, ``(P, 3)`` (and its cone share when split).
+
+    ``rho`` (P, n); ``s``, ``surface_depth``, ``n_y`` (P,). Returns
+    ``(base, cone)``; ``cone`` is zero unless ``comp.split``.
+    """
+    from .lightfield import bilinear
+    s = np.asarray(s, dtype=float)[:, None]
+    u = bilinear(comp.basis, surface_depth, n_y, comp.max_depth)         # (P, rank)
+    ln_e = comp.k_depth * np.asarray(surface_depth, dtype=float)[:, None] \
+        - comp.c_beam * s + u @ comp.g.T
+    l = np.asarray(rho, dtype=float) * np.exp(ln_e)
+    if comp.split:
+        base = l * np.exp(-comp.fb * s)
+        return base @ comp.surface_weights, (l - base) @ comp.surface_weights
+    return l @ comp.surface_weights, np.zeros((l.shape[0], 3))
+
+
+def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t,
+                   pyramid_weights=None) -> np.ndarray:
+    """The NumPy twin of the GPU light-field pass: (H, W, 3) linear camera RGB.
+
+    With ``comp.split`` the cone's share is spread over the image with the
+    pyramid ``pyramid_weights`` (:func:`aquaspec.conespread.pyramid_weights`).
+    """
+    from .gbuffer import PER_PIXEL
+    from .reflectance import sigmoid_at as sigmoid_reflectance
+    cam = gbuffer.camera
+    d_o = comp.depth_o
+    v_y = cam.ray_directions()[..., 1].reshape(-1)
+    s = gbuffer.distance.reshape(-1).astype(float)
+    up = v_y > 0
+    to_surface = np.where(up, d_o / np.where(up, v_y, 1.0), np.inf)
+    hit = np.isfinite(s) & (s >= 0) & (s <= to_surface)
+    s = np.where(hit, s, 0.0)
+    water = lookup_water(comp.water, v_y, s, hit, comp.window_cos)      # (P, layers, 3)
+    rgb = water[:, 0].copy()
+    cone = water[:, 1].copy() if comp.split else None
+    if np.any(hit):
+        mat = gbuffer.material.reshape(-1)[hit]
+        mb = np.asarray(material_bands, dtype=float).reshape(-1, comp.c_beam.size)
+        pp = mat == PER_PIXEL
+        rho = np.zeros((mat.size, comp.c_beam.size))
+        rho[pp] = sigmoid_reflectance(gbuffer.sigmoid.reshape(-1, 3)[hit][pp],
+                                      np.asarray(sigmoid_centers_t, dtype=float))
+        rho[~pp] = mb[mat[~pp]]
+        sd = np.maximum(d_o - s[hit] * v_y[hit], 0.0)
+        base, cone_s = surface_rgb(comp, rho, s[hit], sd,
+                                   gbuffer.normal[..., 1].reshape(-1)[hit].astype(float))
+        rgb[hit] += base
+        if comp.split:
+            cone[hit] += cone_s
+    h, w = cam.height, cam.width
+    rgb = rgb.reshape(h, w, 3)
+    if comp.split:
+        from .conespread import spread
+        if pyramid_weights is None:
+            raise AquaspecError("a compiled model with the cone spread needs pyramid_weights")
+        rgb = rgb + spread(cone.reshape(h, w, 3), pyramid_weights)
+    if not np.all(np.isfinite(rgb)):
+        raise AquaspecError("the compiled light field produced NaN or infinity")
+    return rgb
