@@ -39,11 +39,12 @@ Table axes (texel units, texel ``k`` centred at ``k``, as a GPU sampler's
 ``(k + 0.5) / size``):
 
 - direction: ``q = sign(v_y) sqrt(|v_y|)`` (dense near the horizon, where an
-  up ray from a shallow camera changes fast); :data:`DIRECTIONS_OUTSIDE`
-  nodes over ``q in [-1, q_w]`` outside Snell's window (``v_y <= window_cos``,
-  ``q_w = sqrt(window_cos)``), then :data:`DIRECTIONS_INSIDE` nodes over
-  ``[q_w, 1]`` inside it. The window's edge falls between two texels that
-  the lookup never blends, so its jump stays sharp.
+  up ray from a shallow camera changes fast); ``n_out`` nodes over ``q in
+  [-1, q_w]`` outside the window (``v_y <= window_cos``, ``q_w =
+  sign(window_cos) sqrt(|window_cos|)``), then ``n_in`` nodes over ``[q_w, 1]``
+  inside it (:func:`direction_split`; the tables' default water surface,
+  ``"null"``, puts the window's edge at the horizon). The edge falls
+  between two texels that the lookup never blends, so its jump stays sharp.
 - distance: ``x = S / (S + length) (K - 2)`` for a hit (``S = inf`` at
   ``K - 2``), ``K - 1`` for open water; ``length`` = :data:`LENGTH_SCALE_M`.
 """
@@ -66,9 +67,9 @@ IRRADIANCE_RANK = 4
 #: :data:`IRRADIANCE_TOLERANCE` (else the last).
 IRRADIANCE_RANKS = (4, 8)
 IRRADIANCE_TOLERANCE = 0.02
-#: Direction nodes of the water table outside and inside Snell's window.
-DIRECTIONS_OUTSIDE = 224
-DIRECTIONS_INSIDE = 32
+#: Direction nodes of the water table, split between outside and inside
+#: Snell's window in proportion to their length in ``q`` (:func:`direction_split`).
+DIRECTIONS = 256
 #: Distance nodes of the water table (the last is open water).
 DISTANCES = 512
 #: Length scale of the distance axis, m.
@@ -129,25 +130,37 @@ def choose_irradiance_factors(tables) -> dict:
     return fac
 
 
+def _q(v):
+    return np.sign(v) * np.sqrt(np.abs(v))
+
+
+def direction_split(window_cos: float) -> tuple[int, int]:
+    """Direction nodes ``(n_out, n_in)`` outside / inside the window (at least 2 each)."""
+    if not -1.0 < window_cos < 1.0:
+        raise AquaspecError(f"window_cos={window_cos!r}; accepted: strictly between -1 and 1")
+    n_out = int(np.clip(round(DIRECTIONS * (_q(window_cos) + 1.0) / 2.0), 2, DIRECTIONS - 2))
+    return n_out, DIRECTIONS - n_out
+
+
 def direction_coordinate(v_y, window_cos: float):
     """Texel coordinate of the water table's direction axis (see the module docstring)."""
+    n_out, n_in = direction_split(window_cos)
     v = np.clip(np.asarray(v_y, dtype=float), -1.0, 1.0)
-    q = np.sign(v) * np.sqrt(np.abs(v))
-    q_w = np.sqrt(window_cos)
-    outside = (q + 1.0) / (q_w + 1.0) * (DIRECTIONS_OUTSIDE - 1)
-    inside = DIRECTIONS_OUTSIDE + (q - q_w) / (1.0 - q_w) * (DIRECTIONS_INSIDE - 1)
+    q, q_w = _q(v), _q(window_cos)
+    outside = (q + 1.0) / (q_w + 1.0) * (n_out - 1)
+    inside = n_out + (q - q_w) / (1.0 - q_w) * (n_in - 1)
     return np.where(v > window_cos, inside, outside)
 
 
 def direction_nodes(window_cos: float):
     """``v_y`` of the direction nodes and whether each is inside the window."""
-    q_w = np.sqrt(window_cos)
-    q = np.concatenate([np.linspace(-1.0, q_w, DIRECTIONS_OUTSIDE),
-                        np.linspace(q_w, 1.0, DIRECTIONS_INSIDE)])
+    n_out, n_in = direction_split(window_cos)
+    q_w = _q(window_cos)
+    q = np.concatenate([np.linspace(-1.0, q_w, n_out), np.linspace(q_w, 1.0, n_in)])
     v = np.sign(q) * q * q
-    inside = np.arange(q.size) >= DIRECTIONS_OUTSIDE
+    inside = np.arange(q.size) >= n_out
     # The first inside node is the window edge seen from inside.
-    v[DIRECTIONS_OUTSIDE] = np.nextafter(window_cos, 2.0)
+    v[n_out] = np.nextafter(window_cos, 2.0)
     return v, inside
 
 

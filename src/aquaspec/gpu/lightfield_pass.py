@@ -247,7 +247,8 @@ class LightfieldPass:
     def _pipeline(self, per_pixel, tonemap):
         from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS
         sh = self._shape
-        key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], per_pixel, tonemap,
+        split = lfc.direction_split(sh["window_cos"])
+        key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
                self.filtering, self.spread)
         if key not in self._pipelines:
             band_vec4 = 2 + sh["rank"] // 4
@@ -260,8 +261,7 @@ class LightfieldPass:
                             n_bands=sh["n_bands"], n_depth=sh["n_depth"], n_mu=sh["n_mu"],
                             rank=sh["rank"], band_vec4=band_vec4,
                             band_table_len=band_vec4 * sh["n_bands"],
-                            directions_outside=lfc.DIRECTIONS_OUTSIDE,
-                            directions_inside=lfc.DIRECTIONS_INSIDE,
+                            directions_outside=split[0], directions_inside=split[1],
                             distances=lfc.DISTANCES,
                             length_scale=f"{float(lfc.LENGTH_SCALE_M)!r}",
                             per_pixel="true" if per_pixel else "false",

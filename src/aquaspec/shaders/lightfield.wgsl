@@ -37,8 +37,8 @@ const N_BANDS: u32 = {{ n_bands }}u;
 const N_DEPTH: u32 = {{ n_depth }}u;
 const N_MU: u32 = {{ n_mu }}u;
 const RANK: u32 = {{ rank }}u;
-// Water table: DIRECTIONS_OUTSIDE + DIRECTIONS_INSIDE rows (v_y), DISTANCES
-// columns (S, open water last); aquaspec.lightfield_compiled.
+// Water table: W_OUT + W_IN rows (v_y outside / inside Snell's window,
+// lightfield_compiled.direction_split), W_DIST columns (S, open water last).
 const W_OUT: u32 = {{ directions_outside }}u;
 const W_IN: u32 = {{ directions_inside }}u;
 const W_DIST: u32 = {{ distances }}u;
@@ -148,7 +148,7 @@ fn bilinear4(table: texture_2d_array<f32>, col: f32, row: f32, g: u32, cols: u32
 fn direction_row(v: vec4<f32>) -> vec4<f32> {
     let vc = clamp(v, vec4<f32>(-1.0), vec4<f32>(1.0));
     let q = sign(vc) * sqrt(abs(vc));
-    let q_w = sqrt(prm.window_cos);
+    let q_w = sign(prm.window_cos) * sqrt(abs(prm.window_cos));
     let outside = (q + 1.0) / (q_w + 1.0) * f32(W_OUT - 1u);
     let inside = f32(W_OUT) + (q - q_w) / (1.0 - q_w) * f32(W_IN - 1u);
     return select(outside, inside, v > vec4<f32>(prm.window_cos));
