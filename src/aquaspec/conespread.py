@@ -68,6 +68,29 @@ def upsample(x: np.ndarray, shape) -> np.ndarray:
     return out
 
 
+def bilinear_at(x: np.ndarray, rows, cols) -> np.ndarray:
+    """Bilinear values of ``x`` (h, w, ...) at index coordinates ``rows`` (along
+    axis 0) x ``cols`` (axis 1), clamped to the edge: a GPU sampler's linear
+    filtering at ``(c + 0.5) / size``."""
+    out = np.asarray(x, dtype=float)
+    for ax, c in ((0, rows), (1, cols)):
+        m = out.shape[ax]
+        c = np.clip(np.asarray(c, dtype=float), 0.0, m - 1.0)
+        i0 = np.floor(c).astype(int)
+        i1 = np.minimum(i0 + 1, m - 1)
+        f = (c - i0).reshape([c.size if k == ax else 1 for k in range(out.ndim)])
+        out = np.take(out, i0, axis=ax) * (1.0 - f) + np.take(out, i1, axis=ax) * f
+    return out
+
+
+def upsample_by(x: np.ndarray, factor: int, shape) -> np.ndarray:
+    """Bilinear interpolation of a level ``factor`` times coarser at the fine
+    pixels of ``shape`` (h, w): coarse index coordinates ``(p + 0.5) / factor - 0.5``
+    (clamped), one bilinear sample on the GPU (for ``factor`` 2, :func:`upsample`)."""
+    return bilinear_at(x, (np.arange(shape[0]) + 0.5) / factor - 0.5,
+                       (np.arange(shape[1]) + 0.5) / factor - 0.5)
+
+
 def level_count(height: int, width: int, radius_px: float) -> int:
     """Levels below the image: enough for the kernel's radius, at most until 1 pixel."""
     want = max(1, int(np.ceil(np.log2(max(radius_px, 2.0)))))

@@ -27,8 +27,22 @@ model (SPEC: keep the per-pixel cost near the seeds'):
   (alternating least squares, :func:`irradiance_factors`). With
   ``n <= rank`` bands the factorisation is exact.
 
-Per pixel the GPU then reads the water table once (twice with the spread)
-and the ``U`` texture once, and per band evaluates one exponential
+**Cone spread** (tables with ``cone_spread``): the pyramid of
+:mod:`aquaspec.conespread` (weights ``a_0 .. a_L``) starts at level ``L0`` =
+:data:`SPREAD_START_LEVEL` (:func:`spread_plan`). Its finer levels blur by a
+few pixels only and are taken as the pixel's own: the pixel keeps the share
+``alpha = a_0 + .. + a_{L0-1}`` of its cone term (water table ``W0 + alpha
+W1``, the target's light times ``alpha + (1 - alpha) exp(-f b S)``). Level
+``L0`` itself (``2^L0`` times coarser) is estimated from the cone term at four
+pixels of each coarse pixel's block (offsets ``2^L0 / 4`` and ``3 2^L0 / 4``,
+:func:`coarse_sample_pixels`), the pyramid runs from there
+(:func:`aquaspec.conespread.spread`), and its result is added with one
+bilinear sample per group of four pixels of a row (:func:`upsample_groups`). On the GPU that is a
+coarse pass, a small pyramid, then the full-resolution pass with the display
+transform fused.
+
+Per pixel the GPU then reads the water table once and the ``U`` texture
+once (plus the spread's result with the spread), and per band evaluates one exponential
 ``exp(K_i d_S - c'_i S + sum_r G_ir U_r)`` times the reflectance. The NumPy
 twin of the GPU pass is :func:`shade_compiled`; how far the compiled model is
 from :func:`aquaspec.shading.shade_gbuffer` (the model itself) is measured
@@ -78,6 +92,15 @@ LENGTH_SCALE_M = 4.0
 ALS_SWEEPS = 40
 #: Depth up to which :func:`irradiance_factors` reports its error, m.
 ERROR_DEPTH_M = 30.0
+#: Coarsest pyramid level at which the cone spread starts (:func:`spread_plan`),
+#: and the largest angle its blocks may span, rad (0.77 degrees: level 3 at
+#: 1280x720 and 1920x1080 with the built-in camera; level 0, the whole
+#: pyramid, for the validation's 96x72 images). Measured on the built-in
+#: scene at 1280x720 (Jerlov IB / II / 7C), starting at level 3 instead of 0
+#: changed the image by 0.15-0.33 % on average, 2.6-5.5 % at the 99th
+#: percentile (pixels along silhouettes), level 2 by 0.07-0.14 % / 1.1-2.5 %.
+SPREAD_START_LEVEL = 3
+SPREAD_BLOCK_RAD = 0.0135
 
 
 def irradiance_factors(tables, rank: int = IRRADIANCE_RANK, sweeps: int = ALS_SWEEPS) -> dict:
@@ -302,11 +325,56 @@ def compile_lightfield(tables, *, a, b, e0, response_weights, depth_o: float,
                     irradiance_error=(fac["max_error"], fac["rms_error"]))
 
 
+def spread_plan(weights, pixels_per_radian: float, start_level: int | None = None) -> tuple:
+    """``(L0, alpha, coarse_weights)`` of the cone spread for pyramid weights
+    ``a_0 .. a_L``: ``L0`` the largest level up to :data:`SPREAD_START_LEVEL`
+    (and ``L``) whose blocks of ``2^L0`` pixels span at most
+    :data:`SPREAD_BLOCK_RAD` (or ``start_level``), ``alpha = a_0 + .. +
+    a_{L0-1}`` (kept by the pixel), the weights of levels ``L0 .. L``."""
+    w = np.asarray(weights, dtype=float)
+    if w.ndim != 1 or w.size < 2:
+        raise AquaspecError(f"{w.size} pyramid weights; accepted: at least 2")
+    if start_level is None:
+        start_level = 0
+        while (start_level < SPREAD_START_LEVEL
+               and 2 ** (start_level + 1) <= SPREAD_BLOCK_RAD * pixels_per_radian):
+            start_level += 1
+    start = min(int(start_level), w.size - 1)
+    return start, float(w[:start].sum()), w[start:]
+
+
+def coarse_sample_pixels(height: int, width: int, level: int):
+    """Pixels ``(ys, xs)`` (each (ch, cw, 4)) whose cone terms average to each
+    coarse pixel of level ``level``: offsets ``F // 4`` and ``3 F // 4`` in its
+    ``F x F`` block (``F = 2^level``), clamped to the image."""
+    from .conespread import level_shapes
+    ch, cw = level_shapes(height, width, level)[-1]
+    f = 2 ** level
+    offs = np.array([f // 4, (3 * f) // 4])
+    oy = offs[np.array([0, 0, 1, 1])]
+    ox = offs[np.array([0, 1, 0, 1])]
+    ys = np.minimum(f * np.arange(ch)[:, None, None] + oy, height - 1)
+    xs = np.minimum(f * np.arange(cw)[None, :, None] + ox, width - 1)
+    return np.broadcast_to(ys, (ch, cw, 4)), np.broadcast_to(xs, (ch, cw, 4))
+
+
+def upsample_groups(coarse, factor: int, shape) -> np.ndarray:
+    """The spread's result at full resolution as the GPU adds it: one bilinear
+    value per group of four pixels of a row (columns ``4k .. 4k + 3``), at the
+    group's centre, coarse index coordinates ``((4k + 2) / F - 0.5, (y + 0.5) / F - 0.5)``;
+    with ``F < 4`` (small images) per pixel, :func:`aquaspec.conespread.upsample_by`."""
+    from .conespread import bilinear_at
+    h, w = shape
+    centres = 4 * (np.arange(w) // 4) + 2.0 if factor >= 4 else np.arange(w) + 0.5
+    return bilinear_at(coarse, (np.arange(h) + 0.5) / factor - 0.5, centres / factor - 0.5)
+
+
 def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y):
     """Camera RGB of the targets' own light, ``(P, 3)`` (and its cone share when split).
 
     ``rho`` (P, n); ``s``, ``surface_depth``, ``n_y`` (P,). Returns
-    ``(base, cone)``; ``cone`` is zero unless ``comp.split``.
+    ``(base, cone)`` with ``T = exp(-c S)`` in ``base`` and ``(T' - T)`` in
+    ``cone``; ``cone`` is zero unless ``comp.split``.
     """
     from .lightfield import bilinear
     s = np.asarray(s, dtype=float)[:, None]
@@ -321,11 +389,12 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y):
 
 
 def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t,
-                   pyramid_weights=None) -> np.ndarray:
+                   pyramid_weights=None, start_level: int | None = None) -> np.ndarray:
     """The NumPy twin of the GPU light-field pass: (H, W, 3) linear camera RGB.
 
     With ``comp.split`` the cone's share is spread over the image with the
-    pyramid ``pyramid_weights`` (:func:`aquaspec.conespread.pyramid_weights`).
+    pyramid ``pyramid_weights`` (:func:`aquaspec.conespread.pyramid_weights`),
+    starting at the level of :func:`spread_plan` (``start_level`` overrides it).
     """
     from .gbuffer import PER_PIXEL
     from .reflectance import sigmoid_at as sigmoid_reflectance
@@ -357,10 +426,15 @@ def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t
     h, w = cam.height, cam.width
     rgb = rgb.reshape(h, w, 3)
     if comp.split:
-        from .conespread import spread
+        from .conespread import spread, upsample_by
         if pyramid_weights is None:
             raise AquaspecError("a compiled model with the cone spread needs pyramid_weights")
-        rgb = rgb + spread(cone.reshape(h, w, 3), pyramid_weights)
+        start, alpha, coarse_w = spread_plan(pyramid_weights, cam.fy, start_level)
+        cone = cone.reshape(h, w, 3)
+        ys, xs = coarse_sample_pixels(h, w, start)
+        coarse = cone[ys, xs].mean(axis=2)
+        composite = spread(coarse, coarse_w) if coarse_w.size > 1 else coarse_w[0] * coarse
+        rgb = rgb + alpha * cone + upsample_groups(composite, 2 ** start, (h, w))
     if not np.all(np.isfinite(rgb)):
         raise AquaspecError("the compiled light field produced NaN or infinity")
     return rgb

@@ -2,15 +2,14 @@
 
 Twin of :func:`aquaspec.conespread.spread` (WGSL: ``shaders/conespread.wgsl``;
 ``tests/test_gpu_lightfield.py`` holds the light-field pass with the spread
-against ``shade_gbuffer``). The light-field pass, with spread tables,
-writes the radiance without the cone term (linear camera RGB, its
-``rgb_buffer``) and the cone term (:attr:`ConeSpreadPass.cone_texture`,
-``rgba32float`` storage texture); this pass halves the cone image ``L`` times
-(``down``), sums the levels back up with their weights (``compose``) and
-adds the result to the radiance (``finish``), applying the display
-transform there when asked.
+against its NumPy twin). The light-field pass's COARSE pipeline writes the
+cone term at the spread's start level (:attr:`ConeSpreadPass.cone_texture`,
+``rgba32float`` storage texture, :mod:`aquaspec.lightfield_compiled`); this
+pass halves it ``L`` times (``down``) and sums the levels back up with their
+weights (``compose``) into :attr:`ConeSpreadPass.result`, which the
+full-resolution light-field pass adds with one bilinear sample.
 
-Bindings of conespread.wgsl (one layout for the three entry points):
+Bindings of conespread.wgsl (one layout for both entry points):
 
 ==  ==================================  ==========================================
 0   uniform :data:`PARAMS_LAYOUT`       sizes of the source, destination and
@@ -19,10 +18,6 @@ Bindings of conespread.wgsl (one layout for the three entry points):
 2   texture ``rgba32float``             coarse level (read bilinearly)
 3   sampler                             linear (``filtering``) or nearest
 4   storage texture ``rgba32float``     destination level
-5   storage ``array<vec4<f32>>``        the light-field pass's linear RGB
-6   storage ``array<atomic<u32>>``      the light-field pass's status
-7   uniform ``DISPLAY_LAYOUT``          display transform
-8   storage ``array<u32>``              display RGBA8 out
 ==  ==================================  ==========================================
 """
 
@@ -48,8 +43,7 @@ WORKGROUP = (8, 8)
 class ConeSpreadPass:
     """Pyramid levels and dispatches for one image size and level count."""
 
-    def __init__(self, device, width: int, height: int, levels: int, *, filtering: bool,
-                 rgb_buffer, status_buffer, display_uniform, display_buffer):
+    def __init__(self, device, width: int, height: int, levels: int, *, filtering: bool):
         import wgpu
         from .deferred import bind_group_layout
         self.device = device
@@ -57,41 +51,38 @@ class ConeSpreadPass:
         self.filtering = bool(filtering)
         self.shapes = level_shapes(self.height, self.width, self.levels)
         usage = (wgpu.TextureUsage.STORAGE_BINDING | wgpu.TextureUsage.TEXTURE_BINDING)
-        #: Level 0: the cone term written by the light-field pass.
+        #: Level 0: the cone term written by the light-field pass (COARSE).
         self.cone_texture = create_texture(device, self.width, self.height, "rgba32float",
                                            label="cone level 0", usage=usage)
-        # P_1 .. P_L, and U_1 .. U_{L-1} (U_L is P_L weighted).
+        #: The spread cone term at level 0's size (U_0).
+        self.result = create_texture(device, self.width, self.height, "rgba32float",
+                                     label="cone spread", usage=usage)
+        # P_1 .. P_L, and U_0 .. U_{L-1} (U_L is P_L weighted).
         self._p = [self.cone_texture] + [
             create_texture(device, w, h, "rgba32float", label=f"cone level {k}", usage=usage)
             for k, (h, w) in enumerate(self.shapes[1:], start=1)]
-        self._u = [None] + [
+        self._u = [self.result] + [
             create_texture(device, w, h, "rgba32float", label=f"cone sum {k}", usage=usage)
             for k, (h, w) in enumerate(self.shapes[1:-1], start=1)]
         tex = "filterable" if self.filtering else "float"
         self._layout = bind_group_layout(device, {
             0: "uniform", 1: tex, 2: tex, 3: "sampler" if self.filtering else "nonfiltering_sampler",
-            4: "storage_rgba32float", 5: "write", 6: "write", 7: "uniform", 8: "write"})
+            4: "storage_rgba32float"})
         mode = "linear" if self.filtering else "nearest"
         self._sampler = device.create_sampler(label="cone spread", mag_filter=mode,
                                               min_filter=mode, address_mode_u="clamp-to-edge",
                                               address_mode_v="clamp-to-edge")
-        self._shared = {5: rgb_buffer, 6: status_buffer, 7: display_uniform, 8: display_buffer}
         self._pipelines = {}
         self._steps = None
         self._weights = None
 
     # ------------------------------------------------------------ pipelines
-    def _pipeline(self, entry, tonemap=None):
-        from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS
-        key = (entry, tonemap)
+    def _pipeline(self, entry):
+        key = entry
         if key not in self._pipelines:
             src = load_wgsl("conespread.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
                             params_struct_name=PARAMS_LAYOUT.name,
-                            display_struct=DISPLAY_LAYOUT.wgsl(),
-                            display_struct_name=DISPLAY_LAYOUT.name,
-                            filter="true" if self.filtering else "false",
-                            display="false" if tonemap is None else "true",
-                            tonemap_id=TONEMAP_IDS[tonemap or "none"])
+                            filter="true" if self.filtering else "false")
             module = self.device.create_shader_module(label="conespread.wgsl", code=src)
             self._pipelines[key] = self.device.create_compute_pipeline(
                 label=f"cone spread {entry}",
@@ -123,7 +114,7 @@ class ConeSpreadPass:
             upload_buffer(dev, buf, PARAMS_LAYOUT.pack(
                 src_size=(src_shape[1], src_shape[0]), dst_size=(dst_shape[1], dst_shape[0]),
                 coarse_size=(coarse_shape[1], coarse_shape[0]), a=a, b=b))
-            res = {0: buf, 1: src, 2: coarse, 3: self._sampler, 4: dst, **self._shared}
+            res = {0: buf, 1: src, 2: coarse, 3: self._sampler, 4: dst}
             group = dev.create_bind_group(layout=self._layout, entries=bind_group_entries(res))
             groups = (-(-dst_shape[1] // WORKGROUP[0]), -(-dst_shape[0] // WORKGROUP[1]), 1)
             steps.append((entry, group, groups))
@@ -134,28 +125,17 @@ class ConeSpreadPass:
             # again (a texture may not be read and written in one dispatch).
             step("down", self._p[k - 1], self._p[k - 1], self._p[k], 0.0, 0.0,
                  sh[k], sh[k - 1], sh[k - 1])
-        for k in range(L - 1, 0, -1):
+        if L == 0:
+            # One level: U_0 = a_0 P_0 (the coarse binding is not used, b = 0).
+            step("compose", self._p[0], self._p[0], self._u[0], w[0], 0.0, sh[0], sh[0], sh[0])
+        for k in range(L - 1, -1, -1):
             coarse, b = (self._p[L], w[L]) if k == L - 1 else (self._u[k + 1], 1.0)
             step("compose", self._p[k], coarse, self._u[k], w[k], b, sh[k], sh[k], sh[k + 1])
-        coarse, b = (self._p[1], w[1]) if L == 1 else (self._u[1], 1.0)
-        # finish writes the RGB buffer; its storage-texture binding needs a
-        # texture it does not read.
-        step("finish", self._p[0], coarse, self._u_scratch(), w[0], b, sh[0], sh[0], sh[1])
         return steps
 
-    def _u_scratch(self):
-        """A 1x1 storage texture for the finish step's unused output binding."""
-        import wgpu
-        if not hasattr(self, "_scratch"):
-            self._scratch = create_texture(
-                self.device, 1, 1, "rgba32float", label="cone scratch",
-                usage=wgpu.TextureUsage.STORAGE_BINDING | wgpu.TextureUsage.TEXTURE_BINDING)
-        return self._scratch
-
-    def encode(self, encoder, *, tonemap=None) -> None:
-        """Record the pyramid after the light-field pass (weights set first)."""
+    def encode(self, encoder) -> None:
+        """Record the pyramid after the light-field pass's COARSE dispatch (weights set first)."""
         if self._steps is None:
             raise AquaspecError("ConeSpreadPass needs set_weights() before encode()")
         for entry, group, groups in self._steps:
-            record_dispatch(encoder, self._pipeline(entry, tonemap if entry == "finish" else None),
-                            group, groups)
+            record_dispatch(encoder, self._pipeline(entry), group, groups)

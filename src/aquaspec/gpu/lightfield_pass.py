@@ -32,14 +32,24 @@ One invocation shades four horizontally adjacent pixels. Bindings:
                                         (:mod:`aquaspec.gpu.display_pass`)
 10  storage ``array<u32>``              display RGBA8 out (``display=True``)
 11  2-D array texture ``rgba32float``  water table (distances, directions,
-                                        layers): layer 0 camera RGB, layer 1 the
-                                        cone's share (with the spread)
+                                        layers): layer 0 camera RGB (with the
+                                        spread W0 + alpha W1), layer 1 the cone's
+                                        share W1 (with the spread)
 12  2-D array texture ``rgba32float``  irradiance basis U: layer ``g``, texel
     (n_mu, n_depth, rank / 4)           ``(j, i)`` (direction, depth) holds
                                         ``U_4g .. U_4g+3`` (:func:`band_group_texture`)
 14  sampler                             bilinear (``filtering``) or nearest
-15  storage texture ``rgba32float``     the cone's share out (with the spread)
+15  storage texture ``rgba32float``     COARSE: the cone term at the spread's
+                                        start level (the pyramid's level 0)
+16  texture ``rgba32float``             the pyramid's result (full-resolution
+                                        pass with the spread)
 ==  ==================================  ==========================================
+
+With the cone spread a frame is three steps: the COARSE pipeline (one
+invocation per block of the spread's start level,
+:func:`aquaspec.lightfield_compiled.spread_plan`), the pyramid
+(:class:`aquaspec.gpu.conespread_pass.ConeSpreadPass`), then the
+full-resolution pass, which can apply the display transform itself.
 
 The tables are read with the sampler's bilinear filtering when the device
 has ``float32-filterable`` (lavapipe has it); without it the shader
@@ -61,7 +71,8 @@ from .shaders import load_wgsl
 
 PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_materials", "u32"), ("depth_o", "f32"),
-    ("max_depth", "f32"), ("window_cos", "f32"),
+    ("max_depth", "f32"), ("window_cos", "f32"), ("coarse_size", "vec2<u32>"),
+    ("block", "u32"), ("alpha", "f32"),
 ])
 
 #: Compute workgroup size (x, y) of lightfield.wgsl, in invocations.
@@ -71,7 +82,7 @@ PIXELS_PER_INVOCATION = 4
 
 B_PARAMS, B_SURFACE, B_SIGMOID, B_BANDS, B_MATERIALS, B_RGB = 0, 1, 2, 4, 5, 6
 B_STATUS, B_DISPLAY, B_RGBA, B_WATER, B_BASIS = 8, 9, 10, 11, 12
-B_SAMPLER, B_CONE = 14, 15
+B_SAMPLER, B_CONE, B_SPREAD = 14, 15, 16
 
 
 def band_group_texture(table) -> np.ndarray:
@@ -146,7 +157,8 @@ class LightfieldPass:
             B_MATERIALS: "read", B_RGB: "write", B_STATUS: "write", B_DISPLAY: "uniform",
             B_RGBA: "write", B_WATER: table_kind, B_BASIS: table_kind,
             B_SAMPLER: "sampler" if self.filtering else "nonfiltering_sampler",
-            B_CONE: "storage_rgba32float"})
+            B_CONE: "storage_rgba32float",
+            B_SPREAD: "filterable" if self.filtering else "float"})
         mode = "linear" if self.filtering else "nearest"
         self._sampler = dev.create_sampler(label="lightfield tables", mag_filter=mode,
                                            min_filter=mode, address_mode_u="clamp-to-edge",
@@ -160,6 +172,13 @@ class LightfieldPass:
         self._medium = None
         self._water_texture = None
         self._water_key = None
+        self._water_alpha = None
+        self._groups = {}
+        #: ``(L0, alpha, coarse weights)`` of the cone spread for the last camera.
+        self.spread_plan = None
+        #: The spread's start level; None: :func:`lightfield_compiled.spread_plan`'s
+        #: choice for the camera.
+        self.spread_start_level = None
         self._group = None
         self._group_key = None
         #: The model compiled for the last camera depth
@@ -244,12 +263,12 @@ class LightfieldPass:
         return tex.create_view(dimension="2d-array")
 
     # ------------------------------------------------------------- dispatch
-    def _pipeline(self, per_pixel, tonemap):
+    def _pipeline(self, per_pixel, tonemap, coarse=False):
         from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS
         sh = self._shape
         split = lfc.direction_split(sh["window_cos"])
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
-               self.filtering, self.spread)
+               self.filtering, self.spread, coarse)
         if key not in self._pipelines:
             band_vec4 = 2 + sh["rank"] // 4
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
@@ -267,6 +286,7 @@ class LightfieldPass:
                             per_pixel="true" if per_pixel else "false",
                             filter="true" if self.filtering else "false",
                             spread="true" if self.spread else "false",
+                            coarse="true" if coarse else "false",
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
             module = self.device.create_shader_module(label="lightfield.wgsl", code=src)
             self._pipelines[key] = self.device.create_compute_pipeline(
@@ -275,62 +295,77 @@ class LightfieldPass:
                 compute={"module": module, "entry_point": "main"})
         return self._pipelines[key]
 
-    def _update_water_table(self, depth_o):
-        """Compile the model for the camera's depth when it or the medium changed."""
-        if self._water_key == depth_o:
+    def _update_water_table(self, depth_o, alpha):
+        """Compile the model for the camera's depth when it or the medium changed;
+        with the spread layer 0 is ``W0 + alpha W1`` (:func:`lightfield_compiled.spread_plan`)."""
+        if self._water_key != depth_o:
+            tables, a, b, e0, w = self._medium
+            self.compiled = lfc.compile_lightfield(tables, a=a, b=b, e0=e0, response_weights=w,
+                                                   depth_o=depth_o, factors=self.factors)
+            self._water_key = depth_o
+            self._water_alpha = None
+        if self._water_alpha == alpha:
             return
-        tables, a, b, e0, w = self._medium
-        self.compiled = lfc.compile_lightfield(tables, a=a, b=b, e0=e0, response_weights=w,
-                                               depth_o=depth_o, factors=self.factors)
-        texels = np.zeros(self.compiled.water.shape[:3] + (4,), np.float32)
-        texels[..., :3] = self.compiled.water
+        water = self.compiled.water
+        texels = np.zeros(water.shape[:3] + (4,), np.float32)
+        texels[..., :3] = water
+        if self.spread:
+            texels[0, ..., :3] = water[0] + alpha * water[1]
         self._water_texture = self._array_texture(texels, "lightfield water table")
         self._group = None
-        self._water_key = depth_o
+        self._water_alpha = alpha
 
-    def _bind_group(self):
+    def _bind_group(self, coarse=False):
+        """The bind group of the full-resolution pass, or of the COARSE one."""
         # The deferred pass counts replacements of its textures.
-        cone = self._spread_pass.cone_texture if self._spread_pass else self._no_cone()
-        key = (self.deferred.bindings_version, id(cone))
-        if self._group is None or self._group_key != key:
+        sp = self._spread_pass
+        cone = sp.cone_texture if (coarse and sp) else self._dummy("storage")
+        spread_in = sp.result if (sp and not coarse) else self._dummy("sampled")
+        key = (self.deferred.bindings_version, id(cone), id(spread_in), id(self._water_texture))
+        cache = self._groups if self._group is not None else {}
+        if key not in cache:
             tex = self.deferred.gbuffer_textures
             resources = {B_PARAMS: self._uniform, B_SURFACE: tex["surface"],
                          B_SIGMOID: tex["sigmoid"], **self._buffers, B_RGB: self.rgb_buffer,
                          B_STATUS: self._status, B_DISPLAY: self._display_uniform,
                          B_RGBA: self.display_buffer, B_WATER: self._water_texture,
-                         B_CONE: cone}
-            self._group = self.device.create_bind_group(layout=self._layout,
-                                                        entries=bind_group_entries(resources))
-            self._group_key = key
-        return self._group
+                         B_CONE: cone, B_SPREAD: spread_in}
+            cache[key] = self.device.create_bind_group(layout=self._layout,
+                                                       entries=bind_group_entries(resources))
+        self._groups = cache
+        self._group = True
+        return cache[key]
 
-    def _no_cone(self):
-        """A 1x1 texture for the cone binding when the cone is not spread."""
-        if getattr(self, "_cone_dummy", None) is None:
+    def _dummy(self, kind):
+        """1x1 textures for the spread's bindings when they are not used (a
+        texture may not be both written and sampled in one dispatch)."""
+        if not hasattr(self, "_dummies"):
             import wgpu
-            self._cone_dummy = create_texture(
-                self.device, 1, 1, "rgba32float", label="lightfield no cone",
-                usage=wgpu.TextureUsage.STORAGE_BINDING | wgpu.TextureUsage.TEXTURE_BINDING)
-        return self._cone_dummy
+            usage = wgpu.TextureUsage.STORAGE_BINDING | wgpu.TextureUsage.TEXTURE_BINDING
+            self._dummies = {k: create_texture(self.device, 1, 1, "rgba32float",
+                                               label=f"lightfield unused {k}", usage=usage)
+                             for k in ("storage", "sampled")}
+        return self._dummies[kind]
 
     def _update_spread(self, cam):
-        """The pyramid pass and its weights for this camera (fy) and image size."""
-        from ..conespread import pyramid_weights
+        """The spread's plan, pyramid pass and weights for this camera (fy) and size."""
+        from ..conespread import level_shapes, pyramid_weights
         from .conespread_pass import ConeSpreadPass
-        key = (id(self._medium[0]), float(cam.fy))
+        key = (id(self._medium[0]), float(cam.fy), self.spread_start_level)
         if self._spread_key != key:
-            self._spread_weights = pyramid_weights(self._medium[0], float(cam.fy),
-                                                   self.height, self.width)
+            weights = pyramid_weights(self._medium[0], float(cam.fy), self.height, self.width)
+            self.spread_plan = lfc.spread_plan(weights, float(cam.fy), self.spread_start_level)
             self._spread_key = key
-        w = self._spread_weights
-        levels = w.size - 1
-        if self._spread_pass is None or self._spread_pass.levels != levels:
-            self._spread_pass = ConeSpreadPass(
-                self.device, self.width, self.height, levels, filtering=self.filtering,
-                rgb_buffer=self.rgb_buffer, status_buffer=self._status,
-                display_uniform=self._display_uniform, display_buffer=self.display_buffer)
+        start, alpha, coarse_w = self.spread_plan
+        ch, cw = level_shapes(self.height, self.width, start)[-1]
+        levels = coarse_w.size - 1
+        sp = self._spread_pass
+        if sp is None or sp.levels != levels or (sp.height, sp.width) != (ch, cw):
+            self._spread_pass = ConeSpreadPass(self.device, cw, ch, levels,
+                                               filtering=self.filtering)
             self._group = None
-        self._spread_pass.set_weights(w)
+        self._spread_pass.set_weights(coarse_w)
+        return start, alpha, (cw, ch)
 
     def workgroups(self) -> tuple[int, int, int]:
         """Dispatch size covering the image."""
@@ -381,11 +416,14 @@ class LightfieldPass:
                                     "encoding with display=True")
             tonemap = self.display_settings["tonemap"]
         depth_o = camera_depth(cam)
-        self._update_water_table(depth_o)
+        start, alpha, coarse_size = (self._update_spread(cam) if self.spread
+                                     else (0, 0.0, (1, 1)))
+        self._update_water_table(depth_o, alpha)
         upload_buffer(self.device, self._uniform, PARAMS_LAYOUT.pack(
             **camera_fields(cam), width=self.width, height=self.height,
             n_materials=self._shape["n_materials"], depth_o=depth_o,
-            max_depth=self._shape["max_depth"], window_cos=self._shape["window_cos"]))
+            max_depth=self._shape["max_depth"], window_cos=self._shape["window_cos"],
+            coarse_size=coarse_size, block=2 ** start, alpha=alpha))
         if display:
             # status[3] is an atomicMin, so it starts at the maximum (a queue
             # write runs before the next submission).
@@ -394,15 +432,14 @@ class LightfieldPass:
         else:
             encoder.clear_buffer(self._status, 0, self._status.size)
         self._last_display = bool(display)
+        per_pixel = bool(d.per_pixel)
         if self.spread:
-            # Linear RGB and the cone term first; the pyramid adds the spread
-            # cone and applies the display transform.
-            self._update_spread(cam)
-            record_dispatch(encoder, self._pipeline(bool(d.per_pixel), None),
-                            self._bind_group(), self.workgroups(), timestamp_writes)
-            self._spread_pass.encode(encoder, tonemap=tonemap)
-            return
-        record_dispatch(encoder, self._pipeline(bool(d.per_pixel), tonemap), self._bind_group(),
+            # The cone term at the spread's start level, then its pyramid.
+            groups = (-(-coarse_size[0] // WORKGROUP[0]), -(-coarse_size[1] // WORKGROUP[1]), 1)
+            record_dispatch(encoder, self._pipeline(per_pixel, None, coarse=True),
+                            self._bind_group(coarse=True), groups)
+            self._spread_pass.encode(encoder)
+        record_dispatch(encoder, self._pipeline(per_pixel, tonemap), self._bind_group(),
                         self.workgroups(), timestamp_writes)
 
     def run(self, display: bool = False) -> None:

@@ -1,40 +1,29 @@
 // The forward cone's light spread over the image with a pyramid: the GPU twin
 // of aquaspec/conespread.py (spread, float64 NumPy reference; its module
-// docstring has the maths). Three entry points, one dispatch per level:
+// docstring has the maths), run on the spread's start level written by the
+// light-field pass's COARSE pipeline (aquaspec/lightfield_compiled.py). Two
+// entry points, one dispatch per level:
 //   down     P_l = halving of P_{l-1} with weights [1, 3, 3, 1] / 8 per axis
 //            (four bilinear samples at fine index coordinates 2i - 0.25 and
 //            2i + 1.25: each pair of taps is one sample, edges clamped);
 //   compose  U_l = a P_l + b up(C), C = U_{l+1} (b = 1) or, for the
 //            coarsest, P_L (b = alpha_L); up = one bilinear sample at
-//            (x + 0.5) / 2 - 0.5;
-//   finish   linear RGB = base + a P_0 + up(U_1) (the light-field pass wrote
-//            base and P_0, the cone term), or with DISPLAY the display
-//            transform as in lightfield.wgsl.
+//            (x + 0.5) / 2 - 0.5. U_0 is the result, which the light-field
+//            pass adds at full resolution.
 // Without FILTER (no float32-filterable) the bilinear samples are four fetches.
 // Layouts: aquaspec/gpu/conespread_pass.py.
 
-#include "common.wgsl"
-#include "tonemap.wgsl"
-
 {{ params_struct }}
 
-{{ display_struct }}
-
 const FILTER: bool = {{ filter }};
-const DISPLAY: bool = {{ display }};
-const TONEMAP: u32 = {{ tonemap_id }}u;
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
-// down: P_{l-1}; compose: P_l; finish: P_0 (the cone term).
+// down: P_{l-1}; compose: P_l.
 @group(0) @binding(1) var src: texture_2d<f32>;
-// compose and finish: the coarser level read through up().
+// compose: the coarser level read through up().
 @group(0) @binding(2) var coarse: texture_2d<f32>;
 @group(0) @binding(3) var smp: sampler;
 @group(0) @binding(4) var dst: texture_storage_2d<rgba32float, write>;
-@group(0) @binding(5) var<storage, read_write> rgb: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read_write> status: array<atomic<u32>>;
-@group(0) @binding(7) var<uniform> disp: {{ display_struct_name }};
-@group(0) @binding(8) var<storage, read_write> rgba_out: array<u32>;
 
 // Bilinear value of texture t (size n) at index coordinates c (texel k at
 // k), clamped to the edge: a sampler's linear filtering at (c + 0.5) / n.
@@ -78,26 +67,4 @@ fn compose(@builtin(global_invocation_id) g: vec3<u32>) {
         return;
     }
     textureStore(dst, g.xy, prm.a * textureLoad(src, g.xy, 0) + prm.b * up(g.xy));
-}
-
-@compute @workgroup_size(8, 8)
-fn finish(@builtin(global_invocation_id) g: vec3<u32>) {
-    if (g.x >= prm.dst_size.x || g.y >= prm.dst_size.y) {
-        return;
-    }
-    let p = g.y * prm.dst_size.x + g.x;
-    let lin = rgb[p].xyz + (prm.a * textureLoad(src, g.xy, 0) + prm.b * up(g.xy)).xyz;
-    if (DISPLAY) {
-        let c = max(lin, vec3<f32>(0.0));
-        let x = vec3<f32>(dot(disp.m0, c), dot(disp.m1, c), dot(disp.m2, c));
-        if (any_non_finite(lin) || any_non_finite(x)) {
-            atomicAdd(&status[2], 1u);
-            atomicMin(&status[3], p);
-            rgba_out[p] = 0xff000000u;
-            return;
-        }
-        rgba_out[p] = display_rgba8(x);
-    } else {
-        rgb[p] = vec4<f32>(lin, 1.0);
-    }
 }

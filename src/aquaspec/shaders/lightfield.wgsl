@@ -10,10 +10,16 @@
 //   RGB = W(v_y, S)                                   (water table, one sample)
 //       + sum_i w'_i rho_i exp(K_i d_S - c'_i S + sum_r G_ir U_r(d_S, n_y))
 // where the second term is there only for hits, U comes from one texture
-// sample (RANK / 4 with rank 8) and w'_i = w_i E0_i / pi exp(C_i). With
-// SPREAD the water table's second layer and the factor (1 - exp(-f b S)) of
-// the surface term give the forward cone's share, written to cone_out for
-// the pyramid (aquaspec/gpu/conespread_pass.py); DISPLAY is then false here.
+// sample (RANK / 4 with rank 8) and w'_i = w_i E0_i / pi exp(C_i).
+// With SPREAD (the forward cone spread over the image) two pipelines:
+// - COARSE: one invocation per pixel of the pyramid's start level (blocks of
+//   BLOCK x BLOCK pixels), its four lanes four pixels of the block; writes
+//   the mean of their cone term (water table layer 1 plus the target's
+//   light times 1 - exp(-f b S)) to cone_out, where the pyramid
+//   (aquaspec/gpu/conespread_pass.py) takes over;
+// - the full-resolution pass: the water table's layer 0 holds W0 + alpha W1,
+//   the target's light is weighted alpha + (1 - alpha) exp(-f b S), and the
+//   pyramid's result is added with one bilinear sample.
 //
 // Written for lavapipe (SIMD over 8 invocations on the CPU), as
 // deferred.wgsl (see its header): per-band constants in a uniform array
@@ -57,8 +63,10 @@ const PER_PIXEL: u32 = 0xffffffffu;
 // FILTER: the tables are read with the sampler's bilinear filtering (needs
 // float32-filterable); else the same bilinear interpolation from four fetches.
 const FILTER: bool = {{ filter }};
-// SPREAD: the forward cone's share goes to cone_out (camera RGB).
+// SPREAD: the forward cone spread over the image; COARSE: this is the
+// pipeline of the spread's start level (see the header); BLOCK = 2^L0.
 const SPREAD: bool = {{ spread }};
+const COARSE: bool = {{ coarse }};
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // G-buffer: surface (S bits, n_y bits, octahedral normal, material index)
@@ -85,13 +93,16 @@ const SPREAD: bool = {{ spread }};
 // Irradiance basis U: layer g, texel (direction j, depth i) holds U_4g .. U_4g+3.
 @group(0) @binding(12) var basis_table: texture_2d_array<f32>;
 @group(0) @binding(14) var table_sampler: sampler;
+// COARSE: the start level of the spread's pyramid (its level 0).
 @group(0) @binding(15) var cone_out: texture_storage_2d<rgba32float, write>;
+// SPREAD, full resolution: the pyramid's result at its start level.
+@group(0) @binding(16) var spread_in: texture_2d<f32>;
 
 // Camera.ray_directions: the up component of the unit ray through the pixel
-// centres (j + 0.5, i + 0.5) of four pixels j = j0 .. j0 + 3 in row i.
-fn ray_direction_y(j0: u32, i: u32) -> vec4<f32> {
-    let x = (vec4<f32>(f32(j0)) + vec4<f32>(0.5, 1.5, 2.5, 3.5) - prm.cx) / prm.fx;
-    let y = (f32(i) + 0.5 - prm.cy) / prm.fy;
+// centres (j + 0.5, i + 0.5) of four pixels (columns px, rows py).
+fn ray_direction_y(px: vec4<u32>, py: vec4<u32>) -> vec4<f32> {
+    let x = (vec4<f32>(px) + 0.5 - prm.cx) / prm.fx;
+    let y = (vec4<f32>(py) + 0.5 - prm.cy) / prm.fy;
     let dx = prm.right.x * x + (prm.forward.x - prm.up.x * y);
     let dy = prm.right.y * x + (prm.forward.y - prm.up.y * y);
     let dz = prm.right.z * x + (prm.forward.z - prm.up.z * y);
@@ -143,6 +154,25 @@ fn bilinear4(table: texture_2d_array<f32>, col: f32, row: f32, g: u32, cols: u32
     return mix(lo, hi, fi);
 }
 
+// Bilinear value of the spread's result at coarse index coordinates (x, y),
+// clamped to the edge (a sampler's linear filtering at (c + 0.5) / size).
+fn spread_at(x: f32, y: f32) -> vec4<f32> {
+    let n = vec2<f32>(prm.coarse_size);
+    let c = vec2<f32>(x, y);
+    if (FILTER) {
+        return textureSampleLevel(spread_in, table_sampler, (c + 0.5) / n, 0.0);
+    }
+    let cc = clamp(c, vec2<f32>(0.0), n - 1.0);
+    let i0 = vec2<u32>(floor(cc));
+    let i1 = min(i0 + 1u, prm.coarse_size - 1u);
+    let f = cc - vec2<f32>(i0);
+    let lo = mix(textureLoad(spread_in, vec2<u32>(i0.x, i0.y), 0),
+                 textureLoad(spread_in, vec2<u32>(i1.x, i0.y), 0), f.x);
+    let hi = mix(textureLoad(spread_in, vec2<u32>(i0.x, i1.y), 0),
+                 textureLoad(spread_in, vec2<u32>(i1.x, i1.y), 0), f.x);
+    return mix(lo, hi, f.y);
+}
+
 // lightfield_compiled.direction_coordinate: q = sign(v) sqrt(|v|), rows
 // 0 .. W_OUT - 1 outside Snell's window, W_OUT .. W_OUT + W_IN - 1 inside.
 fn direction_row(v: vec4<f32>) -> vec4<f32> {
@@ -162,12 +192,30 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     let half = (nwg.y + 1u) / 2u;
     let block = select(half + wg.y / 2u, wg.y / 2u, wg.y % 2u == 0u);
     let row = block * {{ workgroup_y }}u + lid.y;
-    let j0 = 4u * (wg.x * {{ workgroup_x }}u + lid.x);
-    if (j0 >= prm.width || row >= prm.height) {
-        return;
+    let col = wg.x * {{ workgroup_x }}u + lid.x;
+    // The four pixels (lanes) of this invocation: four adjacent pixels of a
+    // row, or (COARSE) four pixels of block (col, row) at offsets BLOCK / 4
+    // and 3 BLOCK / 4 (lightfield_compiled.coarse_sample_pixels).
+    var px: vec4<u32>;
+    var py: vec4<u32>;
+    let j0 = 4u * col;
+    if (COARSE) {
+        if (col >= prm.coarse_size.x || row >= prm.coarse_size.y) {
+            return;
+        }
+        let lo = prm.block / 4u;
+        let hi = (3u * prm.block) / 4u;
+        px = min(prm.block * col + vec4<u32>(lo, hi, lo, hi), vec4<u32>(prm.width - 1u));
+        py = min(prm.block * row + vec4<u32>(lo, lo, hi, hi), vec4<u32>(prm.height - 1u));
+    } else {
+        if (j0 >= prm.width || row >= prm.height) {
+            return;
+        }
+        px = min(vec4<u32>(j0) + vec4<u32>(0u, 1u, 2u, 3u), vec4<u32>(prm.width - 1u));
+        py = vec4<u32>(row);
     }
     let row_start = row * prm.width;
-    let v_y = ray_direction_y(j0, row);
+    let v_y = ray_direction_y(px, py);
     let d_o = prm.depth_o;
 
     var s_gb: vec4<f32>;
@@ -175,7 +223,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     var material: vec4<u32>;
     var sig: array<vec3<f32>, 4>;
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let xy = vec2<u32>(min(j0 + k, prm.width - 1u), row);
+        let xy = vec2<u32>(px[k], py[k]);
         let surf = textureLoad(gb_surface, xy, 0);
         s_gb[k] = bitcast<f32>(surf.x);
         n_y[k] = bitcast<f32>(surf.y);
@@ -201,20 +249,14 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     var r: vec4<f32>;
     var gr: vec4<f32>;
     var b: vec4<f32>;
-    var cr = vec4<f32>(0.0);
-    var cg = vec4<f32>(0.0);
-    var cb = vec4<f32>(0.0);
+    // (Layer 0: the water, with the spread W0 + alpha W1; COARSE reads
+    // layer 1, the cone's share, alone.)
+    let layer = select(0u, 1u, COARSE);
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let w = bilinear4(water_table, w_col[k], w_row[k], 0u, W_DIST, w_rows);
+        let w = bilinear4(water_table, w_col[k], w_row[k], layer, W_DIST, w_rows);
         r[k] = w.x;
         gr[k] = w.y;
         b[k] = w.z;
-        if (SPREAD) {
-            let wc = bilinear4(water_table, w_col[k], w_row[k], 1u, W_DIST, w_rows);
-            cr[k] = wc.x;
-            cg[k] = wc.y;
-            cb[k] = wc.z;
-        }
     }
 
     // Materials, as deferred.wgsl.
@@ -225,8 +267,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     var c2 = vec4<f32>(0.0);
     var bad = 0u;
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let valid = j0 + k < prm.width;
-        if (valid && use_sigmoid[k]) {
+        // (COARSE lanes repeat pixels counted by the full-resolution pass.)
+        let valid = !COARSE && j0 + k < prm.width;
+        if (use_sigmoid[k]) {
             let c = sig[k];
             c0[k] = c.x;
             c1[k] = c.y;
@@ -293,17 +336,42 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         }
         var l = select(vec4<f32>(0.0), rho * exp(ln_e), hit);
         if (SPREAD) {
-            // The cone's share T' - T of the target's light.
-            let base_l = l * exp(-q0.z * s);
-            let cone_l = l - base_l;
-            cr = cr + cone_l * wt.x;
-            cg = cg + cone_l * wt.y;
-            cb = cb + cone_l * wt.z;
-            l = base_l;
+            // T' (alpha + (1 - alpha) exp(-f b S)): the pixel keeps the share
+            // alpha of the cone's T' - T; COARSE: the cone's T' - T alone.
+            let t_ratio = exp(-q0.z * s);
+            l = l * select(prm.alpha + (1.0 - prm.alpha) * t_ratio, 1.0 - t_ratio, COARSE);
         }
         r = r + l * wt.x;
         gr = gr + l * wt.y;
         b = b + l * wt.z;
+    }
+    if (COARSE) {
+        // The block's mean cone term: the pyramid's start level.
+        textureStore(cone_out, vec2<u32>(col, row),
+                     vec4<f32>(0.25 * dot(r, vec4<f32>(1.0)), 0.25 * dot(gr, vec4<f32>(1.0)),
+                               0.25 * dot(b, vec4<f32>(1.0)), 0.0));
+        return;
+    }
+    if (SPREAD) {
+        // The pyramid's result, one bilinear sample for the four pixels at
+        // their centre: coarse index coordinates (x + 0.5) / BLOCK - 0.5 with
+        // x = j0 + 1.5 (lightfield_compiled.upsample_groups; a sample per
+        // pixel cost 1.5 ms more per 1280x720 frame on lavapipe).
+        // With blocks under 4 pixels (small images), a sample per pixel.
+        let cy = (f32(row) + 0.5) / f32(prm.block) - 0.5;
+        if (prm.block >= 4u) {
+            let sp = spread_at((f32(j0) + 2.0) / f32(prm.block) - 0.5, cy);
+            r = r + sp.x;
+            gr = gr + sp.y;
+            b = b + sp.z;
+        } else {
+            for (var k = 0u; k < 4u; k = k + 1u) {
+                let sp = spread_at((f32(px[k]) + 0.5) / f32(prm.block) - 0.5, cy);
+                r[k] = r[k] + sp.x;
+                gr[k] = gr[k] + sp.y;
+                b[k] = b[k] + sp.z;
+            }
+        }
     }
     if (DISPLAY) {
         // display.wgsl's main for the four pixels, as in deferred.wgsl.
@@ -329,10 +397,6 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         for (var k = 0u; k < 4u; k = k + 1u) {
             if (j0 + k < prm.width) {
                 rgb_out[row_start + j0 + k] = vec4<f32>(r[k], gr[k], b[k], 1.0);
-                if (SPREAD) {
-                    textureStore(cone_out, vec2<u32>(j0 + k, row),
-                                 vec4<f32>(cr[k], cg[k], cb[k], 0.0));
-                }
             }
         }
     }
