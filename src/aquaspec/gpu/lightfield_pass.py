@@ -267,8 +267,9 @@ class LightfieldPass:
         from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS
         sh = self._shape
         split = lfc.direction_split(sh["window_cos"])
+        group = bool(self.spread and 2 ** self.spread_plan[0] >= 4)
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
-               self.filtering, self.spread, coarse)
+               self.filtering, self.spread, coarse, group)
         if key not in self._pipelines:
             band_vec4 = 2 + sh["rank"] // 4
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
@@ -287,6 +288,7 @@ class LightfieldPass:
                             filter="true" if self.filtering else "false",
                             spread="true" if self.spread else "false",
                             coarse="true" if coarse else "false",
+                            group_spread="true" if group else "false",
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
             module = self.device.create_shader_module(label="lightfield.wgsl", code=src)
             self._pipelines[key] = self.device.create_compute_pipeline(

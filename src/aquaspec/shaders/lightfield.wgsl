@@ -67,6 +67,9 @@ const FILTER: bool = {{ filter }};
 // pipeline of the spread's start level (see the header); BLOCK = 2^L0.
 const SPREAD: bool = {{ spread }};
 const COARSE: bool = {{ coarse }};
+// Whether the spread's result is read once per four pixels (BLOCK >= 4; a
+// constant: with a uniform's value lavapipe ran both sides of the branch).
+const GROUP_SPREAD: bool = {{ group_spread }};
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // G-buffer: surface (S bits, n_y bits, octahedral normal, material index)
@@ -359,7 +362,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         // pixel cost 1.5 ms more per 1280x720 frame on lavapipe).
         // With blocks under 4 pixels (small images), a sample per pixel.
         let cy = (f32(row) + 0.5) / f32(prm.block) - 0.5;
-        if (prm.block >= 4u) {
+        if (GROUP_SPREAD) {
             let sp = spread_at((f32(j0) + 2.0) / f32(prm.block) - 0.5, cy);
             r = r + sp.x;
             gr = gr + sp.y;
