@@ -80,7 +80,7 @@ def twin_of(lp, gb, medium):
     tables = lp._medium[0]
     cam = gb.camera
     weights = (pyramid_weights(tables, cam.fy, cam.height, cam.width) if lp.spread else None)
-    return shade_compiled(gb, lp.compiled, material_bands=medium["material_bands"],
+    return shade_compiled(gb, lp.reference_compiled(), material_bands=medium["material_bands"],
                           sigmoid_centers_t=medium["sigmoid_centers_t"],
                           pyramid_weights=weights, start_level=lp.spread_start_level)
 
@@ -112,7 +112,7 @@ def test_matches_reference(water, n, phase, kind, depth, cone, filtering):
     lp.set_medium(**medium, tables=tables)
     lp.run()
     got = lp.read_rgb()
-    assert lp.compiled.depth_o == pytest.approx(depth)
+    assert lp.reference_compiled().depth_o == pytest.approx(depth)
     # f32 tables and arithmetic against float64 (measured up to 5e-6).
     assert_matches(got, twin_of(lp, gb, medium), rtol=1e-4)
 
@@ -175,7 +175,8 @@ def test_cone_spread_matches_reference(kind, n, cone, filtering, start, fused_an
     assert lp.spread_plan[0] == (0 if start is None else start)   # 96 pixels: no coarse start
     linear = lp.read_rgb()
     ref = twin_of(lp, gb, medium)
-    assert lp.compiled.split and lp.compiled.water.shape[0] == 2
+    comp = lp.reference_compiled()
+    assert comp.split and comp.water.shape[0] == 2
     assert_matches(linear, ref)
     plain = gpu_pass(gb, dataclasses.replace(setup, cone_spread=False))
     plain.run()
@@ -293,3 +294,42 @@ def test_read_display_errors():
     lp.run(display=True)
     with pytest.raises(AquaspecError, match="material index >= "):
         lp.read_display()
+
+
+@pytest.mark.parametrize("water,n,phase,depth,cone,spread", [
+    ("IB", 8, "petzold", 5.0, 15.0, False),
+    ("I", 5, "hg", 0.3, 15.0, False),       # just below the surface: fast change at the horizon
+    ("7C", 16, "isotropic", 12.0, 0.0, False),
+    ("II", 6, "ff", 4.0, 40.0, True),
+])
+def test_water_table_built_on_the_gpu_matches_numpy(water, n, phase, depth, cone, spread):
+    """watertable.wgsl against lightfield_compiled.water_table (float64), both
+    layers, and the table is rebuilt when the camera's depth changes."""
+    from aquaspec.conespread import pyramid_weights
+    from aquaspec.lightfield_compiled import spread_plan, water_table
+    gb = gbuffer_of("up", depth)
+    params = (("backscatter", 0.0183),) if phase == "ff" else ()
+    setup = dataclasses.replace(setup_of(water, n, phase, cone=cone), phase_params=params,
+                                cone_spread=spread)
+    lp = gpu_pass(gb, setup)
+    lp.run()
+    got = lp.read_water_table()
+    med = setup.medium(gb.materials)
+    ref = water_table(setup.lightfield_tables(), a=med["a"], b=med["b"], e0=med["e0"],
+                      response_weights=med["response_weights"], depth_o=depth, split=spread)
+    if spread:
+        alpha = lp.spread_plan[1]
+        cam = gb.camera
+        weights = pyramid_weights(setup.lightfield_tables(), cam.fy, cam.height, cam.width)
+        assert alpha == spread_plan(weights, cam.fy)[1]
+        ref = np.stack([ref[0] + alpha * ref[1], ref[1]])
+    assert got.shape == ref.shape
+    scale = np.abs(ref).max()
+    np.testing.assert_allclose(got, ref, rtol=2e-4, atol=2e-6 * scale)
+    # A new depth, a new table.
+    key = lp._water_key
+    gb2 = gbuffer_of("up", depth + 1.0)
+    lp.deferred.set_gbuffer(gb2)
+    lp.run()
+    assert lp._water_key != key
+    assert np.abs(lp.read_water_table() - got).max() > 1e-3 * scale

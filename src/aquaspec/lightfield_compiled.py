@@ -16,8 +16,9 @@ model (SPEC: keep the per-pixel cost near the seeds'):
   ``c' = c - f b`` the beam extinction with the forward cone, ``d_S = d_o - S
   v_y``): the radiance of a black target. It depends on the pixel only
   through ``(v_y, S)`` (horizontally uniform water), so a 2-D table for the
-  camera's depth gives it for all bands at once. A last column holds open
-  water (the ray hits nothing). With the cone spread a second layer holds the
+  camera's depth gives it for all bands at once (:func:`water_table`; the
+  GPU builds the same table, ``shaders/watertable.wgsl``). A last column
+  holds open water (the ray hits nothing). With the cone spread a second layer holds the
   cone's share ``-(T' - T) L_bg(d_S, v)`` and the first uses ``T = exp(-c S)``.
 - **Factored irradiance**: the target's own light ``T'(S) rho E(d_S, n_y) / pi``
   needs ``E`` per band. Its logarithm is fitted, over the tables' nodes, as

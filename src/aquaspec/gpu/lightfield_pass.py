@@ -6,8 +6,9 @@ textures (``DeferredPass.gbuffer_textures``, the geometry pass's render
 targets; layout in :mod:`aquaspec.gpu.deferred`; the sigmoid texture only
 when ``DeferredPass.per_pixel`` is true) and shades with the model compiled
 for the camera's depth (:mod:`aquaspec.lightfield_compiled`: a camera-RGB
-water table over ``(v_y, S)`` rebuilt when the camera's depth changes, and
-the factored irradiance). WGSL: ``shaders/lightfield.wgsl``; NumPy twin:
+water table over ``(v_y, S)``, built on the GPU by ``shaders/watertable.wgsl``
+(twin: :func:`aquaspec.lightfield_compiled.water_table`) when the camera's
+depth changes, and the factored irradiance, fitted on the host per medium). WGSL: ``shaders/lightfield.wgsl``; NumPy twin:
 :func:`aquaspec.lightfield_compiled.shade_compiled`; the test
 ``tests/test_gpu_lightfield.py`` holds them together, and
 ``tests/test_lightfield_compiled.py`` the twin and the model
@@ -119,6 +120,36 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
     return out
 
 
+WATER_PARAMS_LAYOUT = UniformLayout("WaterTableParams", [
+    ("depth_o", "f32"), ("window_cos", "f32"), ("max_depth", "f32"), ("alpha", "f32"),
+    ("n_out", "u32"), ("n_in", "u32"),
+])
+
+
+def water_band_fields(tables, *, a, b, e0, response_weights) -> np.ndarray:
+    """Per band group the fields of watertable.wgsl: (8, ceil(n / 4), 4) float64.
+
+    ``c, kappa_1, c' = c - f b, b E0 / (4 pi), L_top, w_r, w_g, w_b``, four
+    bands per vec4 (zero past the last band).
+    """
+    a, b, e0 = (np.asarray(x, dtype=np.float64) for x in (a, b, e0))
+    w = np.asarray(response_weights, dtype=np.float64)
+    n = a.size
+    f = np.asarray(tables.get("forward_fraction", np.zeros(n)), dtype=np.float64)
+    c = a + b
+    rows = np.stack([c, np.asarray(tables["k_inf"], np.float64), c - f * b,
+                     b * e0 / (4.0 * np.pi),
+                     np.asarray(tables["sky_radiance_per_e0"], np.float64) * e0,
+                     w[:, 0], w[:, 1], w[:, 2]])
+    groups = -(-n // 4)
+    out = np.zeros((8, groups * 4))
+    out[:, :n] = rows
+    # Padding bands: c = 1 keeps their (unused) path integrals finite.
+    out[0, n:] = 1.0
+    out[2, n:] = 1.0
+    return out.reshape(8, groups, 4)
+
+
 class LightfieldPass:
     """Light-field shading of the G-buffer held by ``deferred`` (a DeferredPass).
 
@@ -172,7 +203,7 @@ class LightfieldPass:
         self._medium = None
         self._water_texture = None
         self._water_key = None
-        self._water_alpha = None
+        self._water_shape = None
         self._groups = {}
         #: ``(L0, alpha, coarse weights)`` of the cone spread for the last camera.
         self.spread_plan = None
@@ -181,9 +212,6 @@ class LightfieldPass:
         self.spread_start_level = None
         self._group = None
         self._group_key = None
-        #: The model compiled for the last camera depth
-        #: (:class:`aquaspec.lightfield_compiled.Compiled`).
-        self.compiled = None
         #: The irradiance factorisation of the current tables
         #: (:func:`aquaspec.lightfield_compiled.choose_irradiance_factors`).
         self.factors = None
@@ -233,6 +261,10 @@ class LightfieldPass:
                                          "lightfield irradiance basis"),
             B_SAMPLER: self._sampler,
         }
+        self._water_bands = water_band_fields(tables, a=a, b=b, e0=e0,
+                                              response_weights=response_weights)
+        self._log_prefactor = self._array_texture(band_group_texture(lp),
+                                                  "lightfield ln F")
         rank = factors["coef"].shape[1] - 2
         self._shape = dict(n_bands=n, n_materials=int(np.asarray(material_bands).shape[0]),
                            n_depth=lp.shape[1], n_mu=lp.shape[2], rank=rank,
@@ -297,25 +329,84 @@ class LightfieldPass:
                 compute={"module": module, "entry_point": "main"})
         return self._pipelines[key]
 
-    def _update_water_table(self, depth_o, alpha):
-        """Compile the model for the camera's depth when it or the medium changed;
-        with the spread layer 0 is ``W0 + alpha W1`` (:func:`lightfield_compiled.spread_plan`)."""
-        if self._water_key != depth_o:
-            tables, a, b, e0, w = self._medium
-            self.compiled = lfc.compile_lightfield(tables, a=a, b=b, e0=e0, response_weights=w,
-                                                   depth_o=depth_o, factors=self.factors)
-            self._water_key = depth_o
-            self._water_alpha = None
-        if self._water_alpha == alpha:
+    def _water_pipeline(self):
+        sh = self._shape
+        key = ("water", self._water_bands.shape[1], sh["n_depth"], sh["n_mu"], self.spread)
+        if key not in self._pipelines:
+            src = load_wgsl("watertable.wgsl", params_struct=WATER_PARAMS_LAYOUT.wgsl(),
+                            params_struct_name=WATER_PARAMS_LAYOUT.name,
+                            n_groups=self._water_bands.shape[1], n_depth=sh["n_depth"],
+                            n_mu=sh["n_mu"], distances=lfc.DISTANCES,
+                            length_scale=f"{float(lfc.LENGTH_SCALE_M)!r}",
+                            split="true" if self.spread else "false",
+                            band_len=self._water_bands.shape[0] * self._water_bands.shape[1])
+            module = self.device.create_shader_module(label="watertable.wgsl", code=src)
+            layout = bind_group_layout(self.device, {0: "uniform", 1: "uniform",
+                                                     2: "float_array", 3: "write"})
+            pipeline = self.device.create_compute_pipeline(
+                label="lightfield water table",
+                layout=self.device.create_pipeline_layout(bind_group_layouts=[layout]),
+                compute={"module": module, "entry_point": "main"})
+            self._pipelines[key] = (pipeline, layout)
+        return self._pipelines[key]
+
+    def _update_water_table(self, encoder, depth_o, alpha):
+        """Build the water table for the camera's depth on the GPU (watertable.wgsl)
+        when the depth, the medium or (with the spread) alpha changed: layer 0
+        holds ``W0 + alpha W1`` with the spread (:func:`lightfield_compiled.spread_plan`)."""
+        key = (depth_o, alpha)
+        if self._water_key == key:
             return
-        water = self.compiled.water
-        texels = np.zeros(water.shape[:3] + (4,), np.float32)
-        texels[..., :3] = water
-        if self.spread:
-            texels[0, ..., :3] = water[0] + alpha * water[1]
-        self._water_texture = self._array_texture(texels, "lightfield water table")
-        self._group = None
-        self._water_alpha = alpha
+        import wgpu
+        dev = self.device
+        n_out, n_in = lfc.direction_split(self._shape["window_cos"])
+        rows, layers = n_out + n_in, 2 if self.spread else 1
+        if self._water_texture is None or self._water_shape != (layers, rows):
+            tex = dev.create_texture(
+                label="lightfield water table", size=(lfc.DISTANCES, rows, layers),
+                format="rgba32float", dimension="2d", mip_level_count=1, sample_count=1,
+                usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST)
+            self._water_tex = tex
+            self._water_texture = tex.create_view(dimension="2d-array")
+            self._water_out = create_storage_buffer(dev, layers * rows * lfc.DISTANCES * 16,
+                                                    label="lightfield water table out")
+            self._water_shape = (layers, rows)
+            self._group = None
+        pipeline, layout = self._water_pipeline()
+        params = create_uniform_buffer(dev, WATER_PARAMS_LAYOUT, label="water table params")
+        upload_buffer(dev, params, WATER_PARAMS_LAYOUT.pack(
+            depth_o=depth_o, window_cos=self._shape["window_cos"],
+            max_depth=self._shape["max_depth"], alpha=alpha, n_out=n_out, n_in=n_in))
+        data = self._water_bands.reshape(-1, 4).astype(np.float32)
+        bands = dev.create_buffer(label="water table bands", size=data.nbytes,
+                                  usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        upload_buffer(dev, bands, data)
+        group = dev.create_bind_group(layout=layout, entries=bind_group_entries(
+            {0: params, 1: bands, 2: self._log_prefactor, 3: self._water_out}))
+        record_dispatch(encoder, pipeline, group,
+                        (-(-lfc.DISTANCES // 8), -(-rows // 8), 1))
+        encoder.copy_buffer_to_texture(
+            {"buffer": self._water_out, "offset": 0, "bytes_per_row": lfc.DISTANCES * 16,
+             "rows_per_image": rows},
+            {"texture": self._water_tex, "mip_level": 0, "origin": (0, 0, 0)},
+            (lfc.DISTANCES, rows, layers))
+        self._water_key = key
+
+    def read_water_table(self) -> np.ndarray:
+        """The last water table built, ``(layers, directions, DISTANCES, 3)`` float32 (tests)."""
+        if self._water_key is None:
+            raise AquaspecError("no water table yet: run the pass first")
+        layers, rows = self._water_shape
+        return read_buffer(self.device, self._water_out, np.float32,
+                           (layers, rows, lfc.DISTANCES, 4))[..., :3]
+
+    def reference_compiled(self) -> "lfc.Compiled":
+        """The NumPy compiled model for the last frame's camera depth (the twin's input)."""
+        if self._water_key is None:
+            raise AquaspecError("no frame yet: run the pass first")
+        tables, a, b, e0, w = self._medium
+        return lfc.compile_lightfield(tables, a=a, b=b, e0=e0, response_weights=w,
+                                      depth_o=self._water_key[0], factors=self.factors)
 
     def _bind_group(self, coarse=False):
         """The bind group of the full-resolution pass, or of the COARSE one."""
@@ -420,7 +511,7 @@ class LightfieldPass:
         depth_o = camera_depth(cam)
         start, alpha, coarse_size = (self._update_spread(cam) if self.spread
                                      else (0, 0.0, (1, 1)))
-        self._update_water_table(depth_o, alpha)
+        self._update_water_table(encoder, depth_o, alpha)
         upload_buffer(self.device, self._uniform, PARAMS_LAYOUT.pack(
             **camera_fields(cam), width=self.width, height=self.height,
             n_materials=self._shape["n_materials"], depth_o=depth_o,

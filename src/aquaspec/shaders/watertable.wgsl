@@ -1,0 +1,134 @@
+// The light field's water table for the camera's depth, built on the GPU:
+// twin of aquaspec/lightfield_compiled.py (water_table, float64 NumPy; its
+// module docstring has the axes and the formula). One invocation per texel
+// (distance column k, direction row j); per band group (four bands as vec4)
+//   R(d, v)  = F(d, v) b E0 / (4 pi) ms_path_integral(c, kappa_1, d, v, inf)
+//   L_bg(d)  = R(d, v) + u(d) L_top,  u(d) = exp(-c d / v) (up rays; 0 down)
+//   base     = L_bg(d_o) - T L_bg(d_S),  cone = -(T' - T) L_bg(d_S)
+// with T' = exp(-c' S), T = T' (not SPLIT) or exp(-c S) (SPLIT), summed over
+// bands in camera RGB. Layer 0 holds base + alpha cone (SPLIT) or base,
+// layer 1 (SPLIT) the cone's share; column DISTANCES - 1 is open water
+// (L_bg(d_o)). Output: a storage buffer copied into the table texture.
+
+#include "common.wgsl"
+#include "lftables.wgsl"
+
+{{ params_struct }}
+
+const N_GROUPS: u32 = {{ n_groups }}u;
+const N_DEPTH: u32 = {{ n_depth }}u;
+const N_MU: u32 = {{ n_mu }}u;
+const DISTANCES: u32 = {{ distances }}u;
+const LENGTH_SCALE: f32 = {{ length_scale }};
+const SPLIT: bool = {{ split }};
+
+@group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
+// Per band group g, field f at [f N_GROUPS + g] (lightfield_pass.water_band_fields):
+// 0 c, 1 kappa_1, 2 c' = c - f b, 3 b E0 / (4 pi), 4 L_top (sky radiance
+// below the surface), 5 w_r, 6 w_g, 7 w_b.
+@group(0) @binding(1) var<uniform> bands: array<vec4<f32>, {{ band_len }}>;
+// ln F: layer g, texel (direction j, depth i) holds bands 4g .. 4g + 3.
+@group(0) @binding(2) var log_prefactor: texture_2d_array<f32>;
+@group(0) @binding(3) var<storage, read_write> out: array<vec4<f32>>;
+
+fn field(f: u32, g: u32) -> vec4<f32> {
+    return bands[f * N_GROUPS + g];
+}
+
+// lightfield.bilinear of ln F for bands 4g .. 4g + 3 at depth d, direction v.
+fn log_f(d: f32, v: f32, g: u32) -> vec4<f32> {
+    let y = table_cos_coord(vec4<f32>(v), N_MU).x;
+    let x = table_depth_coord(vec4<f32>(d), prm.max_depth, N_DEPTH).x;
+    let j = min(u32(max(y, 0.0)), N_MU - 2u);
+    let i = min(u32(max(x, 0.0)), N_DEPTH - 2u);
+    let fy = y - f32(j);
+    let fx = x - f32(i);
+    let lo = mix(textureLoad(log_prefactor, vec2<u32>(j, i), g, 0),
+                 textureLoad(log_prefactor, vec2<u32>(j + 1u, i), g, 0), fy);
+    let hi = mix(textureLoad(log_prefactor, vec2<u32>(j, i + 1u), g, 0),
+                 textureLoad(log_prefactor, vec2<u32>(j + 1u, i + 1u), g, 0), fy);
+    return mix(lo, hi, fx);
+}
+
+// R(d, v) of four bands: F b E0 / (4 pi) times the seeds' path integral to
+// infinity (up rays: to the surface, length d / v), written with
+// exponents <= 0 whatever the sign of k = c - kappa_1 v, and its series where
+// |k L| < 0.1 would cancel in f32 (model.ms_path_integral).
+fn r_at(d: f32, v: f32, g: u32) -> vec4<f32> {
+    let c = field(0u, g);
+    let k1 = field(1u, g);
+    let k = c - k1 * v;
+    let e1 = exp(-k1 * d);
+    var path: vec4<f32>;
+    if (v > 0.0) {
+        let len = d / v;
+        let x = k * len;
+        let series = e1 * len * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0
+                     - x * (1.0 / 120.0)))));
+        let k_safe = select(vec4<f32>(1.0), k, k != vec4<f32>(0.0));
+        path = select((e1 - exp(-c * (d / v))) / k_safe, series, abs(x) < vec4<f32>(0.1));
+    } else {
+        path = e1 / k;
+    }
+    return exp(log_f(d, v, g)) * field(3u, g) * path;
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    let j = gid.y;
+    let rows = prm.n_out + prm.n_in;
+    if (k >= DISTANCES || j >= rows) {
+        return;
+    }
+    // Direction node (lightfield_compiled.direction_nodes).
+    let q_w = sign(prm.window_cos) * sqrt(abs(prm.window_cos));
+    let inside = j >= prm.n_out;
+    let q = select(-1.0 + f32(j) * (q_w + 1.0) / f32(prm.n_out - 1u),
+                   q_w + f32(j - prm.n_out) * (1.0 - q_w) / f32(prm.n_in - 1u), inside);
+    let v = select(sign(q) * q * q, prm.window_cos, inside && j == prm.n_out);
+    let up = v > 0.0;
+    let d_o = prm.depth_o;
+    // Distance node (distance_nodes): S = length x / (1 - x), x = k / (DISTANCES - 2).
+    let open_col = k == DISTANCES - 1u;
+    let inf_node = k == DISTANCES - 2u;
+    let xn = f32(k) / f32(DISTANCES - 2u);
+    let to_surface = select(0.0, d_o / v, up);
+    var s = LENGTH_SCALE * xn / max(1.0 - xn, 1e-30);
+    if (up) {
+        s = select(min(s, to_surface), to_surface, inf_node);
+    }
+    let far = !up && inf_node;
+    let d_s = max(d_o - s * v, 0.0);
+
+    var base = vec3<f32>(0.0);
+    var cone = vec3<f32>(0.0);
+    for (var g = 0u; g < N_GROUPS; g = g + 1u) {
+        let c = field(0u, g);
+        let l_top = select(vec4<f32>(0.0), field(4u, g), inside);
+        let u_o = select(vec4<f32>(0.0), exp(-c * (d_o / v)), up);
+        let open_l = r_at(d_o, v, g) + u_o * l_top;
+        var b_l = open_l;
+        var c_l = vec4<f32>(0.0);
+        if (!open_col && !far) {
+            let u_s = select(vec4<f32>(0.0), exp(-c * (d_s / v)), up);
+            let blocked = r_at(d_s, v, g) + u_s * l_top;
+            let t_beam = exp(-field(2u, g) * s);
+            let t = select(t_beam, exp(-c * s), SPLIT);
+            b_l = open_l - t * blocked;
+            c_l = -(t_beam - t) * blocked;
+        }
+        let w_r = field(5u, g);
+        let w_g = field(6u, g);
+        let w_b = field(7u, g);
+        base = base + vec3<f32>(dot(b_l, w_r), dot(b_l, w_g), dot(b_l, w_b));
+        cone = cone + vec3<f32>(dot(c_l, w_r), dot(c_l, w_g), dot(c_l, w_b));
+    }
+    let texel = j * DISTANCES + k;
+    if (SPLIT) {
+        out[texel] = vec4<f32>(base + prm.alpha * cone, 0.0);
+        out[rows * DISTANCES + texel] = vec4<f32>(cone, 0.0);
+    } else {
+        out[texel] = vec4<f32>(base, 0.0);
+    }
+}
