@@ -40,3 +40,26 @@ def _fused_and_two_pass(shading, width, height, **settings):
 def fused_and_two_pass():
     """``(fused, expected)`` display images of a shading pass (see _fused_and_two_pass)."""
     return _fused_and_two_pass
+
+
+def _lightfield_gbuffer(kind, depth):
+    """G-buffer of the light-field tests: ``"builtin"`` (the built-in scene at
+    96x54) or ``"up"`` (the validation board seen looking up at 40 degrees,
+    64x48: the board, open water and Snell's window)."""
+    from aquaspec.camera import Camera
+    from aquaspec.gpu.raster import RasterPass
+    if kind == "builtin":
+        from aquaspec.scene.builtin import builtin_scene
+        scene, cam = builtin_scene(depth, width=96, height=54)
+    else:
+        from aquaspec.validation.scenes import board_scene
+        scene, _ = board_scene(depth, width=64, height=48)
+        cam = Camera.look_at([0, -depth, 1.0], [0, -depth + 2.5, -3.0], width=64, height=48,
+                             fov_y_deg=90)
+    return RasterPass().render(scene, cam)
+
+
+@pytest.fixture
+def lightfield_gbuffer():
+    """``gbuffer_of(kind, depth)`` for the light-field tests (see _lightfield_gbuffer)."""
+    return _lightfield_gbuffer

@@ -22,20 +22,6 @@ from aquaspec.water import load_water
 pytestmark = pytest.mark.gpu
 
 
-def gbuffer_of(kind, depth):
-    from aquaspec.gpu.raster import RasterPass
-    if kind == "builtin":
-        from aquaspec.scene.builtin import builtin_scene
-        scene, cam = builtin_scene(depth, width=96, height=54)
-    else:
-        from aquaspec.camera import Camera
-        from aquaspec.validation.scenes import board_scene
-        scene, _ = board_scene(depth, width=64, height=48)
-        # Looking up at 40 degrees: the board, open water and Snell's window.
-        cam = Camera.look_at([0, -depth, 1.0], [0, -depth + 2.5, -3.0], width=64, height=48,
-                             fov_y_deg=90)
-    return RasterPass().render(scene, cam)
-
 
 def with_per_pixel_materials(gb):
     """The G-buffer with two of every three hit pixels (so four-pixel groups
@@ -56,12 +42,12 @@ def setup_of(water, n, phase, cone=0.0, sensor="nikon-5100-npl"):
                          Bands(n), ms_model="lightfield", phase=phase, forward_cone_deg=cone)
 
 
-def gpu_pass(gb, setup, e0_scale=1.0):
+def gpu_pass(gb, setup, e0_scale=1.0, filtering=None):
     from aquaspec.gpu.deferred import DeferredPass
     from aquaspec.gpu.lightfield_pass import LightfieldPass
     d = DeferredPass(gb.camera.width, gb.camera.height, setup.bands.n)
     d.set_gbuffer(gb)
-    lp = LightfieldPass(d)
+    lp = LightfieldPass(d, filtering=filtering)
     medium = setup.medium(gb.materials)
     medium["e0"] = medium["e0"] * e0_scale
     lp.set_medium(**medium, tables=setup.lightfield_tables())
@@ -95,21 +81,13 @@ def twin_of(lp, gb, medium):
     ("IB", 5, "petzold", "up", 4.0, 15.0),
 ])
 @pytest.mark.parametrize("filtering", [None, False])
-def test_matches_reference(water, n, phase, kind, depth, cone, filtering):
+def test_matches_reference(water, n, phase, kind, depth, cone, filtering, lightfield_gbuffer):
     """Both table reads (the sampler's filtering where the device has
     float32-filterable, the shader's own bilinear interpolation) match."""
-    from aquaspec.gpu.deferred import DeferredPass
-    from aquaspec.gpu.lightfield_pass import LightfieldPass
-    gb = gbuffer_of(kind, depth)
-    setup = SpectralSetup(load_water(water), get_sensor("nikon-5100-npl"),
-                          surface_light("overcast"), Bands(n), ms_model="lightfield", phase=phase,
-                          forward_cone_deg=cone)
+    gb = lightfield_gbuffer(kind, depth)
+    setup = setup_of(water, n, phase, cone)
     medium = setup.medium(gb.materials)
-    tables = setup.lightfield_tables()
-    d = DeferredPass(gb.camera.width, gb.camera.height, n)
-    d.set_gbuffer(gb)
-    lp = LightfieldPass(d, filtering=filtering)
-    lp.set_medium(**medium, tables=tables)
+    lp = gpu_pass(gb, setup, filtering=filtering)
     lp.run()
     got = lp.read_rgb()
     assert lp.reference_compiled().depth_o == pytest.approx(depth)
@@ -154,21 +132,16 @@ def test_filtering_needs_the_device_feature():
     ("up", 5, 30.0, None, 3),
     ("up", 4, 40.0, False, 1),
 ])
-def test_cone_spread_matches_reference(kind, n, cone, filtering, start, fused_and_two_pass):
+def test_cone_spread_matches_reference(kind, n, cone, filtering, start, fused_and_two_pass,
+                                       lightfield_gbuffer):
     """The pyramid on the GPU (the light-field pass split into radiance and
     cone term, then conespread.wgsl) against shade_gbuffer's NumPy pyramid,
     linear RGB and the fused display."""
-    from aquaspec.gpu.deferred import DeferredPass
-    from aquaspec.gpu.lightfield_pass import LightfieldPass
-    gb = gbuffer_of(kind, 5.0)
+    gb = lightfield_gbuffer(kind, 5.0)
     setup = dataclasses.replace(setup_of("II", n, "ff", cone=cone),
                                 phase_params=(("backscatter", 0.0183),), cone_spread=True)
     medium = setup.medium(gb.materials)
-    tables = setup.lightfield_tables()
-    d = DeferredPass(gb.camera.width, gb.camera.height, n)
-    d.set_gbuffer(gb)
-    lp = LightfieldPass(d, filtering=filtering)
-    lp.set_medium(**medium, tables=tables)
+    lp = gpu_pass(gb, setup, filtering=filtering)
     lp.spread_start_level = start
     assert lp.spread
     lp.run()
@@ -203,9 +176,9 @@ def test_render_api_uses_the_lightfield_pass():
 
 
 @pytest.mark.parametrize("kind,depth,cone", [("builtin", 5.0, 0.0), ("up", 4.0, 15.0)])
-def test_per_pixel_materials(kind, depth, cone):
+def test_per_pixel_materials(kind, depth, cone, lightfield_gbuffer):
     """per_pixel True compiles the pipeline that reads the sigmoid texture."""
-    gb = with_per_pixel_materials(gbuffer_of(kind, depth))
+    gb = with_per_pixel_materials(lightfield_gbuffer(kind, depth))
     setup = setup_of("IB", 8, "petzold", cone)
     lp = gpu_pass(gb, setup)
     assert lp.deferred.per_pixel
@@ -214,18 +187,18 @@ def test_per_pixel_materials(kind, depth, cone):
     ref = twin_of(lp, gb, setup.medium(gb.materials))
     assert_matches(got, ref, rtol=1e-4)
     # The sigmoid pixels really differ from what their mesh material gives.
-    plain = shade_gbuffer(gbuffer_of(kind, depth), **setup.medium(gb.materials),
+    plain = shade_gbuffer(lightfield_gbuffer(kind, depth), **setup.medium(gb.materials),
                           lightfield=setup.lightfield_tables())["camera_rgb"]
     changed = gb.material == PER_PIXEL
     assert np.abs(plain - ref)[changed].max() > 0.05 * np.abs(ref).max()
 
 
-def test_per_pixel_false_ignores_the_sigmoid_texture():
+def test_per_pixel_false_ignores_the_sigmoid_texture(lightfield_gbuffer):
     """per_pixel False: the sigmoid texture is not read (garbage there changes
     nothing), and a PER_PIXEL material then is reported as a bad index."""
     from aquaspec.gpu.buffers import upload_texture
     from aquaspec.gpu.deferred import pack_gbuffer
-    gb = gbuffer_of("builtin", 5.0)
+    gb = lightfield_gbuffer("builtin", 5.0)
     setup = setup_of("IB", 8, "petzold")
     lp = gpu_pass(gb, setup)
     assert not lp.deferred.per_pixel
@@ -246,9 +219,10 @@ def test_per_pixel_false_ignores_the_sigmoid_texture():
 
 @pytest.mark.parametrize("kind,depth,cone,tonemap", [("builtin", 5.0, 0.0, "filmic"),
                                                      ("up", 4.0, 15.0, "none")])
-def test_fused_display_equals_display_pass(kind, depth, cone, tonemap, fused_and_two_pass):
+def test_fused_display_equals_display_pass(kind, depth, cone, tonemap, fused_and_two_pass,
+                                           lightfield_gbuffer):
     from aquaspec import display
-    gb = gbuffer_of(kind, depth)
+    gb = lightfield_gbuffer(kind, depth)
     setup = setup_of("IB", 8, "hg", cone)
     lp = gpu_pass(gb, setup)
     lp.run()
@@ -267,10 +241,10 @@ def test_fused_display_equals_display_pass(kind, depth, cone, tonemap, fused_and
     np.testing.assert_array_equal(lp.read_rgb(), linear)
 
 
-def test_read_display_errors():
+def test_read_display_errors(lightfield_gbuffer):
     from aquaspec.gpu.buffers import upload_texture
     from aquaspec.gpu.deferred import pack_gbuffer
-    gb = gbuffer_of("builtin", 5.0)
+    gb = lightfield_gbuffer("builtin", 5.0)
     setup = setup_of("IB", 3, "isotropic")
     lp = gpu_pass(gb, setup, e0_scale=1e36)
     with pytest.raises(AquaspecError, match="set_display"):
@@ -302,12 +276,13 @@ def test_read_display_errors():
     ("7C", 16, "isotropic", 12.0, 0.0, False),
     ("II", 6, "ff", 4.0, 40.0, True),
 ])
-def test_water_table_built_on_the_gpu_matches_numpy(water, n, phase, depth, cone, spread):
+def test_water_table_built_on_the_gpu_matches_numpy(water, n, phase, depth, cone, spread,
+                                                    lightfield_gbuffer):
     """watertable.wgsl against lightfield_compiled.water_table (float64), both
     layers, and the table is rebuilt when the camera's depth changes."""
     from aquaspec.conespread import pyramid_weights
     from aquaspec.lightfield_compiled import spread_plan, water_table
-    gb = gbuffer_of("up", depth)
+    gb = lightfield_gbuffer("up", depth)
     params = (("backscatter", 0.0183),) if phase == "ff" else ()
     setup = dataclasses.replace(setup_of(water, n, phase, cone=cone), phase_params=params,
                                 cone_spread=spread)
@@ -328,7 +303,7 @@ def test_water_table_built_on_the_gpu_matches_numpy(water, n, phase, depth, cone
     np.testing.assert_allclose(got, ref, rtol=2e-4, atol=2e-6 * scale)
     # A new depth, a new table.
     key = lp._water_key
-    gb2 = gbuffer_of("up", depth + 1.0)
+    gb2 = lightfield_gbuffer("up", depth + 1.0)
     lp.deferred.set_gbuffer(gb2)
     lp.run()
     assert lp._water_key != key

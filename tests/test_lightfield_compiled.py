@@ -126,36 +126,25 @@ class TestWaterTable:
                                                     wc)[:, 0], table[0, j, -1], rtol=1e-9)
 
 
-def gbuffer_of(kind, depth):
-    from aquaspec.camera import Camera
-    from aquaspec.gpu.raster import RasterPass
-    if kind == "builtin":
-        from aquaspec.scene.builtin import builtin_scene
-        scene, cam = builtin_scene(depth, width=96, height=54)
-    else:
-        from aquaspec.validation.scenes import board_scene
-        scene, _ = board_scene(depth, width=64, height=48)
-        cam = Camera.look_at([0, -depth, 1.0], [0, -depth + 2.5, -3.0], width=64, height=48,
-                             fov_y_deg=90)
-    return RasterPass().render(scene, cam)
-
 
 @pytest.mark.gpu
 @pytest.mark.parametrize("water,n,phase,params,kind,depth,cone,spread,limits", [
     # limits: mean, 99th percentile and largest relative error per pixel and
-    # channel (floor 1e-3 of the image's largest value); measured values in
-    # the comments.
-    ("IB", 8, "petzold", (), "builtin", 5.0, 15.0, False, (1e-3, 5e-3, 1e-2)),  # 2.8e-4 1.2e-3 2.4e-3
-    ("I", 16, "hg", (("g", 0.92),), "up", 4.0, 15.0, False, (1e-3, 5e-3, 1e-2)),  # 8e-5 1.6e-3 3.1e-3
+    # channel (floor 1e-3 of the image's largest value). Measured, in order:
+    # IB 2.8e-4 1.2e-3 2.4e-3; I 8e-5 1.6e-3 3.1e-3; II 1.1e-4 7.9e-4 1.2e-3;
+    # 7C 6.9e-5 3.1e-4 7.2e-4; 3C 2e-5 1.5e-4 3.4e-4.
+    ("IB", 8, "petzold", (), "builtin", 5.0, 15.0, False, (1e-3, 5e-3, 1e-2)),
+    ("I", 16, "hg", (("g", 0.92),), "up", 4.0, 15.0, False, (1e-3, 5e-3, 1e-2)),
     ("II", 16, "ff", (("backscatter", 0.0183),), "builtin", 3.0, 40.0, True,
-     (1e-3, 5e-3, 1e-2)),                                                  # 1.1e-4 7.9e-4 1.2e-3
-    ("7C", 8, "petzold", (), "up", 2.0, 40.0, True, (1e-3, 5e-3, 1e-2)),  # 6.9e-5 3.1e-4 7.2e-4
-    ("3C", 3, "isotropic", (), "builtin", 9.0, 0.0, False, (1e-3, 5e-3, 1e-2)),  # 2e-5 1.5e-4 3.4e-4
+     (1e-3, 5e-3, 1e-2)),
+    ("7C", 8, "petzold", (), "up", 2.0, 40.0, True, (1e-3, 5e-3, 1e-2)),
+    ("3C", 3, "isotropic", (), "builtin", 9.0, 0.0, False, (1e-3, 5e-3, 1e-2)),
 ])
-def test_twin_follows_the_model(water, n, phase, params, kind, depth, cone, spread, limits):
+def test_twin_follows_the_model(water, n, phase, params, kind, depth, cone, spread, limits,
+                                lightfield_gbuffer):
     from aquaspec.conespread import pyramid_weights
     from aquaspec.shading import shade_gbuffer
-    gb = gbuffer_of(kind, depth)
+    gb = lightfield_gbuffer(kind, depth)
     setup = SpectralSetup(load_water(water), get_sensor("nikon-5100-npl"),
                           surface_light("overcast"), Bands(n), ms_model="lightfield",
                           phase=phase, phase_params=params, forward_cone_deg=cone,
@@ -187,8 +176,8 @@ def test_seabed_is_refused():
                                depth_o=5.0)
 
 
-def test_shade_compiled_needs_weights_with_the_spread():
-    gb = gbuffer_of("builtin", 5.0)
+def test_shade_compiled_needs_weights_with_the_spread(lightfield_gbuffer):
+    gb = lightfield_gbuffer("builtin", 5.0)
     setup = SpectralSetup(load_water("IB"), get_sensor("human"), surface_light("overcast"),
                           Bands(4), ms_model="lightfield", cone_spread=True)
     med = setup.medium(gb.materials)

@@ -8,7 +8,8 @@ when ``DeferredPass.per_pixel`` is true) and shades with the model compiled
 for the camera's depth (:mod:`aquaspec.lightfield_compiled`: a camera-RGB
 water table over ``(v_y, S)``, built on the GPU by ``shaders/watertable.wgsl``
 (twin: :func:`aquaspec.lightfield_compiled.water_table`) when the camera's
-depth changes, and the factored irradiance, fitted on the host per medium). WGSL: ``shaders/lightfield.wgsl``; NumPy twin:
+depth changes, and the factored irradiance, fitted on the host per medium).
+WGSL: ``shaders/lightfield.wgsl``; NumPy twin:
 :func:`aquaspec.lightfield_compiled.shade_compiled`; the test
 ``tests/test_gpu_lightfield.py`` holds them together, and
 ``tests/test_lightfield_compiled.py`` the twin and the model
@@ -210,7 +211,7 @@ class LightfieldPass:
         #: The spread's start level; None: :func:`lightfield_compiled.spread_plan`'s
         #: choice for the camera.
         self.spread_start_level = None
-        self._group = None
+        self._groups = {}
         self._group_key = None
         #: The irradiance factorisation of the current tables
         #: (:func:`aquaspec.lightfield_compiled.choose_irradiance_factors`).
@@ -278,7 +279,7 @@ class LightfieldPass:
         self._spread_pass = None
         self._spread_key = None
         self._water_key = None
-        self._group = None
+        self._groups = {}
 
     def _array_texture(self, data, label):
         """A 2-D array texture from texels ``(layers, rows, cols, 4)`` float32."""
@@ -371,7 +372,7 @@ class LightfieldPass:
             self._water_out = create_storage_buffer(dev, layers * rows * lfc.DISTANCES * 16,
                                                     label="lightfield water table out")
             self._water_shape = (layers, rows)
-            self._group = None
+            self._groups = {}
         pipeline, layout = self._water_pipeline()
         params = create_uniform_buffer(dev, WATER_PARAMS_LAYOUT, label="water table params")
         upload_buffer(dev, params, WATER_PARAMS_LAYOUT.pack(
@@ -415,7 +416,7 @@ class LightfieldPass:
         cone = sp.cone_texture if (coarse and sp) else self._dummy("storage")
         spread_in = sp.result if (sp and not coarse) else self._dummy("sampled")
         key = (self.deferred.bindings_version, id(cone), id(spread_in), id(self._water_texture))
-        cache = self._groups if self._group is not None else {}
+        cache = self._groups
         if key not in cache:
             tex = self.deferred.gbuffer_textures
             resources = {B_PARAMS: self._uniform, B_SURFACE: tex["surface"],
@@ -425,8 +426,6 @@ class LightfieldPass:
                          B_CONE: cone, B_SPREAD: spread_in}
             cache[key] = self.device.create_bind_group(layout=self._layout,
                                                        entries=bind_group_entries(resources))
-        self._groups = cache
-        self._group = True
         return cache[key]
 
     def _dummy(self, kind):
@@ -456,7 +455,7 @@ class LightfieldPass:
         if sp is None or sp.levels != levels or (sp.height, sp.width) != (ch, cw):
             self._spread_pass = ConeSpreadPass(self.device, cw, ch, levels,
                                                filtering=self.filtering)
-            self._group = None
+            self._groups = {}
         self._spread_pass.set_weights(coarse_w)
         return start, alpha, (cw, ch)
 
