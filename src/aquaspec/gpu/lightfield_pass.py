@@ -175,6 +175,8 @@ class LightfieldPass:
         self.width, self.height = deferred.width, deferred.height
         npix = self.width * self.height
         self._uniform = create_uniform_buffer(dev, PARAMS_LAYOUT, label="lightfield params")
+        self._water_params = create_uniform_buffer(dev, WATER_PARAMS_LAYOUT,
+                                                   label="water table params")
         self.rgb_buffer = create_storage_buffer(dev, npix * 16, label="lightfield rgb")
         self._status = create_storage_buffer(dev, 16, label="lightfield status")
         self._display_uniform = create_uniform_buffer(dev, DISPLAY_LAYOUT,
@@ -211,8 +213,6 @@ class LightfieldPass:
         #: The spread's start level; None: :func:`lightfield_compiled.spread_plan`'s
         #: choice for the camera.
         self.spread_start_level = None
-        self._groups = {}
-        self._group_key = None
         #: The irradiance factorisation of the current tables
         #: (:func:`aquaspec.lightfield_compiled.choose_irradiance_factors`).
         self.factors = None
@@ -264,6 +264,11 @@ class LightfieldPass:
         }
         self._water_bands = water_band_fields(tables, a=a, b=b, e0=e0,
                                               response_weights=response_weights)
+        water_data = self._water_bands.reshape(-1, 4).astype(np.float32)
+        self._water_band_buffer = dev.create_buffer(
+            label="water table bands", size=water_data.nbytes,
+            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        upload_buffer(dev, self._water_band_buffer, water_data)
         self._log_prefactor = self._array_texture(band_group_texture(lp),
                                                   "lightfield ln F")
         rank = factors["coef"].shape[1] - 2
@@ -374,16 +379,12 @@ class LightfieldPass:
             self._water_shape = (layers, rows)
             self._groups = {}
         pipeline, layout = self._water_pipeline()
-        params = create_uniform_buffer(dev, WATER_PARAMS_LAYOUT, label="water table params")
-        upload_buffer(dev, params, WATER_PARAMS_LAYOUT.pack(
+        upload_buffer(dev, self._water_params, WATER_PARAMS_LAYOUT.pack(
             depth_o=depth_o, window_cos=self._shape["window_cos"],
             max_depth=self._shape["max_depth"], alpha=alpha, n_out=n_out, n_in=n_in))
-        data = self._water_bands.reshape(-1, 4).astype(np.float32)
-        bands = dev.create_buffer(label="water table bands", size=data.nbytes,
-                                  usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
-        upload_buffer(dev, bands, data)
         group = dev.create_bind_group(layout=layout, entries=bind_group_entries(
-            {0: params, 1: bands, 2: self._log_prefactor, 3: self._water_out}))
+            {0: self._water_params, 1: self._water_band_buffer, 2: self._log_prefactor,
+             3: self._water_out}))
         record_dispatch(encoder, pipeline, group,
                         (-(-lfc.DISTANCES // 8), -(-rows // 8), 1))
         encoder.copy_buffer_to_texture(
