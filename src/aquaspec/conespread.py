@@ -57,15 +57,7 @@ def downsample(x: np.ndarray) -> np.ndarray:
 
 def upsample(x: np.ndarray, shape) -> np.ndarray:
     """Bilinear interpolation of a coarse level at the fine pixels of ``shape`` (h, w)."""
-    out = np.asarray(x, dtype=float)
-    for ax, n in ((0, shape[0]), (1, shape[1])):
-        m = out.shape[ax]
-        c = np.clip((np.arange(n) + 0.5) / 2.0 - 0.5, 0.0, m - 1.0)
-        i0 = np.floor(c).astype(int)
-        i1 = np.minimum(i0 + 1, m - 1)
-        f = (c - i0).reshape([n if k == ax else 1 for k in range(out.ndim)])
-        out = np.take(out, i0, axis=ax) * (1.0 - f) + np.take(out, i1, axis=ax) * f
-    return out
+    return upsample_by(x, 2, shape)
 
 
 def bilinear_at(x: np.ndarray, rows, cols) -> np.ndarray:

@@ -349,11 +349,12 @@ class LightfieldPass:
             module = self.device.create_shader_module(label="watertable.wgsl", code=src)
             layout = bind_group_layout(self.device, {0: "uniform", 1: "uniform",
                                                      2: "float_array", 3: "write"})
-            pipeline = self.device.create_compute_pipeline(
-                label="lightfield water table",
+            pipelines = [self.device.create_compute_pipeline(
+                label=f"lightfield water table {entry}",
                 layout=self.device.create_pipeline_layout(bind_group_layouts=[layout]),
-                compute={"module": module, "entry_point": "main"})
-            self._pipelines[key] = (pipeline, layout)
+                compute={"module": module, "entry_point": entry})
+                for entry in ("open_column", "main")]
+            self._pipelines[key] = (pipelines, layout)
         return self._pipelines[key]
 
     def _update_water_table(self, encoder, depth_o, alpha):
@@ -378,15 +379,16 @@ class LightfieldPass:
                                                     label="lightfield water table out")
             self._water_shape = (layers, rows)
             self._groups = {}
-        pipeline, layout = self._water_pipeline()
+        (open_column, hits), layout = self._water_pipeline()
         upload_buffer(dev, self._water_params, WATER_PARAMS_LAYOUT.pack(
             depth_o=depth_o, window_cos=self._shape["window_cos"],
             max_depth=self._shape["max_depth"], alpha=alpha, n_out=n_out, n_in=n_in))
         group = dev.create_bind_group(layout=layout, entries=bind_group_entries(
             {0: self._water_params, 1: self._water_band_buffer, 2: self._log_prefactor,
              3: self._water_out}))
-        record_dispatch(encoder, pipeline, group,
-                        (-(-lfc.DISTANCES // 8), -(-rows // 8), 1))
+        # The open-water column first: the hit columns read it.
+        record_dispatch(encoder, open_column, group, (-(-rows // 64), 1, 1))
+        record_dispatch(encoder, hits, group, (-(-(lfc.DISTANCES - 1) // 8), -(-rows // 8), 1))
         encoder.copy_buffer_to_texture(
             {"buffer": self._water_out, "offset": 0, "bytes_per_row": lfc.DISTANCES * 16,
              "rows_per_image": rows},

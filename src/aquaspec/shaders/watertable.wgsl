@@ -9,6 +9,10 @@
 // bands in camera RGB. Layer 0 holds base + alpha cone (SPLIT) or base,
 // layer 1 (SPLIT) the cone's share; column DISTANCES - 1 is open water
 // (L_bg(d_o)). Output: a storage buffer copied into the table texture.
+// Two entry points, in this order: open_column (one invocation per row:
+// the open-water column), then main (the hit columns), which reads a row's
+// open water in camera RGB instead of evaluating L_bg(d_o) per texel
+// (sum_i w_i (L_bg,i(d_o) - T_i L_bg,i(d_S)) = W_open - sum_i w_i T_i L_bg,i(d_S)).
 
 #include "common.wgsl"
 #include "lftables.wgsl"
@@ -73,24 +77,57 @@ fn r_at(d: f32, v: f32, g: u32) -> vec4<f32> {
     return exp(log_f(d, v, g)) * field(3u, g) * path;
 }
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let k = gid.x;
-    let j = gid.y;
-    let rows = prm.n_out + prm.n_in;
-    if (k >= DISTANCES || j >= rows) {
-        return;
-    }
-    // Direction node (lightfield_compiled.direction_nodes).
+// Direction node j (lightfield_compiled.direction_nodes): (v, inside the window).
+fn node_direction(j: u32) -> vec2<f32> {
     let q_w = sign(prm.window_cos) * sqrt(abs(prm.window_cos));
     let inside = j >= prm.n_out;
     let q = select(-1.0 + f32(j) * (q_w + 1.0) / f32(prm.n_out - 1u),
                    q_w + f32(j - prm.n_out) * (1.0 - q_w) / f32(prm.n_in - 1u), inside);
     let v = select(sign(q) * q * q, prm.window_cos, inside && j == prm.n_out);
+    return vec2<f32>(v, select(0.0, 1.0, inside));
+}
+
+fn rgb_of(l: vec4<f32>, g: u32) -> vec3<f32> {
+    return vec3<f32>(dot(l, field(5u, g)), dot(l, field(6u, g)), dot(l, field(7u, g)));
+}
+
+@compute @workgroup_size(64)
+fn open_column(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let j = gid.x;
+    let rows = prm.n_out + prm.n_in;
+    if (j >= rows) {
+        return;
+    }
+    let node = node_direction(j);
+    let v = node.x;
+    let up = v > 0.0;
+    var open = vec3<f32>(0.0);
+    for (var g = 0u; g < N_GROUPS; g = g + 1u) {
+        let l_top = select(vec4<f32>(0.0), field(4u, g), node.y > 0.5);
+        let u_o = select(vec4<f32>(0.0), exp(-field(0u, g) * (prm.depth_o / v)), up);
+        open = open + rgb_of(r_at(prm.depth_o, v, g) + u_o * l_top, g);
+    }
+    let texel = j * DISTANCES + DISTANCES - 1u;
+    out[texel] = vec4<f32>(open, 0.0);
+    if (SPLIT) {
+        out[rows * DISTANCES + texel] = vec4<f32>(0.0);
+    }
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    let j = gid.y;
+    let rows = prm.n_out + prm.n_in;
+    if (k >= DISTANCES - 1u || j >= rows) {
+        return;
+    }
+    let node = node_direction(j);
+    let v = node.x;
+    let inside = node.y > 0.5;
     let up = v > 0.0;
     let d_o = prm.depth_o;
     // Distance node (distance_nodes): S = length x / (1 - x), x = k / (DISTANCES - 2).
-    let open_col = k == DISTANCES - 1u;
     let inf_node = k == DISTANCES - 2u;
     let xn = f32(k) / f32(DISTANCES - 2u);
     let to_surface = select(0.0, d_o / v, up);
@@ -98,32 +135,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (up) {
         s = select(min(s, to_surface), to_surface, inf_node);
     }
-    let far = !up && inf_node;
     let d_s = max(d_o - s * v, 0.0);
 
-    var base = vec3<f32>(0.0);
+    // Open water seen past the hit, T L_bg(d_S), and the cone's share.
+    var behind = vec3<f32>(0.0);
     var cone = vec3<f32>(0.0);
-    for (var g = 0u; g < N_GROUPS; g = g + 1u) {
-        let c = field(0u, g);
-        let l_top = select(vec4<f32>(0.0), field(4u, g), inside);
-        let u_o = select(vec4<f32>(0.0), exp(-c * (d_o / v)), up);
-        let open_l = r_at(d_o, v, g) + u_o * l_top;
-        var b_l = open_l;
-        var c_l = vec4<f32>(0.0);
-        if (!open_col && !far) {
+    if (up || !inf_node) {
+        for (var g = 0u; g < N_GROUPS; g = g + 1u) {
+            let c = field(0u, g);
+            let l_top = select(vec4<f32>(0.0), field(4u, g), inside);
             let u_s = select(vec4<f32>(0.0), exp(-c * (d_s / v)), up);
             let blocked = r_at(d_s, v, g) + u_s * l_top;
             let t_beam = exp(-field(2u, g) * s);
             let t = select(t_beam, exp(-c * s), SPLIT);
-            b_l = open_l - t * blocked;
-            c_l = -(t_beam - t) * blocked;
+            behind = behind + rgb_of(t * blocked, g);
+            cone = cone - rgb_of((t_beam - t) * blocked, g);
         }
-        let w_r = field(5u, g);
-        let w_g = field(6u, g);
-        let w_b = field(7u, g);
-        base = base + vec3<f32>(dot(b_l, w_r), dot(b_l, w_g), dot(b_l, w_b));
-        cone = cone + vec3<f32>(dot(c_l, w_r), dot(c_l, w_g), dot(c_l, w_b));
     }
+    let base = out[j * DISTANCES + DISTANCES - 1u].xyz - behind;
     let texel = j * DISTANCES + k;
     if (SPLIT) {
         out[texel] = vec4<f32>(base + prm.alpha * cone, 0.0);
