@@ -234,8 +234,10 @@ def test_spread_plan():
 
 def test_coarse_sample_pixels():
     ys, xs = lfc.coarse_sample_pixels(20, 30, 3)
-    assert ys.shape == (3, 4, 4)
-    np.testing.assert_array_equal(xs[0, 0], [2, 6, 2, 6])
-    np.testing.assert_array_equal(ys[0, 0], [2, 2, 6, 6])
+    assert ys.shape == (3, 4, 2)
+    np.testing.assert_array_equal(xs[0, 0], [2, 6])
+    np.testing.assert_array_equal(ys[0, 0], [2, 6])
+    np.testing.assert_array_equal(xs[1, 2], [18, 22])
+    np.testing.assert_array_equal(ys[1, 2], [10, 14])
     assert xs.max() == 29 and ys.max() == 19                 # clamped at the edges
-    np.testing.assert_array_equal(lfc.coarse_sample_pixels(5, 5, 0)[1][2, 3], [3, 3, 3, 3])
+    np.testing.assert_array_equal(lfc.coarse_sample_pixels(5, 5, 0)[1][2, 3], [3, 3])

@@ -294,11 +294,23 @@ def record_dispatch(encoder, pipeline, bind_group, workgroups, timestamp_writes=
 
     ``timestamp_writes`` (optional) brackets the pass for :func:`time_passes`.
     """
+    record_dispatches(encoder, [(pipeline, bind_group, workgroups)], timestamp_writes)
+
+
+def record_dispatches(encoder, dispatches, timestamp_writes=None) -> None:
+    """Record ``(pipeline, bind_group, workgroups)`` dispatches in order in one compute pass.
+
+    Each dispatch is its own usage scope (WebGPU), so a dispatch may read what
+    the one before wrote. One pass instead of one per dispatch: on lavapipe a
+    compute pass of its own cost a small dispatch 40-90 us, in a shared pass
+    20-40 us (measured with 21 dispatches of 1-64 workgroups).
+    """
     kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
     cp = encoder.begin_compute_pass(**kwargs)
-    cp.set_pipeline(pipeline)
-    cp.set_bind_group(0, bind_group)
-    cp.dispatch_workgroups(*workgroups)
+    for pipeline, bind_group, workgroups in dispatches:
+        cp.set_pipeline(pipeline)
+        cp.set_bind_group(0, bind_group)
+        cp.dispatch_workgroups(*workgroups)
     cp.end()
 
 

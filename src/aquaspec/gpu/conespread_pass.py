@@ -27,7 +27,7 @@ import numpy as np
 
 from ..conespread import level_shapes
 from ..errors import AquaspecError
-from .buffers import create_texture, record_dispatch, upload_buffer
+from .buffers import create_texture, upload_buffer
 from .layout import UniformLayout
 from .shaders import load_wgsl
 
@@ -133,9 +133,9 @@ class ConeSpreadPass:
             step("compose", self._p[k], coarse, self._u[k], w[k], b, sh[k], sh[k], sh[k + 1])
         return steps
 
-    def encode(self, encoder) -> None:
-        """Record the pyramid after the light-field pass's COARSE dispatch (weights set first)."""
+    def dispatches(self) -> list:
+        """The pyramid's ``(pipeline, bind group, workgroups)`` in order, to record
+        after the light-field pass's COARSE dispatch (weights set first)."""
         if self._steps is None:
-            raise AquaspecError("ConeSpreadPass needs set_weights() before encode()")
-        for entry, group, groups in self._steps:
-            record_dispatch(encoder, self._pipeline(entry), group, groups)
+            raise AquaspecError("ConeSpreadPass needs set_weights() before dispatches()")
+        return [(self._pipeline(entry), group, groups) for entry, group, groups in self._steps]

@@ -47,8 +47,8 @@ One invocation shades four horizontally adjacent pixels. Bindings:
                                         pass with the spread)
 ==  ==================================  ==========================================
 
-With the cone spread a frame is three steps: the COARSE pipeline (one
-invocation per block of the spread's start level,
+With the cone spread a frame is three steps, in one compute pass: the COARSE
+pipeline (one invocation per two blocks of the spread's start level,
 :func:`aquaspec.lightfield_compiled.spread_plan`), the pyramid
 (:class:`aquaspec.gpu.conespread_pass.ConeSpreadPass`), then the
 full-resolution pass, which can apply the display transform itself.
@@ -66,7 +66,8 @@ from .. import lightfield_compiled as lfc
 from ..errors import AquaspecError
 from ..shading import camera_depth
 from .buffers import (create_storage_buffer, create_texture, create_uniform_buffer,
-                      read_buffer, record_dispatch, upload_buffer)
+                      read_buffer, record_dispatch, record_dispatches,
+                      upload_buffer)
 from .deferred import CAMERA_FIELDS, bind_group_entries, bind_group_layout, camera_fields
 from .layout import UniformLayout
 from .shaders import load_wgsl
@@ -528,14 +529,18 @@ class LightfieldPass:
             encoder.clear_buffer(self._status, 0, self._status.size)
         self._last_display = bool(display)
         per_pixel = bool(d.per_pixel)
+        steps = []
         if self.spread:
             # The cone term at the spread's start level, then its pyramid.
-            groups = (-(-coarse_size[0] // WORKGROUP[0]), -(-coarse_size[1] // WORKGROUP[1]), 1)
-            record_dispatch(encoder, self._pipeline(per_pixel, None, coarse=True),
-                            self._bind_group(coarse=True), groups)
-            self._spread_pass.encode(encoder)
-        record_dispatch(encoder, self._pipeline(per_pixel, tonemap), self._bind_group(),
-                        self.workgroups(), timestamp_writes)
+            # (Two coarse pixels per invocation.)
+            groups = (-(-coarse_size[0] // (2 * WORKGROUP[0])),
+                      -(-coarse_size[1] // WORKGROUP[1]), 1)
+            steps.append((self._pipeline(per_pixel, None, coarse=True),
+                          self._bind_group(coarse=True), groups))
+            steps.extend(self._spread_pass.dispatches())
+        steps.append((self._pipeline(per_pixel, tonemap), self._bind_group(), self.workgroups()))
+        # One compute pass (the timestamps, if any, bracket all of it).
+        record_dispatches(encoder, steps, timestamp_writes)
 
     def run(self, display: bool = False) -> None:
         """Shade the current G-buffer (submits; does not wait); ``display`` as in :meth:`encode`."""

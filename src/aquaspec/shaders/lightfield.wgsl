@@ -12,9 +12,9 @@
 // where the second term is there only for hits, U comes from one texture
 // sample (RANK / 4 with rank 8) and w'_i = w_i E0_i / pi exp(C_i).
 // With SPREAD (the forward cone spread over the image) two pipelines:
-// - COARSE: one invocation per pixel of the pyramid's start level (blocks of
-//   BLOCK x BLOCK pixels), its four lanes four pixels of the block; writes
-//   the mean of their cone term (water table layer 1 plus the target's
+// - COARSE: one invocation per two pixels of the pyramid's start level
+//   (blocks of BLOCK x BLOCK pixels), its four lanes two pixels on each
+//   block's diagonal; writes the mean of their cone term (water table layer 1 plus the target's
 //   light times 1 - exp(-f b S)) to cone_out, where the pyramid
 //   (aquaspec/gpu/conespread_pass.py) takes over;
 // - the full-resolution pass: the water table's layer 0 holds W0 + alpha W1,
@@ -181,19 +181,24 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     let row = block * {{ workgroup_y }}u + lid.y;
     let col = wg.x * {{ workgroup_x }}u + lid.x;
     // The four pixels (lanes) of this invocation: four adjacent pixels of a
-    // row, or (COARSE) four pixels of block (col, row) at offsets BLOCK / 4
-    // and 3 BLOCK / 4 (lightfield_compiled.coarse_sample_pixels).
+    // row, or (COARSE) two pixels of each of two blocks, at offsets BLOCK / 4
+    // and 3 BLOCK / 4 on the diagonal (lightfield_compiled.coarse_sample_pixels).
     var px: vec4<u32>;
     var py: vec4<u32>;
     let j0 = 4u * col;
+    // COARSE: blocks 2 col and 2 col + 1 (the last repeated at the edge),
+    // lanes 0 and 1 the first's two samples, 2 and 3 the second's.
+    let cb0 = 2u * col;
+    let cb1 = min(cb0 + 1u, prm.coarse_size.x - 1u);
     if (COARSE) {
-        if (col >= prm.coarse_size.x || row >= prm.coarse_size.y) {
+        if (cb0 >= prm.coarse_size.x || row >= prm.coarse_size.y) {
             return;
         }
         let lo = prm.block / 4u;
         let hi = (3u * prm.block) / 4u;
-        px = min(prm.block * col + vec4<u32>(lo, hi, lo, hi), vec4<u32>(prm.width - 1u));
-        py = min(prm.block * row + vec4<u32>(lo, lo, hi, hi), vec4<u32>(prm.height - 1u));
+        px = min(prm.block * vec4<u32>(cb0, cb0, cb1, cb1) + vec4<u32>(lo, hi, lo, hi),
+                 vec4<u32>(prm.width - 1u));
+        py = min(prm.block * row + vec4<u32>(lo, hi, lo, hi), vec4<u32>(prm.height - 1u));
     } else {
         if (j0 >= prm.width || row >= prm.height) {
             return;
@@ -333,10 +338,14 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         b = b + l * wt.z;
     }
     if (COARSE) {
-        // The block's mean cone term: the pyramid's start level.
-        textureStore(cone_out, vec2<u32>(col, row),
-                     vec4<f32>(0.25 * dot(r, vec4<f32>(1.0)), 0.25 * dot(gr, vec4<f32>(1.0)),
-                               0.25 * dot(b, vec4<f32>(1.0)), 0.0));
+        // The blocks' mean cone terms: the pyramid's start level.
+        textureStore(cone_out, vec2<u32>(cb0, row),
+                     vec4<f32>(0.5 * (r.x + r.y), 0.5 * (gr.x + gr.y), 0.5 * (b.x + b.y), 0.0));
+        if (cb0 + 1u < prm.coarse_size.x) {
+            textureStore(cone_out, vec2<u32>(cb0 + 1u, row),
+                         vec4<f32>(0.5 * (r.z + r.w), 0.5 * (gr.z + gr.w), 0.5 * (b.z + b.w),
+                                   0.0));
+        }
         return;
     }
     if (SPREAD) {
