@@ -16,7 +16,7 @@ SIZE = [(64, 36)]
 
 @pytest.fixture(scope="module")
 def seeds_result():
-    return run_bench(sizes=SIZE, bands=[3, 8], frames=2, warmup=1)
+    return run_bench(sizes=SIZE, bands=[3, 8], frames=2, warmup=1, ms_model="seeds")
 
 
 def test_rows_fits_and_ratios(seeds_result):
@@ -56,9 +56,10 @@ def test_lightfield_against_seeds_in_the_same_run():
 def test_lightfield_with_the_cone_spread():
     """The spread runs in the timed shading; the result records it."""
     plain = run_bench(sizes=SIZE, bands=[8], frames=2, warmup=1, numpy_reference=False,
-                      ms_model="lightfield")
-    res = run_bench(sizes=SIZE, bands=[8], frames=2, warmup=1, numpy_reference=False,
-                    ms_model="lightfield", cone_spread=True)
+                      ms_model="lightfield", cone_spread=False)
+    res = run_bench(sizes=SIZE, bands=[8], frames=2, warmup=1, numpy_reference=False)
+    # (No model given: the default, the light field with the spread.)
+    assert res["ms_model"] == "lightfield"
     assert res["cone_spread"] is True and plain["cone_spread"] is False
     assert res["rows"][0]["frame_ms"] > 0
 
@@ -68,15 +69,15 @@ def test_cli_json_and_plot(tmp_path, capsys):
     assert main(["bench", "--sizes", "64x36", "--bands", "3,8", "--frames", "2", "--warmup", "0",
                  "--no-numpy", "--json", str(out), "--plot", str(png)]) == 0
     doc = json.loads(out.read_text())
-    assert len(doc["rows"]) == 2 and doc["ms_model"] == "seeds"
+    assert len(doc["rows"]) == 2 and doc["ms_model"] == "lightfield" and doc["cone_spread"]
     assert png.stat().st_size > 1000
     assert "ratios 64x36" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("argv,match", [
     (["--bands", "3,x"], r"--bands '3,x' must be comma-separated integers"),
-    (["--compare-seeds"], r"needs ms_model='lightfield'"),
-    (["--cone-spread"], r"cone_spread is part of the light-field model"),
+    (["--ms-model", "seeds", "--compare-seeds"], r"needs ms_model='lightfield'"),
+    (["--ms-model", "seeds", "--cone-spread"], r"cone_spread is part of the light-field model"),
     (["--json", "out.txt"], r"\.txt"),
 ])
 def test_bad_input(argv, match, capsys, tmp_path, monkeypatch):

@@ -37,9 +37,10 @@ def with_per_pixel_materials(gb):
     return dataclasses.replace(gb, material=material, sigmoid=sigmoid)
 
 
-def setup_of(water, n, phase, cone=0.0, sensor="nikon-5100-npl"):
+def setup_of(water, n, phase, cone=0.0, sensor="nikon-5100-npl", cone_spread=False):
     return SpectralSetup(load_water(water), get_sensor(sensor), surface_light("overcast"),
-                         Bands(n), ms_model="lightfield", phase=phase, forward_cone_deg=cone)
+                         Bands(n), ms_model="lightfield", phase=phase, forward_cone_deg=cone,
+                         cone_spread=cone_spread)
 
 
 def gpu_pass(gb, setup, e0_scale=1.0, filtering=None):

@@ -234,7 +234,34 @@ def test_forward_cone_defaults():
     assert forward_cone(25, True) == 25.0
     base = dict(water=load_water("IB"), sensor=get_sensor("human"),
                 light=surface_light("overcast"), bands=Bands(3), ms_model="lightfield")
-    assert SpectralSetup(**base).describe()["forward_cone_deg"] == 15.0
+    assert SpectralSetup(**base, cone_spread=False).describe()["forward_cone_deg"] == 15.0
     spread = SpectralSetup(**base, cone_spread=True)
     assert spread.describe()["forward_cone_deg"] == 40.0 and spread.describe()["cone_spread"]
     assert SpectralSetup(**base, cone_spread=True, forward_cone_deg=30.0).cone_deg == 30.0
+    # No cone_spread given: the light field's default is the spread (model.cone_spread_for).
+    assert SpectralSetup(**base).describe()["cone_spread"] is True
+    assert SpectralSetup(**base).cone_deg == 40.0
+
+
+def test_default_model_is_the_light_field_with_the_spread():
+    """The default multiple-scattering model is the one the validation chose;
+    the seeds' model has no cone and refuses one."""
+    from aquaspec import model
+    from aquaspec.bands import Bands
+    from aquaspec.light import surface_light
+    from aquaspec.renderer import SpectralSetup
+    from aquaspec.sensors import get_sensor
+    from aquaspec.water import load_water
+    assert model.DEFAULT_MS_MODEL == "lightfield"
+    assert model.cone_spread_for("lightfield", None) is True
+    assert model.cone_spread_for("lightfield", False) is False
+    assert model.cone_spread_for("seeds", None) is False
+    with pytest.raises(AquaspecError, match="cone_spread is part of the light-field model"):
+        model.cone_spread_for("seeds", True)
+    base = dict(water=load_water("IB"), sensor=get_sensor("human"),
+                light=surface_light("overcast"), bands=Bands(3))
+    d = SpectralSetup(**base).describe()
+    assert d["ms_model"] == "lightfield" and d["cone_spread"] and d["phase"] == "petzold"
+    assert "cone_spread" not in SpectralSetup(**base, ms_model="seeds").describe()
+    with pytest.raises(AquaspecError, match="cone_spread"):
+        SpectralSetup(**base, ms_model="seeds", cone_spread=True)

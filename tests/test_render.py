@@ -73,10 +73,14 @@ class TestPictures:
         blue_keep = contrast[5.0][1] / contrast[0.0][1]
         assert 0 < red_keep < blue_keep < 1, (red_keep, blue_keep)
 
-    def test_reference_image(self, tmp_path):
-        """Regression against tests/data/reference_IB_5m.png; writes a diff image on failure."""
-        ref_path = DATA / "reference_IB_5m.png"
-        res = render(water="IB", depth_m=5.0, size=(160, 90), bands=8, exposure=-1.5)
+    @pytest.mark.parametrize("ms_model, name", [("seeds", "reference_IB_5m.png"),
+                                                ("lightfield", "reference_IB_5m_lightfield.png")])
+    def test_reference_image(self, tmp_path, ms_model, name):
+        """Regression against tests/data/reference_IB_5m*.png (the seeds' model, and
+        the default light field with the cone spread); writes a diff image on failure."""
+        ref_path = DATA / name
+        res = render(water="IB", depth_m=5.0, size=(160, 90), bands=8, exposure=-1.5,
+                     ms_model=ms_model)
         got = res.display.astype(float)
         ref = np.asarray(Image.open(ref_path).convert("RGB"), dtype=float)
         diff = np.abs(got - ref)
@@ -98,7 +102,7 @@ class TestPictures:
         from aquaspec.water import load_water
         scene, cam = scene_at(5.0, 160, 90)
         setup = SpectralSetup(load_water("IB"), get_sensor("human"), surface_light("overcast"),
-                              Bands(8))
+                              Bands(8), ms_model="seeds")
         r = Renderer(160, 90, 8)
         gpu = r.render_scene(scene, cam, setup)
         from aquaspec.gpu.raster import RasterPass
@@ -108,7 +112,12 @@ class TestPictures:
         np.testing.assert_allclose(gpu, ref, rtol=1e-4, atol=1e-6 * scale)
 
     def test_radiance_and_params(self):
-        res = render(water="3C", depth_m=9.0, size=(64, 36), bands=8, return_radiance=True)
+        # Per-band radiance from the GPU: the seeds' model only (the light field
+        # says so and names the NumPy backend).
+        with pytest.raises(AquaspecError, match="backend='numpy'"):
+            render(water="3C", depth_m=9.0, size=(64, 36), bands=8, return_radiance=True)
+        res = render(water="3C", depth_m=9.0, size=(64, 36), bands=8, return_radiance=True,
+                     ms_model="seeds")
         assert res.radiance.shape == (36, 64, 8) and np.all(res.radiance >= 0)
         p = res.params
         assert p["water"]["name"] == "3C" and p["depth_m"] == 9.0 and p["bands"]["n"] == 8

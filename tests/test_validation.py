@@ -325,7 +325,8 @@ def test_small_study_with_fournier_forand(tmp_path):
     from aquaspec.validation.study import run_study
     res = run_study(waters=("IB",), depths=(4.0,), sensors={"human": get_sensor("human")},
                     size=(24, 18), spp=8, kd_spp=2000, band_counts=(8,), phase="ff",
-                    backscatter=0.03, ms_models=("lightfield",), cache_dir=tmp_path)
+                    backscatter=0.03, ms_models=("lightfield",), cache_dir=tmp_path,
+                    cone_spread=False)
     pf = res["params"]["phase_function"]
     assert pf["name"] == "tabulated" and pf["of"]["name"] == "ff"
     assert pf["backscatter_fraction"] == pytest.approx(0.03, rel=1e-4)
@@ -337,7 +338,8 @@ def test_small_study_with_fournier_forand(tmp_path):
     spread = run_study(waters=("IB",), depths=(4.0,), sensors={"human": get_sensor("human")},
                        size=(24, 18), spp=8, kd_spp=2000, band_counts=(8,), phase="ff",
                        backscatter=0.03, ms_models=("lightfield",), cache_dir=tmp_path,
-                       forward_cone_deg=30.0, cone_spread=True)
+                       forward_cone_deg=30.0)
+    # (cone_spread not given: on, as the light field's default.)
     assert spread["params"]["cone_spread"] is True
     srows = [r for r in spread["rows"] if r["method"] == "lightfield-n8"]
     assert len(srows) == len(rows) and all(np.isfinite(r["rmse_rel"]) for r in srows)

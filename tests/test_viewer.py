@@ -45,7 +45,8 @@ def test_no_display_is_a_clear_error(capsys):
 def test_ms_model_switch_and_cached_setups(recwarn):
     import matplotlib.pyplot as plt
     fig = plt.figure()
-    v = Viewer(96, 54, water="3C", depth_m=5.0, bands=4).attach(fig)
+    v = Viewer(96, 54, water="3C", depth_m=5.0, bands=4, ms_model="seeds",
+               cone_spread=False).attach(fig)
     seeds = v.linear.copy()
     n_warn = len(recwarn)
     assert n_warn > 0          # 3C's filled red values are reported once ...
@@ -72,8 +73,15 @@ def test_ms_model_switch_and_cached_setups(recwarn):
     plt.close(fig)
 
 
-def test_cone_spread_leaves_the_seeds_model_alone():
+def test_default_is_the_light_field_with_the_spread():
     v = Viewer(64, 36, bands=4)
+    v.update()
+    assert v.state["ms_model"] == "lightfield" and v.state["cone_spread"]
+    assert "light field + cone spread" in v.title()
+
+
+def test_cone_spread_leaves_the_seeds_model_alone():
+    v = Viewer(64, 36, bands=4, ms_model="seeds")
     seeds = v.update().copy()
     assert "cone spread" not in v.title()
     np.testing.assert_array_equal(v.update(cone_spread=True), seeds)

@@ -80,8 +80,8 @@ def _frame_wall_ms(renderer, passes, frames, warmup):
 
 def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, warmup: int = 3,
               water="IB", depth_m: float = 5.0, sensor="human", numpy_reference: bool = True,
-              ms_model: str = "seeds", phase: str = "petzold", compare_seeds: bool = False,
-              cone_spread: bool = False, progress=None) -> dict:
+              ms_model: str | None = None, phase: str = "petzold", compare_seeds: bool = False,
+              cone_spread: bool | None = None, progress=None) -> dict:
     """Run the cost study; returns a JSON-ready dict (see the module docstring)."""
     from .display import display_settings, to_display
     from .gpu.buffers import time_passes
@@ -100,9 +100,9 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
         say(f"note: {frames} frames (the study asks for at least 20)")
     if not sizes or not bands:
         raise AquaspecError("bench needs at least one size and one band count")
-    if cone_spread and ms_model != "lightfield":
-        raise AquaspecError("cone_spread is part of the light-field model: it needs "
-                            "ms_model='lightfield'")
+    from .model import DEFAULT_MS_MODEL, cone_spread_for
+    ms_model = DEFAULT_MS_MODEL if ms_model is None else ms_model
+    cone_spread = cone_spread_for(ms_model, cone_spread)
     if compare_seeds and ms_model == "seeds":
         raise AquaspecError("compare_seeds times the seeds' frame beside another model's: it "
                             "needs ms_model='lightfield'")

@@ -50,8 +50,14 @@ class SpectralSetup:
     #: 15, or 40 with ``cone_spread``).
     forward_cone_deg: float | None = None
     #: Spread the cone's light over the image from where the cone points
-    #: (:mod:`aquaspec.conespread`, an image pyramid; GPU and NumPy).
-    cone_spread: bool = False
+    #: (:mod:`aquaspec.conespread`, an image pyramid; GPU and NumPy); None:
+    #: the model's default (:func:`aquaspec.model.cone_spread_for`: on for the
+    #: light field).
+    cone_spread: bool | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "cone_spread",
+                           model.cone_spread_for(self.ms_model, self.cone_spread))
 
     @property
     def cone_deg(self) -> float:
@@ -212,7 +218,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
-           forward_cone_deg: float | None = None, cone_spread: bool = False,
+           forward_cone_deg: float | None = None, cone_spread: bool | None = None,
            exposure="auto", white_balance="none", tonemap="filmic", colour_matrix="auto",
            return_radiance: bool = False, backend: str = "gpu",
            progress=None) -> RenderResult:
@@ -248,12 +254,12 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         (:data:`aquaspec.model.AMBIENT_MODELS`).
     ms_model : str
         Multiple-scattering model (:data:`aquaspec.model.MS_MODELS`):
-        ``"seeds"`` or ``"lightfield"`` (with phase function ``phase``;
+        ``"lightfield"`` (the default; with phase function ``phase``;
         scattering within ``forward_cone_deg`` of forward stays in the beam
         towards surfaces, see :func:`aquaspec.lightfield.lightfield_tables`;
-        None: 15, or 40 with ``cone_spread``;
-        ``cone_spread=True`` spreads that light over the image from where the
-        cone points, :mod:`aquaspec.conespread`).
+        None: 15, or 40 with ``cone_spread``; ``cone_spread`` spreads that
+        light over the image from where the cone points,
+        :mod:`aquaspec.conespread`; None: on) or ``"seeds"`` (thesis Eq. 4.7).
     outside : {"error", "zero"}
         Sensor response outside its range.
     exposure : "auto" or float EV; white_balance, tonemap : str
@@ -285,12 +291,9 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     light_obj = light if isinstance(light, SurfaceLight) else surface_light(
         light, total_w_m2=irradiance_w_m2, sun_elevation_deg=sun_elevation_deg)
     from .appearance import check_ms_model
-    if cone_spread and ms_model != "lightfield":
-        raise AquaspecError(f"cone_spread is part of the light-field model; ms_model="
-                            f"{ms_model!r}; accepted: ms_model='lightfield'")
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase,
-                          forward_cone_deg=forward_cone_deg, cone_spread=bool(cone_spread))
+                          forward_cone_deg=forward_cone_deg, cone_spread=cone_spread)
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
 

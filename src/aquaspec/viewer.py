@@ -40,20 +40,22 @@ class Viewer:
         Frame size in pixels.
     water, depth_m, bands, sensor, exposure, ms_model, cone_spread : initial settings
         ``exposure`` is ``"auto"`` or EV; ``ms_model`` a key of
-        :data:`aquaspec.model.MS_MODELS`; ``cone_spread`` (light field only)
-        spreads the forward cone's light over the image (cone 40 degrees).
+        :data:`aquaspec.model.MS_MODELS`; ``cone_spread`` (light field only;
+        None: on) spreads the forward cone's light over the image (cone 40
+        degrees).
     camspec : path, optional
         Makes the cameras of a camspec file selectable.
     """
 
     def __init__(self, width=640, height=360, *, water="IB", depth_m=5.0, bands=8,
-                 sensor="human", exposure="auto", ms_model=DEFAULT_MS_MODEL, cone_spread=False,
+                 sensor="human", exposure="auto", ms_model=DEFAULT_MS_MODEL, cone_spread=None,
                  camspec=None):
         self.width, self.height = width, height
         self.camspec = camspec
         self.state = {"water": water, "depth_m": float(depth_m), "bands": int(bands),
                       "sensor": sensor, "exposure": exposure, "ms_model": ms_model,
-                      "cone_spread": bool(cone_spread)}
+                      # (the light field's default: spread; see model.cone_spread_for)
+                      "cone_spread": True if cone_spread is None else bool(cone_spread)}
         self._waters, self._sensors, self._setups = {}, {}, {}
         check_ms_model(ms_model)
         self._renderer = None

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
+
+from ..model import DEFAULT_MS_MODEL, MS_MODELS
 
 
 def register(sub):
@@ -19,12 +22,12 @@ def register(sub):
     p.add_argument("--warmup", type=int, default=3, help="untimed frames first (default 3)")
     p.add_argument("--water", default="IB")
     p.add_argument("--depth", type=float, default=5.0)
-    p.add_argument("--ms-model", default="seeds", choices=("seeds", "lightfield"),
-                   help="multiple-scattering model to time (default seeds)")
+    p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODELS),
+                   help=f"multiple-scattering model to time (default {DEFAULT_MS_MODEL})")
     p.add_argument("--phase", default="petzold", help="phase function for --ms-model lightfield")
-    p.add_argument("--cone-spread", action="store_true",
+    p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
                    help="--ms-model lightfield: with the forward cone spread over the image "
-                        "(the pyramid passes; forward cone 40 degrees)")
+                        "(the pyramid passes; forward cone 40 degrees; default: on)")
     p.add_argument("--compare-seeds", action="store_true",
                    help="with --ms-model lightfield: also time the seeds' frame on the same "
                         "G-buffer in the same run and report lightfield / seeds")

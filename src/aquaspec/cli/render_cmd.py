@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 from .common import (add_band_options, add_light_options, add_sensor_options,
@@ -39,9 +40,10 @@ def register(sub):
                    help="an RGB image and its metric depth map (16-bit PNG in mm, .npy or .exr "
                         "in m): the photograph is seen through the water")
     p.add_argument("--intrinsics", metavar="fx,fy,cx,cy", help="pinhole intrinsics for --rgbd, pixels")
-    p.add_argument("--cone-spread", action="store_true",
+    p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
                    help="--ms-model lightfield: the forward cone's light comes from where the "
-                        "cone points in the image (an image pyramid; use with --forward-cone 40)")
+                        "cone points in the image (an image pyramid; default: on for the "
+                        "light field)")
     p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
                    help="gpu (WGSL through wgpu) or numpy (the slow reference)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 
@@ -35,14 +36,16 @@ def register(sub):
     p.add_argument("--backscatter", type=float, default=None, metavar="B",
                    help="backscatter fraction of Fournier-Forand for --phase ff (default 0.0183, "
                         "Petzold's average particle phase function)")
-    p.add_argument("--ms-models", default="seeds", metavar="M,...",
-                   help="aquaspec multiple-scattering models to compare (seeds,lightfield)")
+    p.add_argument("--ms-models", default="seeds,lightfield", metavar="M,...",
+                   help="aquaspec multiple-scattering models to compare (default "
+                        "seeds,lightfield)")
     p.add_argument("--forward-cone", type=float, default=None, metavar="DEG",
                    help="light-field model: scattering within DEG of forward stays in the beam "
                         "towards targets (default 15, or 40 with --cone-spread; 0 = off)")
-    p.add_argument("--cone-spread", action="store_true",
+    p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
                    help="light-field model: the forward cone's light comes from where the cone "
-                        "points in the image (a convolution), not from the pixel's own surface")
+                        "points in the image (a convolution), not from the pixel's own surface "
+                        "(default: on when the models include lightfield)")
     p.add_argument("--gpu-timing", action="store_true",
                    help="also time aquaspec's GPU renderer per scene (n = largest band count) "
                         "for the speed-up over the reference at equal pixel count")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import argparse
+
 
 def register(sub):
     p = sub.add_parser("view", help="interactive window with live controls",
@@ -16,8 +18,9 @@ def register(sub):
     from ..model import DEFAULT_MS_MODEL, MS_MODELS
     p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODELS),
                    help=f"multiple-scattering model to start with (default {DEFAULT_MS_MODEL})")
-    p.add_argument("--cone-spread", action="store_true",
-                   help="start with the light field's forward cone spread over the image")
+    p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
+                   help="start with the light field's forward cone spread over the image "
+                        "(default: on)")
     p.add_argument("--camspec", metavar="PATH")
     p.add_argument("--size", default="640x360", metavar="WxH")
     p.set_defaults(func=run, command="view")

@@ -189,7 +189,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
               g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
               band_counts=(8, 16), ms_models=("seeds",),
               kd_modes=("database", "measured"), forward_cone_deg: float | None = None,
-              cone_spread: bool = False,
+              cone_spread: bool | None = None,
               cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
 
@@ -205,13 +205,16 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     very table Mitsuba's ``tabphase`` holds; ``"petzold"`` is the particle
     phase function alone, unmixed with pure water, on both sides).
     ``cone_spread`` spreads the light-field model's forward cone over the
-    image (:mod:`aquaspec.conespread`); ``forward_cone_deg`` None is the
-    model's default cone (15 degrees, 40 with the spread).
+    image (:mod:`aquaspec.conespread`; None: when ``ms_models`` has the light
+    field, as :func:`aquaspec.model.cone_spread_for`); ``forward_cone_deg``
+    None is the model's default cone (15 degrees, 40 with the spread).
     """
     from ..gpu.raster import raycast_gbuffer
     say = progress or (lambda m: None)
     if not sensors:
         raise AquaspecError("the study needs at least one sensor")
+    if cone_spread is None:
+        cone_spread = "lightfield" in ms_models
     if cone_spread and "lightfield" not in ms_models:
         raise AquaspecError(f"cone_spread is part of the light-field model; ms_models="
                             f"{list(ms_models)}; accepted: a list with 'lightfield'")
