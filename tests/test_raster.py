@@ -165,6 +165,40 @@ def rendered(raster):
     return scene, cam, raster.render(scene, cam)
 
 
+class TestRaycastBinning:
+    """Binning triangles into pixel tiles skips only ray-triangle pairs that
+    cannot meet: the G-buffer is the brute force's, bit for bit."""
+
+    @staticmethod
+    def same(a, b):
+        for name in ("distance", "normal", "material", "sigmoid"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+    @pytest.mark.parametrize("tile", [1, 5, 16])
+    def test_floor_through_the_camera_plane(self, tile):
+        # The floor runs from in front of the camera to behind it (triangles
+        # crossing the camera's plane); the box is partly off-screen.
+        s = plane_and_box()
+        cam = Camera.look_at((0.3, -3.0, -0.5), (2.5, -3.6, -4.0), width=40, height=30)
+        self.same(raycast_gbuffer(s, cam, tile=tile), raycast_gbuffer(s, cam, tile=None))
+
+    def test_inside_a_box_and_the_builtin_scene(self):
+        box = trimesh.creation.box((4.0, 3.0, 5.0))
+        s = Scene([Mesh.flat(box.vertices + [0, -5, 0], box.faces)], [Reflectance.constant(0.5)])
+        cam = Camera.look_at((0.5, -5.2, 0.5), (-1.0, -5.5, -2.0), width=33, height=21)
+        got = raycast_gbuffer(s, cam, tile=4)
+        assert np.isfinite(got.distance).all()              # every ray ends on a wall
+        self.same(got, raycast_gbuffer(s, cam, tile=None))
+        scene, cam = builtin_scene(5.0, width=48, height=27)
+        self.same(raycast_gbuffer(scene, cam), raycast_gbuffer(scene, cam, tile=None))
+
+    def test_bad_tile(self):
+        s = plane_and_box()
+        cam = Camera.look_at((0.3, -2.0, 0.0), (0.2, -3.5, -5.0), width=8, height=6)
+        with pytest.raises(AquaspecError, match="tile=0; accepted: a positive integer or None"):
+            raycast_gbuffer(s, cam, tile=0)
+
+
 class TestBuiltin:
     def test_all_24_patches_visible_and_facing(self, rendered):
         scene, cam, g = rendered

@@ -23,9 +23,10 @@ when the scene has textured or vertex-coloured meshes
 (:attr:`RasterPass.per_pixel`), ``"sigmoid"`` rgba32float (the three
 coefficients). Each draw mode has a pipeline per target set.
 
-:func:`raycast_gbuffer` computes the same G-buffer by brute-force ray-triangle
-intersection in float64 (vectorised; meant for small images and scenes) and
-is what the tests compare :class:`RasterPass` against.
+:func:`raycast_gbuffer` computes the same G-buffer by ray-triangle
+intersection in float64 (vectorised, triangles binned into pixel tiles by
+their projected bounding boxes) and is what the tests compare
+:class:`RasterPass` against.
 
 :meth:`RasterPass.render_to` renders straight into a
 :class:`~aquaspec.gpu.deferred.DeferredPass`'s G-buffer textures (no
@@ -391,14 +392,85 @@ def _bilinear_repeat(image, uv):
     return top * (1 - fy) + bottom * fy
 
 
-def raycast_gbuffer(scene: Scene, camera: Camera, *, max_elements: int = 2_000_000) -> GBuffer:
-    """G-buffer by brute-force ray-triangle intersection (float64 reference).
+#: Side of the square pixel tiles :func:`raycast_gbuffer` bins triangles into.
+RAYCAST_TILE = 16
 
-    Every pixel-centre ray is tested against every triangle (Moller-Trumbore),
-    in chunks of at most ``max_elements`` ray-triangle pairs. The per-pixel
-    quantities follow the same rules as :class:`RasterPass`.
+
+def _pixel_boxes(tri, camera: Camera):
+    """Inclusive pixel boxes ``(j0, j1, i0, i1)`` (each (T,)) that hold every
+    pixel centre whose ray can meet each triangle ``tri`` (T, 3, 3) beyond
+    the near distance: the bounding box, one pixel wider on each side and
+    clipped to the image, of the triangle's part in front of the plane
+    ``z = z_min`` (camera z; ``z_min`` half the smallest z a pixel ray reaches
+    at ``camera.near``), projected. A triangle with no such part, or entirely
+    off-screen, gets ``j0 > j1``.
+    """
+    w, h = camera.width, camera.height
+    min_cos = float((camera.ray_directions().reshape(-1, 3) @ camera.forward).min())
+    z_min = 0.5 * camera.near * min_cos
+    rel = tri - camera.position                               # (T, 3, 3)
+    z = rel @ camera.forward                                  # (T, 3)
+    # Points whose projections bound the clipped triangle: the vertices in
+    # front of the plane and where the edges cross it.
+    a, b = rel, rel[:, [1, 2, 0]]
+    za, zb = z, z[:, [1, 2, 0]]
+    cross = (za - z_min) * (zb - z_min) < 0
+    f = np.where(cross, (z_min - za) / np.where(cross, zb - za, 1.0), 0.0)
+    pts = np.concatenate([a, a + f[..., None] * (b - a)], axis=1)       # (T, 6, 3)
+    use = np.concatenate([z > z_min, cross], axis=1)                    # (T, 6)
+    pz = np.where(use, pts @ camera.forward, 1.0)
+    pj = (pts @ camera.right) / pz * camera.fx + camera.cx - 0.5
+    pi = -(pts @ camera.true_up) / pz * camera.fy + camera.cy - 0.5
+    j0 = np.floor(np.where(use, pj, np.inf).min(axis=1)) - 1
+    j1 = np.ceil(np.where(use, pj, -np.inf).max(axis=1)) + 1
+    i0 = np.floor(np.where(use, pi, np.inf).min(axis=1)) - 1
+    i1 = np.ceil(np.where(use, pi, -np.inf).max(axis=1)) + 1
+    off = ~use.any(axis=1) | (j1 < 0) | (j0 > w - 1) | (i1 < 0) | (i0 > h - 1)
+    box = [np.clip(np.where(off, 0, x), 0, lim).astype(np.int64)
+           for x, lim in ((j0, w - 1), (j1, w - 1), (i0, h - 1), (i1, h - 1))]
+    box[1] = np.where(off, -1, box[1])
+    return tuple(box)
+
+
+def _tile_candidates(boxes, width: int, height: int, tile: int):
+    """Per tile of ``tile`` x ``tile`` pixels (row-major), the triangles whose
+    box overlaps it, in ascending order: ``(starts, order)`` with tile k's
+    triangles ``order[starts[k]:starts[k + 1]]``."""
+    j0, j1, i0, i1 = boxes
+    keep = np.nonzero(j1 >= j0)[0]
+    tx0, tx1 = j0[keep] // tile, j1[keep] // tile
+    ty0, ty1 = i0[keep] // tile, i1[keep] // tile
+    nx = (tx1 - tx0 + 1)
+    counts = nx * (ty1 - ty0 + 1)
+    tiles_x = -(-width // tile)
+    tri = np.repeat(keep, counts)
+    # The k-th pair of a triangle covers tile (tx0 + k % nx, ty0 + k // nx).
+    k = np.arange(tri.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    nxr = np.repeat(nx, counts)
+    tile_id = (np.repeat(ty0, counts) + k // nxr) * tiles_x + np.repeat(tx0, counts) + k % nxr
+    order = np.argsort(tile_id, kind="stable")               # triangles stay ascending
+    n_tiles = tiles_x * -(-height // tile)
+    starts = np.concatenate([[0], np.cumsum(np.bincount(tile_id, minlength=n_tiles))])
+    return starts, tri[order]
+
+
+def raycast_gbuffer(scene: Scene, camera: Camera, *, max_elements: int = 2_000_000,
+                    tile: int | None = RAYCAST_TILE) -> GBuffer:
+    """G-buffer by ray-triangle intersection (Moller-Trumbore, float64 reference).
+
+    Pixel-centre rays are tested against the triangles whose projected
+    bounding box covers their tile of ``tile`` x ``tile`` pixels
+    (:func:`_pixel_boxes`; ``tile=None``: every ray against every triangle,
+    the brute force the binning must equal), in chunks of at most
+    ``max_elements`` ray-triangle pairs. The per-pixel quantities follow the
+    same rules as :class:`RasterPass`. The binning skips only pairs that
+    cannot meet, so the result is the brute force's, bit for bit (tested);
+    measured on the built-in scene (12084 triangles): 320x180 in 0.16 s
+    instead of 26 s, 1280x720 in 0.9 s.
     """
     _check_inputs(scene, camera)
+    if tile is not None and not (isinstance(tile, (int, np.integer)) and tile >= 1):
+        raise AquaspecError(f"tile={tile!r}; accepted: a positive integer or None")
     dirs = camera.ray_directions().reshape(-1, 3)
     o = camera.position
     n_rays = len(dirs)
@@ -406,32 +478,57 @@ def raycast_gbuffer(scene: Scene, camera: Camera, *, max_elements: int = 2_000_0
     best_mesh = np.full(n_rays, -1)
     best_face = np.zeros(n_rays, dtype=np.int64)
     best_uv = np.zeros((n_rays, 2))
-    chunk = max(1, max_elements // n_rays)
     eps = 1e-12
-    for mi, mesh in enumerate(scene.meshes):
-        tri = mesh.vertices[mesh.faces]
-        for start in range(0, len(tri), chunk):
-            t3 = tri[start:start + chunk]                        # (T, 3, 3)
+    # All triangles in scene order (mesh, then face): ties keep the first.
+    tris = [mesh.vertices[mesh.faces] for mesh in scene.meshes]
+    all_tri = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+    tri_mesh = np.concatenate([np.full(len(t), mi) for mi, t in enumerate(tris)]) \
+        if tris else np.zeros(0, dtype=np.int64)
+    tri_face = np.concatenate([np.arange(len(t)) for t in tris]) \
+        if tris else np.zeros(0, dtype=np.int64)
+
+    def cast(rays, cand):
+        """Nearest hit of rays ``rays`` (indices) among triangles ``cand`` (ascending)."""
+        d = dirs[rays]
+        n = len(rays)
+        chunk = max(1, max_elements // n)
+        for start in range(0, len(cand), chunk):
+            idx = cand[start:start + chunk]
+            t3 = all_tri[idx]                                     # (T, 3, 3)
             e1 = t3[:, 1] - t3[:, 0]
             e2 = t3[:, 2] - t3[:, 0]
-            p = np.cross(dirs[:, None, :], e2[None])             # (N, T, 3)
+            p = np.cross(d[:, None, :], e2[None])                 # (N, T, 3)
             det = np.einsum("ntk,tk->nt", p, e1)
             ok = np.abs(det) > eps
             inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-            s = o - t3[:, 0]                                     # (T, 3)
+            s = o - t3[:, 0]                                      # (T, 3)
             u = np.einsum("ntk,tk->nt", p, s) * inv
-            q = np.cross(s, e1)                                  # (T, 3)
-            v = (dirs @ q.T) * inv
+            q = np.cross(s, e1)                                   # (T, 3)
+            v = np.einsum("nk,tk->nt", d, q) * inv
             t = (e2 * q).sum(axis=1)[None, :] * inv
             valid = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > camera.near)
             t = np.where(valid, t, np.inf)
             k = np.argmin(t, axis=1)
-            tk = t[np.arange(n_rays), k]
-            closer = tk < best_t
-            best_t = np.where(closer, tk, best_t)
-            best_mesh = np.where(closer, mi, best_mesh)
-            best_face = np.where(closer, start + k, best_face)
-            best_uv[closer] = np.stack([u[closer, k[closer]], v[closer, k[closer]]], 1)
+            tk = t[np.arange(n), k]
+            closer = tk < best_t[rays]
+            hit = rays[closer]
+            best_t[hit] = tk[closer]
+            best_mesh[hit] = tri_mesh[idx[k[closer]]]
+            best_face[hit] = tri_face[idx[k[closer]]]
+            best_uv[hit] = np.stack([u[closer, k[closer]], v[closer, k[closer]]], 1)
+
+    w, h = camera.width, camera.height
+    if tile is None:
+        cast(np.arange(n_rays), np.arange(len(all_tri)))
+    else:
+        starts, order = _tile_candidates(_pixel_boxes(all_tri, camera), w, h, int(tile))
+        tiles_x = -(-w // tile)
+        pix = np.arange(n_rays).reshape(h, w)
+        for k in range(len(starts) - 1):
+            if starts[k + 1] > starts[k]:
+                ty, tx = divmod(k, tiles_x)
+                rays = pix[ty * tile:(ty + 1) * tile, tx * tile:(tx + 1) * tile].reshape(-1)
+                cast(rays, order[starts[k]:starts[k + 1]])
 
     normal = np.zeros((n_rays, 3))
     material = np.zeros(n_rays, dtype=np.uint32)
