@@ -75,7 +75,7 @@ from .shaders import load_wgsl
 PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_materials", "u32"), ("depth_o", "f32"),
     ("max_depth", "f32"), ("window_cos", "f32"), ("coarse_size", "vec2<u32>"),
-    ("block", "u32"), ("alpha", "f32"),
+    ("block", "u32"), ("alpha", "f32"), ("fb_mean", "f32"),
 ])
 
 #: Compute workgroup size (x, y) of lightfield.wgsl, in invocations.
@@ -276,7 +276,8 @@ class LightfieldPass:
         self._shape = dict(n_bands=n, n_materials=int(np.asarray(material_bands).shape[0]),
                            n_depth=lp.shape[1], n_mu=lp.shape[2], rank=rank,
                            max_depth=float(tables["max_depth_m"][0]),
-                           window_cos=float(tables["window_cos"][0]))
+                           window_cos=float(tables["window_cos"][0]),
+                           fb_mean=float(np.mean(f * b)))
         self.factors = factors
         self._medium = (tables, a, b, e0, np.asarray(response_weights, dtype=float))
         #: Whether the forward cone is spread over the image (tables with
@@ -519,7 +520,8 @@ class LightfieldPass:
             **camera_fields(cam), width=self.width, height=self.height,
             n_materials=self._shape["n_materials"], depth_o=depth_o,
             max_depth=self._shape["max_depth"], window_cos=self._shape["window_cos"],
-            coarse_size=coarse_size, block=2 ** start, alpha=alpha))
+            coarse_size=coarse_size, block=2 ** start, alpha=alpha,
+            fb_mean=self._shape["fb_mean"]))
         if display:
             # status[3] is an atomicMin, so it starts at the maximum (a queue
             # write runs before the next submission).

@@ -14,12 +14,13 @@
 // With SPREAD (the forward cone spread over the image) two pipelines:
 // - COARSE: one invocation per two pixels of the pyramid's start level
 //   (blocks of BLOCK x BLOCK pixels), its four lanes two pixels on each
-//   block's diagonal; writes the mean of their cone term (water table layer 1 plus the target's
-//   light times 1 - exp(-f b S)) to cone_out, where the pyramid
-//   (aquaspec/gpu/conespread_pass.py) takes over;
+//   block's diagonal; writes the mean of their cone term (water table layer
+//   1 plus the target's light the pixel does not keep, over 1 - alpha) to
+//   cone_out, where the pyramid (aquaspec/gpu/conespread_pass.py) takes over;
 // - the full-resolution pass: the water table's layer 0 holds W0 + alpha W1,
-//   the target's light is weighted alpha + (1 - alpha) exp(-f b S), and the
-//   pyramid's result is added with one bilinear sample.
+//   the target's light is weighted alpha + (1 - alpha) exp(-f b S) (in the
+//   exponent, linear in f b per pixel: no second exponential per band), and
+//   the pyramid's result is added with one bilinear sample.
 //
 // Written for lavapipe (SIMD over 8 invocations on the CPU), as
 // deferred.wgsl (see its header): per-band constants in a uniform array
@@ -309,7 +310,21 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         }
     }
 
-    // The targets' own light, one exponential per band.
+    // The targets' own light, one exponential per band. With SPREAD the
+    // pixel keeps T' (alpha + (1 - alpha) exp(-f b S)) of it, whose logarithm
+    // is taken linear in f b per pixel, kept_a + kept_b f_i b_i
+    // (lightfield_compiled.kept_share_log); COARSE takes the rest over 1 - alpha.
+    var kept_a = vec4<f32>(0.0);
+    var kept_b = vec4<f32>(0.0);
+    if (SPREAD) {
+        let xb = s * prm.fb_mean;
+        let e = exp(-xb);
+        let dk = prm.alpha + (1.0 - prm.alpha) * e;
+        let slope = -(1.0 - prm.alpha) * e / dk;
+        kept_a = log(dk) - slope * xb;
+        kept_b = slope * s;
+    }
+    let inv_rest = 1.0 / max(1.0 - prm.alpha, 1e-12);
     let n_iter = select(0u, N_BANDS, any_hit);
     for (var i = 0u; i < n_iter; i = i + 1u) {
         let q0 = band_table[BAND_VEC4 * i];
@@ -326,12 +341,12 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         if (PER_PIXEL_MATERIALS) {
             rho = select(rho, sigmoid_reflectance(c0, c1, c2, q0.w), use_sigmoid);
         }
+        if (SPREAD && !COARSE) {
+            ln_e = ln_e + kept_a + kept_b * q0.z;
+        }
         var l = select(vec4<f32>(0.0), rho * exp(ln_e), hit);
-        if (SPREAD) {
-            // T' (alpha + (1 - alpha) exp(-f b S)): the pixel keeps the share
-            // alpha of the cone's T' - T; COARSE: the cone's T' - T alone.
-            let t_ratio = exp(-q0.z * s);
-            l = l * select(prm.alpha + (1.0 - prm.alpha) * t_ratio, 1.0 - t_ratio, COARSE);
+        if (COARSE) {
+            l = (l - l * exp(kept_a + kept_b * q0.z)) * inv_rest;
         }
         r = r + l * wt.x;
         gr = gr + l * wt.y;
