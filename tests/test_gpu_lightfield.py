@@ -162,6 +162,24 @@ def test_cone_spread_matches_reference(kind, n, cone, filtering, start, fused_an
     assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
 
 
+@pytest.mark.parametrize("start", [None, 2])
+def test_cone_spread_with_far_targets_in_turbid_water(start, lightfield_gbuffer):
+    """Targets 50x farther in Jerlov 7C: exp(-f b S) underflows float32 (f b S
+    over 100), the pixel's kept share (lightfield_compiled.kept_share_log)
+    must stay finite with alpha = 0 (start at level 0) and alpha > 0."""
+    gb = lightfield_gbuffer("builtin", 5.0)
+    gb = dataclasses.replace(gb, distance=np.where(np.isfinite(gb.distance),
+                                                   gb.distance * 50.0, gb.distance))
+    setup = dataclasses.replace(setup_of("7C", 4, "ff", cone=40.0),
+                                phase_params=(("backscatter", 0.0183),), cone_spread=True)
+    lp = gpu_pass(gb, setup)
+    lp.spread_start_level = start
+    lp.run()
+    assert (lp.spread_plan[1] == 0.0) == (start is None)
+    linear = lp.read_rgb()                               # raises on NaN / infinity
+    assert_matches(linear, twin_of(lp, gb, setup.medium(gb.materials)))
+
+
 def test_render_api_uses_the_lightfield_pass():
     from aquaspec.renderer import render
     gpu = render(water="IB", depth_m=5.0, size=(48, 27), bands=4, ms_model="lightfield",

@@ -254,6 +254,10 @@ class TestKeptShare:
             x = 0.4 * s
             np.testing.assert_allclose(np.exp(a + b * x), alpha + (1 - alpha) * np.exp(-x),
                                        rtol=1e-12)
+        # Far targets in turbid water: exp(-x) underflows, the share stays finite.
+        for alpha in (0.0, 0.3):
+            a, b = lfc.kept_share_log(3.0, alpha, np.array([300.0, 1e4]))
+            assert np.all(np.isfinite(a)) and np.all(np.isfinite(b))
         a, b = lfc.kept_share_log(0.4, 0.0, s)              # alpha = 0: T / T' exactly
         fb = np.array([0.1, 0.4, 0.9])
         np.testing.assert_allclose(np.exp(a[:, None] + b[:, None] * fb * s[:, None]),

@@ -391,7 +391,9 @@ def kept_share_log(fb_mean: float, alpha: float, s):
     """
     xb = np.asarray(s, dtype=float) * float(fb_mean)
     e = np.exp(-xb)
-    d = alpha + (1.0 - alpha) * e
+    # (alpha = 0 and exp(-x) underflowing: the share is 0 either way; the
+    # floor keeps the logarithm finite, as the GPU's 1e-30 does in float32.)
+    d = np.maximum(alpha + (1.0 - alpha) * e, 1e-30)
     slope = -(1.0 - alpha) * e / d
     return np.log(d) - slope * xb, slope
 

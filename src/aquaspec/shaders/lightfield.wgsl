@@ -319,7 +319,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     if (SPREAD) {
         let xb = s * prm.fb_mean;
         let e = exp(-xb);
-        let dk = prm.alpha + (1.0 - prm.alpha) * e;
+        // (Floored: alpha = 0 and exp(-x) underflowing would give log(0).)
+        let dk = max(prm.alpha + (1.0 - prm.alpha) * e, vec4<f32>(1e-30));
         let slope = -(1.0 - prm.alpha) * e / dk;
         kept_a = log(dk) - slope * xb;
         kept_b = slope * s;
