@@ -78,6 +78,13 @@ class TestCli:
         out = json.loads(capsys.readouterr().out)
         assert len(out["water_rgb"]) == 3 and len(out["grey_card_rgb"]) == 3
         assert out["water"]["name"] == "IB" and out["depth_m"] == 5 and out["bands"]["n"] == 16
+        assert out["ms_model"] == "lightfield" and out["phase"] == "petzold"   # the default
+
+    def test_colour_text_names_the_model(self, capsys):
+        for argv, name in [([], "light field (petzold phase function)"),
+                           (["--ms-model", "seeds"], "seeds' model")]:
+            assert main(["colour", "--water", "IB", "--depth", "5", "--bands", "4", *argv]) == 0
+            assert capsys.readouterr().out.splitlines()[0].endswith(name)
 
     def test_colour_camspec(self, capsys, camspec_path):
         assert main(["colour", "--water", "3C", "--depth", "9", "--sensor", "Nikon D90",

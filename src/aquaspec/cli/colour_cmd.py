@@ -38,8 +38,10 @@ def run(args):
         print(json.dumps(res, indent=2))
     else:
         fmt = lambda v: " ".join(f"{x:.6g}" for x in v)  # noqa: E731
+        model = ("seeds' model" if res["ms_model"] == "seeds"
+                 else f"light field ({res['phase']} phase function)")
         print(f"water {res['water']['name']} ({res['water']['source']}), depth {res['depth_m']:g} m, "
-              f"sensor {res['sensor']['name']}, {res['bands']['n']} bands")
+              f"sensor {res['sensor']['name']}, {res['bands']['n']} bands, {model}")
         print(f"water_rgb      {fmt(res['water_rgb'])}")
         print(f"grey_card_rgb  {fmt(res['grey_card_rgb'])}  (at {res['distance_m']:g} m)")
     return 0
