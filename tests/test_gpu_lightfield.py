@@ -43,7 +43,7 @@ def setup_of(water, n, phase, cone=0.0, sensor="nikon-5100-npl", cone_spread=Fal
                          cone_spread=cone_spread)
 
 
-def gpu_pass(gb, setup, e0_scale=1.0, filtering=None):
+def gpu_pass(gb, setup, e0_scale=1.0, filtering=None, tables=None):
     from aquaspec.gpu.deferred import DeferredPass
     from aquaspec.gpu.lightfield_pass import LightfieldPass
     d = DeferredPass(gb.camera.width, gb.camera.height, setup.bands.n)
@@ -51,7 +51,7 @@ def gpu_pass(gb, setup, e0_scale=1.0, filtering=None):
     lp = LightfieldPass(d, filtering=filtering)
     medium = setup.medium(gb.materials)
     medium["e0"] = medium["e0"] * e0_scale
-    lp.set_medium(**medium, tables=setup.lightfield_tables())
+    lp.set_medium(**medium, tables=setup.lightfield_tables() if tables is None else tables)
     return lp
 
 
@@ -94,6 +94,26 @@ def test_matches_reference(water, n, phase, kind, depth, cone, filtering, lightf
     assert lp.reference_compiled().depth_o == pytest.approx(depth)
     # f32 tables and arithmetic against float64 (measured up to 5e-6).
     assert_matches(got, twin_of(lp, gb, medium), rtol=1e-4)
+
+
+@pytest.mark.parametrize("spread", [False, True])
+def test_seabed_tables(spread, lightfield_gbuffer):
+    """Tables with a Lambertian seabed: the water table is built on the CPU
+    (lightfield_compiled.water_table) and the pass matches its twin."""
+    from aquaspec.lightfield import lightfield_tables
+    gb = lightfield_gbuffer("builtin", 5.0)
+    setup = setup_of("I", 6, "petzold", cone=40.0 if spread else 15.0, cone_spread=spread)
+    tables = lightfield_tables(setup.water.on_bands(setup.bands), phase="petzold",
+                               seabed_depth_m=12.0, seabed_albedo=0.3,
+                               forward_cone_deg=setup.cone_deg, cone_spread=spread)
+    medium = setup.medium(gb.materials)
+    lp = gpu_pass(gb, setup, tables=tables)
+    assert lp.seabed and lp.spread == spread
+    lp.run()
+    assert_matches(lp.read_rgb(), twin_of(lp, gb, medium), rtol=1e-3 if spread else 1e-4)
+    plain = gpu_pass(gb, setup)                      # the same water over deep water
+    plain.run()
+    assert not plain.seabed and (lp.read_rgb() - plain.read_rgb()).mean() > 0
 
 
 def test_band_group_texture_layout():

@@ -226,9 +226,6 @@ class LightfieldPass:
         (:func:`aquaspec.lightfield_compiled.choose_irradiance_factors`); the
         water table is built for the camera's depth when a frame is encoded.
         """
-        if np.isfinite(float(tables["seabed_depth_m"][0])):
-            raise AquaspecError("the GPU light-field pass supports deep water only (tables "
-                                "without a seabed); use backend='numpy' for a seabed")
         a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
         n = a.size
         lp = np.asarray(tables["ms_log_prefactor"])
@@ -279,6 +276,10 @@ class LightfieldPass:
                            window_cos=float(tables["window_cos"][0]),
                            fb_mean=float(np.mean(f * b)))
         self.factors = factors
+        #: Tables with a seabed: the water table is built on the CPU
+        #: (:func:`aquaspec.lightfield_compiled.water_table`; watertable.wgsl
+        #: has the deep-water closed form only) and uploaded.
+        self.seabed = bool(np.isfinite(float(tables["seabed_depth_m"][0])))
         self._medium = (tables, a, b, e0, np.asarray(response_weights, dtype=float))
         #: Whether the forward cone is spread over the image (tables with
         #: lightfield_tables(cone_spread=True)): :class:`ConeSpreadPass` after this one.
@@ -362,7 +363,8 @@ class LightfieldPass:
     def _update_water_table(self, encoder, depth_o, alpha):
         """Build the water table for the camera's depth on the GPU (watertable.wgsl)
         when the depth, the medium or (with the spread) alpha changed: layer 0
-        holds ``W0 + alpha W1`` with the spread (:func:`lightfield_compiled.spread_plan`)."""
+        holds ``W0 + alpha W1`` with the spread (:func:`lightfield_compiled.spread_plan`).
+        With a seabed the table is built on the CPU and uploaded (0.3-1.5 s)."""
         key = (depth_o, alpha)
         if self._water_key == key:
             return
@@ -381,6 +383,27 @@ class LightfieldPass:
                                                     label="lightfield water table out")
             self._water_shape = (layers, rows)
             self._groups = {}
+        if self.seabed:
+            tables, a, b, e0, w = self._medium
+            table = lfc.water_table(tables, a=a, b=b, e0=e0, response_weights=w,
+                                    depth_o=depth_o, split=self.spread)
+            if self.spread:
+                table[0] += alpha * table[1]       # as watertable.wgsl's layer 0
+            texels = np.zeros(table.shape[:3] + (4,), np.float32)
+            texels[..., :3] = table
+            upload_buffer(dev, self._water_out, texels.reshape(-1))
+        else:
+            self._encode_water_table(encoder, depth_o, alpha, n_out, n_in, rows)
+        encoder.copy_buffer_to_texture(
+            {"buffer": self._water_out, "offset": 0, "bytes_per_row": lfc.DISTANCES * 16,
+             "rows_per_image": rows},
+            {"texture": self._water_tex, "mip_level": 0, "origin": (0, 0, 0)},
+            (lfc.DISTANCES, rows, layers))
+        self._water_key = key
+
+    def _encode_water_table(self, encoder, depth_o, alpha, n_out, n_in, rows):
+        """watertable.wgsl's two dispatches into the water table buffer."""
+        dev = self.device
         (open_column, hits), layout = self._water_pipeline()
         upload_buffer(dev, self._water_params, WATER_PARAMS_LAYOUT.pack(
             depth_o=depth_o, window_cos=self._shape["window_cos"],
@@ -391,12 +414,6 @@ class LightfieldPass:
         # The open-water column first: the hit columns read it.
         record_dispatch(encoder, open_column, group, (-(-rows // 64), 1, 1))
         record_dispatch(encoder, hits, group, (-(-(lfc.DISTANCES - 1) // 8), -(-rows // 8), 1))
-        encoder.copy_buffer_to_texture(
-            {"buffer": self._water_out, "offset": 0, "bytes_per_row": lfc.DISTANCES * 16,
-             "rows_per_image": rows},
-            {"texture": self._water_tex, "mip_level": 0, "origin": (0, 0, 0)},
-            (lfc.DISTANCES, rows, layers))
-        self._water_key = key
 
     def read_water_table(self) -> np.ndarray:
         """The last water table built, ``(layers, directions, DISTANCES, 3)`` float32 (tests)."""
