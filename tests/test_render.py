@@ -124,6 +124,60 @@ class TestPictures:
         assert p["camera"]["width"] == 64 and p["sensor"]["name"] == "human"
 
 
+class TestSeabed:
+    """The light field's lower boundary: the built-in scene's sand by default."""
+
+    def test_scene_seabed_brightens_clear_water(self):
+        from aquaspec.lightfield import Seabed
+        kw = dict(water="I", depth_m=5.0, size=(64, 36), bands=4, exposure=0.0)
+        with_bed = render(**kw)
+        deep = render(**kw, seabed=None)
+        bed = with_bed.params["seabed"]
+        assert bed["reflectance"] == "sand" and 5.0 < bed["depth_m"] < 9.0
+        assert deep.params["seabed"] is None
+        # Upwelling from the sand lights the scene (measured +1.5-2 % at 160x90).
+        assert with_bed.linear_rgb.mean() > 1.005 * deep.linear_rgb.mean()
+        grey = render(**kw, seabed=Seabed(9.0, 0.4))
+        assert grey.params["seabed"] == {"depth_m": 9.0, "reflectance": 0.4}
+        # The seeds' model has no light field: no seabed recorded.
+        assert "seabed" not in render(**kw, ms_model="seeds").params
+
+    @pytest.mark.parametrize("seabed, match", [
+        ("sand", r"seabed='sand'; accepted: 'scene', None or an aquaspec.lightfield.Seabed"),
+        (4.0, r"seabed=4.0; accepted"),
+    ])
+    def test_bad_seabed(self, seabed, match):
+        with pytest.raises(AquaspecError, match=match):
+            render(water="I", depth_m=5.0, size=(16, 9), bands=3, seabed=seabed)
+
+    def test_seabed_above_the_camera(self):
+        from aquaspec.lightfield import Seabed
+        with pytest.raises(AquaspecError, match="the seabed at 3 m is not below the camera "
+                                                "at 5 m"):
+            render(water="I", depth_m=5.0, size=(16, 9), bands=3, seabed=Seabed(3.0))
+
+    def test_seabed_type_checks(self):
+        from aquaspec.lightfield import Seabed
+        with pytest.raises(AquaspecError, match="seabed depth_m=-1"):
+            Seabed(-1.0)
+        with pytest.raises(AquaspecError, match="seabed reflectance=1.5"):
+            Seabed(5.0, 1.5)
+        from aquaspec.bands import Bands
+        np.testing.assert_array_equal(Seabed(5.0, 0.25).albedo_on(Bands(3)), [0.25] * 3)
+
+    def test_cli(self, tmp_path, capsys):
+        out = tmp_path / "s.png"
+        base = ["render", "--water", "I", "--size", "32x18", "--bands", "3", "-o", str(out)]
+        assert main([*base, "--seabed", "9,0.3"]) == 0
+        side = json.loads((tmp_path / "s.png.json").read_text())
+        assert side["seabed"] == {"depth_m": 9.0, "reflectance": 0.3}
+        assert main([*base, "--seabed", "none"]) == 0
+        assert json.loads((tmp_path / "s.png.json").read_text())["seabed"] is None
+        assert main([*base, "--seabed", "deep"]) == 2
+        assert "--seabed 'deep'; accepted: scene, none, or DEPTH[,ALBEDO]" in \
+            capsys.readouterr().err
+
+
 class TestRenderCommand:
     def test_writes_png_and_sidecar(self, tmp_path, capsys):
         out = tmp_path / "x.png"

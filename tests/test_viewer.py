@@ -78,6 +78,11 @@ def test_default_is_the_light_field_with_the_spread():
     v.update()
     assert v.state["ms_model"] == "lightfield" and v.state["cone_spread"]
     assert "light field + cone spread" in v.title()
+    # The built-in scene's sand is the light field's lower boundary, per depth.
+    (setup,) = v._setups.values()
+    assert setup.seabed is v._scene.seabed and setup.seabed.depth_m > 5.0
+    v.update(depth_m=8.0)
+    assert len(v._setups) == 2 and max(x.seabed.depth_m for x in v._setups.values()) > 8.0
 
 
 def test_cone_spread_leaves_the_seeds_model_alone():

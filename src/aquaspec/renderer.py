@@ -10,6 +10,7 @@ passes alive for many frames (the interactive viewer and ``aquaspec bench``).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -54,6 +55,9 @@ class SpectralSetup:
     #: the model's default (:func:`aquaspec.model.cone_spread_for`: on for the
     #: light field).
     cone_spread: bool | None = None
+    #: The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`);
+    #: None: deep water. The seeds' model has none.
+    seabed: object = None
 
     def __post_init__(self):
         object.__setattr__(self, "cone_spread",
@@ -72,10 +76,13 @@ class SpectralSetup:
         cached = self.__dict__.get("_tables")
         if cached is None:
             from .lightfield import lightfield_tables
+            bed = ({} if self.seabed is None else
+                   {"seabed_depth_m": float(self.seabed.depth_m),
+                    "seabed_albedo": self.seabed.albedo_on(self.bands)})
             cached = lightfield_tables(self.water.on_bands(self.bands), phase=self.phase,
                                        forward_cone_deg=self.cone_deg,
                                        cone_spread=self.cone_spread,
-                                       **dict(self.phase_params))
+                                       **bed, **dict(self.phase_params))
             object.__setattr__(self, "_tables", cached)
         return cached
 
@@ -94,7 +101,9 @@ class SpectralSetup:
         model_params = ({"ambient_model": self.ambient} if self.ms_model == "seeds"
                         else {"phase": self.phase, **dict(self.phase_params),
                               "forward_cone_deg": self.cone_deg,
-                              "cone_spread": self.cone_spread})
+                              "cone_spread": self.cone_spread,
+                              "seabed": None if self.seabed is None
+                              else self.seabed.describe()})
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),
                 "light": self.light.describe(), "bands": self.bands.describe(),
                 "ms_model": self.ms_model, **model_params,
@@ -219,7 +228,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
-           exposure="auto", white_balance="none", tonemap="filmic", colour_matrix="auto",
+           seabed="scene", exposure="auto", white_balance="none", tonemap="filmic", colour_matrix="auto",
            return_radiance: bool = False, backend: str = "gpu",
            progress=None) -> RenderResult:
     """Render one image.
@@ -260,6 +269,11 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         None: 15, or 40 with ``cone_spread``; ``cone_spread`` spreads that
         light over the image from where the cone points,
         :mod:`aquaspec.conespread`; None: on) or ``"seeds"`` (thesis Eq. 4.7).
+    seabed : "scene", None or Seabed
+        The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`):
+        ``"scene"`` takes the scene's (the built-in scene's sand; none for
+        meshes, RGB-D images and scenes without one), None is deep water.
+        It must lie below the camera.
     outside : {"error", "zero"}
         Sensor response outside its range.
     exposure : "auto" or float EV; white_balance, tonemap : str
@@ -322,6 +336,19 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
                 raise AquaspecError("a user scene needs a camera (scene.camera or camera=)")
             scene_desc = {"kind": "user", "meshes": len(scene.meshes)}
 
+    bed = (getattr(scene, "seabed", None) if isinstance(seabed, str) and seabed == "scene"
+           else seabed)
+    if bed is not None and not hasattr(bed, "albedo_on"):
+        raise AquaspecError(f"seabed={seabed!r}; accepted: 'scene', None or an "
+                            "aquaspec.lightfield.Seabed")
+    if bed is not None and ms_model == "lightfield":
+        from .shading import camera_depth
+        d_cam = camera_depth(camera)
+        if float(bed.depth_m) <= d_cam:
+            raise AquaspecError(f"the seabed at {float(bed.depth_m):g} m is not below the "
+                                f"camera at {d_cam:g} m; accepted: a seabed deeper than "
+                                "the camera, or seabed=None")
+        setup = dataclasses.replace(setup, seabed=bed)
     n = setup.bands.n
     radiance = None
     if backend == "gpu":

@@ -89,7 +89,8 @@ class Viewer:
                                                       height=self.height)
             self._scene_depth = s["depth_m"]
         setup = self._setup(s["water"], s["sensor"], s["bands"], s["ms_model"],
-                            s["cone_spread"] and s["ms_model"] == "lightfield")
+                            s["cone_spread"] and s["ms_model"] == "lightfield",
+                            self._scene.seabed if s["ms_model"] == "lightfield" else None)
         sensor = setup.sensor
         # The exposure acts on the linear image: changing only it re-renders nothing.
         if self.linear is None or set(changes) - {"exposure"}:
@@ -99,10 +100,12 @@ class Viewer:
         self.last_frame_ms = (time.perf_counter() - t0) * 1e3
         return self.image
 
-    def _setup(self, water, sensor, bands, ms_model, spread=False) -> SpectralSetup:
+    def _setup(self, water, sensor, bands, ms_model, spread=False, seabed=None) -> SpectralSetup:
         """The spectral setup of these settings, made once (the renderer
-        re-uploads the medium only when the setup object changes)."""
-        key = (water, sensor, bands, ms_model, bool(spread))
+        re-uploads the medium only when the setup object changes); ``seabed``
+        the built-in scene's (the light field's lower boundary, per depth)."""
+        key = (water, sensor, bands, ms_model, bool(spread),
+               None if seabed is None else float(seabed.depth_m))
         if key not in self._setups:
             if water not in self._waters:
                 self._waters[water] = load_water(water)
@@ -110,7 +113,8 @@ class Viewer:
                 self._sensors[sensor] = get_sensor(sensor, self.camspec)
             self._setups[key] = SpectralSetup(self._waters[water], self._sensors[sensor],
                                               surface_light("overcast"), Bands(bands),
-                                              ms_model=ms_model, cone_spread=bool(spread))
+                                              ms_model=ms_model, cone_spread=bool(spread),
+                                              seabed=seabed)
         return self._setups[key]
 
     def title(self) -> str:

@@ -44,6 +44,10 @@ def register(sub):
                    help="--ms-model lightfield: the forward cone's light comes from where the "
                         "cone points in the image (an image pyramid; default: on for the "
                         "light field)")
+    p.add_argument("--seabed", default="scene", metavar="scene|none|DEPTH[,ALBEDO]",
+                   help="the light field's lower boundary: the scene's (default; the "
+                        "built-in scene's sand), none (deep water), or a flat Lambertian "
+                        "seabed DEPTH m below the surface with a grey ALBEDO (default 0.2)")
     p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
                    help="gpu (WGSL through wgpu) or numpy (the slow reference)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")
@@ -86,6 +90,7 @@ def run(args):
     elif args.intrinsics:
         raise AquaspecError("--intrinsics is only used with --rgbd")
     albedo = _floats(args.albedo, 3, "--albedo") if args.albedo else None
+    seabed = _seabed(args.seabed)
     if albedo and not args.mesh:
         raise AquaspecError("--albedo is only used with --mesh")
 
@@ -99,6 +104,7 @@ def run(args):
                  ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                  ms_model=args.ms_model, phase=args.phase,
                  forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
+                 seabed=seabed,
                  exposure=exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
                  backend=args.backend, progress=progress)
@@ -110,3 +116,21 @@ def run(args):
           + (f" and {files['linear']}" if files.get("linear") else "")
           + f" ({res.params['render_seconds']:.2f} s)")
     return 0
+
+
+def _seabed(text):
+    """--seabed: "scene", "none" or DEPTH[,ALBEDO] -> what render() takes."""
+    from ..errors import AquaspecError
+    from ..lightfield import Seabed
+    t = str(text).strip().lower()
+    if t in ("scene", "none"):
+        return "scene" if t == "scene" else None
+    parts = t.split(",")
+    try:
+        values = [float(x) for x in parts]
+    except ValueError:
+        values = None
+    if not values or len(values) > 2:
+        raise AquaspecError(f"--seabed {text!r}; accepted: scene, none, or DEPTH[,ALBEDO] "
+                            "in metres and [0, 1], e.g. 12 or 12,0.3")
+    return Seabed(values[0], values[1] if len(values) == 2 else 0.2)

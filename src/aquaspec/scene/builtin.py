@@ -267,7 +267,11 @@ def builtin_scene(depth_m: float, *, seed: int = 0, width: int = 1280, height: i
     scene = Scene(camera=camera)
     mat = {name: scene.add_material(rgb_material(rgb, name))
            for name, rgb in _ALBEDOS.items() if name not in ("board black", "metal stand")}
-    scene.add(_terrain(height, y0, mat["sand"], *TERRAIN_GRID))
+    terrain = scene.add(_terrain(height, y0, mat["sand"], *TERRAIN_GRID))
+    # The light field's lower boundary: the sand, flat at the terrain's
+    # deepest point (no surface lies below the boundary).
+    from ..lightfield import Seabed
+    scene.seabed = Seabed(float(-terrain.vertices[:, 1].min()), scene.materials[mat["sand"]])
     _colorchecker_board(scene, cam_pos, ground(0.0, -BOARD_DISTANCE_M))
 
     # Rocks: fixed layout (clear of the chart), jittered per seed.

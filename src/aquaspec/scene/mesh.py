@@ -255,11 +255,15 @@ class Scene:
     camera : Camera, optional
         A default viewpoint (the built-in scene and :func:`place_in_front`
         set one).
+    seabed : aquaspec.lightfield.Seabed, optional
+        The flat seabed the light field takes as its lower boundary (the
+        built-in scene sets its terrain's); None: deep water below.
     """
 
     meshes: list = field(default_factory=list)
     materials: list = field(default_factory=list)
     camera: Camera | None = None
+    seabed: object = None
 
     def add_material(self, material) -> int:
         """Append a reflectance object and return its index."""
