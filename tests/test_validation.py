@@ -349,6 +349,32 @@ def test_small_study_with_fournier_forand(tmp_path):
                   ms_models=("seeds",), cone_spread=True, cache_dir=tmp_path)
 
 
+def test_study_with_a_seabed(tmp_path, capsys):
+    """--seabed-below: a grey seabed in the reference and in the light field,
+    which also runs without it (lightfield-deep-n*); the reference is another
+    render (its geometry is in the cache key)."""
+    mitsuba()
+    from aquaspec.validation.scenes import board_scene
+    code = main(["validate", "--waters", "I", "--depths", "4", "--size", "24x18", "--spp", "8",
+                 "--kd-spp", "2000", "--ms-models", "lightfield", "--no-cone-spread",
+                 "--seabed-below", "1.5,0.3", "--cache", str(tmp_path / "cache"),
+                 "-o", str(tmp_path / "out")])
+    assert code == 0
+    import json
+    doc = json.loads((tmp_path / "out" / "validation.json").read_text())
+    assert doc["params"]["seabed"] == {"below_camera_m": 1.5, "albedo": 0.3}
+    methods = {r["method"] for r in doc["rows"]}
+    assert {"lightfield-n8", "lightfield-deep-n8", "lightfield-n16"} <= methods
+    ratio = {r["method"]: r["mean_ratio"] for r in doc["rows"]
+             if r["region"] == "image" and r["camera"] == "human"}
+    # The seabed's light makes the light field brighter than over deep water.
+    assert ratio["lightfield-n16"] > ratio["lightfield-deep-n16"]
+    scene, _ = board_scene(4.0, seabed_below_m=1.5, seabed_albedo=0.3)
+    assert scene.seabed.depth_m == 5.5 and scene.meshes[-1].name == "seabed"
+    assert main(["validate", "--seabed-below", "0", "--no-cache"]) == 2
+    assert "--seabed-below '0'; accepted: M[,ALBEDO]" in capsys.readouterr().err
+
+
 def test_cache_keys_hold_the_phase_function():
     from aquaspec.validation.reference import phase_key
     # Isotropic and HG keys are what they were (existing caches stay valid).

@@ -46,6 +46,10 @@ def register(sub):
                    help="light-field model: the forward cone's light comes from where the cone "
                         "points in the image (a convolution), not from the pixel's own surface "
                         "(default: on when the models include lightfield)")
+    p.add_argument("--seabed-below", metavar="M[,ALBEDO]",
+                   help="a flat grey Lambertian seabed M metres below the camera (albedo "
+                        "default 0.2) in the reference and in the light field; the light "
+                        "field also runs without it (lightfield-deep-n*)")
     p.add_argument("--gpu-timing", action="store_true",
                    help="also time aquaspec's GPU renderer per scene (n = largest band count) "
                         "for the speed-up over the reference at equal pixel count")
@@ -105,6 +109,7 @@ def run(args):
                     spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
                     g=g, backscatter=backscatter, ms_models=ms_models,
                     forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
+                    **_seabed_below(args.seabed_below),
                     gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
     from ..validation.study import REGIONS
@@ -151,3 +156,19 @@ def _run_tyler(out):
     png = plot_tyler(res, out / "tyler.png")
     print(f"wrote {js}, {png}")
     return 0
+
+
+def _seabed_below(text) -> dict:
+    """--seabed-below M[,ALBEDO] -> run_study keywords."""
+    if text is None:
+        return {}
+    from ..errors import AquaspecError
+    try:
+        values = [float(x) for x in str(text).split(",")]
+    except ValueError:
+        values = []
+    if not 1 <= len(values) <= 2 or values[0] <= 0 or not (
+            len(values) == 1 or 0.0 <= values[1] <= 1.0):
+        raise AquaspecError(f"--seabed-below {text!r}; accepted: M[,ALBEDO] with M > 0 metres "
+                            "and ALBEDO in [0, 1], e.g. 2 or 2,0.3")
+    return {"seabed_below_m": values[0], "seabed_albedo": values[1] if len(values) == 2 else 0.2}

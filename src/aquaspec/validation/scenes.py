@@ -29,10 +29,14 @@ def _quad(cx, cy, z, half_w, half_h):
 
 
 def board_scene(depth_m: float, *, width: int = 96, height: int = 72,
-                fov_y_deg: float = 40.0, distance_m: float = BOARD_DISTANCE_M):
+                fov_y_deg: float = 40.0, distance_m: float = BOARD_DISTANCE_M,
+                seabed_below_m: float | None = None, seabed_albedo: float = 0.2):
     """The validation scene at camera depth ``depth_m``; returns (Scene, Camera).
 
     Patch ``k`` of the chart uses material ``k``; the backing uses material 24.
+    With ``seabed_below_m`` a flat grey Lambertian seabed (albedo
+    ``seabed_albedo``, material 25, 1 km square) lies that far below the
+    camera, and ``scene.seabed`` names it as the light field's lower boundary.
     """
     cam_pos = np.array([0.0, -float(depth_m), 0.0])
     camera = Camera.look_at(cam_pos, cam_pos + [0.0, 0.0, -1.0], width=width, height=height,
@@ -49,6 +53,20 @@ def board_scene(depth_m: float, *, width: int = 96, height: int = 72,
     back = scene.add_material(Reflectance.constant(BACKING_REFLECTANCE, "board backing"))
     v, f = _quad(0.0, cam_pos[1], z, 3 * PATCH_PITCH_M + 0.05, 2 * PATCH_PITCH_M + 0.05)
     scene.add(Mesh(v, f, np.tile(normal, (4, 1)), back, name="backing"))
+    if seabed_below_m is not None:
+        from ..errors import AquaspecError
+        from ..lightfield import Seabed
+        below = float(seabed_below_m)
+        if not (np.isfinite(below) and below > 0):
+            raise AquaspecError(f"seabed_below_m={seabed_below_m!r}; accepted: a distance "
+                                "> 0 m below the camera")
+        sand = Reflectance.constant(float(seabed_albedo), "seabed")
+        scene.seabed = Seabed(float(depth_m) + below, sand)
+        y = cam_pos[1] - below
+        half = 500.0
+        v = np.array([[-half, y, -half], [half, y, -half], [half, y, half], [-half, y, half]])
+        scene.add(Mesh(v, np.array([[0, 2, 1], [0, 3, 2]]), np.tile([0.0, 1.0, 0.0], (4, 1)),
+                       scene.add_material(sand), name="seabed"))
     return scene, camera
 
 

@@ -140,14 +140,15 @@ def _cached(cache_dir, key, compute):
 
 
 def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=None,
-              cone_spread=False):
+              cone_spread=False, seabed=None):
     from ..renderer import SpectralSetup
     from ..sensors import get_sensor
     from ..shading import shade_gbuffer
     setup = SpectralSetup(water, get_sensor("human"), light, Bands(n), ms_model=ms_model,
                           phase=phase_lf, phase_params=phase_params,
                           forward_cone_deg=forward_cone_deg,
-                          cone_spread=cone_spread and ms_model == "lightfield")
+                          cone_spread=cone_spread and ms_model == "lightfield",
+                          seabed=seabed if ms_model == "lightfield" else None)
     out = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
                         lightfield=setup.lightfield_tables())
     return out["radiance"]
@@ -189,7 +190,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
               g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
               band_counts=(8, 16), ms_models=("seeds",),
               kd_modes=("database", "measured"), forward_cone_deg: float | None = None,
-              cone_spread: bool | None = None,
+              cone_spread: bool | None = None, seabed_below_m: float | None = None,
+              seabed_albedo: float = 0.2,
               cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
 
@@ -204,6 +206,10 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     (:func:`.reference.lightfield_phase`: for ``"ff"`` and ``"petzold"`` the
     very table Mitsuba's ``tabphase`` holds; ``"petzold"`` is the particle
     phase function alone, unmixed with pure water, on both sides).
+    ``seabed_below_m`` puts a flat grey seabed (``seabed_albedo``) that far
+    below the camera, in the reference and as the light field's lower
+    boundary; the light field is then also run without it
+    (``lightfield-deep-n*``) to show what leaving it out costs.
     ``cone_spread`` spreads the light-field model's forward cone over the
     image (:mod:`aquaspec.conespread`; None: when ``ms_models`` has the light
     field, as :func:`aquaspec.model.cone_spread_for`); ``forward_cone_deg``
@@ -234,7 +240,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     if waters and depths:
         # A broken scene should fail in a second, not after the Kd meters.
         say("checking the reference scene on an 8x6 test image")
-        scene0, cam0 = board_scene(depths[0], width=size[0], height=size[1])
+        scene0, cam0 = board_scene(depths[0], width=size[0], height=size[1],
+                                   seabed_below_m=seabed_below_m, seabed_albedo=seabed_albedo)
         preflight(scene0, cam0, load_water(waters[0], source), light, phase=phase, g=g,
                   backscatter=backscatter)
     k = 0
@@ -262,7 +269,9 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                           "measured": water_with_kd(water, np.asarray(kd_res["kd"]))}
         for depth in depths:
             k += 1
-            scene, cam = board_scene(depth, width=size[0], height=size[1])
+            scene, cam = board_scene(depth, width=size[0], height=size[1],
+                                     seabed_below_m=seabed_below_m,
+                                     seabed_albedo=seabed_albedo)
             gb = raycast_gbuffer(scene, cam)
             m = masks(gb)
             going_down = cam.ray_directions()[..., 1] <= 0
@@ -299,8 +308,13 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         t0 = time.perf_counter()
                         methods[(name, mode)] = ("bands", n, _spectral(
                             gb, waters_by_mode[mode], light, n, ms, phase_lf,
-                            phase_params, forward_cone_deg, cone_spread))
+                            phase_params, forward_cone_deg, cone_spread, scene.seabed))
                         numpy_seconds[name] = time.perf_counter() - t0
+                        if ms == "lightfield" and scene.seabed is not None and n != 3:
+                            # What leaving the seabed out of the light field costs.
+                            methods[(f"lightfield-deep-n{n}", mode)] = ("bands", n, _spectral(
+                                gb, waters_by_mode[mode], light, n, ms, phase_lf,
+                                phase_params, forward_cone_deg, cone_spread))
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             for mode in kd_modes:       # the image-formation model's B_inf and J use Kd
                 methods[("ifm", mode)] = ("baseline", "ifm", None)
@@ -362,7 +376,10 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                        "phase_function": phase_info,
                        "source": source, "band_counts": list(band_counts),
                        "ms_models": list(ms_models), "forward_cone_deg": forward_cone_deg,
-                       "cone_spread": bool(cone_spread)}}
+                       "cone_spread": bool(cone_spread),
+                       "seabed": None if seabed_below_m is None else
+                       {"below_camera_m": float(seabed_below_m),
+                        "albedo": float(seabed_albedo)}}}
 
 
 def summarise(rows, *, region="image") -> list[dict]:
