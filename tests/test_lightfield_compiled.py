@@ -126,6 +126,25 @@ class TestWaterTable:
                                                     wc)[:, 0], table[0, j, -1], rtol=1e-9)
 
 
+def model_and_twin(gb, setup, tables, depth):
+    """shade_gbuffer (the model) and shade_compiled (the twin) on one G-buffer,
+    and the twin's relative error (floor 1e-3 of the largest value)."""
+    from aquaspec.conespread import pyramid_weights
+    from aquaspec.shading import shade_gbuffer
+    med = setup.medium(gb.materials)
+    ref = shade_gbuffer(gb, **med, lightfield=tables)["camera_rgb"]
+    comp = lfc.compile_lightfield(tables, a=med["a"], b=med["b"], e0=med["e0"],
+                                  response_weights=med["response_weights"], depth_o=depth)
+    cam = gb.camera
+    spread = "cone_offset_cdf" in tables
+    got = lfc.shade_compiled(gb, comp, material_bands=med["material_bands"],
+                             sigmoid_centers_t=med["sigmoid_centers_t"],
+                             pyramid_weights=pyramid_weights(tables, cam.fy, cam.height,
+                                                             cam.width) if spread else None)
+    err = np.abs(got - ref) / np.maximum(np.abs(ref), 1e-3 * np.abs(ref).max())
+    print(f"mean {err.mean():.2e} p99 {np.percentile(err, 99):.2e} max {err.max():.2e}")
+    return ref, err
+
 
 @pytest.mark.gpu
 @pytest.mark.parametrize("water,n,phase,params,kind,depth,cone,spread,limits", [
@@ -142,27 +161,12 @@ class TestWaterTable:
 ])
 def test_twin_follows_the_model(water, n, phase, params, kind, depth, cone, spread, limits,
                                 lightfield_gbuffer):
-    from aquaspec.conespread import pyramid_weights
-    from aquaspec.shading import shade_gbuffer
     gb = lightfield_gbuffer(kind, depth)
     setup = SpectralSetup(load_water(water), get_sensor("nikon-5100-npl"),
                           surface_light("overcast"), Bands(n), ms_model="lightfield",
                           phase=phase, phase_params=params, forward_cone_deg=cone,
                           cone_spread=spread)
-    tables = setup.lightfield_tables()
-    med = setup.medium(gb.materials)
-    ref = shade_gbuffer(gb, **med, lightfield=tables)["camera_rgb"]
-    comp = lfc.compile_lightfield(tables, a=med["a"], b=med["b"], e0=med["e0"],
-                                  response_weights=med["response_weights"], depth_o=depth)
-    cam = gb.camera
-    got = lfc.shade_compiled(gb, comp, material_bands=med["material_bands"],
-                             sigmoid_centers_t=med["sigmoid_centers_t"],
-                             pyramid_weights=pyramid_weights(tables, cam.fy, cam.height,
-                                                             cam.width) if spread else None)
-    scale = np.abs(ref).max()
-    err = np.abs(got - ref) / np.maximum(np.abs(ref), 1e-3 * scale)
-    print(f"{water} n={n}: mean {err.mean():.2e} p99 {np.percentile(err, 99):.2e} "
-          f"max {err.max():.2e}")
+    _, err = model_and_twin(gb, setup, setup.lightfield_tables(), depth)
     assert err.mean() < limits[0]
     assert np.percentile(err, 99) < limits[1]
     assert err.max() < limits[2]
@@ -173,7 +177,6 @@ def test_twin_follows_the_model_with_a_seabed(spread, lightfield_gbuffer):
     """Tables with a Lambertian seabed (12 m, albedo 0.3, Jerlov I): the water
     table is the model on its nodes (lightfield_compiled._water_table_from_model)
     and the compiled image follows shade_gbuffer as in deep water."""
-    from aquaspec.conespread import pyramid_weights
     from aquaspec.lightfield import lightfield_tables
     from aquaspec.shading import shade_gbuffer
     gb = lightfield_gbuffer("builtin", 5.0)
@@ -183,25 +186,13 @@ def test_twin_follows_the_model_with_a_seabed(spread, lightfield_gbuffer):
     tables = lightfield_tables(setup.water.on_bands(setup.bands), phase="petzold",
                                seabed_depth_m=12.0, seabed_albedo=0.3,
                                forward_cone_deg=setup.cone_deg, cone_spread=spread)
-    med = setup.medium(gb.materials)
-    ref = shade_gbuffer(gb, **med, lightfield=tables)["camera_rgb"]
-    comp = lfc.compile_lightfield(tables, a=med["a"], b=med["b"], e0=med["e0"],
-                                  response_weights=med["response_weights"], depth_o=5.0)
-    cam = gb.camera
-    got = lfc.shade_compiled(gb, comp, material_bands=med["material_bands"],
-                             sigmoid_centers_t=med["sigmoid_centers_t"],
-                             pyramid_weights=pyramid_weights(tables, cam.fy, cam.height,
-                                                             cam.width) if spread else None)
-    scale = np.abs(ref).max()
-    err = np.abs(got - ref) / np.maximum(np.abs(ref), 1e-3 * scale)
-    print(f"seabed spread={spread}: mean {err.mean():.2e} p99 {np.percentile(err, 99):.2e} "
-          f"max {err.max():.2e}")
+    ref, err = model_and_twin(gb, setup, tables, 5.0)
     assert err.mean() < 1e-3 and np.percentile(err, 99) < 5e-3 and err.max() < 1e-2
     # The seabed's light is there: over deep water the same scene is darker
     # (measured 1.2 % on average with the seabed 7 m below the camera).
-    deep = setup.lightfield_tables()
-    deep_img = shade_gbuffer(gb, **med, lightfield=deep)["camera_rgb"]
-    assert (ref - deep_img).mean() > 0.005 * np.abs(ref).mean()
+    deep = shade_gbuffer(gb, **setup.medium(gb.materials),
+                         lightfield=setup.lightfield_tables())["camera_rgb"]
+    assert (ref - deep).mean() > 0.005 * np.abs(ref).mean()
 
 
 def test_shade_compiled_needs_weights_with_the_spread(lightfield_gbuffer):
