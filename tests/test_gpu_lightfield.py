@@ -96,19 +96,23 @@ def test_matches_reference(water, n, phase, kind, depth, cone, filtering, lightf
     assert_matches(got, twin_of(lp, gb, medium), rtol=1e-4)
 
 
-@pytest.mark.parametrize("spread", [False, True])
-def test_seabed_tables(spread, lightfield_gbuffer):
+@pytest.mark.parametrize("water,n,depth_h,rank,spread", [
+    ("I", 6, 12.0, 6, False), ("I", 6, 12.0, 6, True),
+    # Six irradiance functions out of eight slots (a second texture read, two terms).
+    ("IB", 8, 7.8, 6, True),
+])
+def test_seabed_tables(water, n, depth_h, rank, spread, lightfield_gbuffer):
     """Tables with a Lambertian seabed: the water table is built on the CPU
     (lightfield_compiled.water_table) and the pass matches its twin."""
     from aquaspec.lightfield import lightfield_tables
     gb = lightfield_gbuffer("builtin", 5.0)
-    setup = setup_of("I", 6, "petzold", cone=40.0 if spread else 15.0, cone_spread=spread)
+    setup = setup_of(water, n, "petzold", cone=40.0 if spread else 15.0, cone_spread=spread)
     tables = lightfield_tables(setup.water.on_bands(setup.bands), phase="petzold",
-                               seabed_depth_m=12.0, seabed_albedo=0.3,
+                               seabed_depth_m=depth_h, seabed_albedo=0.3,
                                forward_cone_deg=setup.cone_deg, cone_spread=spread)
     medium = setup.medium(gb.materials)
     lp = gpu_pass(gb, setup, tables=tables)
-    assert lp.seabed and lp.spread == spread
+    assert lp.seabed and lp.spread == spread and lp._shape["rank"] == rank
     lp.run()
     assert_matches(lp.read_rgb(), twin_of(lp, gb, medium), rtol=1e-3 if spread else 1e-4)
     plain = gpu_pass(gb, setup)                      # the same water over deep water

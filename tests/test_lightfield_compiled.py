@@ -57,8 +57,14 @@ class TestIrradianceFactors:
         assert eight["max_error"] < four["max_error"]
         assert four["max_error"] > lfc.IRRADIANCE_TOLERANCE       # clear water needs 8
         chosen = lfc.choose_irradiance_factors(t)
-        assert chosen["coef"].shape[1] == 2 + 8
+        first_good = next((r for r in lfc.IRRADIANCE_RANKS
+                           if lfc.irradiance_factors(t, rank=r)["max_error"]
+                           <= lfc.IRRADIANCE_TOLERANCE), lfc.IRRADIANCE_RANKS[-1])
+        assert first_good > 4 and chosen["coef"].shape[1] == 2 + first_good
         assert lfc.choose_irradiance_factors(tables_of("7C", 8))["coef"].shape[1] == 2 + 4
+        # Near a seabed Jerlov IB needs more than four: six (rank 4 2.7 %, 6 0.3 %).
+        bed = tables_of("IB", 8, seabed_depth_m=7.8, seabed_albedo=0.3)
+        assert lfc.choose_irradiance_factors(bed)["coef"].shape[1] == 2 + 6
 
     def test_bad_rank(self):
         with pytest.raises(AquaspecError, match="rank"):

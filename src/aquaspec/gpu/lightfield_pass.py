@@ -22,7 +22,7 @@ One invocation shades four horizontally adjacent pixels. Bindings:
 1   texture ``rgba32uint``              G-buffer surface (S, n_y, normal, material)
 2   texture ``rgba32float``             G-buffer sigmoid (read when per_pixel)
 4   uniform ``array<vec4<f32>, B n>``   per band (:func:`band_table`, float64 on
-                                        the host; B = 2 + rank / 4)
+                                        the host; B = 2 + ceil(rank / 4))
 5   storage ``array<f32>``              material band reflectances, row-major
                                         ``(material, band)``
 6   storage ``array<vec4<f32>>``        linear camera RGB out (w = 1), pixel
@@ -38,7 +38,7 @@ One invocation shades four horizontally adjacent pixels. Bindings:
                                         spread W0 + alpha W1), layer 1 the cone's
                                         share W1 (with the spread)
 12  2-D array texture ``rgba32float``  irradiance basis U: layer ``g``, texel
-    (n_mu, n_depth, rank / 4)           ``(j, i)`` (direction, depth) holds
+    (n_mu, n_depth, ceil(rank / 4))     ``(j, i)`` (direction, depth) holds
                                         ``U_4g .. U_4g+3`` (:func:`band_group_texture`)
 14  sampler                             bilinear (``filtering``) or nearest
 15  storage texture ``rgba32float``     COARSE: the cone term at the spread's
@@ -105,7 +105,7 @@ def band_group_texture(table) -> np.ndarray:
 
 def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
                forward_fraction) -> np.ndarray:
-    """The band table (binding 4): (n, 4 B) float64, ``B = 2 + rank / 4`` vec4 per band.
+    """The band table (binding 4): (n, 4 B) float64, ``B = 2 + ceil(rank / 4)`` vec4 per band.
 
     ``[K, c', f b, t]``, the rank's ``G`` (four per vec4) and ``[w'_r, w'_g,
     w'_b, 0]`` with ``w' = w E0 / pi exp(C)`` (:mod:`aquaspec.lightfield_compiled`).
@@ -115,7 +115,7 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
     w = np.asarray(response_weights, dtype=np.float64)
     coef = factors["coef"]
     n, rank = a.size, coef.shape[1] - 2
-    out = np.zeros((n, 4 * (2 + rank // 4)))
+    out = np.zeros((n, 4 * (2 + -(-rank // 4))))
     out[:, :4] = np.stack([coef[:, 1], a + (1.0 - f) * b, f * b, t], axis=1)
     out[:, 4:4 + rank] = coef[:, 2:]
     out[:, -4:-1] = w * (e0 / np.pi * np.exp(coef[:, 0]))[:, None]
@@ -312,7 +312,7 @@ class LightfieldPass:
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
                self.filtering, self.spread, coarse, group)
         if key not in self._pipelines:
-            band_vec4 = 2 + sh["rank"] // 4
+            band_vec4 = 2 + -(-sh["rank"] // 4)
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
                             params_struct_name=PARAMS_LAYOUT.name,
                             display_struct=DISPLAY_LAYOUT.wgsl(),
