@@ -97,9 +97,8 @@ def test_matches_reference(water, n, phase, kind, depth, cone, filtering, lightf
 
 
 @pytest.mark.parametrize("water,n,depth_h,rank,spread", [
-    ("I", 6, 12.0, 6, False), ("I", 6, 12.0, 6, True),
-    # Six irradiance functions out of eight slots (a second texture read, two terms).
-    ("IB", 8, 7.8, 6, True),
+    # Five irradiance functions of eight slots (a second texture read, one term).
+    ("I", 6, 12.0, 5, False), ("I", 6, 12.0, 5, True), ("IB", 8, 7.8, 5, True),
 ])
 def test_seabed_tables(water, n, depth_h, rank, spread, lightfield_gbuffer):
     """Tables with a Lambertian seabed: the water table is built on the CPU
@@ -118,6 +117,20 @@ def test_seabed_tables(water, n, depth_h, rank, spread, lightfield_gbuffer):
     plain = gpu_pass(gb, setup)                      # the same water over deep water
     plain.run()
     assert not plain.seabed and (lp.read_rgb() - plain.read_rgb()).mean() > 0
+
+
+@pytest.mark.parametrize("rank", [5, 6, 7, 8])
+def test_every_irradiance_rank(rank, lightfield_gbuffer, monkeypatch):
+    """Ranks past four: the second texture read and one term per function
+    (compile-time), against the twin with the same factorisation."""
+    from aquaspec import lightfield_compiled as lfc
+    monkeypatch.setattr(lfc, "IRRADIANCE_RANKS", (rank,))
+    gb = lightfield_gbuffer("builtin", 5.0)
+    setup = setup_of("I", 12, "petzold", cone=15.0)
+    lp = gpu_pass(gb, setup)
+    assert lp._shape["rank"] == rank
+    lp.run()
+    assert_matches(lp.read_rgb(), twin_of(lp, gb, setup.medium(gb.materials)), rtol=1e-4)
 
 
 def test_band_group_texture_layout():

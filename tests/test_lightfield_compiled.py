@@ -62,9 +62,9 @@ class TestIrradianceFactors:
                            <= lfc.IRRADIANCE_TOLERANCE), lfc.IRRADIANCE_RANKS[-1])
         assert first_good > 4 and chosen["coef"].shape[1] == 2 + first_good
         assert lfc.choose_irradiance_factors(tables_of("7C", 8))["coef"].shape[1] == 2 + 4
-        # Near a seabed Jerlov IB needs more than four: six (rank 4 2.7 %, 6 0.3 %).
+        # Near a seabed Jerlov IB needs more than four: five (rank 4 2.7 %, 5 0.8 %).
         bed = tables_of("IB", 8, seabed_depth_m=7.8, seabed_albedo=0.3)
-        assert lfc.choose_irradiance_factors(bed)["coef"].shape[1] == 2 + 6
+        assert lfc.choose_irradiance_factors(bed)["coef"].shape[1] == 2 + 5
 
     def test_bad_rank(self):
         with pytest.raises(AquaspecError, match="rank"):

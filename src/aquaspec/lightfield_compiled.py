@@ -82,9 +82,11 @@ IRRADIANCE_RANK = 4
 #: Ranks tried in turn by :func:`choose_irradiance_factors` until the largest
 #: error is within :data:`IRRADIANCE_TOLERANCE` (else the last). The GPU reads
 #: the functions four per texture sample; a rank between two multiples of 4
-#: costs the second read but fewer multiply-adds per band (near a seabed,
-#: Jerlov IB, 8 bands: rank 4 2.7 %, 6 0.33 %).
-IRRADIANCE_RANKS = (4, 6, 8)
+#: costs the second read but fewer multiply-adds per band. Largest errors
+#: (Petzold, rank 4 / 5 / 6 / 8): Jerlov IB 32 bands 2.5 / 1.5 / 1.3 / 0.4 %;
+#: near a seabed (7.8 m, albedo 0.3) IB 8 bands 2.7 / 0.8 / 0.3 / 0 %;
+#: Jerlov I 16 bands 4.3 / 3.1 / 3.2 / 0.7 %.
+IRRADIANCE_RANKS = (4, 5, 6, 7, 8)
 IRRADIANCE_TOLERANCE = 0.02
 #: Direction nodes of the water table, split between outside and inside
 #: Snell's window in proportion to their length in ``q`` (:func:`direction_split`).

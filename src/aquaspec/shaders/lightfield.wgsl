@@ -10,7 +10,7 @@
 //   RGB = W(v_y, S)                                   (water table, one sample)
 //       + sum_i w'_i rho_i exp(K_i d_S - c'_i S + sum_r G_ir U_r(d_S, n_y))
 // where the second term is there only for hits, U comes from one texture
-// sample (two with ranks 6 and 8) and w'_i = w_i E0_i / pi exp(C_i).
+// sample (two with ranks 5-8) and w'_i = w_i E0_i / pi exp(C_i).
 // With SPREAD (the forward cone spread over the image) two pipelines:
 // - COARSE: one invocation per two pixels of the pyramid's start level
 //   (blocks of BLOCK x BLOCK pixels), its four lanes two pixels on each
@@ -333,11 +333,17 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         let wt = band_table[BAND_VEC4 * i + BAND_VEC4 - 1u];
         var ln_e = q0.x * d_s - q0.y * s + g0.x * u0 + g0.y * u1 + g0.z * u2 + g0.w * u3;
         if (RANK > 4u) {
-            // (Compile-time: rank 6 needs two more terms, rank 8 four.)
+            // (Compile-time: a term per function past the fourth.)
             let g1 = band_table[BAND_VEC4 * i + 2u];
-            ln_e = ln_e + g1.x * u4 + g1.y * u5;
+            ln_e = ln_e + g1.x * u4;
+            if (RANK > 5u) {
+                ln_e = ln_e + g1.y * u5;
+            }
             if (RANK > 6u) {
-                ln_e = ln_e + g1.z * u6 + g1.w * u7;
+                ln_e = ln_e + g1.z * u6;
+            }
+            if (RANK > 7u) {
+                ln_e = ln_e + g1.w * u7;
             }
         }
         var rho = select(vec4<f32>(0.0), vec4<f32>(material_bands[mrow.x + i],
