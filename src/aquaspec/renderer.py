@@ -228,8 +228,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
-           seabed="scene", exposure="auto", white_balance="none", tonemap="filmic", colour_matrix="auto",
-           return_radiance: bool = False, backend: str = "gpu",
+           seabed="scene", exposure="auto", white_balance="none", tonemap="filmic",
+           colour_matrix="auto", return_radiance: bool = False, backend: str = "gpu",
            progress=None) -> RenderResult:
     """Render one image.
 

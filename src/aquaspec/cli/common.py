@@ -65,6 +65,21 @@ def parse_range(text):
     return lo, hi
 
 
+def parse_depth_albedo(text, flag: str, accepted: str, default_albedo: float = 0.2):
+    """``M[,ALBEDO]`` -> ``(M, ALBEDO)``: M > 0 metres, ALBEDO in [0, 1]
+    (``default_albedo`` when left out); else an error naming ``flag`` and
+    ``accepted``."""
+    from ..errors import AquaspecError
+    try:
+        values = [float(x) for x in str(text).split(",")]
+    except ValueError:
+        values = []
+    if not 1 <= len(values) <= 2 or not values[0] > 0 or not (
+            len(values) == 1 or 0.0 <= values[1] <= 1.0):
+        raise AquaspecError(f"{flag} {text!r}; accepted: {accepted}")
+    return values[0], values[1] if len(values) == 2 else default_albedo
+
+
 def bands_from(args) -> Bands:
     lo, hi = parse_range(args.range)
     return Bands(args.bands, lo, hi)

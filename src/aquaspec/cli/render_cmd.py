@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from .common import (add_band_options, add_light_options, add_sensor_options,
-                     add_water_options, parse_range)
+                     add_water_options, parse_depth_albedo, parse_range)
 
 
 def register(sub):
@@ -120,17 +120,9 @@ def run(args):
 
 def _seabed(text):
     """--seabed: "scene", "none" or DEPTH[,ALBEDO] -> what render() takes."""
-    from ..errors import AquaspecError
     from ..lightfield import Seabed
     t = str(text).strip().lower()
     if t in ("scene", "none"):
         return "scene" if t == "scene" else None
-    parts = t.split(",")
-    try:
-        values = [float(x) for x in parts]
-    except ValueError:
-        values = None
-    if not values or len(values) > 2:
-        raise AquaspecError(f"--seabed {text!r}; accepted: scene, none, or DEPTH[,ALBEDO] "
-                            "in metres and [0, 1], e.g. 12 or 12,0.3")
-    return Seabed(values[0], values[1] if len(values) == 2 else 0.2)
+    return Seabed(*parse_depth_albedo(text, "--seabed", "scene, none, or DEPTH[,ALBEDO] in "
+                                      "metres (> 0) and [0, 1], e.g. 12 or 12,0.3"))

@@ -162,13 +162,7 @@ def _seabed_below(text) -> dict:
     """--seabed-below M[,ALBEDO] -> run_study keywords."""
     if text is None:
         return {}
-    from ..errors import AquaspecError
-    try:
-        values = [float(x) for x in str(text).split(",")]
-    except ValueError:
-        values = []
-    if not 1 <= len(values) <= 2 or values[0] <= 0 or not (
-            len(values) == 1 or 0.0 <= values[1] <= 1.0):
-        raise AquaspecError(f"--seabed-below {text!r}; accepted: M[,ALBEDO] with M > 0 metres "
-                            "and ALBEDO in [0, 1], e.g. 2 or 2,0.3")
-    return {"seabed_below_m": values[0], "seabed_albedo": values[1] if len(values) == 2 else 0.2}
+    from .common import parse_depth_albedo
+    below, albedo = parse_depth_albedo(text, "--seabed-below", "M[,ALBEDO] with M > 0 metres "
+                                       "and ALBEDO in [0, 1], e.g. 2 or 2,0.3")
+    return {"seabed_below_m": below, "seabed_albedo": albedo}

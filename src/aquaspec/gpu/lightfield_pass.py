@@ -66,8 +66,7 @@ from .. import lightfield_compiled as lfc
 from ..errors import AquaspecError
 from ..shading import camera_depth
 from .buffers import (create_storage_buffer, create_texture, create_uniform_buffer,
-                      read_buffer, record_dispatch, record_dispatches,
-                      upload_buffer)
+                      read_buffer, record_dispatches, upload_buffer)
 from .deferred import CAMERA_FIELDS, bind_group_entries, bind_group_layout, camera_fields
 from .layout import UniformLayout
 from .shaders import load_wgsl
@@ -412,8 +411,9 @@ class LightfieldPass:
             {0: self._water_params, 1: self._water_band_buffer, 2: self._log_prefactor,
              3: self._water_out}))
         # The open-water column first: the hit columns read it.
-        record_dispatch(encoder, open_column, group, (-(-rows // 64), 1, 1))
-        record_dispatch(encoder, hits, group, (-(-(lfc.DISTANCES - 1) // 8), -(-rows // 8), 1))
+        record_dispatches(encoder, [
+            (open_column, group, (-(-rows // 64), 1, 1)),
+            (hits, group, (-(-(lfc.DISTANCES - 1) // 8), -(-rows // 8), 1))])
 
     def read_water_table(self) -> np.ndarray:
         """The last water table built, ``(layers, directions, DISTANCES, 3)`` float32 (tests)."""

@@ -396,17 +396,17 @@ def _bilinear_repeat(image, uv):
 RAYCAST_TILE = 16
 
 
-def _pixel_boxes(tri, camera: Camera):
+def _pixel_boxes(tri, camera: Camera, dirs):
     """Inclusive pixel boxes ``(j0, j1, i0, i1)`` (each (T,)) that hold every
     pixel centre whose ray can meet each triangle ``tri`` (T, 3, 3) beyond
     the near distance: the bounding box, one pixel wider on each side and
     clipped to the image, of the triangle's part in front of the plane
     ``z = z_min`` (camera z; ``z_min`` half the smallest z a pixel ray reaches
-    at ``camera.near``), projected. A triangle with no such part, or entirely
-    off-screen, gets ``j0 > j1``.
+    at ``camera.near``; ``dirs`` the pixel rays, (P, 3)), projected. A
+    triangle with no such part, or entirely off-screen, gets ``j0 > j1``.
     """
     w, h = camera.width, camera.height
-    min_cos = float((camera.ray_directions().reshape(-1, 3) @ camera.forward).min())
+    min_cos = float((dirs @ camera.forward).min())
     z_min = 0.5 * camera.near * min_cos
     rel = tri - camera.position                               # (T, 3, 3)
     z = rel @ camera.forward                                  # (T, 3)
@@ -521,7 +521,7 @@ def raycast_gbuffer(scene: Scene, camera: Camera, *, max_elements: int = 2_000_0
     if tile is None:
         cast(np.arange(n_rays), np.arange(len(all_tri)))
     else:
-        starts, order = _tile_candidates(_pixel_boxes(all_tri, camera), w, h, int(tile))
+        starts, order = _tile_candidates(_pixel_boxes(all_tri, camera, dirs), w, h, int(tile))
         tiles_x = -(-w // tile)
         pix = np.arange(n_rays).reshape(h, w)
         for k in range(len(starts) - 1):
