@@ -183,6 +183,51 @@ def test_forward_cone_zero_limit_and_effect():
     assert np.all(contrast_cone > np.abs(plain - background))
 
 
+def test_forward_cone_over_a_seabed_hides_the_seabed_too():
+    """Down rays over a seabed: the cone's share of a target is measured
+    against the background it hides, L_bg(d_S, v), which ends on the seabed
+    (the open-water radiance looking the same way from the target's depth).
+    So the seabed seen as a surface, or as open water, has no cone term and
+    does not depend on the cone: its forward-scattered light is already in
+    the 1-D field. (Leaving the seabed out of L_bg made the seabed 27-46 %
+    too bright in Jerlov IB with Fournier-Forand water, against Mitsuba.)"""
+    from aquaspec.bands import Bands
+    from aquaspec.water import load_water
+    n = 4
+    bw = load_water("IB").on_bands(Bands(n))
+    bed = dict(seabed_depth_m=6.0, seabed_albedo=np.full(n, 0.3))
+    plain = lightfield_tables(bw, phase="hg", g=0.92, **bed)
+    cone = lightfield_tables(bw, phase="hg", g=0.92, forward_cone_deg=40.0,
+                             cone_spread=True, **bed)
+    d_o = 4.0
+    v = np.array([[-0.1], [-0.4], [-0.9]])
+    kw = dict(a=bw.a, b=bw.b, e0=np.full(n, 0.5), depth_o=d_o, v_y=v)
+    far = np.full_like(v, np.inf)
+    background = lightfield_pixel_radiance(plain, **kw, s=far)
+    # Open water going down ends on the seabed: the same with or without the cone.
+    base, share = lightfield_pixel_radiance(cone, **kw, s=far, split_cone=True)
+    np.testing.assert_allclose(base, background, rtol=1e-12)
+    np.testing.assert_allclose(share, 0.0, atol=1e-15)
+    np.testing.assert_allclose(lightfield_pixel_radiance(cone, **kw, s=far), background,
+                               rtol=1e-12)
+    # The seabed as a hit surface (a seabed mesh) is the same radiance, no cone term.
+    to_bed = (6.0 - d_o) / -v
+    bed_hit = dict(kw, s=to_bed, rho=np.full(n, 0.3), surface_depth=np.full_like(v, 6.0),
+                   n_y=np.ones_like(v))
+    base, share = lightfield_pixel_radiance(cone, **bed_hit, split_cone=True)
+    np.testing.assert_allclose(share, 0.0, atol=1e-7 * background.max())
+    np.testing.assert_allclose(base, background, rtol=1e-6)
+    # A black target halfway: its cone share is -(T' - T) L_bg(d_S, v).
+    s = 0.5 * to_bed
+    d_s = d_o - s * v
+    black = dict(kw, s=s, rho=np.zeros(n), surface_depth=d_s, n_y=np.zeros_like(v))
+    _, share = lightfield_pixel_radiance(cone, **black, split_cone=True)
+    hidden = lightfield_pixel_radiance(cone, **dict(kw, depth_o=d_s), s=far)
+    c = bw.a + bw.b
+    t_beam = np.exp(-(c - cone["forward_fraction"] * bw.b) * s)
+    np.testing.assert_allclose(share, -(t_beam - np.exp(-c * s)) * hidden, rtol=1e-9)
+
+
 def test_cone_spread_kernel_holds_the_offset_distribution():
     """The kernel sums to 1, is symmetric, and its mass within radius r pixels
     is the CDF of the apparent offset at r / fy radians."""

@@ -853,13 +853,16 @@ def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
     bed = float(tables["seabed_depth_m"][0])
     s_eff = _cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
     l_ms = lightfield_l_ms(tables, a=a, b=b, e0=e0, depth_o=d_o, v_y=v, s=s_eff, form=form)
+    # The seabed's own radiance (Lambertian under the downwelling light).
+    l_bed = 0.0
+    if np.isfinite(bed):
+        e_bed = bilinear(tables["irradiance_per_e0"], bed, 1.0, d_max)
+        l_bed = np.asarray(tables["seabed_albedo"], dtype=float) * e_bed * e0 / np.pi
     if rho is None:
         sky = np.where(v > float(tables["window_cos"][0]),
                        np.asarray(tables["sky_radiance_per_e0"], dtype=float) * e0, 0.0)
         l_surf = np.where(np.isfinite(s_eff) & (v > 0), sky, 0.0)
         if np.isfinite(bed):
-            e_bed = bilinear(tables["irradiance_per_e0"], bed, 1.0, d_max)
-            l_bed = np.asarray(tables["seabed_albedo"], dtype=float) * e_bed * e0 / np.pi
             l_surf = np.where(np.isfinite(s_eff) & (v < 0), l_bed, l_surf)
     else:
         sd = np.asarray(surface_depth, dtype=float)
@@ -871,27 +874,37 @@ def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
     f = np.asarray(tables.get("forward_fraction", 0.0), dtype=float)
     if form == "two_point" and np.any(f > 0):
         # The forward cone stays in the beam (extinction c - f b): with the
-        # open-water field L_bg(d) = R(d) + exp(-c d / v) L_top (up rays) the
-        # radiance is L_bg(d_o) + T' (L_surf - L_bg(d_S)); with f = 0 it is
-        # the two-point form above exactly.
+        # open-water field L_bg(d) = R(d) + exp(-c l(d)) L_end, where the line
+        # of sight ends on the sky (up rays, l = d / v) or on the seabed (down
+        # rays, l = (H - d) / -v), the radiance is L_bg(d_o) + T' (L_surf -
+        # L_bg(d_S)); with f = 0 it is the two-point form above exactly.
+        # (The end's term cancels from T'-independent parts; in the cone's
+        # share it is the background the target hides, seabed included.)
         r_o, r_s, fin, s_f = _two_point(tables, a=a, b=b, e0=e0, depth_o=d_o, v_y=v, s=s_eff)
         l_top = np.where(v > float(tables["window_cos"][0]),
                          np.asarray(tables["sky_radiance_per_e0"], dtype=float) * e0, 0.0)
         up = v > 0
-        v_safe = np.where(up, v, 1.0)
+        to_bed = (v < 0) & np.isfinite(bed)
+        l_end = np.where(up, l_top, np.where(to_bed, l_bed, 0.0))
         d_s = np.clip(d_o - s_f * v, 0.0, bed)
-        u_o = np.where(up, np.exp(-c * d_o / v_safe), 0.0)
-        u_s = np.where(up, np.exp(-c * d_s / v_safe), 0.0)
+
+        def u_end(d):
+            """exp(-c l): transmittance from depth d to the line of sight's end."""
+            length = np.where(up, d / np.where(up, v, 1.0),
+                              (bed - d) / np.where(to_bed, -v, 1.0))
+            return np.where(up | to_bed, np.exp(-c * np.where(up | to_bed, length, 0.0)), 0.0)
+
+        u_o, u_s = u_end(d_o), u_end(d_s)
         t_beam = np.where(fin, np.exp(-_beam_extinction(tables, a, b) * s_f), 0.0)
-        blocked = np.where(fin, l_surf - r_s - u_s * l_top, 0.0)
+        blocked = np.where(fin, l_surf - r_s - u_s * l_end, 0.0)
         if split_cone:
             t = np.where(fin, np.exp(-c * s_f), 0.0)
-            out = r_o + u_o * l_top + t * blocked
+            out = r_o + u_o * l_end + t * blocked
             cone = (t_beam - t) * blocked
             if not (np.all(np.isfinite(out)) and np.all(np.isfinite(cone))):
                 raise AquaspecError("light-field radiance came out non-finite; check the inputs")
             return out, cone
-        out = r_o + u_o * l_top + t_beam * blocked
+        out = r_o + u_o * l_end + t_beam * blocked
     else:
         t = model.transmittance(c, s_eff)
         out = np.where(t > 0, t * l_surf, 0.0) + l_ms
