@@ -202,7 +202,7 @@ def test_cone_spread_matches_reference(kind, n, cone, filtering, start, fused_an
 @pytest.mark.parametrize("start", [None, 2])
 def test_cone_spread_with_far_targets_in_turbid_water(start, lightfield_gbuffer):
     """Targets 50x farther in Jerlov 7C: exp(-f b S) underflows float32 (f b S
-    over 100), the pixel's kept share (lightfield_compiled.kept_share_log)
+    over 100), the pixel's kept share (lightfield_compiled.kept_share)
     must stay finite with alpha = 0 (start at level 0) and alpha > 0."""
     gb = lightfield_gbuffer("builtin", 5.0)
     gb = dataclasses.replace(gb, distance=np.where(np.isfinite(gb.distance),

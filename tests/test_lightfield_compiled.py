@@ -269,23 +269,25 @@ def test_coarse_sample_pixels():
 
 
 class TestKeptShare:
-    """The pixel's own share of its forward cone, in the exponent (kept_share_log)."""
+    """The pixel's own share of its forward cone, tangent in f b (kept_share)."""
+
+    @staticmethod
+    def share(fb, fb_mean, alpha, s):
+        dk, slope = lfc.kept_share(fb_mean, alpha, s)
+        return dk[:, None] * np.exp(slope[:, None] * s[:, None] * (fb - fb_mean))
 
     def test_exact_where_it_must_be(self):
         s = np.array([0.0, 0.3, 2.0, 9.0, 40.0])
         for alpha in (0.0, 0.3, 0.9):
-            a, b = lfc.kept_share_log(0.4, alpha, s)
             # All bands with the mean f b: the tangent is the function itself.
-            x = 0.4 * s
-            np.testing.assert_allclose(np.exp(a + b * x), alpha + (1 - alpha) * np.exp(-x),
-                                       rtol=1e-12)
+            np.testing.assert_allclose(self.share(np.array([0.4]), 0.4, alpha, s)[:, 0],
+                                       alpha + (1 - alpha) * np.exp(-0.4 * s), rtol=1e-12)
         # Far targets in turbid water: exp(-x) underflows, the share stays finite.
         for alpha in (0.0, 0.3):
-            a, b = lfc.kept_share_log(3.0, alpha, np.array([300.0, 1e4]))
-            assert np.all(np.isfinite(a)) and np.all(np.isfinite(b))
-        a, b = lfc.kept_share_log(0.4, 0.0, s)              # alpha = 0: T / T' exactly
-        fb = np.array([0.1, 0.4, 0.9])
-        np.testing.assert_allclose(np.exp(a[:, None] + b[:, None] * fb * s[:, None]),
+            dk, slope = lfc.kept_share(3.0, alpha, np.array([300.0, 1e4]))
+            assert np.all(np.isfinite(dk)) and np.all(np.isfinite(slope))
+        fb = np.array([0.1, 0.4, 0.9])                      # alpha = 0: T / T' exactly
+        np.testing.assert_allclose(self.share(fb, fb.mean(), 0.0, s),
                                    np.exp(-fb * s[:, None]), rtol=1e-12)
 
     def test_error_for_ocean_waters(self):
@@ -295,8 +297,7 @@ class TestKeptShare:
         fb = np.linspace(0.226, 0.550, 16)
         s = np.linspace(0.0, 40.0, 4001)[:, None]
         x = fb * s
-        a, b = lfc.kept_share_log(fb.mean(), 0.3, s[:, 0])
-        got = np.exp(a[:, None] + b[:, None] * x)
+        got = self.share(fb, fb.mean(), 0.3, s[:, 0])
         exact = 0.3 + 0.7 * np.exp(-x)
         err = np.abs(got - exact)
         assert (err / exact).max() < 0.10

@@ -34,8 +34,8 @@ model (SPEC: keep the per-pixel cost near the seeds'):
 few pixels only and are taken as the pixel's own: the pixel keeps the share
 ``alpha = a_0 + .. + a_{L0-1}`` of its cone term (water table ``W0 + alpha
 W1``, the target's light times ``alpha + (1 - alpha) exp(-f b S)``, whose
-logarithm is taken linear in ``f_i b_i`` per pixel, :func:`kept_share_log`,
-so that a band costs one exponential). Level
+logarithm is taken linear in ``f_i b_i`` per pixel, :func:`kept_share`,
+so that a band costs one exponential and a multiply-add). Level
 ``L0`` itself (``2^L0`` times coarser) is estimated from the cone term at two
 pixels on the diagonal of each coarse pixel's block (offsets ``2^L0 / 4`` and
 ``3 2^L0 / 4``, :func:`coarse_sample_pixels`), the pyramid runs from there
@@ -417,25 +417,27 @@ def upsample_groups(coarse, factor: int, shape) -> np.ndarray:
     return bilinear_at(coarse, (np.arange(h) + 0.5) / factor - 0.5, centres / factor - 0.5)
 
 
-def kept_share_log(fb_mean: float, alpha: float, s):
-    """Per pixel ``(A, B)`` with ``ln(alpha + (1 - alpha) exp(-x_i)) ~ A + B x_i``,
-    ``x_i = f_i b_i S``: the tangent at the bands' mean ``x = fb_mean S``.
+def kept_share(fb_mean: float, alpha: float, s):
+    """Per pixel ``(dk, slope)`` with ``alpha + (1 - alpha) exp(-x_i) ~ dk exp(slope
+    (x_i - x))``, ``x_i = f_i b_i S``, ``x = fb_mean S``: the tangent of the
+    share's logarithm at the bands' mean, ``dk`` the share there.
 
     The pixel keeps ``alpha`` of its forward cone, ``T' (alpha + (1 - alpha)
     exp(-f b S))`` of the target's light; one exponential per band remains
-    when its logarithm is linear in ``f_i b_i`` (a multiply-add). Exact for
-    ``alpha = 0`` and where all bands have the same ``f b``; for the Jerlov
-    waters (f b varies 2.4x over 400-700 nm) the kept light is off by at most
-    3.5-9 %, 1.5-3.6 % of the cone term, which then goes to the pyramid
-    instead (light is conserved: the spread takes the complement).
+    when the logarithm is linear in ``f_i b_i``: a multiply-add in the band's
+    exponent (``slope S (f_i b_i - fb_mean)``), and ``dk`` multiplies the
+    sum over bands once per pixel. Exact for ``alpha = 0`` and where all bands
+    have the same ``f b``; for the Jerlov waters (f b varies 2.4x over
+    400-700 nm) the kept light is off by at most 3.5-9 %, 1.5-3.6 % of the
+    cone term, which then goes to the pyramid instead (light is conserved:
+    the spread takes the complement).
     """
     xb = np.asarray(s, dtype=float) * float(fb_mean)
     e = np.exp(-xb)
     # (alpha = 0 and exp(-x) underflowing: the share is 0 either way; the
-    # floor keeps the logarithm finite, as the GPU's 1e-30 does in float32.)
+    # floor keeps the slope finite, as the GPU's 1e-30 does in float32.)
     d = np.maximum(alpha + (1.0 - alpha) * e, 1e-30)
-    slope = -(1.0 - alpha) * e / d
-    return np.log(d) - slope * xb, slope
+    return d, -(1.0 - alpha) * e / d
 
 
 def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
@@ -443,9 +445,9 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
 
     ``rho`` (P, n); ``s``, ``surface_depth``, ``n_y`` (P,). Returns
     ``(kept, spread)``: without the split ``kept`` is all of it (``T'``) and
-    ``spread`` zero; with it ``kept`` is ``T' exp(A + B f_i b_i)``
-    (:func:`kept_share_log`: ``T`` plus about ``alpha`` of the cone ``T' -
-    T``) and ``spread`` the rest divided by ``1 - alpha``, to be weighted by
+    ``spread`` zero; with it ``kept`` is ``T' dk exp(slope S (f_i b_i -
+    mean f b))`` (:func:`kept_share`: ``T`` plus about ``alpha`` of the cone
+    ``T' - T``) and ``spread`` the rest divided by ``1 - alpha``, to be weighted by
     the pyramid's levels from ``L0`` (which sum to ``1 - alpha``).
     """
     from .lightfield import bilinear
@@ -455,8 +457,8 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
         - comp.c_beam * s + u @ comp.g.T
     l = np.asarray(rho, dtype=float) * np.exp(ln_e)
     if comp.split:
-        a_, b_ = kept_share_log(comp.fb.mean(), alpha, s[:, 0])
-        kept = l * np.exp(a_[:, None] + b_[:, None] * comp.fb * s)
+        dk, slope = kept_share(comp.fb.mean(), alpha, s[:, 0])
+        kept = l * dk[:, None] * np.exp(slope[:, None] * s * (comp.fb - comp.fb.mean()))
         return (kept @ comp.surface_weights,
                 (l - kept) @ comp.surface_weights / max(1.0 - alpha, 1e-12))
     return l @ comp.surface_weights, np.zeros((l.shape[0], 3))

@@ -106,7 +106,7 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
                forward_fraction) -> np.ndarray:
     """The band table (binding 4): (n, 4 B) float64, ``B = 2 + ceil(rank / 4)`` vec4 per band.
 
-    ``[K, c', f b, t]``, the rank's ``G`` (four per vec4) and ``[w'_r, w'_g,
+    ``[K, c', f b - mean(f b), t]``, the rank's ``G`` (four per vec4) and ``[w'_r, w'_g,
     w'_b, 0]`` with ``w' = w E0 / pi exp(C)`` (:mod:`aquaspec.lightfield_compiled`).
     """
     a, b, e0, t, f = (np.asarray(x, dtype=np.float64)
@@ -115,7 +115,8 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
     coef = factors["coef"]
     n, rank = a.size, coef.shape[1] - 2
     out = np.zeros((n, 4 * (2 + -(-rank // 4))))
-    out[:, :4] = np.stack([coef[:, 1], a + (1.0 - f) * b, f * b, t], axis=1)
+    out[:, :4] = np.stack([coef[:, 1], a + (1.0 - f) * b, f * b - np.mean(f * b), t],
+                          axis=1)
     out[:, 4:4 + rank] = coef[:, 2:]
     out[:, -4:-1] = w * (e0 / np.pi * np.exp(coef[:, 0]))[:, None]
     return out

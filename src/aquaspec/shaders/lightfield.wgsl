@@ -18,9 +18,9 @@
 //   1 plus the target's light the pixel does not keep, over 1 - alpha) to
 //   cone_out, where the pyramid (aquaspec/gpu/conespread_pass.py) takes over;
 // - the full-resolution pass: the water table's layer 0 holds W0 + alpha W1,
-//   the target's light is weighted alpha + (1 - alpha) exp(-f b S) (in the
-//   exponent, linear in f b per pixel: no second exponential per band), and
-//   the pyramid's result is added with one bilinear sample.
+//   the target's light is weighted alpha + (1 - alpha) exp(-f b S) (its
+//   logarithm linear in f b per pixel: a multiply-add per band, no second
+//   exponential), and the pyramid's result is added with one bilinear sample.
 //
 // Written for lavapipe (SIMD over 8 invocations on the CPU), as
 // deferred.wgsl (see its header): per-band constants in a uniform array
@@ -79,7 +79,7 @@ const GROUP_SPREAD: bool = {{ group_spread }};
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
 // BAND_VEC4 vec4 per band i (lightfield_pass.band_table, float64 on the host):
-//   [B i]             K (1/m), c' = c - f b, f b, t (sigmoid band centre)
+//   [B i]             K (1/m), c' = c - f b, f b - mean(f b), t (sigmoid band centre)
 //   [B i + 1 (+ 2)]   G_i0 .. G_i3 (G_i4 .. G_i7 with RANK 8)
 //   [B i + B - 1]     w'_r, w'_g, w'_b, 0
 @group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
@@ -311,21 +311,25 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     }
 
     // The targets' own light, one exponential per band. With SPREAD the
-    // pixel keeps T' (alpha + (1 - alpha) exp(-f b S)) of it, whose logarithm
-    // is taken linear in f b per pixel, kept_a + kept_b f_i b_i
-    // (lightfield_compiled.kept_share_log); COARSE takes the rest over 1 - alpha.
-    var kept_a = vec4<f32>(0.0);
+    // pixel keeps T' (alpha + (1 - alpha) exp(-f b S)) of it: the tangent of
+    // that share's logarithm in f_i b_i at the bands' mean
+    // (lightfield_compiled.kept_share), ln kept_i = ln dk + slope S (f_i b_i -
+    // mean f b) with dk the share at the mean: per band one multiply-add in
+    // the exponent, and dk multiplies the sum once per pixel (no logarithm);
+    // COARSE takes the rest over 1 - alpha.
+    var dk = vec4<f32>(1.0);
     var kept_b = vec4<f32>(0.0);
     if (SPREAD) {
-        let xb = s * prm.fb_mean;
-        let e = exp(-xb);
-        // (Floored: alpha = 0 and exp(-x) underflowing would give log(0).)
-        let dk = max(prm.alpha + (1.0 - prm.alpha) * e, vec4<f32>(1e-30));
-        let slope = -(1.0 - prm.alpha) * e / dk;
-        kept_a = log(dk) - slope * xb;
-        kept_b = slope * s;
+        let e = exp(-s * prm.fb_mean);
+        // (Floored: alpha = 0 and exp(-x) underflowing would give 0 / 0.)
+        dk = max(prm.alpha + (1.0 - prm.alpha) * e, vec4<f32>(1e-30));
+        kept_b = -(1.0 - prm.alpha) * e / dk * s;
     }
     let inv_rest = 1.0 / max(1.0 - prm.alpha, 1e-12);
+    // The targets' light summed apart from the water's (dk applies to it alone).
+    var sr = vec4<f32>(0.0);
+    var sg = vec4<f32>(0.0);
+    var sb = vec4<f32>(0.0);
     let n_iter = select(0u, N_BANDS, any_hit);
     for (var i = 0u; i < n_iter; i = i + 1u) {
         let q0 = band_table[BAND_VEC4 * i];
@@ -353,15 +357,25 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
             rho = select(rho, sigmoid_reflectance(c0, c1, c2, q0.w), use_sigmoid);
         }
         if (SPREAD && !COARSE) {
-            ln_e = ln_e + kept_a + kept_b * q0.z;
+            // q0.z: f_i b_i minus the bands' mean.
+            ln_e = ln_e + kept_b * q0.z;
         }
         var l = select(vec4<f32>(0.0), rho * exp(ln_e), hit);
         if (COARSE) {
-            l = (l - l * exp(kept_a + kept_b * q0.z)) * inv_rest;
+            l = (l - l * dk * exp(kept_b * q0.z)) * inv_rest;
         }
-        r = r + l * wt.x;
-        gr = gr + l * wt.y;
-        b = b + l * wt.z;
+        sr = sr + l * wt.x;
+        sg = sg + l * wt.y;
+        sb = sb + l * wt.z;
+    }
+    if (SPREAD && !COARSE) {
+        r = r + dk * sr;
+        gr = gr + dk * sg;
+        b = b + dk * sb;
+    } else {
+        r = r + sr;
+        gr = gr + sg;
+        b = b + sb;
     }
     if (COARSE) {
         // The blocks' mean cone terms: the pyramid's start level.
