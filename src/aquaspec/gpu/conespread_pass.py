@@ -1,23 +1,44 @@
 """The forward cone's light spread over the image on the GPU (an image pyramid).
 
 Twin of :func:`aquaspec.conespread.spread` (WGSL: ``shaders/conespread.wgsl``;
-``tests/test_gpu_lightfield.py`` holds the light-field pass with the spread
-against its NumPy twin). The light-field pass's COARSE pipeline writes the
-cone term at the spread's start level (:attr:`ConeSpreadPass.cone_texture`,
+``tests/test_gpu_conespread.py`` holds this pass against the NumPy reference,
+``tests/test_gpu_lightfield.py`` the light-field pass with the spread against
+its NumPy twin). The light-field pass's COARSE pipeline writes the cone term
+at the spread's start level (:attr:`ConeSpreadPass.cone_texture`,
 ``rgba32float`` storage texture, :mod:`aquaspec.lightfield_compiled`); this
-pass halves it ``L`` times (``down``) and sums the levels back up with their
-weights (``compose``) into :attr:`ConeSpreadPass.result`, which the
-full-resolution light-field pass adds with one bilinear sample.
+pass halves it ``L`` times and sums the levels back up with their weights into
+:attr:`ConeSpreadPass.result`, which the full-resolution light-field pass adds
+with one bilinear sample.
 
-Bindings of conespread.wgsl (one layout for both entry points):
+All of it is one dispatch of one workgroup (:data:`WORKGROUP` invocations
+looping over each level, a storage barrier between levels) instead of one
+dispatch per level and direction (2L): on lavapipe a small dispatch costs
+20-40 us of overhead, more than the work of most levels. The levels above 0
+(and, in place, the partial sums ``U_1 .. U_{L-1}``) live in one storage
+buffer. Level sizes, offsets and weights are in a uniform, so one shader
+serves every size and level count (literal sizes were about 10 % faster to
+run but cost a 1.2-1.8 s compile for every new size on lavapipe) and new
+weights need no new pipeline. Measured on lavapipe (2 cores, the pyramid
+recorded 50 times in one compute pass): 160x90 with 5 levels (1280x720)
+0.36-0.38 ms against 0.60-0.67 ms for the per-level dispatches, 240x135 with
+6 levels (1920x1080) 0.76-0.80 ms against 0.95-1.16 ms; in the 1280x720
+frame (``aquaspec bench``, 8 bands, medians of six runs) the light-field
+pass went from 21.05 to 20.70 ms, lightfield / seeds from 1.103 to 1.094.
+What is left is mostly level 0's work on one thread (its halving, and the
+textureStore of U_0, about 5 ns a texel).
+
+Bindings of conespread.wgsl:
 
 ==  ==================================  ==========================================
-0   uniform :data:`PARAMS_LAYOUT`       sizes of the source, destination and
-                                        coarse level; weights ``a``, ``b``
-1   texture ``rgba32float``             source level
-2   texture ``rgba32float``             coarse level (read bilinearly)
-3   sampler                             linear (``filtering``) or nearest
-4   storage texture ``rgba32float``     destination level
+0   uniform ``Pyramid``                 L; per level ``(width, height, offset
+                                        in binding 2, 0)``; weights ``a_0 ..
+                                        a_L``, four to a vec4 (sized for
+                                        :data:`MAX_LEVELS`)
+1   texture ``rgba32float``             level 0 (:attr:`cone_texture`), read
+                                        with textureLoad
+2   storage ``array<vec4<f32>>``        levels 1 .. L, row-major, one after the
+                                        other (:attr:`ConeSpreadPass.offsets`)
+3   storage texture ``rgba32float``     U_0 (:attr:`result`)
 ==  ==================================  ==========================================
 """
 
@@ -27,115 +48,104 @@ import numpy as np
 
 from ..conespread import level_shapes
 from ..errors import AquaspecError
-from .buffers import create_texture, upload_buffer
-from .layout import UniformLayout
+from .buffers import create_storage_buffer, create_texture, upload_buffer
 from .shaders import load_wgsl
 
-PARAMS_LAYOUT = UniformLayout("ConeSpreadParams", [
-    ("src_size", "vec2<u32>"), ("dst_size", "vec2<u32>"), ("coarse_size", "vec2<u32>"),
-    ("a", "f32"), ("b", "f32"),
-])
+#: Invocations of the one workgroup. On lavapipe (8-wide SIMD) 8 measured
+#: about 4 % faster than 32 (one group of lanes, nothing to switch at a
+#: barrier), 64 alike, 256 25-30 % slower; 32 keeps a whole warp on a GPU.
+WORKGROUP = 32
+#: Rows one invocation walks down a level (carrying the rows the next one
+#: shares): 16-64 measured alike, 4 1.1x slower, 1 (no sharing) 1.6-1.8x.
+ROWS = 32
+#: Most levels below level 0 (the uniform's arrays are this long, plus one).
+MAX_LEVELS = 15
 
-#: Workgroup size of all three entry points.
-WORKGROUP = (8, 8)
+
+def _uniform_layout():
+    """(byte offset of the weights, size) of conespread.wgsl's ``Pyramid``:
+    count (vec4<u32>), one vec4<u32> per level (MAX_LEVELS + 1), then the
+    weights four to a vec4<f32>."""
+    weight = 16 + 16 * (MAX_LEVELS + 1)
+    return weight, weight + 16 * ((MAX_LEVELS + 4) // 4)
 
 
 class ConeSpreadPass:
-    """Pyramid levels and dispatches for one image size and level count."""
+    """The pyramid's buffers and its one dispatch for one image size and level count.
+
+    ``filtering`` (the device has float32-filterable) is accepted for the
+    light-field pass's sake; this pass reads every level with exact fetches,
+    so it does not depend on it.
+    """
 
     def __init__(self, device, width: int, height: int, levels: int, *, filtering: bool):
         import wgpu
-        from .deferred import bind_group_layout
+        from .deferred import bind_group_entries, bind_group_layout
         self.device = device
         self.width, self.height, self.levels = int(width), int(height), int(levels)
+        if self.width < 1 or self.height < 1 or not 0 <= self.levels <= MAX_LEVELS:
+            raise AquaspecError(f"cone spread of {width}x{height} with {levels} levels; "
+                                f"accepted: at least 1x1, 0 to {MAX_LEVELS} levels")
         self.filtering = bool(filtering)
         self.shapes = level_shapes(self.height, self.width, self.levels)
-        usage = (wgpu.TextureUsage.STORAGE_BINDING | wgpu.TextureUsage.TEXTURE_BINDING)
+        sizes = [h * w for h, w in self.shapes]
+        #: First element of each level in the level buffer (level 0 is the
+        #: texture: 0, unused).
+        self.offsets = [0] + [int(sum(sizes[1:k])) for k in range(1, self.levels + 1)]
+        # Both textures also allow copies (the tests upload level 0 and read
+        # the result).
         #: Level 0: the cone term written by the light-field pass (COARSE).
         self.cone_texture = create_texture(device, self.width, self.height, "rgba32float",
-                                           label="cone level 0", usage=usage)
+                                           label="cone level 0")
         #: The spread cone term at level 0's size (U_0).
         self.result = create_texture(device, self.width, self.height, "rgba32float",
-                                     label="cone spread", usage=usage)
-        # P_1 .. P_L, and U_0 .. U_{L-1} (U_L is P_L weighted).
-        self._p = [self.cone_texture] + [
-            create_texture(device, w, h, "rgba32float", label=f"cone level {k}", usage=usage)
-            for k, (h, w) in enumerate(self.shapes[1:], start=1)]
-        self._u = [self.result] + [
-            create_texture(device, w, h, "rgba32float", label=f"cone sum {k}", usage=usage)
-            for k, (h, w) in enumerate(self.shapes[1:-1], start=1)]
-        tex = "filterable" if self.filtering else "float"
-        self._layout = bind_group_layout(device, {
-            0: "uniform", 1: tex, 2: tex, 3: "sampler" if self.filtering else "nonfiltering_sampler",
-            4: "storage_rgba32float"})
-        mode = "linear" if self.filtering else "nearest"
-        self._sampler = device.create_sampler(label="cone spread", mag_filter=mode,
-                                              min_filter=mode, address_mode_u="clamp-to-edge",
-                                              address_mode_v="clamp-to-edge")
-        self._pipelines = {}
-        self._steps = None
+                                     label="cone spread")
+        self._levels_buffer = create_storage_buffer(device, 16 * max(1, sum(sizes[1:])),
+                                                    label="cone levels")
+        self._weight_at, nbytes = _uniform_layout()
+        self._uniform = device.create_buffer(
+            label="cone spread", size=nbytes,
+            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        table = np.zeros((1 + MAX_LEVELS + 1, 4), np.uint32)
+        table[0, 0] = self.levels
+        for k, ((h, w), off) in enumerate(zip(self.shapes, self.offsets)):
+            table[1 + k, :3] = (w, h, off)
+        upload_buffer(device, self._uniform, table)
+        self._layout = bind_group_layout(device, {0: "uniform", 1: "float", 2: "write",
+                                                  3: "storage_rgba32float"})
+        self._group = device.create_bind_group(layout=self._layout, entries=bind_group_entries(
+            {0: self._uniform, 1: self.cone_texture, 2: self._levels_buffer,
+             3: self.result}))
+        self._pipeline = None
         self._weights = None
 
-    # ------------------------------------------------------------ pipelines
-    def _pipeline(self, entry):
-        key = entry
-        if key not in self._pipelines:
-            src = load_wgsl("conespread.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
-                            params_struct_name=PARAMS_LAYOUT.name,
-                            filter="true" if self.filtering else "false")
-            module = self.device.create_shader_module(label="conespread.wgsl", code=src)
-            self._pipelines[key] = self.device.create_compute_pipeline(
-                label=f"cone spread {entry}",
-                layout=self.device.create_pipeline_layout(bind_group_layouts=[self._layout]),
-                compute={"module": module, "entry_point": entry})
-        return self._pipelines[key]
+    def _build_pipeline(self):
+        src = load_wgsl("conespread.wgsl", workgroup=WORKGROUP, rows=ROWS,
+                        max_levels=MAX_LEVELS)
+        module = self.device.create_shader_module(label="conespread.wgsl", code=src)
+        return self.device.create_compute_pipeline(
+            label="cone spread",
+            layout=self.device.create_pipeline_layout(bind_group_layouts=[self._layout]),
+            compute={"module": module, "entry_point": "main"})
 
     def set_weights(self, weights) -> None:
-        """Level weights (levels + 1,), :func:`aquaspec.conespread.fit_weights`."""
+        """Level weights (levels + 1,), :func:`aquaspec.conespread.fit_weights`
+        (written to the uniform: the next submission uses them)."""
         w = np.asarray(weights, dtype=float)
         if w.shape != (self.levels + 1,):
             raise AquaspecError(f"{w.size} pyramid weights for {self.levels} levels; "
                                 f"accepted: {self.levels + 1}")
         if self._weights is not None and np.array_equal(w, self._weights):
             return
+        upload_buffer(self.device, self._uniform, w.astype(np.float32), self._weight_at)
         self._weights = w
-        self._steps = self._build_steps(w)
-
-    def _build_steps(self, w):
-        """(entry, bind group, workgroups) per dispatch, uniforms uploaded."""
-        from .buffers import create_uniform_buffer
-        from .deferred import bind_group_entries
-        dev = self.device
-        L = self.levels
-        steps = []
-
-        def step(entry, src, coarse, dst, a, b, dst_shape, src_shape, coarse_shape):
-            buf = create_uniform_buffer(dev, PARAMS_LAYOUT, label=f"cone {entry}")
-            upload_buffer(dev, buf, PARAMS_LAYOUT.pack(
-                src_size=(src_shape[1], src_shape[0]), dst_size=(dst_shape[1], dst_shape[0]),
-                coarse_size=(coarse_shape[1], coarse_shape[0]), a=a, b=b))
-            res = {0: buf, 1: src, 2: coarse, 3: self._sampler, 4: dst}
-            group = dev.create_bind_group(layout=self._layout, entries=bind_group_entries(res))
-            groups = (-(-dst_shape[1] // WORKGROUP[0]), -(-dst_shape[0] // WORKGROUP[1]), 1)
-            steps.append((entry, group, groups))
-
-        sh = self.shapes
-        for k in range(1, L + 1):
-            # `down` does not read the coarse binding; it gets the source level
-            # again (a texture may not be read and written in one dispatch).
-            step("down", self._p[k - 1], self._p[k - 1], self._p[k], 0.0, 0.0,
-                 sh[k], sh[k - 1], sh[k - 1])
-        if L == 0:
-            # One level: U_0 = a_0 P_0 (the coarse binding is not used, b = 0).
-            step("compose", self._p[0], self._p[0], self._u[0], w[0], 0.0, sh[0], sh[0], sh[0])
-        for k in range(L - 1, -1, -1):
-            coarse, b = (self._p[L], w[L]) if k == L - 1 else (self._u[k + 1], 1.0)
-            step("compose", self._p[k], coarse, self._u[k], w[k], b, sh[k], sh[k], sh[k + 1])
-        return steps
 
     def dispatches(self) -> list:
-        """The pyramid's ``(pipeline, bind group, workgroups)`` in order, to record
-        after the light-field pass's COARSE dispatch (weights set first)."""
-        if self._steps is None:
+        """The pyramid's ``(pipeline, bind group, workgroups)``: one dispatch of
+        one workgroup, to record after the light-field pass's COARSE dispatch
+        (weights set first)."""
+        if self._weights is None:
             raise AquaspecError("ConeSpreadPass needs set_weights() before dispatches()")
-        return [(self._pipeline(entry), group, groups) for entry, group, groups in self._steps]
+        if self._pipeline is None:
+            self._pipeline = self._build_pipeline()
+        return [(self._pipeline, self._group, (1, 1, 1))]
