@@ -293,7 +293,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     let any_hit = any(hit);
     {
         let x_s = depth_coord(d_s);
-        let y_n = cos_coord(n_y);
+        // (n_y of open water is whatever the G-buffer holds: made 0, so the
+        // band loop's exponent stays finite there.)
+        let y_n = cos_coord(select(vec4<f32>(0.0), n_y, hit));
         for (var k = 0u; k < 4u; k = k + 1u) {
             let u = bilinear4(basis_table, y_n[k], x_s[k], 0u, N_MU, N_DEPTH);
             u0[k] = u.x;
@@ -360,7 +362,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
             // q0.z: f_i b_i minus the bands' mean.
             ln_e = ln_e + kept_b * q0.z;
         }
-        var l = select(vec4<f32>(0.0), rho * exp(ln_e), hit);
+        // (rho is 0 where there is no hit, and ln_e finite: no select needed.)
+        var l = rho * exp(ln_e);
         if (COARSE) {
             l = (l - l * dk * exp(kept_b * q0.z)) * inv_rest;
         }
