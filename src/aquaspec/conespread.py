@@ -189,6 +189,7 @@ def pyramid_weights(tables, pixels_per_radian: float, height: int, width: int) -
     offsets, cdf = cone_cdf(tables)
     levels = level_count(height, width, offsets[-1] * pixels_per_radian)
     w = fit_weights(offsets, cdf, pixels_per_radian, levels)
-    # Coarsest levels the fit left at zero cost a tiny level in the pyramid's one dispatch for nothing.
+    # Coarsest levels the fit left at zero would cost work in the pyramid's
+    # dispatch for nothing.
     last = max(1, int(np.flatnonzero(w > 0)[-1])) if np.any(w[1:] > 0) else 1
     return w[:last + 1]
