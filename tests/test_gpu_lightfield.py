@@ -164,17 +164,23 @@ def test_filtering_needs_the_device_feature():
         LightfieldPass(d, filtering=True)
 
 
-@pytest.mark.parametrize("kind,n,cone,filtering,start", [
-    ("builtin", 8, 40.0, None, None),
-    ("builtin", 8, 40.0, None, 2),
-    ("up", 5, 30.0, None, 3),
-    ("up", 4, 40.0, False, 1),
+@pytest.mark.parametrize("kind,n,cone,filtering,start,projected", [
+    ("builtin", 8, 40.0, None, None, False),
+    ("builtin", 8, 40.0, None, 2, False),
+    ("builtin", 8, 40.0, None, 2, True),
+    ("builtin", 16, 40.0, None, 2, True),
+    ("up", 5, 30.0, None, 3, True),
+    ("up", 4, 40.0, False, 1, False),
 ])
-def test_cone_spread_matches_reference(kind, n, cone, filtering, start, fused_and_two_pass,
-                                       lightfield_gbuffer):
+def test_cone_spread_matches_reference(kind, n, cone, filtering, start, projected,
+                                       fused_and_two_pass, lightfield_gbuffer, monkeypatch):
     """The pyramid on the GPU (the light-field pass split into radiance and
     cone term, then conespread.wgsl) against shade_gbuffer's NumPy pyramid,
-    linear RGB and the fused display."""
+    linear RGB and the fused display; the kept share with its term per band
+    and projected (lightfield_compiled.kept_projection, here from any band
+    count; alpha = 0 without a coarse start never projects)."""
+    import aquaspec.lightfield_compiled as lfc
+    monkeypatch.setattr(lfc, "KEPT_PROJECTION_MIN_BANDS", 1 if projected else 10 ** 6)
     gb = lightfield_gbuffer(kind, 5.0)
     setup = dataclasses.replace(setup_of("II", n, "ff", cone=cone),
                                 phase_params=(("backscatter", 0.0183),), cone_spread=True)
@@ -184,6 +190,7 @@ def test_cone_spread_matches_reference(kind, n, cone, filtering, start, fused_an
     assert lp.spread
     lp.run()
     assert lp.spread_plan[0] == (0 if start is None else start)   # 96 pixels: no coarse start
+    assert (lp.kept_projection(lp.spread_plan[1]) is not None) == projected
     linear = lp.read_rgb()
     ref = twin_of(lp, gb, medium)
     comp = lp.reference_compiled()

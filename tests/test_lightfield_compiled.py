@@ -304,6 +304,61 @@ class TestKeptShare:
         assert (err / np.maximum(1 - np.exp(-x), 1e-9)).max() < 0.06
         assert (err / exact).max() > 0.01                    # an approximation, measured
 
+    def test_slope_bound(self):
+        assert lfc.kept_slope_bound(0.0) == np.inf
+        x = np.linspace(0.0, 60.0, 600001)
+        for alpha in (0.05, 0.3, 0.9):
+            dk, slope = lfc.kept_share(1.0, alpha, x)
+            assert lfc.kept_slope_bound(alpha) == pytest.approx(np.max(-slope * x), rel=1e-4)
+        assert lfc.kept_slope_bound(0.3) < lfc.kept_slope_bound(0.1)
+
+    @staticmethod
+    def compiled(water, n):
+        w = load_water(water).on_bands(Bands(n))
+        tables = lightfield_tables(w, phase="ff", backscatter=0.0183, forward_cone_deg=40.0,
+                                   cone_spread=True)
+        e0 = surface_light("overcast").on_bands(Bands(n))
+        resp = get_sensor("human").band_weights(Bands(n))
+        return lfc.compile_lightfield(tables, a=w.a, b=w.b, e0=e0, response_weights=resp,
+                                      depth_o=5.0)
+
+    def test_projection(self):
+        """f b - mean(f b) from the band's own coefficients: exact with up to
+        rank + 3 bands, and within the tolerance of the kept light where used."""
+        comp = self.compiled("II", 6)                       # rank 4: exact
+        lam, hat, res = lfc.fb_projection(comp.k_depth, comp.c_beam, comp.g, comp.fb)
+        delta = comp.fb - comp.fb.mean()
+        assert res < 1e-10 * np.abs(delta).max()
+        np.testing.assert_allclose(hat, delta, atol=1e-10 * np.abs(delta).max())
+        comp = self.compiled("II", 16)
+        delta = comp.fb - comp.fb.mean()
+        assert lfc.kept_projection(comp, 0.0) is None      # alpha = 0: slope -1 everywhere
+        proj = lfc.kept_projection(comp, 0.3)
+        assert proj is not None and 0 < proj["error_bound"] <= lfc.KEPT_PROJECTION_TOLERANCE
+        # The kept light with and without the projection, over distances and
+        # random surfaces: within the bound, which is not loose by orders.
+        rng = np.random.default_rng(5)
+        m = 400
+        rho = rng.uniform(0.05, 0.9, (m, 16))
+        s = np.linspace(0.01, 40.0, m)
+        sd = rng.uniform(2.0, 9.0, m)
+        ny = rng.uniform(-1.0, 1.0, m)
+        dk, slope = lfc.kept_share(comp.fb.mean(), 0.3, s)
+        moved = np.abs(slope[:, None] * s[:, None] * (proj["fb_offset"] - delta))
+        assert moved.max() <= proj["error_bound"] * (1 + 1e-9)
+        assert moved.max() > 0.05 * proj["error_bound"]
+        # surface_rgb uses it (and conserves light either way).
+        kept, spread = lfc.surface_rgb(comp, rho, s, sd, ny, alpha=0.3)
+        exact = dataclasses.replace(comp, fb=comp.fb.copy())
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(lfc, "kept_projection", lambda c, a: None)
+            kept_x, spread_x = lfc.surface_rgb(exact, rho, s, sd, ny, alpha=0.3)
+        assert not np.allclose(kept, kept_x, rtol=1e-9)
+        np.testing.assert_allclose(kept + 0.7 * spread, kept_x + 0.7 * spread_x, rtol=1e-10)
+        # A medium whose residual is too large for the tolerance keeps the band term.
+        bad = dataclasses.replace(comp, fb=comp.fb * (1 + 0.5 * np.sin(np.arange(16.0))))
+        assert lfc.kept_projection(bad, 0.3) is None
+
     def test_light_is_conserved(self, lightfield_gbuffer):
         """kept + (1 - alpha) spread = the whole target light T' (surface_rgb)."""
         w = load_water("II").on_bands(Bands(8))

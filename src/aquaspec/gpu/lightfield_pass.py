@@ -60,6 +60,8 @@ interpolates from four fetches (``filtering=False``, tested too).
 
 from __future__ import annotations
 
+import types
+
 import numpy as np
 
 from .. import lightfield_compiled as lfc
@@ -75,6 +77,8 @@ PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_materials", "u32"), ("depth_o", "f32"),
     ("max_depth", "f32"), ("window_cos", "f32"), ("coarse_size", "vec2<u32>"),
     ("block", "u32"), ("alpha", "f32"), ("fb_mean", "f32"),
+    # lightfield_compiled.kept_projection: [lam_K, lam_c, mu, 0], lam_G.
+    ("kept_lam", "vec4<f32>"), ("kept_lam_g0", "vec4<f32>"), ("kept_lam_g1", "vec4<f32>"),
 ])
 
 #: Compute workgroup size (x, y) of lightfield.wgsl, in invocations.
@@ -107,7 +111,9 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
     """The band table (binding 4): (n, 4 B) float64, ``B = 2 + ceil(rank / 4)`` vec4 per band.
 
     ``[K, c', f b - mean(f b), t]``, the rank's ``G`` (four per vec4) and ``[w'_r, w'_g,
-    w'_b, 0]`` with ``w' = w E0 / pi exp(C)`` (:mod:`aquaspec.lightfield_compiled`).
+    w'_b, delta_hat]`` with ``w' = w E0 / pi exp(C)`` (:mod:`aquaspec.lightfield_compiled`)
+    and ``delta_hat`` the projection of ``f b - mean(f b)``
+    (:func:`aquaspec.lightfield_compiled.fb_projection`).
     """
     a, b, e0, t, f = (np.asarray(x, dtype=np.float64)
                       for x in (a, b, e0, sigmoid_centers_t, forward_fraction))
@@ -119,6 +125,7 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
                           axis=1)
     out[:, 4:4 + rank] = coef[:, 2:]
     out[:, -4:-1] = w * (e0 / np.pi * np.exp(coef[:, 0]))[:, None]
+    out[:, -1] = lfc.fb_projection(coef[:, 1], a + (1.0 - f) * b, coef[:, 2:], f * b)[1]
     return out
 
 
@@ -276,6 +283,11 @@ class LightfieldPass:
                            window_cos=float(tables["window_cos"][0]),
                            fb_mean=float(np.mean(f * b)))
         self.factors = factors
+        # The band coefficients lightfield_compiled.kept_projection reads.
+        self._kept_coef = types.SimpleNamespace(split=True, k_depth=factors["coef"][:, 1],
+                                                c_beam=a + (1.0 - f) * b,
+                                                g=factors["coef"][:, 2:], fb=f * b)
+        self._kept_cache = {}
         #: Tables with a seabed: the water table is built on the CPU
         #: (:func:`aquaspec.lightfield_compiled.water_table`; watertable.wgsl
         #: has the deep-water closed form only) and uploaded.
@@ -304,13 +316,13 @@ class LightfieldPass:
         return tex.create_view(dimension="2d-array")
 
     # ------------------------------------------------------------- dispatch
-    def _pipeline(self, per_pixel, tonemap, coarse=False):
+    def _pipeline(self, per_pixel, tonemap, coarse=False, projected=False):
         from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS
         sh = self._shape
         split = lfc.direction_split(sh["window_cos"])
         group = bool(self.spread and 2 ** self.spread_plan[0] >= 4)
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
-               self.filtering, self.spread, coarse, group)
+               self.filtering, self.spread, coarse, group, projected)
         if key not in self._pipelines:
             band_vec4 = 2 + -(-sh["rank"] // 4)
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
@@ -330,6 +342,7 @@ class LightfieldPass:
                             spread="true" if self.spread else "false",
                             coarse="true" if coarse else "false",
                             group_spread="true" if group else "false",
+                            projected="true" if projected else "false",
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
             module = self.device.create_shader_module(label="lightfield.wgsl", code=src)
             self._pipelines[key] = self.device.create_compute_pipeline(
@@ -482,6 +495,13 @@ class LightfieldPass:
         self._spread_pass.set_weights(coarse_w)
         return start, alpha, (cw, ch)
 
+    def kept_projection(self, alpha: float):
+        """:func:`aquaspec.lightfield_compiled.kept_projection` for this medium
+        and ``alpha`` (None: the shader keeps the multiply-add per band)."""
+        if alpha not in self._kept_cache:
+            self._kept_cache[alpha] = lfc.kept_projection(self._kept_coef, alpha)
+        return self._kept_cache[alpha]
+
     def workgroups(self) -> tuple[int, int, int]:
         """Dispatch size covering the image."""
         per_x = WORKGROUP[0] * PIXELS_PER_INVOCATION
@@ -534,12 +554,19 @@ class LightfieldPass:
         start, alpha, coarse_size = (self._update_spread(cam) if self.spread
                                      else (0, 0.0, (1, 1)))
         self._update_water_table(encoder, depth_o, alpha)
+        proj = self.kept_projection(alpha) if self.spread else None
+        lam = np.zeros(12)
+        if proj is not None:
+            # [lam_K, lam_c, mu, 0], then lam_G (up to eight).
+            lam[[0, 1, 2]] = proj["lam"][[0, 1, -1]]
+            lam[4:4 + proj["lam"].size - 3] = proj["lam"][2:-1]
         upload_buffer(self.device, self._uniform, PARAMS_LAYOUT.pack(
             **camera_fields(cam), width=self.width, height=self.height,
             n_materials=self._shape["n_materials"], depth_o=depth_o,
             max_depth=self._shape["max_depth"], window_cos=self._shape["window_cos"],
             coarse_size=coarse_size, block=2 ** start, alpha=alpha,
-            fb_mean=self._shape["fb_mean"]))
+            fb_mean=self._shape["fb_mean"], kept_lam=lam[0:4], kept_lam_g0=lam[4:8],
+            kept_lam_g1=lam[8:12]))
         if display:
             # status[3] is an atomicMin, so it starts at the maximum (a queue
             # write runs before the next submission).
@@ -555,10 +582,12 @@ class LightfieldPass:
             # (Two coarse pixels per invocation.)
             groups = (-(-coarse_size[0] // (2 * WORKGROUP[0])),
                       -(-coarse_size[1] // WORKGROUP[1]), 1)
-            steps.append((self._pipeline(per_pixel, None, coarse=True),
+            steps.append((self._pipeline(per_pixel, None, coarse=True,
+                                         projected=proj is not None),
                           self._bind_group(coarse=True), groups))
             steps.extend(self._spread_pass.dispatches())
-        steps.append((self._pipeline(per_pixel, tonemap), self._bind_group(), self.workgroups()))
+        steps.append((self._pipeline(per_pixel, tonemap, projected=proj is not None),
+                      self._bind_group(), self.workgroups()))
         # One compute pass (the timestamps, if any, bracket all of it).
         record_dispatches(encoder, steps, timestamp_writes)
 

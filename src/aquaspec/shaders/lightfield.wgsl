@@ -72,6 +72,12 @@ const COARSE: bool = {{ coarse }};
 // Whether the spread's result is read once per four pixels (BLOCK >= 4; a
 // constant: with a uniform's value lavapipe ran both sides of the branch).
 const GROUP_SPREAD: bool = {{ group_spread }};
+// PROJECTED: the kept share's term per band, slope S (f_i b_i - mean f b),
+// is a combination of the band's other coefficients
+// (lightfield_compiled.kept_projection): the pixel shifts d_S, S and U once
+// instead (prm.kept_lam*), and COARSE uses that combination (band_table's
+// w'.w) so that it takes the exact complement.
+const PROJECTED: bool = {{ projected }};
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // G-buffer: surface (S bits, n_y bits, octahedral normal, material index)
@@ -81,7 +87,7 @@ const GROUP_SPREAD: bool = {{ group_spread }};
 // BAND_VEC4 vec4 per band i (lightfield_pass.band_table, float64 on the host):
 //   [B i]             K (1/m), c' = c - f b, f b - mean(f b), t (sigmoid band centre)
 //   [B i + 1 (+ 2)]   G_i0 .. G_i3 (G_i4 .. G_i7 with RANK 8)
-//   [B i + B - 1]     w'_r, w'_g, w'_b, 0
+//   [B i + B - 1]     w'_r, w'_g, w'_b, f b - mean(f b) projected (PROJECTED)
 @group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
 // Material band reflectances, row-major (material, band), as deferred.wgsl.
 @group(0) @binding(5) var<storage, read> material_bands: array<f32>;
@@ -327,6 +333,25 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         dk = max(prm.alpha + (1.0 - prm.alpha) * e, vec4<f32>(1e-30));
         kept_b = -(1.0 - prm.alpha) * e / dk * s;
     }
+    // (With PROJECTED the band's term moves into the pixel's: d_S, S and the
+    // basis shifted by lam kb, and exp(mu kb) with dk.)
+    var d_e = d_s;
+    var s_e = s;
+    if (SPREAD && PROJECTED && !COARSE) {
+        d_e = d_s + prm.kept_lam.x * kept_b;
+        s_e = s - prm.kept_lam.y * kept_b;
+        dk = dk * exp(prm.kept_lam.z * kept_b);
+        u0 = u0 + prm.kept_lam_g0.x * kept_b;
+        u1 = u1 + prm.kept_lam_g0.y * kept_b;
+        u2 = u2 + prm.kept_lam_g0.z * kept_b;
+        u3 = u3 + prm.kept_lam_g0.w * kept_b;
+        if (RANK > 4u) {
+            u4 = u4 + prm.kept_lam_g1.x * kept_b;
+            u5 = u5 + prm.kept_lam_g1.y * kept_b;
+            u6 = u6 + prm.kept_lam_g1.z * kept_b;
+            u7 = u7 + prm.kept_lam_g1.w * kept_b;
+        }
+    }
     let inv_rest = 1.0 / max(1.0 - prm.alpha, 1e-12);
     // The targets' light summed apart from the water's (dk applies to it alone).
     var sr = vec4<f32>(0.0);
@@ -337,7 +362,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         let q0 = band_table[BAND_VEC4 * i];
         let g0 = band_table[BAND_VEC4 * i + 1u];
         let wt = band_table[BAND_VEC4 * i + BAND_VEC4 - 1u];
-        var ln_e = q0.x * d_s - q0.y * s + g0.x * u0 + g0.y * u1 + g0.z * u2 + g0.w * u3;
+        var ln_e = q0.x * d_e - q0.y * s_e + g0.x * u0 + g0.y * u1 + g0.z * u2 + g0.w * u3;
         if (RANK > 4u) {
             // (Compile-time: a term per function past the fourth.)
             let g1 = band_table[BAND_VEC4 * i + 2u];
@@ -358,14 +383,18 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         if (PER_PIXEL_MATERIALS) {
             rho = select(rho, sigmoid_reflectance(c0, c1, c2, q0.w), use_sigmoid);
         }
-        if (SPREAD && !COARSE) {
+        if (SPREAD && !COARSE && !PROJECTED) {
             // q0.z: f_i b_i minus the bands' mean.
             ln_e = ln_e + kept_b * q0.z;
         }
         // (rho is 0 where there is no hit, and ln_e finite: no select needed.)
         var l = rho * exp(ln_e);
         if (COARSE) {
-            l = (l - l * dk * exp(kept_b * q0.z)) * inv_rest;
+            var offset = q0.z;
+            if (PROJECTED) {
+                offset = wt.w;
+            }
+            l = (l - l * dk * exp(kept_b * offset)) * inv_rest;
         }
         sr = sr + l * wt.x;
         sg = sg + l * wt.y;
