@@ -22,6 +22,17 @@ def camspec_path():
     return CAMSPEC
 
 
+@pytest.fixture(scope="session")
+def device():
+    """The shared wgpu device; skips (with the reason) where no adapter is available."""
+    from aquaspec.errors import GPUUnavailableError
+    from aquaspec.gpu.device import get_device
+    try:
+        return get_device()[1]
+    except GPUUnavailableError as exc:
+        pytest.skip(f"no wgpu adapter: {exc}")
+
+
 def _fused_and_two_pass(shading, width, height, **settings):
     """A shading pass's fused display image and the display pass run on its
     linear output (the pass must have just run without display), same settings."""

@@ -12,16 +12,6 @@ from aquaspec.errors import AquaspecError
 pytestmark = pytest.mark.gpu
 
 
-@pytest.fixture(scope="module")
-def device():
-    from aquaspec.errors import GPUUnavailableError
-    from aquaspec.gpu.device import get_device
-    try:
-        return get_device()[1]
-    except GPUUnavailableError as exc:
-        pytest.skip(str(exc))
-
-
 def reference(image, weights):
     """spread() in float64; one level (no pyramid) is U_0 = a_0 P_0."""
     if len(weights) == 1:

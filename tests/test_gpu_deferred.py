@@ -12,7 +12,7 @@ import pytest
 from aquaspec import model
 from aquaspec.bands import Bands
 from aquaspec.camera import Camera
-from aquaspec.errors import AquaspecError, GPUUnavailableError
+from aquaspec.errors import AquaspecError
 from aquaspec.gbuffer import PER_PIXEL, GBuffer
 from aquaspec.shading import shade_gbuffer
 
@@ -28,15 +28,6 @@ RTOL = 1e-4
 #: pixels whose value is a few 1e-7 of the image maximum carry no f32 digits
 #: to compare at 1e-4.
 ATOL_FRACTION = 1e-6
-
-
-@pytest.fixture(scope="module")
-def device():
-    from aquaspec.gpu.device import get_device
-    try:
-        return get_device()[1]
-    except GPUUnavailableError as exc:
-        pytest.skip(f"no wgpu adapter: {exc}")
 
 
 _PASSES = {}

@@ -24,16 +24,6 @@ def _scene(seed=0):
 
 
 @pytest.fixture(scope="module")
-def device():
-    from aquaspec.errors import GPUUnavailableError
-    from aquaspec.gpu.device import get_device
-    try:
-        return get_device()[1]
-    except GPUUnavailableError as exc:
-        pytest.skip(str(exc))
-
-
-@pytest.fixture(scope="module")
 def dpass(device):
     from aquaspec.gpu.display_pass import DisplayPass
     return DisplayPass(W, H, device=device)

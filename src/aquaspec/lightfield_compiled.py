@@ -480,7 +480,7 @@ def kept_slope_bound(alpha: float) -> float:
     return float(np.max(x * (1.0 - alpha) * e / (alpha + (1.0 - alpha) * e)))
 
 
-def kept_projection(comp: "Compiled", alpha: float):
+def kept_projection(comp: "Compiled", alpha: float, projection=None):
     """The kept share with no term per band, or None where it would err too much.
 
     The band's multiply-add ``slope S delta_i`` (:func:`kept_share`) goes
@@ -494,12 +494,14 @@ def kept_projection(comp: "Compiled", alpha: float):
     fb_mean``); never with ``alpha = 0``, where the slope is -1 at every
     distance, nor with fewer than :data:`KEPT_PROJECTION_MIN_BANDS` bands.
     ``comp``: a :class:`Compiled` (or anything with its ``split``,
-    ``k_depth``, ``c_beam``, ``g`` and ``fb``). Returns ``{"lam": (rank + 3,),
+    ``k_depth``, ``c_beam``, ``g`` and ``fb``); ``projection``: its
+    :func:`fb_projection`, if already made. Returns ``{"lam": (rank + 3,),
     "fb_offset": delta_hat (n,), "error_bound": float}`` or None.
     """
     if not comp.split or alpha <= 0.0 or np.size(comp.fb) < KEPT_PROJECTION_MIN_BANDS:
         return None
-    lam, hat, res = fb_projection(comp.k_depth, comp.c_beam, comp.g, comp.fb)
+    lam, hat, res = (projection if projection is not None
+                     else fb_projection(comp.k_depth, comp.c_beam, comp.g, comp.fb))
     fbm = float(np.mean(comp.fb))
     bound = 0.0 if res == 0.0 else (kept_slope_bound(alpha) * res / fbm if fbm > 0 else np.inf)
     if not bound <= KEPT_PROJECTION_TOLERANCE:

@@ -107,12 +107,12 @@ def band_group_texture(table) -> np.ndarray:
 
 
 def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
-               forward_fraction) -> np.ndarray:
+               forward_fraction, fb_offset_hat) -> np.ndarray:
     """The band table (binding 4): (n, 4 B) float64, ``B = 2 + ceil(rank / 4)`` vec4 per band.
 
     ``[K, c', f b - mean(f b), t]``, the rank's ``G`` (four per vec4) and ``[w'_r, w'_g,
     w'_b, delta_hat]`` with ``w' = w E0 / pi exp(C)`` (:mod:`aquaspec.lightfield_compiled`)
-    and ``delta_hat`` the projection of ``f b - mean(f b)``
+    and ``delta_hat`` = ``fb_offset_hat``, the projection of ``f b - mean(f b)``
     (:func:`aquaspec.lightfield_compiled.fb_projection`).
     """
     a, b, e0, t, f = (np.asarray(x, dtype=np.float64)
@@ -125,7 +125,7 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
                           axis=1)
     out[:, 4:4 + rank] = coef[:, 2:]
     out[:, -4:-1] = w * (e0 / np.pi * np.exp(coef[:, 0]))[:, None]
-    out[:, -1] = lfc.fb_projection(coef[:, 1], a + (1.0 - f) * b, coef[:, 2:], f * b)[1]
+    out[:, -1] = fb_offset_hat
     return out
 
 
@@ -240,8 +240,17 @@ class LightfieldPass:
             raise AquaspecError(f"tables have {lp.shape[0]} bands; the medium has {n}")
         factors = lfc.choose_irradiance_factors(tables)
         f = np.asarray(tables.get("forward_fraction", np.zeros(n)), dtype=float)
+        # The band coefficients lightfield_compiled.kept_projection reads, and
+        # their projection of f b (made once per medium).
+        self._kept_coef = types.SimpleNamespace(split=True, k_depth=factors["coef"][:, 1],
+                                                c_beam=a + (1.0 - f) * b,
+                                                g=factors["coef"][:, 2:], fb=f * b)
+        kc = self._kept_coef
+        self._fb_projection = lfc.fb_projection(kc.k_depth, kc.c_beam, kc.g, kc.fb)
+        self._kept_cache = {}
         band = band_table(factors, a=a, b=b, e0=e0, response_weights=response_weights,
-                          sigmoid_centers_t=sigmoid_centers_t, forward_fraction=f)
+                          sigmoid_centers_t=sigmoid_centers_t, forward_fraction=f,
+                          fb_offset_hat=self._fb_projection[1])
         mb = np.asarray(material_bands, dtype=np.float32).reshape(-1, n)
         import wgpu
         dev = self.device
@@ -283,11 +292,6 @@ class LightfieldPass:
                            window_cos=float(tables["window_cos"][0]),
                            fb_mean=float(np.mean(f * b)))
         self.factors = factors
-        # The band coefficients lightfield_compiled.kept_projection reads.
-        self._kept_coef = types.SimpleNamespace(split=True, k_depth=factors["coef"][:, 1],
-                                                c_beam=a + (1.0 - f) * b,
-                                                g=factors["coef"][:, 2:], fb=f * b)
-        self._kept_cache = {}
         #: Tables with a seabed: the water table is built on the CPU
         #: (:func:`aquaspec.lightfield_compiled.water_table`; watertable.wgsl
         #: has the deep-water closed form only) and uploaded.
@@ -499,7 +503,8 @@ class LightfieldPass:
         """:func:`aquaspec.lightfield_compiled.kept_projection` for this medium
         and ``alpha`` (None: the shader keeps the multiply-add per band)."""
         if alpha not in self._kept_cache:
-            self._kept_cache[alpha] = lfc.kept_projection(self._kept_coef, alpha)
+            self._kept_cache[alpha] = lfc.kept_projection(self._kept_coef, alpha,
+                                                          self._fb_projection)
         return self._kept_cache[alpha]
 
     def workgroups(self) -> tuple[int, int, int]:
