@@ -294,6 +294,19 @@ def test_small_study(tmp_path, camspec_path, capsys):
     for name in ("validation.csv", "error_per_scene.png", "error_per_scene_measured_kd.png",
                  "panels.png"):
         assert (tmp_path / name).stat().st_size > 0
+    # The CSV holds the JSON's rows: one column per key (SSIM once, empty
+    # where a region has none), the same values.
+    import csv
+    with open(tmp_path / "validation.csv", newline="") as f:
+        header = next(csv.reader(f))
+        f.seek(0)
+        table = list(csv.DictReader(f))
+    assert len(header) == len(set(header)) and "ssim" in header
+    assert len(table) == len(rows)
+    for got, want in zip(table, rows):
+        assert got["method"] == want["method"] and got["region"] == want["region"]
+        assert float(got["rmse_rel"]) == pytest.approx(want["rmse_rel"], rel=1e-12)
+        assert (got["ssim"] == "") == ("ssim" not in want)
 
 
 @pytest.mark.slow

@@ -471,7 +471,9 @@ def write_results(result, out_dir) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     rows = result["rows"]
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(rows[0].keys()) + ["ssim"], extrasaction="ignore")
+    # Every row's keys in first-seen order (only the whole-image rows have SSIM).
+    fields = list(dict.fromkeys(k for r in rows for k in r))
+    w = csv.DictWriter(buf, fieldnames=fields, restval="")
     w.writeheader()
     for r in rows:
         w.writerow(r)
