@@ -192,6 +192,49 @@ class TestDeferredMatchesReference:
         assert np.all(ref > 0)
         assert_matches(gpu, ref, comparable(gb))
 
+    @pytest.mark.parametrize("n", [1, 2, 5, 13, 16, 17, 18, 22])
+    def test_band_counts_around_whole_material_vec4s(self, device, n):
+        # From GROUPED_MIN_BANDS bands the loop takes four bands at a time,
+        # then the rest (aquaspec.gpu.materials); below, a band at a time
+        # from the same vec4 table: every remainder 0-3 on both sides.
+        gb = scene_seabed()
+        med = medium("IB", n)
+        ref = shade_gbuffer(gb, **med)["camera_rgb"]
+        assert_matches(run_gpu(device, gb, med, n).read_rgb(), ref, comparable(gb))
+
+    @pytest.mark.parametrize("n", [7, 31])
+    def test_many_materials_in_a_storage_buffer(self, device, n):
+        # Over 64 KiB of material table (4096 vec4) it moves to a storage
+        # buffer: 2100 materials, drawn at random for the box scene's pixels.
+        from aquaspec.gpu.deferred import DeferredPass
+        from aquaspec.gpu.materials import UNIFORM_VEC4
+        gb = scene_box()
+        n_mat = 2100
+        assert n_mat * -(-n // 4) > UNIFORM_VEC4
+        rng = np.random.default_rng(n)
+        mat = gb.material.copy()
+        own = gb.hit & (mat != PER_PIXEL)
+        mat[own] = rng.integers(0, n_mat, size=int(own.sum()))
+        gb = GBuffer(gb.camera, gb.distance, gb.normal, mat, gb.sigmoid,
+                     materials=[f"m{i}" for i in range(n_mat)])
+        med = medium("3C", n)
+        med["material_bands"] = rng.uniform(0.02, 0.9, size=(n_mat, n))
+        ref = shade_gbuffer(gb, **med)["camera_rgb"]
+        p = DeferredPass(W, H, n, device=device)
+        p.set_gbuffer(gb)
+        p.set_medium(**med)
+        assert not p._materials.in_uniform
+        p.run()
+        assert_matches(p.read_rgb(), ref, comparable(gb))
+        # Back to a small table: the uniform buffer again, same pass.
+        med = medium("3C", n)
+        gb2 = scene_box()
+        p.set_gbuffer(gb2)
+        p.set_medium(**med)
+        assert p._materials.in_uniform
+        p.run()
+        assert_matches(p.read_rgb(), shade_gbuffer(gb2, **med)["camera_rgb"], comparable(gb2))
+
     @pytest.mark.parametrize("water", ["I", "3C"])
     @pytest.mark.parametrize("scene", ["seabed", "up"])
     def test_open_water_table(self, device, scene, water):

@@ -80,6 +80,10 @@ def twin_of(lp, gb, medium):
     ("II", 8, "petzold", "builtin", 5.0, 15.0),
     # A last group of four bands with one band in it.
     ("IB", 5, "petzold", "up", 4.0, 15.0),
+    # Four bands per loop iteration (aquaspec.gpu.materials.GROUPED_MIN_BANDS)
+    # with one or two left over.
+    ("IB", 17, "petzold", "builtin", 5.0, 15.0),
+    ("II", 18, "hg", "up", 4.0, 0.0),
 ])
 @pytest.mark.parametrize("filtering", [None, False])
 def test_matches_reference(water, n, phase, kind, depth, cone, filtering, lightfield_gbuffer):
@@ -169,6 +173,7 @@ def test_filtering_needs_the_device_feature():
     ("builtin", 8, 40.0, None, 2, False),
     ("builtin", 8, 40.0, None, 2, True),
     ("builtin", 16, 40.0, None, 2, True),
+    ("builtin", 19, 40.0, None, None, False),
     ("up", 5, 30.0, None, 3, True),
     ("up", 4, 40.0, False, 1, False),
 ])

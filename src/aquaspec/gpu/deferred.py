@@ -49,8 +49,8 @@ payload is not guaranteed to survive.
 Per-band inputs (:meth:`DeferredPass.set_medium`): binding 4 is a uniform
 ``array<vec4<f32>, 3 n>``, :func:`band_table` (the per-band factors that do
 not depend on the pixel, precomputed in float64 for the camera's depth; 12
-f32 per band, :data:`BAND_FIELDS`), binding 5 ``array<f32>`` of material
-band reflectances, ``material * n_bands + band``. Outputs: binding 6
+f32 per band, :data:`BAND_FIELDS`), bindings 3 and 5 the material band
+reflectances, four bands to a vec4 (:mod:`aquaspec.gpu.materials`). Outputs: binding 6
 ``array<vec4<f32>>`` RGB (w = 1), binding 7 ``array<f32>`` band radiance
 ``p * n_bands + band`` (debug mode only), binding 8 a status counter of
 pixels with a material index out of range.
@@ -69,6 +69,7 @@ from ..shading import camera_depth, check_medium
 from .buffers import (create_storage_buffer, create_texture, create_uniform_buffer,
                       read_buffer, record_dispatch, upload_buffer, upload_texture)
 from .layout import UniformLayout
+from .materials import MaterialTable
 from .shaders import load_wgsl
 
 #: Value written to the distance buffer where a pixel's ray sees open water.
@@ -113,7 +114,8 @@ PIXELS_PER_INVOCATION = 4
 
 # Binding numbers (also in the WGSL files).
 B_CAMERA, B_SURFACE, B_SIGMOID = 0, 1, 2
-B_BANDS, B_MATERIALS, B_RGB, B_RADIANCE, B_STATUS = 4, 5, 6, 7, 8
+# (Bindings 3 and 5: the material table, aquaspec.gpu.materials.)
+B_BANDS, B_RGB, B_RADIANCE, B_STATUS = 4, 6, 7, 8
 B_DISPLAY, B_RGBA, B_OPEN_TABLE = 9, 10, 11
 
 #: Entries of the open-water table (:func:`open_water_table`) over v_y in [-1, 1].
@@ -124,7 +126,8 @@ GBUFFER_TEXTURES = {"surface": (B_SURFACE, "rgba32uint"),
 
 
 def shader_source(name: str, n_bands: int = 1, write_radiance: bool = False,
-                  per_pixel: bool = True, tonemap: str | None = None) -> str:
+                  per_pixel: bool = True, tonemap: str | None = None,
+                  materials_in_uniform: bool = True) -> str:
     """WGSL of ``deferred.wgsl`` or ``copy.wgsl`` with the camera struct filled in.
 
     The band count, the debug-radiance switch and whether per-pixel
@@ -133,9 +136,11 @@ def shader_source(name: str, n_bands: int = 1, write_radiance: bool = False,
     made the band loop about 4x faster on lavapipe; SIMD lanes would
     evaluate the sigmoid for every pixel otherwise). ``tonemap`` (a key of
     :data:`aquaspec.gpu.display_pass.TONEMAP_IDS`) compiles the fused
-    display transform in; None writes linear RGB.
+    display transform in; None writes linear RGB. ``materials_in_uniform``:
+    where the material table is (:class:`aquaspec.gpu.materials.MaterialTable`).
     """
     from .display_pass import DISPLAY_LAYOUT, TONEMAP_IDS
+    from .materials import GROUPED_MIN_BANDS, UNIFORM_VEC4
     return load_wgsl(name, camera_struct=CAMERA_LAYOUT.wgsl(),
                      display_struct=DISPLAY_LAYOUT.wgsl(), display_struct_name=DISPLAY_LAYOUT.name,
                      display="false" if tonemap is None else "true",
@@ -145,6 +150,8 @@ def shader_source(name: str, n_bands: int = 1, write_radiance: bool = False,
                      write_radiance="true" if write_radiance else "false",
                      per_pixel="true" if per_pixel else "false",
                      open_table_size=OPEN_TABLE_SIZE,
+                     materials_in_uniform="true" if materials_in_uniform else "false",
+                     material_uniform_vec4=UNIFORM_VEC4, grouped_min_bands=GROUPED_MIN_BANDS,
                      workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
 
 
@@ -389,8 +396,7 @@ class DeferredPass:
         if self._bands.size > limit:
             raise AquaspecError(f"{self.n_bands} bands need a {self._bands.size}-byte band "
                                 f"table; this device binds at most {limit}")
-        self._materials = create_storage_buffer(device, self.n_bands * 4,
-                                                label="deferred material bands")
+        self._materials = MaterialTable(device, "deferred material bands")
         self.rgb_buffer = create_storage_buffer(device, npix * 16, label="deferred rgb")
         self._radiance = create_storage_buffer(
             device, npix * self.n_bands * 4 if self.debug_radiance else 4,
@@ -407,9 +413,9 @@ class DeferredPass:
 
         self._layout = bind_group_layout(device, {
             B_CAMERA: "uniform", B_SURFACE: "uint", B_SIGMOID: "float",
-            B_BANDS: "uniform", B_MATERIALS: "read", B_RGB: "write", B_RADIANCE: "write",
+            B_BANDS: "uniform", B_RGB: "write", B_RADIANCE: "write",
             B_STATUS: "write", B_DISPLAY: "uniform", B_RGBA: "write",
-            B_OPEN_TABLE: "read"})
+            B_OPEN_TABLE: "read", **MaterialTable.layout()})
         # One pipeline per value of per_pixel (a compile-time constant of the
         # shader), made when first used.
         self._pipelines = {}
@@ -526,14 +532,11 @@ class DeferredPass:
                                 f"accepted: {', '.join(AMBIENT_MODEL_IDS)}")
         # The band table also depends on the camera depth: built in upload_uniforms.
         self._medium_bands = (a, b, kd, e0, w, t)
-        flat = mb.astype(np.float32).reshape(-1)
-        if flat.nbytes > self._materials.size:
-            self._materials = create_storage_buffer(self.device, flat.nbytes,
-                                                    label="deferred material bands")
+        version = self._materials.version
+        self._materials.upload(mb, n)
+        if self._materials.version != version:
             self._bind_group = None
             self.bindings_version += 1
-        if flat.size:
-            upload_buffer(self.device, self._materials, flat)
         self._n_materials = mb.shape[0]
         self._ambient_id = AMBIENT_MODEL_IDS[ambient]
         self._uniform_dirty = True
@@ -572,7 +575,7 @@ class DeferredPass:
         if self._bind_group is None:
             resources = {B_CAMERA: self._uniform, B_SURFACE: self._textures["surface"],
                          B_SIGMOID: self._textures["sigmoid"], B_BANDS: self._bands,
-                         B_MATERIALS: self._materials, B_RGB: self.rgb_buffer,
+                         **self._materials.resources(), B_RGB: self.rgb_buffer,
                          B_RADIANCE: self._radiance, B_STATUS: self._status,
                          B_DISPLAY: self._display_uniform, B_RGBA: self.display_buffer,
                          B_OPEN_TABLE: self._open_table}
@@ -581,13 +584,15 @@ class DeferredPass:
         return self._bind_group
 
     def _pipeline(self, tonemap=None):
-        key = (self.per_pixel, tonemap)
+        key = (self.per_pixel, tonemap, self._materials.in_uniform)
         if key not in self._pipelines:
             module = self.device.create_shader_module(
                 label="deferred.wgsl", code=shader_source("deferred.wgsl", self.n_bands,
                                                           self.debug_radiance,
                                                           per_pixel=self.per_pixel,
-                                                          tonemap=tonemap))
+                                                          tonemap=tonemap,
+                                                          materials_in_uniform=(
+                                                              self._materials.in_uniform)))
             self._pipelines[key] = self.device.create_compute_pipeline(
                 label="deferred",
                 layout=self.device.create_pipeline_layout(bind_group_layouts=[self._layout]),

@@ -71,6 +71,7 @@ from .buffers import (create_storage_buffer, create_texture, create_uniform_buff
                       read_buffer, record_dispatches, upload_buffer)
 from .deferred import CAMERA_FIELDS, bind_group_entries, bind_group_layout, camera_fields
 from .layout import UniformLayout
+from .materials import MaterialTable
 from .shaders import load_wgsl
 
 PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
@@ -86,7 +87,8 @@ WORKGROUP = (8, 8)
 #: Adjacent pixels of a row shaded by one invocation.
 PIXELS_PER_INVOCATION = 4
 
-B_PARAMS, B_SURFACE, B_SIGMOID, B_BANDS, B_MATERIALS, B_RGB = 0, 1, 2, 4, 5, 6
+# (Bindings 3 and 5: the material table, aquaspec.gpu.materials.)
+B_PARAMS, B_SURFACE, B_SIGMOID, B_BANDS, B_RGB = 0, 1, 2, 4, 6
 B_STATUS, B_DISPLAY, B_RGBA, B_WATER, B_BASIS = 8, 9, 10, 11, 12
 B_SAMPLER, B_CONE, B_SPREAD = 14, 15, 16
 
@@ -196,7 +198,7 @@ class LightfieldPass:
         table_kind = "filterable_array" if self.filtering else "float_array"
         self._layout = bind_group_layout(dev, {
             B_PARAMS: "uniform", B_SURFACE: "uint", B_SIGMOID: "float", B_BANDS: "uniform",
-            B_MATERIALS: "read", B_RGB: "write", B_STATUS: "write", B_DISPLAY: "uniform",
+            **MaterialTable.layout(), B_RGB: "write", B_STATUS: "write", B_DISPLAY: "uniform",
             B_RGBA: "write", B_WATER: table_kind, B_BASIS: table_kind,
             B_SAMPLER: "sampler" if self.filtering else "nonfiltering_sampler",
             B_CONE: "storage_rgba32float",
@@ -266,12 +268,12 @@ class LightfieldPass:
             raise AquaspecError(f"light-field tables of {lp.shape[1]}x{lp.shape[2]} samples "
                                 f"exceed this device's {max_2d} texels per side; accepted: "
                                 "smaller n_depth or n_mu")
-        materials = create_storage_buffer(dev, max(mb.nbytes, 4), label="lightfield materials")
-        if mb.size:
-            upload_buffer(dev, materials, mb.reshape(-1))
+        materials = MaterialTable(dev, "lightfield materials")
+        materials.upload(mb, n)
+        self._materials = materials
         self._buffers = {
             B_BANDS: bands,
-            B_MATERIALS: materials,
+            **materials.resources(),
             B_BASIS: self._array_texture(band_group_texture(factors["basis"]),
                                          "lightfield irradiance basis"),
             B_SAMPLER: self._sampler,
@@ -326,7 +328,8 @@ class LightfieldPass:
         split = lfc.direction_split(sh["window_cos"])
         group = bool(self.spread and 2 ** self.spread_plan[0] >= 4)
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
-               self.filtering, self.spread, coarse, group, projected)
+               self.filtering, self.spread, coarse, group, projected,
+               self._materials.in_uniform)
         if key not in self._pipelines:
             band_vec4 = 2 + -(-sh["rank"] // 4)
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
@@ -347,6 +350,7 @@ class LightfieldPass:
                             coarse="true" if coarse else "false",
                             group_spread="true" if group else "false",
                             projected="true" if projected else "false",
+                            **self._materials.template(),
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
             module = self.device.create_shader_module(label="lightfield.wgsl", code=src)
             self._pipelines[key] = self.device.create_compute_pipeline(

@@ -106,3 +106,10 @@ fn sigmoid_reflectance(c0: vec4<f32>, c1: vec4<f32>, c2: vec4<f32>, t: f32) -> v
     let x = clamp((c0 * t + c1) * t + c2, vec4<f32>(-SIGMOID_X_MAX), vec4<f32>(SIGMOID_X_MAX));
     return 0.5 + 0.5 * x * inverseSqrt(1.0 + x * x);
 }
+
+// Camera RGB of four pixels (vec4 lanes), as the band loops accumulate it.
+struct Rgb4 {
+    r: vec4<f32>,
+    g: vec4<f32>,
+    b: vec4<f32>,
+}

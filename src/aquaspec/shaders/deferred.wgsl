@@ -17,10 +17,15 @@
 // - the cases are selects, not branches, where both sides are cheap: SIMD
 //   lanes run both sides of a divergent branch anyway;
 // - one invocation shades four adjacent pixels (vec4 lanes), so each band's
-//   table entries are loaded once per four pixels.
+//   table entries are loaded once per four pixels;
+// - from GROUPED_MIN_BANDS bands (materials.wgsl) the band loop does four
+//   bands per iteration with one material vec4 per pixel: 1280x720 frames
+//   with 16 / 32 bands 2-3 / 7-8 ms faster, but 1-2 ms slower with 3 or 8,
+//   where a band per iteration stays.
 
 #include "common.wgsl"
 #include "tonemap.wgsl"
+#include "materials.wgsl"
 
 {{ camera_struct }}
 
@@ -51,7 +56,7 @@ const PER_PIXEL: u32 = 0xffffffffu;
 //   [3i + 1] w_r, w_g, w_b, e0_over_pi = E0 / pi
 //   [3i + 2] be0 = b E0 / (4 pi), base = -Kd d_o, e0_window = E0 n^2 / pi, 0
 @group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
-@group(0) @binding(5) var<storage, read> material_bands: array<f32>;
+// (Bindings 3 and 5: the material table, materials.wgsl.)
 @group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> radiance_out: array<f32>;
 // status[0]: pixels with a material index out of range; with DISPLAY,
@@ -75,6 +80,55 @@ fn ray_direction_y(j0: u32, i: u32) -> vec4<f32> {
     let dy = cam.right.y * x + (cam.forward.y - cam.up.y * y);
     let dz = cam.right.z * x + (cam.forward.z - cam.up.z * y);
     return dy * inverseSqrt(dx * dx + dy * dy + dz * dz);
+}
+
+// What the band loop needs of the four pixels (vec4 lanes).
+struct SeedsPixels {
+    s: vec4<f32>,
+    s_finite: vec4<bool>,
+    v_y: vec4<f32>,
+    end_depth: vec4<f32>,
+    g: vec4<f32>,
+    hit: vec4<bool>,
+    in_window: vec4<bool>,
+    use_sigmoid: vec4<bool>,
+    c0: vec4<f32>,
+    c1: vec4<f32>,
+    c2: vec4<f32>,
+    // The first pixel's index and how many of the four are in the image.
+    first: u32,
+    n_valid: u32,
+}
+
+// Band i of the four pixels (material reflectance rho_m, 0 where none) added
+// to acc, and with WRITE_RADIANCE written out.
+fn shade_band(i: u32, rho_m: vec4<f32>, p: SeedsPixels, acc: ptr<function, Rgb4>) {
+    let q0 = band_table[3u * i];
+    let q1 = band_table[3u * i + 1u];
+    let q2 = band_table[3u * i + 2u];
+    let c = q0.x;
+    let kd = q0.y;
+    // The two exponentials of the band: transmittance exp(-c S) and the
+    // downwelling attenuation exp(-Kd d_end) where the ray ends; the
+    // seeds' term and the ambient light are written with them.
+    let tr = transmittance(c, p.s, p.s_finite);
+    let e_end = exp(-kd * p.end_depth);
+    let l_ms = l_ms_seeds_shared(c - kd * p.v_y, p.s, p.s_finite, q0.w, q2.x, tr * e_end);
+    var rho = rho_m;
+    if (PER_PIXEL_MATERIALS) {
+        rho = select(rho, sigmoid_reflectance(p.c0, p.c1, p.c2, q0.z), p.use_sigmoid);
+    }
+    let l_surf = select(surface_from_below(q2.z, p.in_window),
+                        lambertian_radiance(rho, q1.w * e_end * p.g), p.hit);
+    let l = select(l_ms, tr * l_surf + l_ms, tr > vec4<f32>(0.0));
+    (*acc).r = (*acc).r + l * q1.x;
+    (*acc).g = (*acc).g + l * q1.y;
+    (*acc).b = (*acc).b + l * q1.z;
+    if (WRITE_RADIANCE) {
+        for (var k = 0u; k < p.n_valid; k = k + 1u) {
+            radiance_out[(p.first + k) * N_BANDS + i] = l[k];
+        }
+    }
 }
 
 // Each invocation shades four horizontally adjacent pixels, as vec4 lanes:
@@ -150,9 +204,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         atomicAdd(&status[0], bad);
     }
     let in_window = !hit & s_finite & (v_y > vec4<f32>(cam.snell_cos));
-    // Row of each pixel's material in material_bands (row 0 where unused:
-    // it exists, and the select below drops it).
-    let mrow = select(vec4<u32>(0u), material * N_BANDS, use_material);
+    // Each pixel's first vec4 in the material table (0 where unused: it
+    // exists, and material_group zeroes it).
+    let mrow = select(vec4<u32>(0u), material * MATERIAL_GROUPS, use_material);
 
     var r = vec4<f32>(0.0);
     var gr = vec4<f32>(0.0);
@@ -179,39 +233,42 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
             b[k] = rgb.z;
         }
     }
-    let n_iter = select(N_BANDS, 0u, from_table);
-    for (var i = 0u; i < n_iter; i = i + 1u) {
-        let q0 = band_table[3u * i];
-        let q1 = band_table[3u * i + 1u];
-        let q2 = band_table[3u * i + 2u];
-        let c = q0.x;
-        let kd = q0.y;
-        // The two exponentials of the band: transmittance exp(-c S) and the
-        // downwelling attenuation exp(-Kd d_end) where the ray ends; the
-        // seeds' term and the ambient light are written with them.
-        let tr = transmittance(c, s, s_finite);
-        let e_end = exp(-kd * end_depth);
-        let l_ms = l_ms_seeds_shared(c - kd * v_y, s, s_finite, q0.w, q2.x, tr * e_end);
-        var rho = select(vec4<f32>(0.0), vec4<f32>(material_bands[mrow.x + i],
-                         material_bands[mrow.y + i], material_bands[mrow.z + i],
-                         material_bands[mrow.w + i]), use_material);
-        if (PER_PIXEL_MATERIALS) {
-            rho = select(rho, sigmoid_reflectance(c0, c1, c2, q0.z), use_sigmoid);
-        }
-        let l_surf = select(surface_from_below(q2.z, in_window),
-                            lambertian_radiance(rho, q1.w * e_end * g), hit);
-        let l = select(l_ms, tr * l_surf + l_ms, tr > vec4<f32>(0.0));
-        r = r + l * q1.x;
-        gr = gr + l * q1.y;
-        b = b + l * q1.z;
-        if (WRITE_RADIANCE) {
-            for (var k = 0u; k < 4u; k = k + 1u) {
-                if (j0 + k < cam.width) {
-                    radiance_out[(row_start + j0 + k) * N_BANDS + i] = l[k];
-                }
-            }
+    // (The table's loop indexes r, gr, b per pixel: the band loop's sums
+    // start from them in a variable of their own, which stays in registers.)
+    var acc = Rgb4(r, gr, b);
+    let px = SeedsPixels(s, s_finite, v_y, end_depth, g, hit, in_window, use_sigmoid, c0, c1, c2,
+                         row_start + j0, min(cam.width - j0, 4u));
+    // The bands four at a time (one material vec4 per pixel: aquaspec.gpu.materials),
+    // then the last N_BANDS % 4.
+    if (!GROUPED_BANDS) {
+        let n_iter = select(N_BANDS, 0u, from_table);
+        for (var i = 0u; i < n_iter; i = i + 1u) {
+            shade_band(i, material_band(mrow, i, use_material), px, &acc);
         }
     }
+    let n_groups = select(0u, select(FULL_GROUPS, 0u, from_table), GROUPED_BANDS);
+    for (var q = 0u; q < n_groups; q = q + 1u) {
+        let m = material_group(mrow, q, use_material);
+        shade_band(4u * q, vec4<f32>(m.p0.x, m.p1.x, m.p2.x, m.p3.x), px, &acc);
+        shade_band(4u * q + 1u, vec4<f32>(m.p0.y, m.p1.y, m.p2.y, m.p3.y), px, &acc);
+        shade_band(4u * q + 2u, vec4<f32>(m.p0.z, m.p1.z, m.p2.z, m.p3.z), px, &acc);
+        shade_band(4u * q + 3u, vec4<f32>(m.p0.w, m.p1.w, m.p2.w, m.p3.w), px, &acc);
+    }
+    let n_rest = select(select(0u, 1u, GROUPED_BANDS && REST_BANDS > 0u), 0u, from_table);
+    for (var t = 0u; t < n_rest; t = t + 1u) {
+        let m = material_group(mrow, FULL_GROUPS, use_material);
+        let i = 4u * FULL_GROUPS;
+        shade_band(i, vec4<f32>(m.p0.x, m.p1.x, m.p2.x, m.p3.x), px, &acc);
+        if (REST_BANDS > 1u) {
+            shade_band(i + 1u, vec4<f32>(m.p0.y, m.p1.y, m.p2.y, m.p3.y), px, &acc);
+        }
+        if (REST_BANDS > 2u) {
+            shade_band(i + 2u, vec4<f32>(m.p0.z, m.p1.z, m.p2.z, m.p3.z), px, &acc);
+        }
+    }
+    r = acc.r;
+    gr = acc.g;
+    b = acc.b;
     if (DISPLAY) {
         // display.wgsl's main for the four pixels; non-finite ones (or ones
         // that overflow after exposure) are written black and reported once

@@ -37,6 +37,7 @@
 
 #include "common.wgsl"
 #include "tonemap.wgsl"
+#include "materials.wgsl"
 #include "lftables.wgsl"
 
 {{ params_struct }}
@@ -93,8 +94,7 @@ const PROJECTED: bool = {{ projected }};
 //   [B i + 1 (+ 2)]   G_i0 .. G_i3 (G_i4 .. G_i7 with RANK 8)
 //   [B i + B - 1]     w'_r, w'_g, w'_b, f b - mean(f b) projected (PROJECTED)
 @group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
-// Material band reflectances, row-major (material, band), as deferred.wgsl.
-@group(0) @binding(5) var<storage, read> material_bands: array<f32>;
+// (Bindings 3 and 5: the material table, materials.wgsl, as deferred.wgsl.)
 @group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
 // status[0]: pixels with a material index out of range; with DISPLAY,
 // status[2]: pixels with a non-finite value (written black) and status[3]
@@ -180,6 +180,72 @@ fn direction_row(v: vec4<f32>) -> vec4<f32> {
     let outside = (q + 1.0) / (q_w + 1.0) * f32(W_OUT - 1u);
     let inside = f32(W_OUT) + (q - q_w) / (1.0 - q_w) * f32(W_IN - 1u);
     return select(outside, inside, v > vec4<f32>(prm.window_cos));
+}
+
+// What the band loop needs of the four pixels (vec4 lanes): the exponent's
+// variables, the kept share's (SPREAD) and per-pixel materials.
+struct LfPixels {
+    d_e: vec4<f32>,
+    s_e: vec4<f32>,
+    u0: vec4<f32>,
+    u1: vec4<f32>,
+    u2: vec4<f32>,
+    u3: vec4<f32>,
+    u4: vec4<f32>,
+    u5: vec4<f32>,
+    u6: vec4<f32>,
+    u7: vec4<f32>,
+    kept_b: vec4<f32>,
+    dk: vec4<f32>,
+    c0: vec4<f32>,
+    c1: vec4<f32>,
+    c2: vec4<f32>,
+    use_sigmoid: vec4<bool>,
+}
+
+// The targets' own light in band i (material reflectance rho_m, 0 where
+// none) added to acc: one exponential (COARSE: two, the share the pixel
+// does not keep, over 1 - alpha).
+fn target_band(i: u32, rho_m: vec4<f32>, p: LfPixels, acc: ptr<function, Rgb4>) {
+    let q0 = band_table[BAND_VEC4 * i];
+    let g0 = band_table[BAND_VEC4 * i + 1u];
+    let wt = band_table[BAND_VEC4 * i + BAND_VEC4 - 1u];
+    var ln_e = q0.x * p.d_e - q0.y * p.s_e + g0.x * p.u0 + g0.y * p.u1 + g0.z * p.u2
+        + g0.w * p.u3;
+    if (RANK > 4u) {
+        // (Compile-time: a term per function past the fourth.)
+        let g1 = band_table[BAND_VEC4 * i + 2u];
+        ln_e = ln_e + g1.x * p.u4;
+        if (RANK > 5u) {
+            ln_e = ln_e + g1.y * p.u5;
+        }
+        if (RANK > 6u) {
+            ln_e = ln_e + g1.z * p.u6;
+        }
+        if (RANK > 7u) {
+            ln_e = ln_e + g1.w * p.u7;
+        }
+    }
+    var rho = rho_m;
+    if (PER_PIXEL_MATERIALS) {
+        rho = select(rho, sigmoid_reflectance(p.c0, p.c1, p.c2, q0.w), p.use_sigmoid);
+    }
+    if (SPREAD && !COARSE && !PROJECTED) {
+        // q0.z: f_i b_i minus the bands' mean.
+        ln_e = ln_e + p.kept_b * q0.z;
+    }
+    // (rho is 0 where there is no hit, and ln_e finite: no select needed.)
+    var l = rho * exp(ln_e);
+    if (COARSE) {
+        var offset = q0.z;
+        if (PROJECTED) {
+            offset = wt.w;
+        }
+        l = (l - l * p.dk * exp(p.kept_b * offset)) / max(1.0 - prm.alpha, 1e-12);
+    }
+    (*acc).r = (*acc).r + l * wt.x;
+    (*acc).g = (*acc).g + l * wt.y;
+    (*acc).b = (*acc).b + l * wt.z;
 }
 
 @compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
@@ -287,7 +353,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     if (bad > 0u) {
         atomicAdd(&status[0], bad);
     }
-    let mrow = select(vec4<u32>(0u), material * N_BANDS, use_material);
+    let mrow = select(vec4<u32>(0u), material * MATERIAL_GROUPS, use_material);
 
     // The irradiance basis at (d_S, n_y). Read for every pixel: in control
     // flow that differs between invocations (a trip count of any(hit))
@@ -356,54 +422,41 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
             u7 = u7 + prm.kept_lam_g1.w * kept_b;
         }
     }
-    let inv_rest = 1.0 / max(1.0 - prm.alpha, 1e-12);
-    // The targets' light summed apart from the water's (dk applies to it alone).
-    var sr = vec4<f32>(0.0);
-    var sg = vec4<f32>(0.0);
-    var sb = vec4<f32>(0.0);
-    let n_iter = select(0u, N_BANDS, any_hit);
-    for (var i = 0u; i < n_iter; i = i + 1u) {
-        let q0 = band_table[BAND_VEC4 * i];
-        let g0 = band_table[BAND_VEC4 * i + 1u];
-        let wt = band_table[BAND_VEC4 * i + BAND_VEC4 - 1u];
-        var ln_e = q0.x * d_e - q0.y * s_e + g0.x * u0 + g0.y * u1 + g0.z * u2 + g0.w * u3;
-        if (RANK > 4u) {
-            // (Compile-time: a term per function past the fourth.)
-            let g1 = band_table[BAND_VEC4 * i + 2u];
-            ln_e = ln_e + g1.x * u4;
-            if (RANK > 5u) {
-                ln_e = ln_e + g1.y * u5;
-            }
-            if (RANK > 6u) {
-                ln_e = ln_e + g1.z * u6;
-            }
-            if (RANK > 7u) {
-                ln_e = ln_e + g1.w * u7;
-            }
+    // The targets' light summed apart from the water's (dk applies to it
+    // alone), four bands at a time (one material vec4 per pixel:
+    // aquaspec.gpu.materials), then the last N_BANDS % 4.
+    var acc = Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+    let pix = LfPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk, c0, c1, c2,
+                       use_sigmoid);
+    if (!GROUPED_BANDS) {
+        let n_iter = select(0u, N_BANDS, any_hit);
+        for (var i = 0u; i < n_iter; i = i + 1u) {
+            target_band(i, material_band(mrow, i, use_material), pix, &acc);
         }
-        var rho = select(vec4<f32>(0.0), vec4<f32>(material_bands[mrow.x + i],
-                         material_bands[mrow.y + i], material_bands[mrow.z + i],
-                         material_bands[mrow.w + i]), use_material);
-        if (PER_PIXEL_MATERIALS) {
-            rho = select(rho, sigmoid_reflectance(c0, c1, c2, q0.w), use_sigmoid);
-        }
-        if (SPREAD && !COARSE && !PROJECTED) {
-            // q0.z: f_i b_i minus the bands' mean.
-            ln_e = ln_e + kept_b * q0.z;
-        }
-        // (rho is 0 where there is no hit, and ln_e finite: no select needed.)
-        var l = rho * exp(ln_e);
-        if (COARSE) {
-            var offset = q0.z;
-            if (PROJECTED) {
-                offset = wt.w;
-            }
-            l = (l - l * dk * exp(kept_b * offset)) * inv_rest;
-        }
-        sr = sr + l * wt.x;
-        sg = sg + l * wt.y;
-        sb = sb + l * wt.z;
     }
+    let n_groups = select(0u, select(0u, FULL_GROUPS, any_hit), GROUPED_BANDS);
+    for (var q = 0u; q < n_groups; q = q + 1u) {
+        let m = material_group(mrow, q, use_material);
+        target_band(4u * q, vec4<f32>(m.p0.x, m.p1.x, m.p2.x, m.p3.x), pix, &acc);
+        target_band(4u * q + 1u, vec4<f32>(m.p0.y, m.p1.y, m.p2.y, m.p3.y), pix, &acc);
+        target_band(4u * q + 2u, vec4<f32>(m.p0.z, m.p1.z, m.p2.z, m.p3.z), pix, &acc);
+        target_band(4u * q + 3u, vec4<f32>(m.p0.w, m.p1.w, m.p2.w, m.p3.w), pix, &acc);
+    }
+    let n_rest = select(0u, select(0u, 1u, GROUPED_BANDS && REST_BANDS > 0u), any_hit);
+    for (var t = 0u; t < n_rest; t = t + 1u) {
+        let m = material_group(mrow, FULL_GROUPS, use_material);
+        let i = 4u * FULL_GROUPS;
+        target_band(i, vec4<f32>(m.p0.x, m.p1.x, m.p2.x, m.p3.x), pix, &acc);
+        if (REST_BANDS > 1u) {
+            target_band(i + 1u, vec4<f32>(m.p0.y, m.p1.y, m.p2.y, m.p3.y), pix, &acc);
+        }
+        if (REST_BANDS > 2u) {
+            target_band(i + 2u, vec4<f32>(m.p0.z, m.p1.z, m.p2.z, m.p3.z), pix, &acc);
+        }
+    }
+    let sr = acc.r;
+    let sg = acc.g;
+    let sb = acc.b;
     if (SPREAD && !COARSE) {
         r = r + dk * sr;
         gr = gr + dk * sg;

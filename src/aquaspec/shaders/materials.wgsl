@@ -1,0 +1,62 @@
+// Material band reflectances, four bands to a vec4 (aquaspec/gpu/materials.py):
+// row m of the table is material m, MATERIAL_GROUPS vec4 long, band i in
+// component i % 4 of vec4 i / 4 (zeros past the last band). In a uniform
+// array when the table fits in 64 KiB (MATERIALS_IN_UNIFORM), else in a
+// storage buffer. Needs the including shader's N_BANDS.
+//
+// Measured on lavapipe, 1280x720, four pixels per invocation: in a
+// micro-benchmark (8 bands, one exponential each) the reflectance reads cost
+// 4.3-4.5 ms a frame from a storage buffer and 1.0-1.1 ms from a uniform
+// array; in the shading passes a band per iteration from the uniform array
+// was no faster than the old scalar storage reads, while four bands per
+// iteration (GROUPED_BANDS, one vec4 per pixel) made the light field's and
+// the seeds' frames 2-3 ms faster with 16 bands and 7-9 ms with 32, and
+// 1-2 ms slower with 3 or 8 (hence the threshold, the same for both passes).
+
+const MATERIAL_GROUPS: u32 = (N_BANDS + 3u) / 4u;
+// Bands in whole vec4s, and the bands of the last, partial one.
+const FULL_GROUPS: u32 = N_BANDS / 4u;
+const REST_BANDS: u32 = N_BANDS % 4u;
+// Whether the band loops take four bands per iteration (one material vec4
+// per pixel) or one (a component of it per band).
+const GROUPED_BANDS: bool = N_BANDS >= {{ grouped_min_bands }}u;
+const MATERIALS_IN_UNIFORM: bool = {{ materials_in_uniform }};
+const MATERIAL_UNIFORM_VEC4: u32 = {{ material_uniform_vec4 }}u;
+
+@group(0) @binding(3) var<storage, read> material_storage: array<vec4<f32>>;
+@group(0) @binding(5) var<uniform> material_uniform: array<vec4<f32>, MATERIAL_UNIFORM_VEC4>;
+
+fn material_vec4(index: u32) -> vec4<f32> {
+    if (MATERIALS_IN_UNIFORM) {
+        return material_uniform[index];
+    }
+    return material_storage[index];
+}
+
+// Four bands (group g) of four pixels' reflectances: pixel k's in p[k], zero
+// where use_material[k] is false. row: each pixel's first vec4 (material *
+// MATERIAL_GROUPS).
+struct MaterialGroup {
+    p0: vec4<f32>,
+    p1: vec4<f32>,
+    p2: vec4<f32>,
+    p3: vec4<f32>,
+}
+
+fn material_group(row: vec4<u32>, g: u32, use_material: vec4<bool>) -> MaterialGroup {
+    let zero = vec4<f32>(0.0);
+    return MaterialGroup(select(zero, material_vec4(row.x + g), use_material.x),
+                         select(zero, material_vec4(row.y + g), use_material.y),
+                         select(zero, material_vec4(row.z + g), use_material.z),
+                         select(zero, material_vec4(row.w + g), use_material.w));
+}
+
+// Band i's reflectance of four pixels (pixel k in component k), 0 where
+// use_material is false; the component i % 4 is the same for every SIMD lane.
+fn material_band(row: vec4<u32>, i: u32, use_material: vec4<bool>) -> vec4<f32> {
+    let g = i / 4u;
+    let j = i % 4u;
+    return select(vec4<f32>(0.0), vec4<f32>(material_vec4(row.x + g)[j],
+                  material_vec4(row.y + g)[j], material_vec4(row.z + g)[j],
+                  material_vec4(row.w + g)[j]), use_material);
+}
