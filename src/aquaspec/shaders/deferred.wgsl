@@ -238,8 +238,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     var acc = Rgb4(r, gr, b);
     let px = SeedsPixels(s, s_finite, v_y, end_depth, g, hit, in_window, use_sigmoid, c0, c1, c2,
                          row_start + j0, min(cam.width - j0, 4u));
-    // The bands four at a time (one material vec4 per pixel: aquaspec.gpu.materials),
-    // then the last N_BANDS % 4.
+    // Below GROUPED_MIN_BANDS a band per iteration; from it four (one
+    // material vec4 per pixel: aquaspec.gpu.materials), then N_BANDS % 4.
     if (!GROUPED_BANDS) {
         let n_iter = select(N_BANDS, 0u, from_table);
         for (var i = 0u; i < n_iter; i = i + 1u) {

@@ -423,8 +423,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         }
     }
     // The targets' light summed apart from the water's (dk applies to it
-    // alone), four bands at a time (one material vec4 per pixel:
-    // aquaspec.gpu.materials), then the last N_BANDS % 4.
+    // alone): below GROUPED_MIN_BANDS a band per iteration; from it four
+    // (one material vec4 per pixel: aquaspec.gpu.materials), then N_BANDS % 4.
     var acc = Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     let pix = LfPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk, c0, c1, c2,
                        use_sigmoid);
