@@ -40,13 +40,12 @@ def assert_spread_matches(sp, image, weights):
 SIZES = [(160, 90), (240, 135), (97, 61), (7, 5), (1, 1), (13, 1), (1, 9), (130, 3)]
 
 
-@pytest.mark.parametrize("filtering", [True, False])
 @pytest.mark.parametrize("width,height", SIZES)
 @pytest.mark.parametrize("levels", range(7))
-def test_matches_numpy(device, width, height, levels, filtering):
+def test_matches_numpy(device, width, height, levels):
     from aquaspec.gpu.conespread_pass import ConeSpreadPass
     rng = np.random.default_rng(100 * width + 10 * height + levels)
-    sp = ConeSpreadPass(device, width, height, levels, filtering=filtering)
+    sp = ConeSpreadPass(device, width, height, levels)
     assert len(sp.shapes) == levels + 1
     image = rng.uniform(0.0, 2.0, size=(height, width, 4))
     weights = rng.uniform(0.0, 1.0, size=levels + 1)
@@ -55,13 +54,12 @@ def test_matches_numpy(device, width, height, levels, filtering):
     assert_spread_matches(sp, image, weights)
 
 
-@pytest.mark.parametrize("filtering", [True, False])
-def test_filtering_flag_and_new_weights(device, filtering):
-    """Both filtering settings; new weights (a uniform) on the same pipeline;
-    a second run after new input (levels rewritten, not accumulated)."""
+def test_new_weights_on_the_same_pipeline(device):
+    """New weights (a uniform) on the same pipeline; a second run after new
+    input (levels rewritten, not accumulated)."""
     from aquaspec.gpu.conespread_pass import ConeSpreadPass
     rng = np.random.default_rng(7)
-    sp = ConeSpreadPass(device, 97, 61, 5, filtering=filtering)
+    sp = ConeSpreadPass(device, 97, 61, 5)
     for trial in range(3):
         image = rng.uniform(0.0, 1.0, size=(61, 97, 4)) * rng.uniform(0.1, 10.0)
         weights = rng.uniform(0.0, 1.0, size=6)
@@ -77,7 +75,7 @@ def test_filtering_flag_and_new_weights(device, filtering):
 def test_point_response_is_the_references(device):
     """A single bright texel near a corner (clamped taps on both sides)."""
     from aquaspec.gpu.conespread_pass import ConeSpreadPass
-    sp = ConeSpreadPass(device, 33, 20, 5, filtering=True)
+    sp = ConeSpreadPass(device, 33, 20, 5)
     image = np.zeros((20, 33, 4))
     image[1, 31] = [1.0, 2.0, 3.0, 4.0]
     image[19, 0] = [5.0, 0.0, 0.5, 1.0]
@@ -90,18 +88,18 @@ def test_most_levels(device):
     """MAX_LEVELS levels (all weights in the uniform used; the coarsest are 1x1)."""
     from aquaspec.gpu.conespread_pass import MAX_LEVELS, ConeSpreadPass
     rng = np.random.default_rng(3)
-    sp = ConeSpreadPass(device, 37, 23, MAX_LEVELS, filtering=True)
+    sp = ConeSpreadPass(device, 37, 23, MAX_LEVELS)
     image = rng.uniform(0.0, 1.0, size=(23, 37, 4))
     weights = rng.uniform(0.0, 1.0, size=MAX_LEVELS + 1)
     sp.set_weights(weights)
     assert_spread_matches(sp, image, weights)
     with pytest.raises(AquaspecError, match="levels"):
-        ConeSpreadPass(device, 37, 23, MAX_LEVELS + 1, filtering=True)
+        ConeSpreadPass(device, 37, 23, MAX_LEVELS + 1)
 
 
 def test_bad_weights_and_order(device):
     from aquaspec.gpu.conespread_pass import ConeSpreadPass
-    sp = ConeSpreadPass(device, 8, 8, 2, filtering=True)
+    sp = ConeSpreadPass(device, 8, 8, 2)
     with pytest.raises(AquaspecError, match="set_weights"):
         sp.dispatches()
     with pytest.raises(AquaspecError, match="accepted: 3"):

@@ -73,14 +73,11 @@ def _uniform_layout():
 
 
 class ConeSpreadPass:
-    """The pyramid's buffers and its one dispatch for one image size and level count.
+    """The pyramid's buffers and its one dispatch for one image size and level count
+    (every level read with exact fetches: no sampler, so no need for
+    float32-filterable)."""
 
-    ``filtering`` (the device has float32-filterable) is accepted for the
-    light-field pass's sake; this pass reads every level with exact fetches,
-    so it does not depend on it.
-    """
-
-    def __init__(self, device, width: int, height: int, levels: int, *, filtering: bool):
+    def __init__(self, device, width: int, height: int, levels: int):
         import wgpu
         from .deferred import bind_group_entries, bind_group_layout
         self.device = device
@@ -88,7 +85,6 @@ class ConeSpreadPass:
         if self.width < 1 or self.height < 1 or not 0 <= self.levels <= MAX_LEVELS:
             raise AquaspecError(f"cone spread of {width}x{height} with {levels} levels; "
                                 f"accepted: at least 1x1, 0 to {MAX_LEVELS} levels")
-        self.filtering = bool(filtering)
         self.shapes = level_shapes(self.height, self.width, self.levels)
         sizes = [h * w for h, w in self.shapes]
         #: First element of each level in the level buffer (level 0 is the

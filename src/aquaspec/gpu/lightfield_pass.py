@@ -497,8 +497,7 @@ class LightfieldPass:
         levels = coarse_w.size - 1
         sp = self._spread_pass
         if sp is None or sp.levels != levels or (sp.height, sp.width) != (ch, cw):
-            self._spread_pass = ConeSpreadPass(self.device, cw, ch, levels,
-                                               filtering=self.filtering)
+            self._spread_pass = ConeSpreadPass(self.device, cw, ch, levels)
             self._groups = {}
         self._spread_pass.set_weights(coarse_w)
         return start, alpha, (cw, ch)

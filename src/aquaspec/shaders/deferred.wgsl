@@ -249,21 +249,21 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     let n_groups = select(0u, select(FULL_GROUPS, 0u, from_table), GROUPED_BANDS);
     for (var q = 0u; q < n_groups; q = q + 1u) {
         let m = material_group(mrow, q, use_material);
-        shade_band(4u * q, vec4<f32>(m.p0.x, m.p1.x, m.p2.x, m.p3.x), px, &acc);
-        shade_band(4u * q + 1u, vec4<f32>(m.p0.y, m.p1.y, m.p2.y, m.p3.y), px, &acc);
-        shade_band(4u * q + 2u, vec4<f32>(m.p0.z, m.p1.z, m.p2.z, m.p3.z), px, &acc);
-        shade_band(4u * q + 3u, vec4<f32>(m.p0.w, m.p1.w, m.p2.w, m.p3.w), px, &acc);
+        shade_band(4u * q, group_band(m, 0u), px, &acc);
+        shade_band(4u * q + 1u, group_band(m, 1u), px, &acc);
+        shade_band(4u * q + 2u, group_band(m, 2u), px, &acc);
+        shade_band(4u * q + 3u, group_band(m, 3u), px, &acc);
     }
     let n_rest = select(select(0u, 1u, GROUPED_BANDS && REST_BANDS > 0u), 0u, from_table);
     for (var t = 0u; t < n_rest; t = t + 1u) {
         let m = material_group(mrow, FULL_GROUPS, use_material);
         let i = 4u * FULL_GROUPS;
-        shade_band(i, vec4<f32>(m.p0.x, m.p1.x, m.p2.x, m.p3.x), px, &acc);
+        shade_band(i, group_band(m, 0u), px, &acc);
         if (REST_BANDS > 1u) {
-            shade_band(i + 1u, vec4<f32>(m.p0.y, m.p1.y, m.p2.y, m.p3.y), px, &acc);
+            shade_band(i + 1u, group_band(m, 1u), px, &acc);
         }
         if (REST_BANDS > 2u) {
-            shade_band(i + 2u, vec4<f32>(m.p0.z, m.p1.z, m.p2.z, m.p3.z), px, &acc);
+            shade_band(i + 2u, group_band(m, 2u), px, &acc);
         }
     }
     r = acc.r;

@@ -197,6 +197,8 @@ struct LfPixels {
     u7: vec4<f32>,
     kept_b: vec4<f32>,
     dk: vec4<f32>,
+    // COARSE: 1 / (1 - alpha).
+    inv_rest: f32,
     c0: vec4<f32>,
     c1: vec4<f32>,
     c2: vec4<f32>,
@@ -241,7 +243,7 @@ fn target_band(i: u32, rho_m: vec4<f32>, p: LfPixels, acc: ptr<function, Rgb4>) 
         if (PROJECTED) {
             offset = wt.w;
         }
-        l = (l - l * p.dk * exp(p.kept_b * offset)) / max(1.0 - prm.alpha, 1e-12);
+        l = (l - l * p.dk * exp(p.kept_b * offset)) * p.inv_rest;
     }
     (*acc).r = (*acc).r + l * wt.x;
     (*acc).g = (*acc).g + l * wt.y;
@@ -426,8 +428,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     // alone): below GROUPED_MIN_BANDS a band per iteration; from it four
     // (one material vec4 per pixel: aquaspec.gpu.materials), then N_BANDS % 4.
     var acc = Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
-    let pix = LfPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk, c0, c1, c2,
-                       use_sigmoid);
+    let pix = LfPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk,
+                       1.0 / max(1.0 - prm.alpha, 1e-12), c0, c1, c2, use_sigmoid);
     if (!GROUPED_BANDS) {
         let n_iter = select(0u, N_BANDS, any_hit);
         for (var i = 0u; i < n_iter; i = i + 1u) {
@@ -437,21 +439,21 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     let n_groups = select(0u, select(0u, FULL_GROUPS, any_hit), GROUPED_BANDS);
     for (var q = 0u; q < n_groups; q = q + 1u) {
         let m = material_group(mrow, q, use_material);
-        target_band(4u * q, vec4<f32>(m.p0.x, m.p1.x, m.p2.x, m.p3.x), pix, &acc);
-        target_band(4u * q + 1u, vec4<f32>(m.p0.y, m.p1.y, m.p2.y, m.p3.y), pix, &acc);
-        target_band(4u * q + 2u, vec4<f32>(m.p0.z, m.p1.z, m.p2.z, m.p3.z), pix, &acc);
-        target_band(4u * q + 3u, vec4<f32>(m.p0.w, m.p1.w, m.p2.w, m.p3.w), pix, &acc);
+        target_band(4u * q, group_band(m, 0u), pix, &acc);
+        target_band(4u * q + 1u, group_band(m, 1u), pix, &acc);
+        target_band(4u * q + 2u, group_band(m, 2u), pix, &acc);
+        target_band(4u * q + 3u, group_band(m, 3u), pix, &acc);
     }
     let n_rest = select(0u, select(0u, 1u, GROUPED_BANDS && REST_BANDS > 0u), any_hit);
     for (var t = 0u; t < n_rest; t = t + 1u) {
         let m = material_group(mrow, FULL_GROUPS, use_material);
         let i = 4u * FULL_GROUPS;
-        target_band(i, vec4<f32>(m.p0.x, m.p1.x, m.p2.x, m.p3.x), pix, &acc);
+        target_band(i, group_band(m, 0u), pix, &acc);
         if (REST_BANDS > 1u) {
-            target_band(i + 1u, vec4<f32>(m.p0.y, m.p1.y, m.p2.y, m.p3.y), pix, &acc);
+            target_band(i + 1u, group_band(m, 1u), pix, &acc);
         }
         if (REST_BANDS > 2u) {
-            target_band(i + 2u, vec4<f32>(m.p0.z, m.p1.z, m.p2.z, m.p3.z), pix, &acc);
+            target_band(i + 2u, group_band(m, 2u), pix, &acc);
         }
     }
     let sr = acc.r;

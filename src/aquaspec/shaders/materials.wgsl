@@ -33,9 +33,8 @@ fn material_vec4(index: u32) -> vec4<f32> {
     return material_storage[index];
 }
 
-// Four bands (group g) of four pixels' reflectances: pixel k's in p[k], zero
-// where use_material[k] is false. row: each pixel's first vec4 (material *
-// MATERIAL_GROUPS).
+// Four bands (group g) of four pixels' reflectances: pixel k's in p[k].
+// row: each pixel's first vec4 (material * MATERIAL_GROUPS).
 struct MaterialGroup {
     p0: vec4<f32>,
     p1: vec4<f32>,
@@ -43,20 +42,27 @@ struct MaterialGroup {
     p3: vec4<f32>,
 }
 
-fn material_group(row: vec4<u32>, g: u32, use_material: vec4<bool>) -> MaterialGroup {
-    let zero = vec4<f32>(0.0);
-    return MaterialGroup(select(zero, material_vec4(row.x + g), use_material.x),
-                         select(zero, material_vec4(row.y + g), use_material.y),
-                         select(zero, material_vec4(row.z + g), use_material.z),
-                         select(zero, material_vec4(row.w + g), use_material.w));
+fn material_vec4s(row: vec4<u32>, g: u32) -> MaterialGroup {
+    return MaterialGroup(material_vec4(row.x + g), material_vec4(row.y + g),
+                         material_vec4(row.z + g), material_vec4(row.w + g));
 }
 
-// Band i's reflectance of four pixels (pixel k in component k), 0 where
-// use_material is false; the component i % 4 is the same for every SIMD lane.
+// Band j (0-3) of a group: the four pixels' values.
+fn group_band(m: MaterialGroup, j: u32) -> vec4<f32> {
+    return vec4<f32>(m.p0[j], m.p1[j], m.p2[j], m.p3[j]);
+}
+
+// The group with pixel k's values zeroed where use_material[k] is false.
+fn material_group(row: vec4<u32>, g: u32, use_material: vec4<bool>) -> MaterialGroup {
+    let m = material_vec4s(row, g);
+    let zero = vec4<f32>(0.0);
+    return MaterialGroup(select(zero, m.p0, use_material.x), select(zero, m.p1, use_material.y),
+                         select(zero, m.p2, use_material.z), select(zero, m.p3, use_material.w));
+}
+
+// Band i's reflectance of the four pixels, 0 where use_material is false
+// (the component i % 4 is the same for every SIMD lane).
 fn material_band(row: vec4<u32>, i: u32, use_material: vec4<bool>) -> vec4<f32> {
-    let g = i / 4u;
-    let j = i % 4u;
-    return select(vec4<f32>(0.0), vec4<f32>(material_vec4(row.x + g)[j],
-                  material_vec4(row.y + g)[j], material_vec4(row.z + g)[j],
-                  material_vec4(row.w + g)[j]), use_material);
+    return select(vec4<f32>(0.0), group_band(material_vec4s(row, i / 4u), i % 4u),
+                  use_material);
 }
