@@ -192,11 +192,12 @@ class TestDeferredMatchesReference:
         assert np.all(ref > 0)
         assert_matches(gpu, ref, comparable(gb))
 
-    @pytest.mark.parametrize("n", [1, 2, 5, 13, 16, 17, 18, 22])
+    @pytest.mark.parametrize("n", [1, 2, 3, 4, 7, 10, 13, 16, 17, 18, 22])
     def test_band_counts_around_whole_material_vec4s(self, device, n):
         # From GROUPED_MIN_BANDS bands the loop takes four bands at a time,
-        # then the rest (aquaspec.gpu.materials); below, a band at a time
-        # from the same vec4 table: every remainder 0-3 on both sides.
+        # then the rest (aquaspec.gpu.materials); below, a loop over each
+        # vec4's bands in a loop over the vec4s (one partial vec4 alone
+        # below 4 bands): every remainder 0-3 on both sides.
         gb = scene_seabed()
         med = medium("IB", n)
         ref = shade_gbuffer(gb, **med)["camera_rgb"]

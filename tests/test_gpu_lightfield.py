@@ -78,8 +78,9 @@ def twin_of(lp, gb, medium):
     ("I", 16, "hg", "up", 4.0, 0.0),
     ("IB", 8, "hg", "up", 4.0, 15.0),
     ("II", 8, "petzold", "builtin", 5.0, 15.0),
-    # A last group of four bands with one band in it.
+    # A last group of four bands with one band in it, and with three.
     ("IB", 5, "petzold", "up", 4.0, 15.0),
+    ("3C", 7, "isotropic", "builtin", 9.0, 15.0),
     # Four bands per loop iteration (aquaspec.gpu.materials.GROUPED_MIN_BANDS)
     # with one or two left over.
     ("IB", 17, "petzold", "builtin", 5.0, 15.0),

@@ -11,12 +11,14 @@ one.
 Why: on lavapipe each pixel's reflectance in each band, read as a scalar
 from a storage buffer, was the largest single cost of the band loop (the
 light-field pass at 1280x720, 8 bands: 3.8 ms of 21 ms, measured by
-leaving it out). From :data:`GROUPED_MIN_BANDS` bands the shading passes
-take four bands per loop iteration, one vec4 per pixel: at 1280x720 both
-the light field's and the seeds' frames were 2-3 ms faster with 16 bands
-and 7-9 ms faster with 32 (about 45 -> 37 ms); with 3 or 8 bands the
-four-band iteration was 1-2 ms slower, so there the loop stays at one band
-per iteration (a component of the same table).
+leaving it out). Both shading passes read one vec4 per pixel
+for four bands. From :data:`GROUPED_MIN_BANDS` bands their loops take four
+bands per iteration (the band body written out four times): at 1280x720
+both the light field's and the seeds' frames were 2-3 ms faster with 16
+bands and 7-9 ms faster with 32 (about 45 -> 37 ms) than with a band per
+iteration. Below it a loop over the vec4s holds a loop over their bands:
+1-1.4 ms faster than a band per iteration with 3 and 8 bands, where the
+written-out bodies had been 1-2 ms slower.
 """
 
 from __future__ import annotations
@@ -27,8 +29,9 @@ from .buffers import create_storage_buffer, upload_buffer
 
 #: vec4 entries of the uniform material table (64 KiB).
 UNIFORM_VEC4 = 4096
-#: Band count from which the band loops take four bands per iteration
-#: (compile-time in both shading passes, ``materials.wgsl``).
+#: Band count from which the band loops take four bands per iteration, the
+#: band body written out four times (compile-time in both shading passes,
+#: ``materials.wgsl``; below it, nested loops).
 GROUPED_MIN_BANDS = 16
 #: Bindings of the table (both shading passes leave these numbers free).
 B_MATERIAL_STORAGE, B_MATERIAL_UNIFORM = 3, 5

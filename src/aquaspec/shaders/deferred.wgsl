@@ -18,10 +18,11 @@
 //   lanes run both sides of a divergent branch anyway;
 // - one invocation shades four adjacent pixels (vec4 lanes), so each band's
 //   table entries are loaded once per four pixels;
-// - from GROUPED_MIN_BANDS bands (materials.wgsl) the band loop does four
-//   bands per iteration with one material vec4 per pixel: 1280x720 frames
-//   with 16 / 32 bands 2-3 / 7-8 ms faster, but 1-2 ms slower with 3 or 8,
-//   where a band per iteration stays.
+// - the material table is read one vec4 (four bands) per pixel at a time;
+//   from GROUPED_MIN_BANDS bands (materials.wgsl) the band loop does four
+//   bands per iteration (1280x720 frames with 16 / 32 bands 2-3 / 7-8 ms
+//   faster than a band per iteration), below it a loop over each vec4's
+//   bands sits in a loop over the vec4s (1-1.4 ms faster with 3 or 8).
 
 #include "common.wgsl"
 #include "tonemap.wgsl"
@@ -238,12 +239,27 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     var acc = Rgb4(r, gr, b);
     let px = SeedsPixels(s, s_finite, v_y, end_depth, g, hit, in_window, use_sigmoid, c0, c1, c2,
                          row_start + j0, min(cam.width - j0, 4u));
-    // Below GROUPED_MIN_BANDS a band per iteration; from it four (one
-    // material vec4 per pixel: aquaspec.gpu.materials), then N_BANDS % 4.
+    // One material vec4 per pixel for four bands (aquaspec.gpu.materials):
+    // below GROUPED_MIN_BANDS nested loops, from it four band bodies per
+    // iteration, then N_BANDS % 4.
     if (!GROUPED_BANDS) {
-        let n_iter = select(N_BANDS, 0u, from_table);
-        for (var i = 0u; i < n_iter; i = i + 1u) {
-            shade_band(i, material_band(mrow, i, use_material), px, &acc);
+        // A material vec4 per outer iteration, a band per inner one (trip
+        // counts per invocation: the loops stay loops, as materials.wgsl says).
+        if (N_BANDS < 4u) {
+            let m = material_group(mrow, 0u, use_material);
+            let n_in = select(N_BANDS, 0u, from_table);
+            for (var j = 0u; j < n_in; j = j + 1u) {
+                shade_band(j, group_band(m, j), px, &acc);
+            }
+        } else {
+            let n_outer = select(MATERIAL_GROUPS, 0u, from_table);
+            for (var q = 0u; q < n_outer; q = q + 1u) {
+                let m = material_group(mrow, q, use_material);
+                let n_in = min(4u, N_BANDS - 4u * q);
+                for (var j = 0u; j < n_in; j = j + 1u) {
+                    shade_band(4u * q + j, group_band(m, j), px, &acc);
+                }
+            }
         }
     }
     let n_groups = select(0u, select(FULL_GROUPS, 0u, from_table), GROUPED_BANDS);

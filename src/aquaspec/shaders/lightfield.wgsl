@@ -425,15 +425,30 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         }
     }
     // The targets' light summed apart from the water's (dk applies to it
-    // alone): below GROUPED_MIN_BANDS a band per iteration; from it four
-    // (one material vec4 per pixel: aquaspec.gpu.materials), then N_BANDS % 4.
+    // alone), one material vec4 per pixel for four bands
+    // (aquaspec.gpu.materials): below GROUPED_MIN_BANDS nested loops, from it
+    // four band bodies per iteration, then N_BANDS % 4.
     var acc = Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
     let pix = LfPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk,
                        1.0 / max(1.0 - prm.alpha, 1e-12), c0, c1, c2, use_sigmoid);
     if (!GROUPED_BANDS) {
-        let n_iter = select(0u, N_BANDS, any_hit);
-        for (var i = 0u; i < n_iter; i = i + 1u) {
-            target_band(i, material_band(mrow, i, use_material), pix, &acc);
+        // A material vec4 per outer iteration, a band per inner one (trip
+        // counts per invocation: the loops stay loops, as materials.wgsl says).
+        if (N_BANDS < 4u) {
+            let m = material_group(mrow, 0u, use_material);
+            let n_in = select(0u, N_BANDS, any_hit);
+            for (var j = 0u; j < n_in; j = j + 1u) {
+                target_band(j, group_band(m, j), pix, &acc);
+            }
+        } else {
+            let n_outer = select(0u, MATERIAL_GROUPS, any_hit);
+            for (var q = 0u; q < n_outer; q = q + 1u) {
+                let m = material_group(mrow, q, use_material);
+                let n_in = min(4u, N_BANDS - 4u * q);
+                for (var j = 0u; j < n_in; j = j + 1u) {
+                    target_band(4u * q + j, group_band(m, j), pix, &acc);
+                }
+            }
         }
     }
     let n_groups = select(0u, select(0u, FULL_GROUPS, any_hit), GROUPED_BANDS);

@@ -7,18 +7,21 @@
 // Measured on lavapipe, 1280x720, four pixels per invocation: in a
 // micro-benchmark (8 bands, one exponential each) the reflectance reads cost
 // 4.3-4.5 ms a frame from a storage buffer and 1.0-1.1 ms from a uniform
-// array; in the shading passes a band per iteration from the uniform array
-// was no faster than the old scalar storage reads, while four bands per
-// iteration (GROUPED_BANDS, one vec4 per pixel) made the light field's and
-// the seeds' frames 2-3 ms faster with 16 bands and 7-9 ms with 32, and
-// 1-2 ms slower with 3 or 8 (hence the threshold, the same for both passes).
+// array. Both shading passes read one vec4 per pixel for four bands. From
+// GROUPED_MIN_BANDS bands their loops take four bands per iteration (the
+// band body written out four times); below it a loop over the vec4s holds a
+// loop over their bands, both with trip counts that differ between
+// invocations, so that they stay loops. Against a band per iteration
+// (reading a vec4 per band), alternating in one run (2026-11-24): 1-1.4 ms
+// faster at 3 and 8 bands for both passes; at 16 and 32 bands the
+// written-out bodies were 0.3-0.6 and 1-4 ms faster than the nested loops.
 
 const MATERIAL_GROUPS: u32 = (N_BANDS + 3u) / 4u;
 // Bands in whole vec4s, and the bands of the last, partial one.
 const FULL_GROUPS: u32 = N_BANDS / 4u;
 const REST_BANDS: u32 = N_BANDS % 4u;
-// Whether the band loops take four bands per iteration (one material vec4
-// per pixel) or one (a component of it per band).
+// Whether the band loops write out four band bodies per iteration or nest
+// a loop over each vec4's bands in a loop over the vec4s.
 const GROUPED_BANDS: bool = N_BANDS >= {{ grouped_min_bands }}u;
 const MATERIALS_IN_UNIFORM: bool = {{ materials_in_uniform }};
 const MATERIAL_UNIFORM_VEC4: u32 = {{ material_uniform_vec4 }}u;
@@ -58,11 +61,4 @@ fn material_group(row: vec4<u32>, g: u32, use_material: vec4<bool>) -> MaterialG
     let zero = vec4<f32>(0.0);
     return MaterialGroup(select(zero, m.p0, use_material.x), select(zero, m.p1, use_material.y),
                          select(zero, m.p2, use_material.z), select(zero, m.p3, use_material.w));
-}
-
-// Band i's reflectance of the four pixels, 0 where use_material is false
-// (the component i % 4 is the same for every SIMD lane).
-fn material_band(row: vec4<u32>, i: u32, use_material: vec4<bool>) -> vec4<f32> {
-    return select(vec4<f32>(0.0), group_band(material_vec4s(row, i / 4u), i % 4u),
-                  use_material);
 }
