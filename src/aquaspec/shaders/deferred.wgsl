@@ -246,6 +246,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         // A material vec4 per outer iteration, a band per inner one (trip
         // counts per invocation: the loops stay loops, as materials.wgsl says).
         if (N_BANDS < 4u) {
+            // (One vec4, read outside any loop: with 3 bands the outer loop's
+            // single iteration cost 1.1-1.3 ms per 1280x720 frame.)
             let m = material_group(mrow, 0u, use_material);
             let n_in = select(N_BANDS, 0u, from_table);
             for (var j = 0u; j < n_in; j = j + 1u) {
