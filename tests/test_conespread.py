@@ -83,3 +83,72 @@ def test_one_kernel_for_all_bands():
     np.testing.assert_allclose(cdf, 0.75 * ff_cdf() + 0.25 * np.sqrt(ff_cdf()))
     with pytest.raises(AquaspecError, match="pixels_per_radian"):
         conespread.fit_weights(off, cdf, -1.0, 4)
+
+
+# --- The cone's light scattered a Poisson number of times (spread_scattering="multiple")
+
+def second_moment(cdf):
+    mid = 0.5 * (OFFSETS[1:] + OFFSETS[:-1])
+    return float(np.sum(np.diff(cdf) * mid ** 2))
+
+
+def test_multiple_scattering_cdf_adds_offsets_as_vectors():
+    """Independent isotropic 2-D offsets: the mean square of their sum is the
+    number of them times one's, so over N Poisson (mean lam) given N >= 1 the
+    mean square grows by lam / (1 - exp(-lam)). A narrow single kernel (a
+    uniform disc 1 degree across) keeps every sum inside the table."""
+    single = np.clip(OFFSETS / np.radians(0.5), 0.0, 1.0) ** 2
+    np.testing.assert_array_equal(conespread.multiple_scattering_cdf(OFFSETS, single, 0.0),
+                                  single)
+    for lam in (0.5, 3.0, 40.0):
+        m = conespread.multiple_scattering_cdf(OFFSETS, single, lam)
+        assert np.all(np.diff(m) >= 0) and m[0] >= 0 and m[-1] == 1.0
+        want = second_moment(single) * lam / (1.0 - np.exp(-lam))
+        assert second_moment(m) == pytest.approx(want, rel=0.01), lam
+    with pytest.raises(AquaspecError, match="lam=-1"):
+        conespread.multiple_scattering_cdf(OFFSETS, single, -1.0)
+
+
+def test_multiple_scattering_spreads_wider_with_lambda():
+    """Petzold-like (here Fournier-Forand) kernels: more scatterings, more
+    light far from the pixel, and never less within any offset than a wider one."""
+    f = ff_cdf()
+    cdfs = [conespread.multiple_scattering_cdf(OFFSETS, f, lam) for lam in (0.0, 1.0, 4.0)]
+    r1 = np.radians(1.0)
+    inside = [np.interp(r1, OFFSETS, c) for c in cdfs]
+    assert inside[0] > inside[1] > inside[2]
+    assert np.all(cdfs[1] <= cdfs[0] + 0.01)
+
+
+def test_lambda_node_weights_are_hat_functions():
+    nodes = conespread.LAMBDA_NODES
+    lam = np.array([0.0, 0.3, 1.0, 2.5, 13.0, 80.0, 1e4])
+    w = conespread.lambda_node_weights(lam)
+    assert w.shape == (len(nodes), lam.size)
+    np.testing.assert_allclose(w.sum(axis=0), 1.0)
+    assert np.all(w >= 0)
+    for k, node in enumerate(nodes):
+        np.testing.assert_allclose(conespread.lambda_node_weights(np.array(node)),
+                                   np.eye(len(nodes))[k], atol=1e-12)
+    # Linear in log3(1 + 2 lambda) between two nodes, clamped past the last.
+    x = np.log1p(2 * 2.5) / np.log(3)
+    np.testing.assert_allclose(w[1:3, 3], [2.0 - x, x - 1.0])
+    np.testing.assert_allclose(w[:, -1], np.eye(len(nodes))[-1])
+    with pytest.raises(AquaspecError, match="ascending"):
+        conespread.lambda_node_weights(lam, nodes=(1.0, 0.5))
+
+
+def test_spread_by_lambda_is_the_node_pyramids_mixed():
+    """lambda on a node everywhere: that node's pyramid alone; between two
+    nodes: their pyramids, weighted by the hat functions."""
+    rng = np.random.default_rng(2)
+    cone = rng.random((24, 32, 2))
+    w = [np.array([0.5, 0.3, 0.2]), np.array([0.1, 0.3, 0.6])]
+    nodes = (0.0, 1.0)
+    got = conespread.spread_by_lambda(cone, np.ones_like(cone), nodes, w)
+    np.testing.assert_allclose(got, conespread.spread(cone, w[1]), atol=1e-12)
+    lam = np.full(cone.shape, 0.5)
+    x = np.log1p(1.0) / np.log(3)
+    want = (1 - x) * conespread.spread(cone, w[0]) + x * conespread.spread(cone, w[1])
+    np.testing.assert_allclose(conespread.spread_by_lambda(cone, lam, nodes, w), want,
+                               atol=1e-12)

@@ -377,3 +377,14 @@ def test_water_table_built_on_the_gpu_matches_numpy(water, n, phase, depth, cone
     lp.run()
     assert lp._water_key != key
     assert np.abs(lp.read_water_table() - got).max() > 1e-3 * scale
+
+
+def test_multiple_scattering_spread_is_not_on_the_gpu_yet(lightfield_gbuffer):
+    """The NumPy model's spread_scattering="multiple" is refused by the GPU
+    pass with a clear error rather than rendered as the single-scattering one."""
+    gb = lightfield_gbuffer("builtin", 5.0)
+    setup = SpectralSetup(load_water("II"), get_sensor("human"), surface_light("overcast"),
+                          Bands(4), ms_model="lightfield", phase="petzold", cone_spread=True,
+                          spread_scattering="multiple")
+    with pytest.raises(AquaspecError, match="NumPy model only, not on the GPU yet"):
+        gpu_pass(gb, setup)

@@ -516,7 +516,7 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
                       n_mu: int = DEFAULT_N_MU, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
                       n_streams: int = 32, surface: str = "null",
                       forward_cone_deg: float = 0.0, cone_spread: bool = False,
-                      **phase_params) -> dict:
+                      spread_scattering: str = "single", **phase_params) -> dict:
     """Per-band tables of the light field for the renderer (float32).
 
     Parameters
@@ -542,6 +542,12 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         ``"cone_offset_cdf"`` (n, m) (:func:`aquaspec.phase.band_cone_offset_cdf`)
         and ``"cone_weight"`` (n,) = ``f b``.
         Needs ``forward_cone_deg > 0``.
+    spread_scattering : {"single", "multiple"}
+        With ``cone_spread``: the cone's light taken as scattered once
+        (``"single"``, the renderer's) or a Poisson number of times with mean
+        ``f b S`` (``"multiple"``: adds ``"cone_lambda_nodes"`` (k,) and
+        ``"cone_offset_cdf_nodes"`` (k, m), :mod:`aquaspec.conespread`; the
+        NumPy model only, so far).
 
     Returns
     -------
@@ -556,6 +562,12 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         ``"seabed_albedo"`` (n,); ``"depth_m"`` (n_depth,) and ``"cosine"``
         (n_mu,): the axes; ``"max_depth_m"`` (1,).
     """
+    if spread_scattering not in ("single", "multiple"):
+        raise AquaspecError(f"spread_scattering={spread_scattering!r}; accepted: 'single' "
+                            "or 'multiple'")
+    if spread_scattering == "multiple" and not cone_spread:
+        raise AquaspecError("spread_scattering='multiple' is about the cone spread; it needs "
+                            "cone_spread=True")
     a = np.asarray(band_water.a, dtype=float)
     b = np.asarray(band_water.b, dtype=float)
     wl = getattr(band_water, "wavelength_nm", None)
@@ -600,6 +612,12 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
                  "cone_offset_cdf": band_cone_offset_cdf(phase, forward_cone_deg, offsets, b,
                                                          wl, **phase_params),
                  "cone_weight": f_cone * b}
+        if spread_scattering == "multiple":
+            from .conespread import LAMBDA_NODES, cone_cdf, multiple_scattering_cdf
+            _, single = cone_cdf(extra)
+            extra["cone_lambda_nodes"] = np.asarray(LAMBDA_NODES, dtype=float)
+            extra["cone_offset_cdf_nodes"] = np.stack(
+                [multiple_scattering_cdf(offsets, single, lam) for lam in LAMBDA_NODES])
     return {**extra,
         "forward_fraction": f_cone.astype(f32),
         "ms_log_prefactor": np.log(pref).astype(f32),

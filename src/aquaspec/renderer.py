@@ -55,6 +55,10 @@ class SpectralSetup:
     #: the model's default (:func:`aquaspec.model.cone_spread_for`: on for the
     #: light field).
     cone_spread: bool | None = None
+    #: With ``cone_spread``: the cone's light scattered once (``"single"``) or
+    #: a Poisson number of times (``"multiple"``, NumPy model only so far;
+    #: :mod:`aquaspec.conespread`).
+    spread_scattering: str = "single"
     #: The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`);
     #: None: deep water. The seeds' model has none.
     seabed: object = None
@@ -82,6 +86,7 @@ class SpectralSetup:
             cached = lightfield_tables(self.water.on_bands(self.bands), phase=self.phase,
                                        forward_cone_deg=self.cone_deg,
                                        cone_spread=self.cone_spread,
+                                       spread_scattering=self.spread_scattering,
                                        **bed, **dict(self.phase_params))
             object.__setattr__(self, "_tables", cached)
         return cached
@@ -102,6 +107,7 @@ class SpectralSetup:
                         else {"phase": self.phase, **dict(self.phase_params),
                               "forward_cone_deg": self.cone_deg,
                               "cone_spread": self.cone_spread,
+                              "spread_scattering": self.spread_scattering,
                               "seabed": None if self.seabed is None
                               else self.seabed.describe()})
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),

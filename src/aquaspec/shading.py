@@ -227,7 +227,17 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         rgb[r0:r1] = model.radiance_to_rgb(lrad, w).reshape(r1 - r0, wid, 3)
         if radiance is not None:
             radiance[r0:r1] = lrad.reshape(r1 - r0, wid, n)
-    if spread:
+    if spread and "cone_offset_cdf_nodes" in lightfield:
+        # Multiple scattering in the cone: each pixel's and band's kernel by
+        # its lambda = f b S (aquaspec.conespread.spread_by_lambda).
+        from .conespread import node_pyramid_weights, spread_by_lambda
+        s_all = gbuffer.distance.astype(float)
+        lam = (np.asarray(lightfield["cone_weight"], dtype=float)
+               * np.where(np.isfinite(s_all), s_all, 0.0)[..., None])
+        radiance += spread_by_lambda(cone_flat.reshape(hgt, wid, n), lam,
+                                     lightfield["cone_lambda_nodes"],
+                                     node_pyramid_weights(lightfield, cam.fy, hgt, wid))
+    elif spread:
         from .conespread import pyramid_weights, spread as pyramid_spread
         radiance += pyramid_spread(cone_flat.reshape(hgt, wid, n),
                                    pyramid_weights(lightfield, cam.fy, hgt, wid))

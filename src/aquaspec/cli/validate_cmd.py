@@ -46,6 +46,10 @@ def register(sub):
                    help="light-field model: the forward cone's light comes from where the cone "
                         "points in the image (a convolution), not from the pixel's own surface "
                         "(default: on when the models include lightfield)")
+    p.add_argument("--spread-scattering", choices=("single", "multiple"), default="single",
+                   help="light-field model with --cone-spread: the cone's light scattered once "
+                        "(the renderer's) or a Poisson number of times with mean f b S "
+                        "(multiple: the NumPy model only, so far)")
     p.add_argument("--seabed-below", metavar="M[,ALBEDO]",
                    help="a flat grey Lambertian seabed M metres below the camera (albedo "
                         "default 0.2) in the reference and in the light field; the light "
@@ -109,6 +113,7 @@ def run(args):
                     spp=args.spp, kd_spp=args.kd_spp, phase=args.phase,
                     g=g, backscatter=backscatter, ms_models=ms_models,
                     forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
+                    spread_scattering=args.spread_scattering,
                     **_seabed_below(args.seabed_below),
                     gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))

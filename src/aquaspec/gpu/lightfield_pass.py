@@ -235,6 +235,10 @@ class LightfieldPass:
         (:func:`aquaspec.lightfield_compiled.choose_irradiance_factors`); the
         water table is built for the camera's depth when a frame is encoded.
         """
+        if "cone_offset_cdf_nodes" in tables:
+            raise AquaspecError("the multiple-scattering cone spread (spread_scattering="
+                                "'multiple') is in the NumPy model only, not on the GPU yet; "
+                                "use spread_scattering='single'")
         a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
         n = a.size
         lp = np.asarray(tables["ms_log_prefactor"])

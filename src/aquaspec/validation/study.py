@@ -140,7 +140,7 @@ def _cached(cache_dir, key, compute):
 
 
 def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=None,
-              cone_spread=False, seabed=None):
+              cone_spread=False, seabed=None, spread_scattering="single"):
     from ..renderer import SpectralSetup
     from ..sensors import get_sensor
     from ..shading import shade_gbuffer
@@ -148,6 +148,8 @@ def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_
                           phase=phase_lf, phase_params=phase_params,
                           forward_cone_deg=forward_cone_deg,
                           cone_spread=cone_spread and ms_model == "lightfield",
+                          spread_scattering=(spread_scattering if cone_spread
+                                             and ms_model == "lightfield" else "single"),
                           seabed=seabed if ms_model == "lightfield" else None)
     out = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
                         lightfield=setup.lightfield_tables())
@@ -190,7 +192,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
               g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
               band_counts=(8, 16), ms_models=("seeds",),
               kd_modes=("database", "measured"), forward_cone_deg: float | None = None,
-              cone_spread: bool | None = None, seabed_below_m: float | None = None,
+              cone_spread: bool | None = None, spread_scattering: str = "single",
+              seabed_below_m: float | None = None,
               seabed_albedo: float = 0.2,
               cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
@@ -212,7 +215,9 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     (``lightfield-deep-n*``) to show what leaving it out costs.
     ``cone_spread`` spreads the light-field model's forward cone over the
     image (:mod:`aquaspec.conespread`; None: when ``ms_models`` has the light
-    field, as :func:`aquaspec.model.cone_spread_for`); ``forward_cone_deg``
+    field, as :func:`aquaspec.model.cone_spread_for`), its light taken as
+    scattered once or a Poisson number of times (``spread_scattering``,
+    :mod:`aquaspec.conespread`); ``forward_cone_deg``
     None is the model's default cone (15 degrees, 40 with the spread).
     """
     from ..gpu.raster import raycast_gbuffer
@@ -226,6 +231,11 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                             f"{list(ms_models)}; accepted: a list with 'lightfield'")
     from ..lightfield import forward_cone
     forward_cone_deg = forward_cone(forward_cone_deg, cone_spread)
+    if spread_scattering not in ("single", "multiple") or (
+            spread_scattering == "multiple" and not cone_spread):
+        raise AquaspecError(f"spread_scattering={spread_scattering!r} with cone_spread="
+                            f"{cone_spread!r}; accepted: 'single', or 'multiple' with the "
+                            "cone spread on")
     light = surface_light("overcast")
     g = float(g) if phase == "hg" else 0.0
     backscatter = float(backscatter)
@@ -308,13 +318,15 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         t0 = time.perf_counter()
                         methods[(name, mode)] = ("bands", n, _spectral(
                             gb, waters_by_mode[mode], light, n, ms, phase_lf,
-                            phase_params, forward_cone_deg, cone_spread, scene.seabed))
+                            phase_params, forward_cone_deg, cone_spread, scene.seabed,
+                            spread_scattering))
                         numpy_seconds[name] = time.perf_counter() - t0
                         if ms == "lightfield" and scene.seabed is not None and n != 3:
                             # What leaving the seabed out of the light field costs.
                             methods[(f"lightfield-deep-n{n}", mode)] = ("bands", n, _spectral(
                                 gb, waters_by_mode[mode], light, n, ms, phase_lf,
-                                phase_params, forward_cone_deg, cone_spread))
+                                phase_params, forward_cone_deg, cone_spread,
+                                spread_scattering=spread_scattering))
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             for mode in kd_modes:       # the image-formation model's B_inf and J use Kd
                 methods[("ifm", mode)] = ("baseline", "ifm", None)
@@ -377,6 +389,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                        "source": source, "band_counts": list(band_counts),
                        "ms_models": list(ms_models), "forward_cone_deg": forward_cone_deg,
                        "cone_spread": bool(cone_spread),
+                       "spread_scattering": spread_scattering,
                        "seabed": None if seabed_below_m is None else
                        {"below_camera_m": float(seabed_below_m),
                         "albedo": float(seabed_albedo)}}}
