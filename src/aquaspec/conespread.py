@@ -207,11 +207,13 @@ def pyramid_weights(tables, pixels_per_radian: float, height: int, width: int) -
 
 #: Mean numbers of scatterings inside the cone, ``lambda = f b S``, that get a
 #: kernel of their own: hat functions in ``x = log3(1 + 2 lambda)`` are the
-#: nodes ``x = 0 .. 5``. On the built-in scene at 320x180 (Jerlov IB, II, 3C,
-#: S from 2.5 to 120 m) five nodes up to 18 put the spread term within
-#: 0.5-2.8 % of the exact per-pixel mixture on average (3 nodes: 1.7-3.2 %;
-#: one kernel for the whole image: 6-24 %); the sixth covers the far seabed
-#: of turbid water (lambda up to about 100).
+#: nodes ``x = 0 .. 5``. In a prototype on the built-in scene at 320x180
+#: (Jerlov IB, II, 3C, S from 2.5 to 120 m), five nodes from 0.25 to 18
+#: (geometric) put the spread term within 0.5-2.8 % of the exact per-pixel
+#: mixture on average, three nodes within 1.7-3.2 %, one kernel for the whole
+#: image 6-24 % off; these nodes start at single scattering (0) and reach the
+#: far seabed of turbid water (lambda up to about 100). Not measured
+#: against the exact mixture themselves.
 LAMBDA_NODES = (0.0, 1.0, 4.0, 13.0, 40.0, 121.0)
 #: Offset vectors drawn per node by :func:`multiple_scattering_cdf`.
 MULTIPLE_SAMPLES = 100_000
