@@ -260,6 +260,14 @@ def multiple_scattering_cdf(offsets_rad, cdf, lam: float, *, samples: int = MULT
         raise AquaspecError(f"lam={lam!r}; accepted: a finite number >= 0")
     if lam == 0:
         return f1.copy()
+    # (Cached: the validation makes the same tables for several band counts.)
+    return _multiple_cdf(off.tobytes(), f1.tobytes(), float(lam), int(samples), int(seed)).copy()
+
+
+@lru_cache(maxsize=64)
+def _multiple_cdf(off_bytes, f1_bytes, lam, samples, seed):
+    off = np.frombuffer(off_bytes, dtype=float)
+    f1 = np.frombuffer(f1_bytes, dtype=float)
     from math import lgamma
     rng = np.random.default_rng(seed)
     u = (np.arange(samples) + 0.5) / samples
