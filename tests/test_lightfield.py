@@ -337,8 +337,13 @@ def test_multiple_scattering_spread_moves_light_off_bright_targets():
         assert setup.describe()["spread_scattering"] == how
         tables = setup.lightfield_tables()
         assert ("cone_offset_cdf_nodes" in tables) == (how == "multiple")
-        out[how] = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
-                                 lightfield=tables)["radiance"]
+        res = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
+                            lightfield=tables)
+        out[how] = res["radiance"]
+        # The camera RGB is that of the spread radiance (it was not, with
+        # "multiple", until 2026-11-24).
+        w = setup.medium(gb.materials)["response_weights"]
+        np.testing.assert_allclose(res["camera_rgb"], out[how] @ w, rtol=1e-9, atol=1e-15)
     single, multi = out["single"], out["multiple"]
     white = m["patches"][18]
     assert multi[white].mean() < 0.97 * single[white].mean()

@@ -241,6 +241,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         from .conespread import pyramid_weights, spread as pyramid_spread
         radiance += pyramid_spread(cone_flat.reshape(hgt, wid, n),
                                    pyramid_weights(lightfield, cam.fy, hgt, wid))
+    if spread:
         rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}
     if return_radiance:
