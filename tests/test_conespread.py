@@ -154,54 +154,26 @@ def test_spread_by_lambda_is_the_node_pyramids_mixed():
                                atol=1e-12)
 
 
-# --- The renderer's one-pyramid form of it (peeling, conespread.spread_peeled)
+# --- The renderer's form of it (node images in one pyramid)
 
-def _peeled(x, z, tables):
-    """spread_peeled from light x with lambda coordinate z per pixel, level 0's share taken first."""
-    zs = z * x.sum(axis=-1)
-    if tables["a"].shape[0] == 1:
-        return conespread.spread_peeled(x, zs, tables["a"], tables["rest"])
-    keep = 1.0 - conespread.peel_share(x, zs, tables["a"][0], tables["rest"][0])
-    return conespread.spread_peeled(x * keep[..., None], zs * keep, tables["a"], tables["rest"])
-
-
-def test_peeling_with_one_kernel_is_the_pyramid():
-    """The same weights at every node: the peeling pyramid is spread() with
-    those weights, from level 0 and (its share alpha kept by the pixel) from
-    a coarser start level."""
+def test_node_tables_and_node_spread():
+    """Start level 2: each node keeps its first two weights (alpha) and
+    spreads with the rest; the node images spread and summed are
+    spread_by_lambda's node pyramids at the coarse level."""
     rng = np.random.default_rng(3)
-    x = rng.random((37, 53, 3))
-    w = np.array([0.1, 0.2, 0.3, 0.25, 0.15])
-    nodes = np.stack([w] * 6)
-    z = rng.random(x.shape[:2]) * 5.0
-    t0 = conespread.node_level_tables(nodes, 0)
-    np.testing.assert_allclose(_peeled(x, z, t0), conespread.spread(x, w), atol=1e-12)
-    t2 = conespread.node_level_tables(nodes, 2)
-    np.testing.assert_allclose(t2["alpha"], 0.3)
-    np.testing.assert_allclose(_peeled((1 - 0.3) * x, z, t2), conespread.spread(x, w[2:]),
-                               atol=1e-12)
-
-
-def test_peeling_gives_a_lone_pixel_its_interpolated_kernel():
-    """A single bright pixel whose z lies between two nodes gets exactly the
-    pyramid of the hat-weighted node weights; the light is kept, and a node
-    whose kernel ends early (beta = 1 before the coarsest level) loses nothing."""
-    w_a = np.array([0.1, 0.2, 0.3, 0.25, 0.15])
-    w_b = np.array([0.0, 0.05, 0.95, 0.0, 0.0])      # ends at level 2
-    nodes = np.stack([w_a, w_b, w_b, w_b, w_b, w_b])
-    t = conespread.node_level_tables(nodes, 0)
-    x = np.zeros((64, 64, 3))
-    x[30, 33] = [1.0, 2.0, 3.0]
-    for z in (0.0, 0.3, 1.0, 4.5):
-        h = min(z, 1.0)
-        want = conespread.spread(x, (1 - h) * w_a + h * w_b)
-        got = _peeled(x, np.full(x.shape[:2], z), t)
-        np.testing.assert_allclose(got, want, atol=2e-4 * want.max())
-        assert got.sum() == pytest.approx(x.sum(), rel=1e-9)
-    # z out of the nodes' range: clamped.
+    w = np.array([[0.1, 0.2, 0.3, 0.25, 0.15], [0.0, 0.05, 0.15, 0.3, 0.5]])
+    t = conespread.node_level_tables(w, 2)
+    np.testing.assert_allclose(t["alpha"], [0.3, 0.05])
+    np.testing.assert_allclose(t["a"], w[:, 2:])
+    x = rng.random((21, 30, 2, 3))
+    want = conespread.spread(x[:, :, 0], w[0, 2:]) + conespread.spread(x[:, :, 1], w[1, 2:])
+    np.testing.assert_allclose(conespread.spread_nodes(x, t["a"]), want, atol=1e-12)
+    np.testing.assert_allclose(conespread.spread_nodes(x, t["a"][:, :1]),
+                               0.3 * x[:, :, 0] + 0.15 * x[:, :, 1], atol=1e-12)
+    # Hat weights at z = 0 .. K - 1, clamped.
     np.testing.assert_allclose(conespread.interp_nodes(np.arange(6.0) * 2,
                                                        np.array([[0.5, 7.0], [2.25, -1.0]])),
                                [[1.0, 10.0], [4.5, 0.0]])
     assert conespread.node_coordinates_are_integers()
     with pytest.raises(AquaspecError, match="start level"):
-        conespread.node_level_tables(nodes, 5)
+        conespread.node_level_tables(w, 5)

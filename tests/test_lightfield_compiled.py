@@ -110,6 +110,36 @@ class TestWaterTable:
         down = v <= 0
         np.testing.assert_allclose(table[0, down, -2], table[0, down, -1], rtol=1e-12)
 
+    def test_node_layers_of_the_multiple_scattering_spread(self):
+        """With alpha_nodes the split table's cone layer is divided between the
+        nodes (the layers 1 .. K sum to it, node k holding the bands whose
+        lambda coordinate is near k) and layer 0 keeps alpha(z_i) of it: with
+        the same alpha at every node, alpha times the cone layer."""
+        t = tables_of("3C", 5, cone_spread=True, forward_cone_deg=40.0)
+        w = load_water("3C").on_bands(Bands(5))
+        kw = dict(a=w.a, b=w.b, e0=surface_light("overcast").on_bands(Bands(5)),
+                  response_weights=get_sensor("human").band_weights(Bands(5)), depth_o=4.0,
+                  split=True)
+        split = lfc.water_table(t, **kw)
+        flat = lfc.water_table(t, **kw, alpha_nodes=np.full(6, 0.25))
+        assert flat.shape == (7, lfc.DIRECTIONS, lfc.DISTANCES, 3)
+        scale = np.abs(split[1]).max()
+        np.testing.assert_allclose(flat[1:].sum(axis=0), split[1], atol=1e-12 * scale)
+        np.testing.assert_allclose(flat[0], split[0] + 0.25 * split[1], atol=1e-12 * scale)
+        # Near hits (S = 0.1 m, lambda = f b S well under 1) are in the first
+        # two nodes' layers; the mean node grows with the distance.
+        s = lfc.distance_nodes()
+        mag = np.abs(flat[1:]).sum(axis=(1, 3))                    # (K, distances)
+        near = np.searchsorted(s, 0.1)
+        assert mag[:2, near].sum() > 0.99 * mag[:, near].sum()
+        cols = np.searchsorted(s, [0.1, 1.0, 3.0, 10.0])
+        mean_node = (np.arange(6)[:, None] * mag[:, cols]).sum(0) / mag[:, cols].sum(0)
+        assert np.all(np.diff(mean_node) > 0.1)
+        grow = lfc.water_table(t, **kw, alpha_nodes=np.linspace(0.0, 0.5, 6))
+        assert not np.allclose(grow[0], flat[0])
+        with pytest.raises(AquaspecError, match="split=True"):
+            lfc.water_table(t, **{**kw, "split": False}, alpha_nodes=np.zeros(6))
+
     @pytest.mark.parametrize("wc", [0.66, 0.0])
     def test_lookup_hits_nodes_and_keeps_the_window_edge_sharp(self, wc):
         n_out, n_in = lfc.direction_split(wc)
@@ -132,22 +162,28 @@ class TestWaterTable:
                                                     wc)[:, 0], table[0, j, -1], rtol=1e-9)
 
 
-def model_and_twin(gb, setup, tables, depth):
+def model_and_twin(gb, setup, tables, depth, floor=1e-3):
     """shade_gbuffer (the model) and shade_compiled (the twin) on one G-buffer,
     and the twin's relative error (floor 1e-3 of the largest value)."""
-    from aquaspec.conespread import pyramid_weights
+    from aquaspec.conespread import node_pyramid_weights, pyramid_weights
     from aquaspec.shading import shade_gbuffer
     med = setup.medium(gb.materials)
     ref = shade_gbuffer(gb, **med, lightfield=tables)["camera_rgb"]
-    comp = lfc.compile_lightfield(tables, a=med["a"], b=med["b"], e0=med["e0"],
-                                  response_weights=med["response_weights"], depth_o=depth)
     cam = gb.camera
     spread = "cone_offset_cdf" in tables
+    weights, alpha_nodes = None, None
+    if "cone_offset_cdf_nodes" in tables:
+        weights = np.array(node_pyramid_weights(tables, cam.fy, cam.height, cam.width))
+        alpha_nodes = lfc.multiple_plan(weights, cam.fy)[1]["alpha"]
+    elif spread:
+        weights = pyramid_weights(tables, cam.fy, cam.height, cam.width)
+    comp = lfc.compile_lightfield(tables, a=med["a"], b=med["b"], e0=med["e0"],
+                                  response_weights=med["response_weights"], depth_o=depth,
+                                  alpha_nodes=alpha_nodes)
     got = lfc.shade_compiled(gb, comp, material_bands=med["material_bands"],
-                             sigmoid_centers_t=med["sigmoid_centers_t"],
-                             pyramid_weights=pyramid_weights(tables, cam.fy, cam.height,
-                                                             cam.width) if spread else None)
-    err = np.abs(got - ref) / np.maximum(np.abs(ref), 1e-3 * np.abs(ref).max())
+                             sigmoid_centers_t=med["sigmoid_centers_t"], pyramid_weights=weights)
+    assert np.all(np.isfinite(got))
+    err = np.abs(got - ref) / np.maximum(np.abs(ref), floor * np.abs(ref).max())
     print(f"mean {err.mean():.2e} p99 {np.percentile(err, 99):.2e} max {err.max():.2e}")
     return ref, err
 
@@ -164,14 +200,19 @@ def model_and_twin(gb, setup, tables, depth):
      (1e-3, 5e-3, 1e-2)),
     ("7C", 8, "petzold", (), "up", 2.0, 40.0, True, (1e-3, 5e-3, 1e-2)),
     ("3C", 3, "isotropic", (), "builtin", 9.0, 0.0, False, (1e-3, 5e-3, 1e-2)),
+    # The multiple-scattering spread: II 1.2e-4 8.1e-4 1.1e-3; 3C 6e-5 2.9e-4 5.6e-4.
+    ("II", 8, "petzold", (), "builtin", 5.0, 40.0, "multiple", (1e-3, 5e-3, 1e-2)),
+    ("3C", 5, "ff", (("backscatter", 0.0183),), "up", 3.0, 40.0, "multiple",
+     (1e-3, 5e-3, 1e-2)),
 ])
 def test_twin_follows_the_model(water, n, phase, params, kind, depth, cone, spread, limits,
                                 lightfield_gbuffer):
     gb = lightfield_gbuffer(kind, depth)
+    how = {"spread_scattering": "multiple"} if spread == "multiple" else {}
     setup = SpectralSetup(load_water(water), get_sensor("nikon-5100-npl"),
                           surface_light("overcast"), Bands(n), ms_model="lightfield",
                           phase=phase, phase_params=params, forward_cone_deg=cone,
-                          cone_spread=spread)
+                          cone_spread=bool(spread), **how)
     _, err = model_and_twin(gb, setup, setup.lightfield_tables(), depth)
     assert err.mean() < limits[0]
     assert np.percentile(err, 99) < limits[1]

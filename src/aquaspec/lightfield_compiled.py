@@ -209,7 +209,8 @@ def distance_nodes():
         return np.where(x < 1.0, LENGTH_SCALE_M * x / np.where(x < 1.0, 1.0 - x, 1.0), np.inf)
 
 
-def water_table(tables, *, a, b, e0, response_weights, depth_o: float, split: bool):
+def water_table(tables, *, a, b, e0, response_weights, depth_o: float, split: bool,
+                alpha_nodes=None):
     """The water table ``(layers, directions, DISTANCES, 3)`` in camera RGB, float64.
 
     Layer 0: ``sum_i w_i [L_bg(d_o, v) - T_i L_bg(d_S, v)]`` with ``T = T'``
@@ -218,13 +219,25 @@ def water_table(tables, *, a, b, e0, response_weights, depth_o: float, split: bo
     ``DISTANCES - 1``: open water. The terms of
     :func:`aquaspec.lightfield.lightfield_pixel_radiance` for a black target
     (deep water), evaluated directly on the nodes (the test compares the two).
+
+    With ``alpha_nodes`` (K,) (the multiple-scattering spread: the share kept
+    by the pixel at each lambda node, :func:`multiple_plan`) the band's cone
+    term ``C_i`` at ``z_i = log3(1 + 2 f_i b_i S)`` is kept with ``alpha(z_i)``
+    (interpolated between the nodes, :func:`aquaspec.conespread.interp_nodes`):
+    layer 0 also holds ``sum_i w_i alpha(z_i) C_i``, and layers ``1 .. K``
+    hold the cone term split between the nodes, ``sum_i w_i h_k(z_i) C_i``
+    (hat weights, :func:`aquaspec.conespread.lambda_node_weights`), to be
+    spread with node ``k``'s weights from the start level (which sum to ``1 -
+    alpha_k``).
     """
     from .lightfield import _seeds_shape, bilinear
     a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
     w = np.asarray(response_weights, dtype=float)
+    if alpha_nodes is not None and not split:
+        raise AquaspecError("alpha_nodes (the multiple-scattering spread) need split=True")
     if np.isfinite(float(tables["seabed_depth_m"][0])):
         return _water_table_from_model(tables, a=a, b=b, e0=e0, w=w, depth_o=depth_o,
-                                       split=split)
+                                       split=split, alpha_nodes=alpha_nodes)
     c = a + b
     f = np.asarray(tables.get("forward_fraction", np.zeros(a.size)), dtype=float)
     c_beam = c - f * b
@@ -264,10 +277,9 @@ def water_table(tables, *, a, b, e0, response_weights, depth_o: float, split: bo
         t_beam = np.where(far[:, None], 0.0, np.exp(-c_beam * ss[:, None]))
         t = np.where(far[:, None], 0.0, np.exp(-c * ss[:, None])) if split else t_beam
         base = open_l[rows] - t * blocked
-    out = np.zeros((2 if split else 1, v.size, DISTANCES, 3))
-    out[0, :, :DISTANCES - 1] = (base @ w).reshape(v.size, s_nodes.size, 3)
-    if split:
-        out[1, :, :DISTANCES - 1] = (-(t_beam - t) * blocked @ w).reshape(v.size, -1, 3)
+    out = np.zeros((_layers(split, alpha_nodes), v.size, DISTANCES, 3))
+    cone = -(t_beam - t) * blocked
+    _fill_hit_columns(out, base, cone, ss, c - c_beam, w, alpha_nodes, (v.size, s_nodes.size))
     out[0, :, DISTANCES - 1] = open_l @ w
     if not np.all(np.isfinite(out)):
         raise AquaspecError("the light-field water table came out non-finite; check the "
@@ -275,7 +287,35 @@ def water_table(tables, *, a, b, e0, response_weights, depth_o: float, split: bo
     return out
 
 
-def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool):
+def _layers(split: bool, alpha_nodes) -> int:
+    return 1 if not split else (2 if alpha_nodes is None else 1 + np.size(alpha_nodes))
+
+
+def _fill_hit_columns(out, base, cone, s, fb, w, alpha_nodes, shape):
+    """The hit columns of the water table ``out`` from per-band ``base`` and
+    ``cone`` (P, n) at distances ``s`` (P,) (:func:`water_table`'s layers)."""
+    from .conespread import interp_nodes, lambda_coordinate
+    if alpha_nodes is not None:
+        z = lambda_coordinate(np.asarray(fb)[None, :] * s[:, None])       # (P, n)
+        base = base + interp_nodes(alpha_nodes, z) * cone
+        for k, h in enumerate(node_hats(z, np.size(alpha_nodes))):
+            out[1 + k, :, :DISTANCES - 1] = ((h * cone) @ w).reshape(shape + (3,))
+    out[0, :, :DISTANCES - 1] = (base @ w).reshape(shape + (3,))
+    if alpha_nodes is None and out.shape[0] > 1:
+        out[1, :, :DISTANCES - 1] = (cone @ w).reshape(shape + (3,))
+
+
+def node_hats(z, nodes: int) -> np.ndarray:
+    """Hat weights ``(nodes, *z.shape)`` of the lambda coordinate ``z`` on the
+    nodes at ``0 .. nodes - 1`` (clamped): ``max(0, 1 - |z - k|)``, as the GPU
+    computes them."""
+    zz = np.clip(np.asarray(z, dtype=float), 0.0, nodes - 1.0)
+    k = np.arange(nodes).reshape((nodes,) + (1,) * zz.ndim)
+    return np.maximum(0.0, 1.0 - np.abs(zz[None] - k))
+
+
+def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool,
+                            alpha_nodes=None):
     """:func:`water_table` for tables with a seabed: the model itself
     (:func:`aquaspec.lightfield.lightfield_pixel_radiance`) on every node, a
     black target at each finite distance and open water (the seabed seen
@@ -285,7 +325,7 @@ def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool)
     from .lightfield import lightfield_pixel_radiance
     v, _ = direction_nodes(float(tables["window_cos"][0]))
     s_nodes = distance_nodes()
-    out = np.zeros((2 if split else 1, v.size, DISTANCES, 3))
+    out = np.zeros((_layers(split, alpha_nodes), v.size, DISTANCES, 3))
     kw = dict(a=a, b=b, e0=e0, depth_o=float(depth_o))
     with np.errstate(over="ignore"):      # up rays within 1e-30 of level
         open_l = lightfield_pixel_radiance(tables, **kw, v_y=v[:, None],
@@ -299,12 +339,12 @@ def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool)
         hit = lightfield_pixel_radiance(tables, **kw, v_y=vv, s=ss, rho=np.zeros(a.size),
                                         surface_depth=sd, n_y=np.ones_like(vv),
                                         split_cone=split)
-    base, cone = hit if split else (hit, None)
+    base, cone = hit if split else (hit, np.zeros_like(hit))
     base = np.where(far[:, None], np.repeat(open_l, s_nodes.size, axis=0), base)
-    out[0, :, :DISTANCES - 1] = (base @ w).reshape(v.size, s_nodes.size, 3)
-    if split:
-        cone = np.where(far[:, None], 0.0, cone)
-        out[1, :, :DISTANCES - 1] = (cone @ w).reshape(v.size, s_nodes.size, 3)
+    cone = np.where(far[:, None], 0.0, cone)
+    f = np.asarray(tables.get("forward_fraction", np.zeros(a.size)), dtype=float)
+    _fill_hit_columns(out, base, cone, np.where(far, 0.0, ss[:, 0]), f * b, w, alpha_nodes,
+                      (v.size, s_nodes.size))
     if not np.all(np.isfinite(out)):
         raise AquaspecError("the light-field water table came out non-finite; check the "
                             "water coefficients and tables")
@@ -347,25 +387,51 @@ class Compiled:
     max_depth: float
     #: Largest and rms relative error of the factored E on the nodes (<= 30 m).
     irradiance_error: tuple
+    #: The multiple-scattering spread: the share kept by the pixel at each
+    #: lambda node (:func:`multiple_plan`), which the water table holds; None
+    #: with the single-scattering spread or none.
+    alpha_nodes: np.ndarray | None = None
 
 
 def compile_lightfield(tables, *, a, b, e0, response_weights, depth_o: float,
-                       factors: dict | None = None) -> Compiled:
-    """Compile the model for the camera depth ``depth_o`` (``factors`` reused if given)."""
+                       factors: dict | None = None, alpha_nodes=None) -> Compiled:
+    """Compile the model for the camera depth ``depth_o`` (``factors`` reused
+    if given; ``alpha_nodes``: the multiple-scattering spread's kept shares
+    from :func:`multiple_plan`, for tables with ``cone_offset_cdf_nodes``)."""
     a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
     w = np.asarray(response_weights, dtype=float)
     fac = factors if factors is not None else choose_irradiance_factors(tables)
     f = np.asarray(tables.get("forward_fraction", np.zeros(a.size)), dtype=float)
     split = "cone_offset_cdf" in tables
+    if ("cone_offset_cdf_nodes" in tables) != (alpha_nodes is not None):
+        raise AquaspecError("tables with the multiple-scattering spread (cone_offset_cdf_nodes) "
+                            "compile with alpha_nodes from multiple_plan(), other tables "
+                            "without")
+    if alpha_nodes is not None:
+        alpha_nodes = np.asarray(alpha_nodes, dtype=float)
     water = water_table(tables, a=a, b=b, e0=e0, response_weights=w, depth_o=float(depth_o),
-                        split=split)
+                        split=split, alpha_nodes=alpha_nodes)
     coef = fac["coef"]
     return Compiled(depth_o=float(depth_o), split=split, water=water, basis=fac["basis"],
                     k_depth=coef[:, 1], c_beam=a + (1.0 - f) * b, fb=f * b, g=coef[:, 2:],
                     surface_weights=w * (e0 / np.pi * np.exp(coef[:, 0]))[:, None],
                     window_cos=float(tables["window_cos"][0]),
                     max_depth=float(tables["max_depth_m"][0]),
-                    irradiance_error=(fac["max_error"], fac["rms_error"]))
+                    irradiance_error=(fac["max_error"], fac["rms_error"]),
+                    alpha_nodes=alpha_nodes)
+
+
+def multiple_plan(node_weights, pixels_per_radian: float, start_level: int | None = None):
+    """``(L0, tables)`` of the multiple-scattering spread: the start level as
+    :func:`spread_plan` chooses it, and :func:`aquaspec.conespread.node_level_tables`
+    of the nodes' pyramid weights ``(K, L + 1)``
+    (:func:`aquaspec.conespread.node_pyramid_weights`) from there."""
+    from .conespread import node_coordinates_are_integers, node_level_tables
+    w = np.asarray(node_weights, dtype=float)
+    if not node_coordinates_are_integers():
+        raise AquaspecError("the renderer's spread needs lambda nodes at z = 0, 1, 2, ..")
+    start = spread_plan(w[0], pixels_per_radian, start_level)[0]
+    return start, node_level_tables(w, start)
 
 
 def spread_plan(weights, pixels_per_radian: float, start_level: int | None = None) -> tuple:
@@ -498,7 +564,8 @@ def kept_projection(comp: "Compiled", alpha: float, projection=None):
     :func:`fb_projection`, if already made. Returns ``{"lam": (rank + 3,),
     "fb_offset": delta_hat (n,), "error_bound": float}`` or None.
     """
-    if not comp.split or alpha <= 0.0 or np.size(comp.fb) < KEPT_PROJECTION_MIN_BANDS:
+    if (not comp.split or alpha <= 0.0 or np.size(comp.fb) < KEPT_PROJECTION_MIN_BANDS
+            or getattr(comp, "alpha_nodes", None) is not None):
         return None
     lam, hat, res = (projection if projection is not None
                      else fb_projection(comp.k_depth, comp.c_beam, comp.g, comp.fb))
@@ -519,6 +586,16 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
     ``T' - T``; ``f_i b_i - mean f b`` projected by :func:`kept_projection`
     where that applies, as the GPU does) and ``spread`` the rest divided by ``1 - alpha``, to be weighted by
     the pyramid's levels from ``L0`` (which sum to ``1 - alpha``).
+
+    With ``comp.alpha_nodes`` (the multiple-scattering spread) the share
+    kept is exact per band, ``alpha(z_i) + (1 - alpha(z_i)) exp(-x_i)`` with
+    ``x_i = f_i b_i S`` and ``z_i = log3(1 + 2 x_i)`` (a tangent like
+    :func:`kept_share`'s overflows where ``alpha`` changes fast with ``x``),
+    and ``spread`` is ``(P, K, 3)``: the band's whole cone term ``T' (1 -
+    exp(-x_i))`` split between the nodes by the hat weights of ``z_i``
+    (:func:`node_hats`), to be spread with node ``k``'s weights from the
+    start level (summing to ``1 - alpha_k``: with the hats, the complement of
+    what the pixel keeps).
     """
     from .lightfield import bilinear
     s = np.asarray(s, dtype=float)[:, None]
@@ -526,6 +603,15 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
     ln_e = comp.k_depth * np.asarray(surface_depth, dtype=float)[:, None] \
         - comp.c_beam * s + u @ comp.g.T
     l = np.asarray(rho, dtype=float) * np.exp(ln_e)
+    if comp.alpha_nodes is not None:
+        from .conespread import interp_nodes, lambda_coordinate
+        x = comp.fb[None, :] * s
+        z = lambda_coordinate(x)
+        alpha_i = interp_nodes(comp.alpha_nodes, z)
+        cone = l * -np.expm1(-x)
+        hats = node_hats(z, comp.alpha_nodes.size)                      # (K, P, n)
+        return ((l - (1.0 - alpha_i) * cone) @ comp.surface_weights,
+                np.stack([(h * cone) @ comp.surface_weights for h in hats], axis=1))
     if comp.split:
         dk, slope = kept_share(comp.fb.mean(), alpha, s[:, 0])
         proj = kept_projection(comp, alpha)
@@ -543,15 +629,27 @@ def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t
     With ``comp.split`` the cone's share is spread over the image with the
     pyramid ``pyramid_weights`` (:func:`aquaspec.conespread.pyramid_weights`),
     starting at the level of :func:`spread_plan` (``start_level`` overrides it).
+    With ``comp.alpha_nodes`` (the multiple-scattering spread)
+    ``pyramid_weights`` are the nodes' ``(K, L + 1)``
+    (:func:`aquaspec.conespread.node_pyramid_weights`), ``comp`` compiled
+    with :func:`multiple_plan`'s ``alpha``, and one pyramid holds every node's image
+    (:func:`aquaspec.conespread.spread_nodes`).
     """
     from .gbuffer import PER_PIXEL
     from .reflectance import sigmoid_at as sigmoid_reflectance
     cam = gbuffer.camera
     alpha = 0.0
+    multiple = comp.alpha_nodes is not None
     if comp.split:
         if pyramid_weights is None:
             raise AquaspecError("a compiled model with the cone spread needs pyramid_weights")
-        start, alpha, coarse_w = spread_plan(pyramid_weights, cam.fy, start_level)
+        if multiple:
+            start, levels = multiple_plan(pyramid_weights, cam.fy, start_level)
+            if not np.allclose(levels["alpha"], comp.alpha_nodes, rtol=1e-12, atol=1e-15):
+                raise AquaspecError("comp was compiled with other alpha_nodes than these "
+                                    "pyramid weights give (multiple_plan)")
+        else:
+            start, alpha, coarse_w = spread_plan(pyramid_weights, cam.fy, start_level)
     d_o = comp.depth_o
     v_y = cam.ray_directions()[..., 1].reshape(-1)
     s = gbuffer.distance.reshape(-1).astype(float)
@@ -562,7 +660,9 @@ def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t
     water = lookup_water(comp.water, v_y, s, hit, comp.window_cos)      # (P, layers, 3)
     rgb = water[:, 0].copy()
     cone = water[:, 1].copy() if comp.split else None
-    if comp.split:
+    if multiple:
+        cone = water[:, 1:].copy()           # (P, K, 3)
+    if comp.split and not multiple:
         rgb += alpha * cone                  # the pixel's share of the water's cone
     if np.any(hit):
         mat = gbuffer.material.reshape(-1)[hit]
@@ -573,20 +673,25 @@ def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t
                                       np.asarray(sigmoid_centers_t, dtype=float))
         rho[~pp] = mb[mat[~pp]]
         sd = np.maximum(d_o - s[hit] * v_y[hit], 0.0)
-        base, cone_s = surface_rgb(comp, rho, s[hit], sd,
-                                   gbuffer.normal[..., 1].reshape(-1)[hit].astype(float),
-                                   alpha)
-        rgb[hit] += base
+        parts = surface_rgb(comp, rho, s[hit], sd,
+                            gbuffer.normal[..., 1].reshape(-1)[hit].astype(float), alpha)
+        rgb[hit] += parts[0]
         if comp.split:
-            cone[hit] += cone_s
+            cone[hit] += parts[1]
     h, w = cam.height, cam.width
     rgb = rgb.reshape(h, w, 3)
     if comp.split:
         from .conespread import spread
-        cone = cone.reshape(h, w, 3)
+        cone = cone.reshape((h, w) + cone.shape[1:])
         ys, xs = coarse_sample_pixels(h, w, start)
         coarse = cone[ys, xs].mean(axis=2)
-        composite = spread(coarse, coarse_w) if coarse_w.size > 1 else coarse_w[0] * coarse
+        if multiple:
+            from .conespread import spread_nodes
+            composite = spread_nodes(coarse, levels["a"])
+        elif coarse_w.size > 1:
+            composite = spread(coarse, coarse_w)
+        else:
+            composite = coarse_w[0] * coarse
         rgb = rgb + upsample_groups(composite, 2 ** start, (h, w))
     if not np.all(np.isfinite(rgb)):
         raise AquaspecError("the compiled light field produced NaN or infinity")
