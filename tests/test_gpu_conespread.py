@@ -104,3 +104,33 @@ def test_bad_weights_and_order(device):
         sp.dispatches()
     with pytest.raises(AquaspecError, match="accepted: 3"):
         sp.set_weights([0.5, 0.5])
+
+
+@pytest.mark.parametrize("width,height,levels", [(160, 90, 5), (97, 61, 6), (7, 5, 2),
+                                                 (13, 1, 3), (20, 11, 1), (9, 4, 0)])
+@pytest.mark.parametrize("nodes", [6, 4])
+def test_node_images_match_numpy(device, width, height, levels, nodes):
+    """The multiple-scattering spread's texels: K node images of camera RGB
+    in ceil(3 K / 4) vec4, level 0's slots side by side in the cone texture;
+    U_0 = spread_nodes (each node's image with its own level weights, summed)."""
+    from aquaspec.conespread import spread_nodes
+    from aquaspec.gpu.buffers import read_texture, record_dispatches, upload_texture
+    from aquaspec.gpu.conespread_pass import ConeSpreadPass, slots_for
+    rng = np.random.default_rng(7 * width + height + levels + nodes)
+    sp = ConeSpreadPass(device, width, height, levels, nodes=nodes)
+    assert sp.slots == slots_for(nodes) == -(-3 * nodes // 4)
+    images = rng.uniform(-1.0, 2.0, size=(height, width, nodes, 3))
+    flat = np.zeros((height, width, 4 * sp.slots))
+    flat[..., :3 * nodes] = images.reshape(height, width, -1)
+    texels = np.concatenate([flat[..., 4 * m:4 * m + 4] for m in range(sp.slots)], axis=1)
+    weights = rng.uniform(0.0, 1.0, size=(nodes, levels + 1))
+    sp.set_weights(weights)
+    upload_texture(device, sp.cone_texture, texels.astype(np.float32))
+    enc = device.create_command_encoder()
+    record_dispatches(enc, sp.dispatches())
+    device.queue.submit([enc.finish()])
+    got = read_texture(device, sp.result, np.float32, 4)[..., :3]
+    want = spread_nodes(images.astype(np.float32), weights)
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5 * np.abs(want).max())
+    with pytest.raises(AquaspecError, match="node weights"):
+        sp.set_weights(weights[0])

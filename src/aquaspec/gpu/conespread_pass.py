@@ -64,12 +64,33 @@ ROWS = 32
 MAX_LEVELS = 15
 
 
-def _uniform_layout():
-    """(byte offset of the weights, size) of conespread.wgsl's ``Pyramid``:
-    count (vec4<u32>), one vec4<u32> per level (MAX_LEVELS + 1), then the
-    weights four to a vec4<f32>."""
+def _uniform_layout(slots: int = 1):
+    """(byte offset of the weights, of the node masks, size) of
+    conespread.wgsl's ``Pyramid``: count (vec4<u32>), one vec4<u32> per level
+    (MAX_LEVELS + 1), the weights four to a vec4<f32>, then 3 ``slots``
+    vec4<f32> per level (the node masks)."""
     weight = 16 + 16 * (MAX_LEVELS + 1)
-    return weight, weight + 16 * ((MAX_LEVELS + 4) // 4)
+    mask = weight + 16 * ((MAX_LEVELS + 4) // 4)
+    return weight, mask, mask + 16 * 3 * slots * (MAX_LEVELS + 1)
+
+
+def slots_for(nodes: int) -> int:
+    """Vec4 per texel for ``nodes`` node images of camera RGB (1 for one image)."""
+    return 1 if nodes <= 1 else -(-3 * nodes // 4)
+
+
+def node_masks(weights) -> np.ndarray:
+    """conespread.wgsl's node masks for node weights ``(K, levels + 1)``:
+    ``(levels + 1, slots, 3, 4)``, value ``q = 4 m + j`` of slot ``m`` being
+    node ``q // 3``, channel ``q % 3``: mask ``[l, m, c, j] = a[q // 3, l]``
+    where ``q % 3 == c`` (and ``q < 3 K``), else 0."""
+    a = np.asarray(weights, dtype=float)
+    k, n = a.shape
+    slots = slots_for(k)
+    out = np.zeros((n, slots, 3, 4))
+    for q in range(3 * k):
+        out[:, q // 4, q % 3, q % 4] = a[q // 3]
+    return out
 
 
 class ConeSpreadPass:
@@ -77,7 +98,7 @@ class ConeSpreadPass:
     (every level read with exact fetches: no sampler, so no need for
     float32-filterable)."""
 
-    def __init__(self, device, width: int, height: int, levels: int):
+    def __init__(self, device, width: int, height: int, levels: int, nodes: int = 1):
         import wgpu
         from .deferred import bind_group_entries, bind_group_layout
         self.device = device
@@ -86,6 +107,10 @@ class ConeSpreadPass:
             raise AquaspecError(f"cone spread of {width}x{height} with {levels} levels; "
                                 f"accepted: at least 1x1, 0 to {MAX_LEVELS} levels")
         self.shapes = level_shapes(self.height, self.width, self.levels)
+        #: Node images per texel (the multiple-scattering spread) and the vec4
+        #: they take (:func:`slots_for`); level 0's slot ``m`` is the cone
+        #: texture's columns ``m width .. (m + 1) width - 1``.
+        self.nodes, self.slots = int(nodes), slots_for(int(nodes))
         sizes = [h * w for h, w in self.shapes]
         #: First element of each level in the level buffer (level 0 is the
         #: texture: 0, unused).
@@ -93,14 +118,14 @@ class ConeSpreadPass:
         # Both textures also allow copies (the tests upload level 0 and read
         # the result).
         #: Level 0: the cone term written by the light-field pass (COARSE).
-        self.cone_texture = create_texture(device, self.width, self.height, "rgba32float",
-                                           label="cone level 0")
+        self.cone_texture = create_texture(device, self.width * self.slots, self.height,
+                                           "rgba32float", label="cone level 0")
         #: The spread cone term at level 0's size (U_0).
         self.result = create_texture(device, self.width, self.height, "rgba32float",
                                      label="cone spread")
-        self._levels_buffer = create_storage_buffer(device, 16 * max(1, sum(sizes[1:])),
-                                                    label="cone levels")
-        self._weight_at, nbytes = _uniform_layout()
+        self._levels_buffer = create_storage_buffer(
+            device, 16 * self.slots * max(1, sum(sizes[1:])), label="cone levels")
+        self._weight_at, self._mask_at, nbytes = _uniform_layout(self.slots)
         self._uniform = device.create_buffer(
             label="cone spread", size=nbytes,
             usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
@@ -119,7 +144,7 @@ class ConeSpreadPass:
 
     def _build_pipeline(self):
         src = load_wgsl("conespread.wgsl", workgroup=WORKGROUP, rows=ROWS,
-                        max_levels=MAX_LEVELS)
+                        max_levels=MAX_LEVELS, slots=self.slots)
         module = self.device.create_shader_module(label="conespread.wgsl", code=src)
         return self.device.create_compute_pipeline(
             label="cone spread",
@@ -128,14 +153,24 @@ class ConeSpreadPass:
 
     def set_weights(self, weights) -> None:
         """Level weights (levels + 1,), :func:`aquaspec.conespread.fit_weights`
-        (written to the uniform: the next submission uses them)."""
+        (written to the uniform: the next submission uses them); with nodes,
+        each node's ``(nodes, levels + 1)`` (:func:`aquaspec.conespread.spread_nodes`)."""
         w = np.asarray(weights, dtype=float)
-        if w.shape != (self.levels + 1,):
+        if self.nodes > 1:
+            want = (self.nodes, self.levels + 1)
+            if w.shape != want:
+                raise AquaspecError(f"node weights of shape {w.shape} for {self.nodes} nodes "
+                                    f"and {self.levels} levels; accepted: {want}")
+        elif w.shape != (self.levels + 1,):
             raise AquaspecError(f"{w.size} pyramid weights for {self.levels} levels; "
                                 f"accepted: {self.levels + 1}")
         if self._weights is not None and np.array_equal(w, self._weights):
             return
-        upload_buffer(self.device, self._uniform, w.astype(np.float32), self._weight_at)
+        if self.nodes > 1:
+            upload_buffer(self.device, self._uniform, node_masks(w).astype(np.float32),
+                          self._mask_at)
+        else:
+            upload_buffer(self.device, self._uniform, w.astype(np.float32), self._weight_at)
         self._weights = w
 
     def dispatches(self) -> list:
