@@ -62,11 +62,15 @@ def assert_matches(got, ref, rtol=1e-3):
 
 def twin_of(lp, gb, medium):
     """shade_compiled with the pass's compiled model (and pyramid weights)."""
-    from aquaspec.conespread import pyramid_weights
+    from aquaspec.conespread import node_pyramid_weights, pyramid_weights
     from aquaspec.lightfield_compiled import shade_compiled
     tables = lp._medium[0]
     cam = gb.camera
-    weights = (pyramid_weights(tables, cam.fy, cam.height, cam.width) if lp.spread else None)
+    weights = None
+    if lp.nodes:
+        weights = np.array(node_pyramid_weights(tables, cam.fy, cam.height, cam.width))
+    elif lp.spread:
+        weights = pyramid_weights(tables, cam.fy, cam.height, cam.width)
     return shade_compiled(gb, lp.reference_compiled(), material_bands=medium["material_bands"],
                           sigmoid_centers_t=medium["sigmoid_centers_t"],
                           pyramid_weights=weights, start_level=lp.spread_start_level)
@@ -379,12 +383,43 @@ def test_water_table_built_on_the_gpu_matches_numpy(water, n, phase, depth, cone
     assert np.abs(lp.read_water_table() - got).max() > 1e-3 * scale
 
 
-def test_multiple_scattering_spread_is_not_on_the_gpu_yet(lightfield_gbuffer):
-    """The NumPy model's spread_scattering="multiple" is refused by the GPU
-    pass with a clear error rather than rendered as the single-scattering one."""
-    gb = lightfield_gbuffer("builtin", 5.0)
-    setup = SpectralSetup(load_water("II"), get_sensor("human"), surface_light("overcast"),
-                          Bands(4), ms_model="lightfield", phase="petzold", cone_spread=True,
-                          spread_scattering="multiple")
-    with pytest.raises(AquaspecError, match="NumPy model only, not on the GPU yet"):
-        gpu_pass(gb, setup)
+@pytest.mark.parametrize("water,n,kind,start,filtering", [
+    ("II", 8, "builtin", None, None),
+    ("II", 8, "builtin", 2, None),
+    ("3C", 5, "up", 1, False),
+    ("IB", 17, "builtin", 3, None),
+])
+def test_multiple_scattering_spread_matches_its_twin(water, n, kind, start, filtering,
+                                                     fused_and_two_pass, lightfield_gbuffer):
+    """spread_scattering="multiple" on the GPU: the water table's node layers
+    (watertable.wgsl), the coarse pass's node images, the pyramid with a
+    weight set per node and the exact kept share per band, against
+    lightfield_compiled (float64); it differs from the single-scattering
+    spread, and the fused display agrees with the display pass."""
+    from aquaspec.conespread import LAMBDA_NODES
+    gb = lightfield_gbuffer(kind, 5.0)
+    setup = SpectralSetup(load_water(water), get_sensor("nikon-5100-npl"),
+                          surface_light("overcast"), Bands(n), ms_model="lightfield",
+                          phase="petzold", cone_spread=True, spread_scattering="multiple")
+    medium = setup.medium(gb.materials)
+    lp = gpu_pass(gb, setup, filtering=filtering)
+    lp.spread_start_level = start
+    lp.run()
+    assert lp.nodes == len(LAMBDA_NODES) and lp.spread_plan[0] == (start or 0)
+    comp = lp.reference_compiled()
+    assert comp.water.shape[0] == 1 + lp.nodes
+    table = lp.read_water_table()
+    np.testing.assert_allclose(table, comp.water, rtol=2e-4,
+                               atol=2e-6 * np.abs(comp.water).max())
+    linear = lp.read_rgb()
+    ref = twin_of(lp, gb, medium)
+    assert_matches(linear, ref)
+    single = gpu_pass(gb, dataclasses.replace(setup, spread_scattering="single"))
+    single.spread_start_level = start
+    single.run()
+    assert np.abs(ref - single.read_rgb()).max() > 0.005 * np.abs(ref).max()
+    fused, expected = fused_and_two_pass(lp, gb.camera.width, gb.camera.height,
+                                         exposure_ev=2.0, tonemap="filmic")
+    diff = np.abs(fused.astype(int) - expected.astype(int))
+    assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
+

@@ -80,6 +80,8 @@ PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
     ("block", "u32"), ("alpha", "f32"), ("fb_mean", "f32"),
     # lightfield_compiled.kept_projection: [lam_K, lam_c, mu, 0], lam_G.
     ("kept_lam", "vec4<f32>"), ("kept_lam_g0", "vec4<f32>"), ("kept_lam_g1", "vec4<f32>"),
+    # The multiple-scattering spread: the share kept at each lambda node (up to 8).
+    ("alpha_lo", "vec4<f32>"), ("alpha_hi", "vec4<f32>"),
 ])
 
 #: Compute workgroup size (x, y) of lightfield.wgsl, in invocations.
@@ -133,8 +135,19 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
 
 WATER_PARAMS_LAYOUT = UniformLayout("WaterTableParams", [
     ("depth_o", "f32"), ("window_cos", "f32"), ("max_depth", "f32"), ("alpha", "f32"),
-    ("n_out", "u32"), ("n_in", "u32"),
+    ("n_out", "u32"), ("n_in", "u32"), ("alpha_lo", "vec4<f32>"), ("alpha_hi", "vec4<f32>"),
 ])
+
+#: Most lambda nodes of the multiple-scattering spread the shaders take.
+MAX_NODES = 8
+
+
+def _alpha_vec4s(alpha) -> dict:
+    """``alpha_lo``, ``alpha_hi`` of the uniforms: the nodes' kept shares (or zeros)."""
+    v = np.zeros(MAX_NODES)
+    if isinstance(alpha, tuple):
+        v[:len(alpha)] = alpha
+    return {"alpha_lo": v[:4], "alpha_hi": v[4:]}
 
 
 def water_band_fields(tables, *, a, b, e0, response_weights) -> np.ndarray:
@@ -235,10 +248,6 @@ class LightfieldPass:
         (:func:`aquaspec.lightfield_compiled.choose_irradiance_factors`); the
         water table is built for the camera's depth when a frame is encoded.
         """
-        if "cone_offset_cdf_nodes" in tables:
-            raise AquaspecError("the multiple-scattering cone spread (spread_scattering="
-                                "'multiple') is in the NumPy model only, not on the GPU yet; "
-                                "use spread_scattering='single'")
         a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
         n = a.size
         lp = np.asarray(tables["ms_log_prefactor"])
@@ -306,6 +315,13 @@ class LightfieldPass:
         #: Whether the forward cone is spread over the image (tables with
         #: lightfield_tables(cone_spread=True)): :class:`ConeSpreadPass` after this one.
         self.spread = "cone_offset_cdf" in tables
+        #: Lambda nodes of the multiple-scattering spread (tables with
+        #: spread_scattering="multiple"), else 0.
+        self.nodes = (len(tables["cone_lambda_nodes"]) if "cone_offset_cdf_nodes" in tables
+                      else 0)
+        if self.nodes > MAX_NODES:
+            raise AquaspecError(f"{self.nodes} lambda nodes; the GPU pass takes at most "
+                                f"{MAX_NODES}")
         self._spread_pass = None
         self._spread_key = None
         self._water_key = None
@@ -333,7 +349,7 @@ class LightfieldPass:
         group = bool(self.spread and 2 ** self.spread_plan[0] >= 4)
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
                self.filtering, self.spread, coarse, group, projected,
-               self._materials.in_uniform)
+               self._materials.in_uniform, self.nodes)
         if key not in self._pipelines:
             band_vec4 = 2 + -(-sh["rank"] // 4)
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
@@ -354,6 +370,7 @@ class LightfieldPass:
                             coarse="true" if coarse else "false",
                             group_spread="true" if group else "false",
                             projected="true" if projected else "false",
+                            nodes=self.nodes, slots=max(1, -(-3 * self.nodes // 4)),
                             **self._materials.template(),
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
             module = self.device.create_shader_module(label="lightfield.wgsl", code=src)
@@ -365,7 +382,8 @@ class LightfieldPass:
 
     def _water_pipeline(self):
         sh = self._shape
-        key = ("water", self._water_bands.shape[1], sh["n_depth"], sh["n_mu"], self.spread)
+        key = ("water", self._water_bands.shape[1], sh["n_depth"], sh["n_mu"], self.spread,
+               self.nodes)
         if key not in self._pipelines:
             src = load_wgsl("watertable.wgsl", params_struct=WATER_PARAMS_LAYOUT.wgsl(),
                             params_struct_name=WATER_PARAMS_LAYOUT.name,
@@ -373,6 +391,7 @@ class LightfieldPass:
                             n_mu=sh["n_mu"], distances=lfc.DISTANCES,
                             length_scale=f"{float(lfc.LENGTH_SCALE_M)!r}",
                             split="true" if self.spread else "false",
+                            nodes=self.nodes, node_array=max(1, self.nodes),
                             band_len=self._water_bands.shape[0] * self._water_bands.shape[1])
             module = self.device.create_shader_module(label="watertable.wgsl", code=src)
             layout = bind_group_layout(self.device, {0: "uniform", 1: "uniform",
@@ -388,7 +407,9 @@ class LightfieldPass:
     def _update_water_table(self, encoder, depth_o, alpha):
         """Build the water table for the camera's depth on the GPU (watertable.wgsl)
         when the depth, the medium or (with the spread) alpha changed: layer 0
-        holds ``W0 + alpha W1`` with the spread (:func:`lightfield_compiled.spread_plan`).
+        holds ``W0 + alpha W1`` with the spread (:func:`lightfield_compiled.spread_plan`);
+        with the multiple-scattering spread ``alpha`` is the tuple of the nodes'
+        shares and the table has a layer per node (:func:`lightfield_compiled.water_table`).
         With a seabed the table is built on the CPU and uploaded (0.3-1.5 s)."""
         key = (depth_o, alpha)
         if self._water_key == key:
@@ -396,7 +417,8 @@ class LightfieldPass:
         import wgpu
         dev = self.device
         n_out, n_in = lfc.direction_split(self._shape["window_cos"])
-        rows, layers = n_out + n_in, 2 if self.spread else 1
+        rows = n_out + n_in
+        layers = (1 + self.nodes) if self.nodes else (2 if self.spread else 1)
         if self._water_texture is None or self._water_shape != (layers, rows):
             tex = dev.create_texture(
                 label="lightfield water table", size=(lfc.DISTANCES, rows, layers),
@@ -411,8 +433,9 @@ class LightfieldPass:
         if self.seabed:
             tables, a, b, e0, w = self._medium
             table = lfc.water_table(tables, a=a, b=b, e0=e0, response_weights=w,
-                                    depth_o=depth_o, split=self.spread)
-            if self.spread:
+                                    depth_o=depth_o, split=self.spread,
+                                    alpha_nodes=np.array(alpha) if self.nodes else None)
+            if self.spread and not self.nodes:
                 table[0] += alpha * table[1]       # as watertable.wgsl's layer 0
             texels = np.zeros(table.shape[:3] + (4,), np.float32)
             texels[..., :3] = table
@@ -432,7 +455,8 @@ class LightfieldPass:
         (open_column, hits), layout = self._water_pipeline()
         upload_buffer(dev, self._water_params, WATER_PARAMS_LAYOUT.pack(
             depth_o=depth_o, window_cos=self._shape["window_cos"],
-            max_depth=self._shape["max_depth"], alpha=alpha, n_out=n_out, n_in=n_in))
+            max_depth=self._shape["max_depth"], alpha=0.0 if self.nodes else alpha,
+            n_out=n_out, n_in=n_in, **_alpha_vec4s(alpha)))
         group = dev.create_bind_group(layout=layout, entries=bind_group_entries(
             {0: self._water_params, 1: self._water_band_buffer, 2: self._log_prefactor,
              3: self._water_out}))
@@ -454,8 +478,10 @@ class LightfieldPass:
         if self._water_key is None:
             raise AquaspecError("no frame yet: run the pass first")
         tables, a, b, e0, w = self._medium
+        alpha = self._water_key[1]
         return lfc.compile_lightfield(tables, a=a, b=b, e0=e0, response_weights=w,
-                                      depth_o=self._water_key[0], factors=self.factors)
+                                      depth_o=self._water_key[0], factors=self.factors,
+                                      alpha_nodes=np.array(alpha) if self.nodes else None)
 
     def _bind_group(self, coarse=False):
         """The bind group of the full-resolution pass, or of the COARSE one."""
@@ -489,19 +515,28 @@ class LightfieldPass:
 
     def _update_spread(self, cam):
         """The spread's plan, pyramid pass and weights for this camera (fy) and size."""
-        from ..conespread import level_shapes, pyramid_weights
+        from ..conespread import level_shapes, node_pyramid_weights, pyramid_weights
         from .conespread_pass import ConeSpreadPass
         key = (id(self._medium[0]), float(cam.fy), self.spread_start_level)
         if self._spread_key != key:
-            weights = pyramid_weights(self._medium[0], float(cam.fy), self.height, self.width)
-            self.spread_plan = lfc.spread_plan(weights, float(cam.fy), self.spread_start_level)
+            tables, fy = self._medium[0], float(cam.fy)
+            if self.nodes:
+                # (start, alpha per node as a tuple, node weights (K, levels + 1)).
+                weights = np.array(node_pyramid_weights(tables, fy, self.height, self.width))
+                start, lv = lfc.multiple_plan(weights, fy, self.spread_start_level)
+                self.spread_plan = (start, tuple(float(x) for x in lv["alpha"]), lv["a"])
+            else:
+                weights = pyramid_weights(tables, fy, self.height, self.width)
+                self.spread_plan = lfc.spread_plan(weights, fy, self.spread_start_level)
             self._spread_key = key
         start, alpha, coarse_w = self.spread_plan
         ch, cw = level_shapes(self.height, self.width, start)[-1]
-        levels = coarse_w.size - 1
+        levels = coarse_w.shape[-1] - 1
         sp = self._spread_pass
-        if sp is None or sp.levels != levels or (sp.height, sp.width) != (ch, cw):
-            self._spread_pass = ConeSpreadPass(self.device, cw, ch, levels)
+        if (sp is None or sp.levels != levels or (sp.height, sp.width) != (ch, cw)
+                or sp.nodes != max(1, self.nodes)):
+            self._spread_pass = ConeSpreadPass(self.device, cw, ch, levels,
+                                               nodes=max(1, self.nodes))
             self._groups = {}
         self._spread_pass.set_weights(coarse_w)
         return start, alpha, (cw, ch)
@@ -566,7 +601,7 @@ class LightfieldPass:
         start, alpha, coarse_size = (self._update_spread(cam) if self.spread
                                      else (0, 0.0, (1, 1)))
         self._update_water_table(encoder, depth_o, alpha)
-        proj = self.kept_projection(alpha) if self.spread else None
+        proj = self.kept_projection(alpha) if (self.spread and not self.nodes) else None
         lam = np.zeros(12)
         if proj is not None:
             # [lam_K, lam_c, mu, 0], then lam_G (up to eight).
@@ -576,9 +611,9 @@ class LightfieldPass:
             **camera_fields(cam), width=self.width, height=self.height,
             n_materials=self._shape["n_materials"], depth_o=depth_o,
             max_depth=self._shape["max_depth"], window_cos=self._shape["window_cos"],
-            coarse_size=coarse_size, block=2 ** start, alpha=alpha,
+            coarse_size=coarse_size, block=2 ** start, alpha=0.0 if self.nodes else alpha,
             fb_mean=self._shape["fb_mean"], kept_lam=lam[0:4], kept_lam_g0=lam[4:8],
-            kept_lam_g1=lam[8:12]))
+            kept_lam_g1=lam[8:12], **_alpha_vec4s(alpha)))
         if display:
             # status[3] is an atomicMin, so it starts at the maximum (a queue
             # write runs before the next submission).

@@ -23,6 +23,18 @@
 //   PROJECTED, no second exponential), and the pyramid's result is added
 //   with one bilinear sample.
 //
+// With NODES > 0 (the multiple-scattering spread, lightfield_compiled with
+// alpha_nodes; K = NODES lambda nodes at z = 0 .. K - 1):
+// - the full-resolution pass keeps of band i's target light exactly
+//   alpha(z_i) + (1 - alpha(z_i)) exp(-x_i), x_i = f_i b_i S, z_i =
+//   log3(1 + 2 x_i), alpha interpolated between the nodes' prm.alpha_lo/hi
+//   (an exponential and a logarithm per band more; the water table's layer
+//   0 already keeps the water's share);
+// - COARSE writes K node images of camera RGB: the target's whole cone term
+//   (1 - exp(-x_i)) of its light split by the hat weights of z_i, plus the
+//   water table's layers 1 .. K, in SLOTS vec4 per block, slot m at column
+//   block + m coarse_size.x of cone_out (aquaspec/gpu/conespread_pass.py).
+//
 // Written for lavapipe (SIMD over 8 invocations on the CPU), as
 // deferred.wgsl (see its header): per-band constants in a uniform array
 // with a compile-time band count, per-pixel work (table coordinates)
@@ -83,6 +95,11 @@ const GROUP_SPREAD: bool = {{ group_spread }};
 // instead (prm.kept_lam*), and COARSE uses that combination (band_table's
 // w'.w) so that it takes the exact complement.
 const PROJECTED: bool = {{ projected }};
+// The multiple-scattering spread's lambda nodes (0: not used) and the vec4
+// a coarse block's node images take.
+const NODES: u32 = {{ nodes }}u;
+const SLOTS: u32 = {{ slots }}u;
+const NODE_ARRAY: u32 = max(NODES, 1u);
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // G-buffer: surface (S bits, n_y bits, octahedral normal, material index)
@@ -205,6 +222,20 @@ struct LfPixels {
     use_sigmoid: vec4<bool>,
 }
 
+// COARSE with NODES: the node images of the four lanes (camera RGB per node).
+var<private> node_acc: array<Rgb4, NODE_ARRAY>;
+
+// The kept share alpha_k of node k (prm.alpha_lo / alpha_hi).
+fn node_alpha(k: u32) -> f32 {
+    return select(prm.alpha_hi[k % 4u], prm.alpha_lo[k % 4u], k < 4u);
+}
+
+// Hat weight of node k at lambda coordinates z (clamped to the nodes).
+fn hat(z: vec4<f32>, k: u32) -> vec4<f32> {
+    let zc = clamp(z, vec4<f32>(0.0), vec4<f32>(f32(NODES - 1u)));
+    return max(vec4<f32>(0.0), 1.0 - abs(zc - f32(k)));
+}
+
 // The targets' own light in band i (material reflectance rho_m, 0 where
 // none) added to acc: one exponential (COARSE: two, the share the pixel
 // does not keep, over 1 - alpha).
@@ -232,13 +263,34 @@ fn target_band(i: u32, rho_m: vec4<f32>, p: LfPixels, acc: ptr<function, Rgb4>) 
     if (PER_PIXEL_MATERIALS) {
         rho = select(rho, sigmoid_reflectance(p.c0, p.c1, p.c2, q0.w), p.use_sigmoid);
     }
-    if (SPREAD && !COARSE && !PROJECTED) {
+    if (SPREAD && !COARSE && !PROJECTED && NODES == 0u) {
         // q0.z: f_i b_i minus the bands' mean.
         ln_e = ln_e + p.kept_b * q0.z;
     }
     // (rho is 0 where there is no hit, and ln_e finite: no select needed.)
     var l = rho * exp(ln_e);
-    if (COARSE) {
+    if (NODES > 0u) {
+        // x_i = f_i b_i S (q0.z + mean f b = f_i b_i), its lambda coordinate.
+        let x = (q0.z + prm.fb_mean) * p.s_e;
+        let e = exp(-x);
+        let z = log(1.0 + 2.0 * x) * (1.0 / log(3.0));
+        if (COARSE) {
+            // The whole cone term, split between the nodes.
+            let cone = l * (1.0 - e);
+            for (var k = 0u; k < NODES; k++) {
+                let c = hat(z, k) * cone;
+                node_acc[k].r = node_acc[k].r + c * wt.x;
+                node_acc[k].g = node_acc[k].g + c * wt.y;
+                node_acc[k].b = node_acc[k].b + c * wt.z;
+            }
+            return;
+        }
+        var alpha = vec4<f32>(0.0);
+        for (var k = 0u; k < NODES; k++) {
+            alpha = alpha + node_alpha(k) * hat(z, k);
+        }
+        l = l * (alpha + (1.0 - alpha) * e);
+    } else if (COARSE) {
         var offset = q0.z;
         if (PROJECTED) {
             offset = wt.w;
@@ -321,13 +373,25 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     var gr: vec4<f32>;
     var b: vec4<f32>;
     // (Layer 0: the water, with the spread W0 + alpha W1; COARSE reads
-    // layer 1, the cone's share, alone.)
+    // layer 1, the cone's share, alone, or with NODES layers 1 .. NODES into
+    // the node images.)
     let layer = select(0u, 1u, COARSE);
-    for (var k = 0u; k < 4u; k = k + 1u) {
-        let w = bilinear4(water_table, w_col[k], w_row[k], layer, W_DIST, w_rows);
-        r[k] = w.x;
-        gr[k] = w.y;
-        b[k] = w.z;
+    if (COARSE && NODES > 0u) {
+        for (var n = 0u; n < NODES; n++) {
+            for (var k = 0u; k < 4u; k = k + 1u) {
+                let w = bilinear4(water_table, w_col[k], w_row[k], 1u + n, W_DIST, w_rows);
+                node_acc[n].r[k] = w.x;
+                node_acc[n].g[k] = w.y;
+                node_acc[n].b[k] = w.z;
+            }
+        }
+    } else {
+        for (var k = 0u; k < 4u; k = k + 1u) {
+            let w = bilinear4(water_table, w_col[k], w_row[k], layer, W_DIST, w_rows);
+            r[k] = w.x;
+            gr[k] = w.y;
+            b[k] = w.z;
+        }
     }
 
     // Materials, as deferred.wgsl.
@@ -399,7 +463,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     // COARSE takes the rest over 1 - alpha.
     var dk = vec4<f32>(1.0);
     var kept_b = vec4<f32>(0.0);
-    if (SPREAD) {
+    if (SPREAD && NODES == 0u) {
         let e = exp(-s * prm.fb_mean);
         // (Floored: alpha = 0 and exp(-x) underflowing would give 0 / 0.)
         dk = max(prm.alpha + (1.0 - prm.alpha) * e, vec4<f32>(1e-30));
@@ -484,6 +548,29 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         r = r + sr;
         gr = gr + sg;
         b = b + sb;
+    }
+    if (COARSE && NODES > 0u) {
+        // The blocks' mean node images, value q = 3 n + c in slot q / 4.
+        var s0: array<vec4<f32>, SLOTS>;
+        var s1: array<vec4<f32>, SLOTS>;
+        for (var n = 0u; n < NODES; n++) {
+            let a = node_acc[n];
+            let v0 = 0.5 * vec3<f32>(a.r.x + a.r.y, a.g.x + a.g.y, a.b.x + a.b.y);
+            let v1 = 0.5 * vec3<f32>(a.r.z + a.r.w, a.g.z + a.g.w, a.b.z + a.b.w);
+            for (var c = 0u; c < 3u; c++) {
+                let q = 3u * n + c;
+                s0[q / 4u][q % 4u] = v0[c];
+                s1[q / 4u][q % 4u] = v1[c];
+            }
+        }
+        for (var m = 0u; m < SLOTS; m++) {
+            let x = m * prm.coarse_size.x;
+            textureStore(cone_out, vec2<u32>(x + cb0, row), s0[m]);
+            if (cb0 + 1u < prm.coarse_size.x) {
+                textureStore(cone_out, vec2<u32>(x + cb0 + 1u, row), s1[m]);
+            }
+        }
+        return;
     }
     if (COARSE) {
         // The blocks' mean cone terms: the pyramid's start level.

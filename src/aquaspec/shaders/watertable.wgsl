@@ -13,6 +13,10 @@
 // the open-water column), then main (the hit columns), which reads a row's
 // open water in camera RGB instead of evaluating L_bg(d_o) per texel
 // (sum_i w_i (L_bg,i(d_o) - T_i L_bg,i(d_S)) = W_open - sum_i w_i T_i L_bg,i(d_S)).
+// NODES > 0 (the multiple-scattering spread, lightfield_compiled.water_table
+// with alpha_nodes): a band's cone term C_i at z_i = log3(1 + 2 f_i b_i S)
+// is kept with alpha(z_i) in layer 0, and layers 1 .. NODES hold it split
+// between the nodes by the hat weights max(0, 1 - |z_i - k|).
 
 #include "common.wgsl"
 #include "lftables.wgsl"
@@ -25,6 +29,7 @@ const N_MU: u32 = {{ n_mu }}u;
 const DISTANCES: u32 = {{ distances }}u;
 const LENGTH_SCALE: f32 = {{ length_scale }};
 const SPLIT: bool = {{ split }};
+const NODES: u32 = {{ nodes }}u;
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // Per band group g, field f at [f N_GROUPS + g] (lightfield_pass.water_band_fields):
@@ -110,8 +115,21 @@ fn open_column(@builtin(global_invocation_id) gid: vec3<u32>) {
     let texel = j * DISTANCES + DISTANCES - 1u;
     out[texel] = vec4<f32>(open, 0.0);
     if (SPLIT) {
-        out[rows * DISTANCES + texel] = vec4<f32>(0.0);
+        for (var k = 1u; k <= max(NODES, 1u); k++) {
+            out[k * rows * DISTANCES + texel] = vec4<f32>(0.0);
+        }
     }
+}
+
+// The kept share alpha_k of node k (prm.alpha_lo / alpha_hi).
+fn node_alpha(k: u32) -> f32 {
+    return select(prm.alpha_hi[k % 4u], prm.alpha_lo[k % 4u], k < 4u);
+}
+
+// Hat weight of node k at lambda coordinates z (clamped to the nodes).
+fn hat(z: vec4<f32>, k: u32) -> vec4<f32> {
+    let zc = clamp(z, vec4<f32>(0.0), vec4<f32>(f32(NODES - 1u)));
+    return max(vec4<f32>(0.0), 1.0 - abs(zc - f32(k)));
 }
 
 @compute @workgroup_size(8, 8)
@@ -140,6 +158,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // Open water seen past the hit, T L_bg(d_S), and the cone's share.
     var behind = vec3<f32>(0.0);
     var cone = vec3<f32>(0.0);
+    var kept = vec3<f32>(0.0);
+    var node_rgb: array<vec3<f32>, {{ node_array }}>;
     if (up || !inf_node) {
         for (var g = 0u; g < N_GROUPS; g = g + 1u) {
             let c = field(0u, g);
@@ -150,11 +170,26 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let t = select(t_beam, exp(-c * s), SPLIT);
             behind = behind + rgb_of(t * blocked, g);
             cone = cone - rgb_of((t_beam - t) * blocked, g);
+            if (NODES > 0u) {
+                let cb = -(t_beam - t) * blocked;
+                // lambda = f b S, f b = c - c'.
+                let z = log(1.0 + 2.0 * (c - field(2u, g)) * s) / log(3.0);
+                for (var k = 0u; k < NODES; k++) {
+                    let h = hat(z, k);
+                    kept = kept + rgb_of(node_alpha(k) * h * cb, g);
+                    node_rgb[k] = node_rgb[k] + rgb_of(h * cb, g);
+                }
+            }
         }
     }
     let base = out[j * DISTANCES + DISTANCES - 1u].xyz - behind;
     let texel = j * DISTANCES + k;
-    if (SPLIT) {
+    if (NODES > 0u) {
+        out[texel] = vec4<f32>(base + kept, 0.0);
+        for (var k = 0u; k < NODES; k++) {
+            out[(k + 1u) * rows * DISTANCES + texel] = vec4<f32>(node_rgb[k], 0.0);
+        }
+    } else if (SPLIT) {
         out[texel] = vec4<f32>(base + prm.alpha * cone, 0.0);
         out[rows * DISTANCES + texel] = vec4<f32>(cone, 0.0);
     } else {
