@@ -188,17 +188,21 @@ class TestRenderCommand:
         assert side["water"]["name"] == "IB" and side["bands"]["n"] == 8
         assert side["depth_m"] == 5.0 and side["camera"]["height"] == 180
 
-    def test_light_field_with_the_cone_spread(self, tmp_path):
+    @pytest.mark.parametrize("how", ["single", "multiple"])
+    def test_light_field_with_the_cone_spread(self, tmp_path, how):
         """GPU render with --cone-spread: the parameters reach the sidecar (cone
         40 degrees by default) and the image is the NumPy backend's, within the
         compiled model's interpolation (the GPU's water table; measured 1.2e-3 of
-        the image's largest value)."""
+        the image's largest value), with the cone's light scattered once or
+        (--spread-scattering multiple) a Poisson number of times."""
         out, lin = tmp_path / "s.png", tmp_path / "s.npy"
         args = ["render", "--water", "II", "--size", "64x36", "--bands", "4", "--ms-model",
-                "lightfield", "--phase", "ff", "--cone-spread", "--exposure", "0"]
+                "lightfield", "--phase", "ff", "--cone-spread", "--exposure", "0",
+                "--spread-scattering", how]
         assert main([*args, "-o", str(out), "--linear", str(lin)]) == 0
         side = json.loads((tmp_path / "s.png.json").read_text())
         assert side["cone_spread"] is True and side["forward_cone_deg"] == 40.0
+        assert side["spread_scattering"] == how
         ref = tmp_path / "r.npy"
         assert main([*args, "--backend", "numpy", "-o", str(tmp_path / "r.png"),
                      "--linear", str(ref)]) == 0
@@ -273,6 +277,14 @@ class TestRenderCommand:
 
     def test_bad_exposure(self, tmp_path, capsys):
         self.bad(tmp_path, capsys, ["--exposure", "bright"], "exposure 'bright'")
+
+    def test_bad_spread_scattering(self, tmp_path, capsys):
+        # (argparse's own usage error: exit status 2 naming the choices.)
+        with pytest.raises(SystemExit) as exc:
+            main(["render", "--spread-scattering", "double", "-o", str(tmp_path / "x.png")])
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and "invalid choice: 'double'" in err and "multiple" in err
+        assert not list(tmp_path.iterdir())
 
     def test_cone_spread_needs_the_light_field(self, tmp_path, capsys):
         self.bad(tmp_path, capsys, ["--ms-model", "seeds", "--cone-spread"],

@@ -81,7 +81,8 @@ def _frame_wall_ms(renderer, passes, frames, warmup):
 def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, warmup: int = 3,
               water="IB", depth_m: float = 5.0, sensor="human", numpy_reference: bool = True,
               ms_model: str | None = None, phase: str = "petzold", compare_seeds: bool = False,
-              cone_spread: bool | None = None, progress=None) -> dict:
+              cone_spread: bool | None = None, spread_scattering: str = "single",
+              progress=None) -> dict:
     """Run the cost study; returns a JSON-ready dict (see the module docstring)."""
     from .display import display_settings, to_display
     from .gpu.buffers import time_passes
@@ -118,7 +119,7 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
         scene, camera = builtin_scene(depth_m, width=width, height=height)
         for n in bands:
             setup = SpectralSetup(w_obj, s_obj, light, Bands(n), ms_model=ms_model, phase=phase,
-                                  cone_spread=cone_spread)
+                                  cone_spread=cone_spread, spread_scattering=spread_scattering)
             r = Renderer(width, height, n)
             geometry = _Geometry(r, scene, camera)
             r.set_spectral(setup, scene.materials)
@@ -207,7 +208,8 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                 entry["numpy_over_gpu_n8"] = x["numpy_over_gpu"]
         ratios.append(entry)
     return {"adapter": adapter_info(), "frames": frames, "warmup": warmup,
-            "ms_model": ms_model, **({"phase": phase, "cone_spread": cone_spread}
+            "ms_model": ms_model, **({"phase": phase, "cone_spread": cone_spread,
+                                        "spread_scattering": spread_scattering}
                                      if ms_model != "seeds" else {}),
             "water": w_obj.describe(), "sensor": s_obj.describe(), "depth_m": depth_m,
             "rows": rows, "numpy_reference": numpy_rows, "fits": fits, "ratios": ratios}

@@ -234,7 +234,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
-           seabed="scene", exposure="auto", white_balance="none", tonemap="filmic",
+           spread_scattering: str = "single", seabed="scene", exposure="auto", white_balance="none", tonemap="filmic",
            colour_matrix="auto", return_radiance: bool = False, backend: str = "gpu",
            progress=None) -> RenderResult:
     """Render one image.
@@ -275,6 +275,10 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         None: 15, or 40 with ``cone_spread``; ``cone_spread`` spreads that
         light over the image from where the cone points,
         :mod:`aquaspec.conespread`; None: on) or ``"seeds"`` (thesis Eq. 4.7).
+    spread_scattering : {"single", "multiple"}
+        With ``cone_spread``: the cone's light scattered once, or a Poisson
+        number of times with mean ``f b S`` per pixel and band
+        (:func:`aquaspec.lightfield.lightfield_tables`).
     seabed : "scene", None or Seabed
         The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`):
         ``"scene"`` takes the scene's (the built-in scene's sand; none for
@@ -313,7 +317,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     from .appearance import check_ms_model
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase,
-                          forward_cone_deg=forward_cone_deg, cone_spread=cone_spread)
+                          forward_cone_deg=forward_cone_deg, cone_spread=cone_spread,
+                          spread_scattering=spread_scattering)
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
 

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from ..model import DEFAULT_MS_MODEL, MS_MODELS
+from .common import add_spread_scattering_option
 
 
 def register(sub):
@@ -28,6 +29,7 @@ def register(sub):
     p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
                    help="--ms-model lightfield: with the forward cone spread over the image "
                         "(the pyramid passes; forward cone 40 degrees; default: on)")
+    add_spread_scattering_option(p)
     p.add_argument("--compare-seeds", action="store_true",
                    help="with --ms-model lightfield: also time the seeds' frame on the same "
                         "G-buffer in the same run and report lightfield / seeds")
@@ -54,7 +56,7 @@ def run(args):
     result = run_bench(sizes=sizes, bands=bands, frames=args.frames, warmup=args.warmup,
                        water=args.water, depth_m=args.depth, numpy_reference=not args.no_numpy,
                        ms_model=args.ms_model, phase=args.phase, compare_seeds=args.compare_seeds,
-                       cone_spread=args.cone_spread,
+                       cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
                        progress=lambda m: print(m, file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:

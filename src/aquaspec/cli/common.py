@@ -56,6 +56,14 @@ def add_light_options(p):
                         "beam towards surfaces (default 15, or 40 with --cone-spread; 0 = off)")
 
 
+def add_spread_scattering_option(p):
+    p.add_argument("--spread-scattering", choices=("single", "multiple"), default="single",
+                   help="--cone-spread: the cone's light scattered once inside the cone (single, the "
+                        "default) or a Poisson number of times with mean f b S (multiple: "
+                        "kernels at six lambda nodes; closer to the path tracer in turbid "
+                        "water, slower)")
+
+
 def parse_range(text):
     from ..errors import AquaspecError
     try:

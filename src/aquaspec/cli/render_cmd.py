@@ -6,7 +6,8 @@ import argparse
 import sys
 
 from .common import (add_band_options, add_light_options, add_sensor_options,
-                     add_water_options, parse_depth_albedo, parse_range)
+                     add_spread_scattering_option, add_water_options, parse_depth_albedo,
+                     parse_range)
 
 
 def register(sub):
@@ -44,6 +45,7 @@ def register(sub):
                    help="--ms-model lightfield: the forward cone's light comes from where the "
                         "cone points in the image (an image pyramid; default: on for the "
                         "light field)")
+    add_spread_scattering_option(p)
     p.add_argument("--seabed", default="scene", metavar="scene|none|DEPTH[,ALBEDO]",
                    help="the light field's lower boundary: the scene's (default; the "
                         "built-in scene's sand), none (deep water), or a flat Lambertian "
@@ -104,6 +106,7 @@ def run(args):
                  ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                  ms_model=args.ms_model, phase=args.phase,
                  forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
+                 spread_scattering=args.spread_scattering,
                  seabed=seabed,
                  exposure=exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from .common import add_spread_scattering_option
 
 
 def register(sub):
@@ -46,10 +47,7 @@ def register(sub):
                    help="light-field model: the forward cone's light comes from where the cone "
                         "points in the image (a convolution), not from the pixel's own surface "
                         "(default: on when the models include lightfield)")
-    p.add_argument("--spread-scattering", choices=("single", "multiple"), default="single",
-                   help="light-field model with --cone-spread: the cone's light scattered once "
-                        "(the renderer's) or a Poisson number of times with mean f b S "
-                        "(multiple: the NumPy model only, so far)")
+    add_spread_scattering_option(p)
     p.add_argument("--seabed-below", metavar="M[,ALBEDO]",
                    help="a flat grey Lambertian seabed M metres below the camera (albedo "
                         "default 0.2) in the reference and in the light field; the light "
