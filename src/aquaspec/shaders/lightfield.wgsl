@@ -25,15 +25,16 @@
 //
 // With NODES > 0 (the multiple-scattering spread, lightfield_compiled with
 // alpha_nodes; K = NODES lambda nodes at z = 0 .. K - 1):
-// - the full-resolution pass keeps of band i's target light exactly
-//   alpha(z_i) + (1 - alpha(z_i)) exp(-x_i), x_i = f_i b_i S, z_i =
-//   log3(1 + 2 x_i), alpha interpolated between the nodes' prm.alpha_lo/hi
-//   (an exponential and a logarithm per band more; the water table's layer
-//   0 already keeps the water's share);
-// - COARSE writes K node images of camera RGB: the target's whole cone term
-//   (1 - exp(-x_i)) of its light split by the hat weights of z_i, plus the
-//   water table's layers 1 .. K, in SLOTS vec4 per block, slot m at column
-//   block + m coarse_size.x of cone_out (aquaspec/gpu/conespread_pass.py).
+// - the full-resolution pass keeps alpha + (1 - alpha) exp(-x_i) of band
+//   i's target light, x_i = f_i b_i S, alpha the nodes' prm.alpha_lo/hi
+//   interpolated once per pixel at z = log3(1 + 2 mean(f b) S) (an
+//   exponential per band more; the water table's layer 0 already keeps the
+//   water's share);
+// - COARSE writes K node images of camera RGB: the rest of the target's
+//   light, (1 - alpha) (1 - exp(-x_i)), split by the hat weights of z_i =
+//   log3(1 + 2 x_i) over 1 - alpha(z_i) (lightfield_compiled.surface_rgb),
+//   plus the water table's layers 1 .. K, in SLOTS vec4 per block, slot m at
+//   column block + m coarse_size.x of cone_out (aquaspec/gpu/conespread_pass.py).
 //
 // Written for lavapipe (SIMD over 8 invocations on the CPU), as
 // deferred.wgsl (see its header): per-band constants in a uniform array
@@ -216,6 +217,8 @@ struct LfPixels {
     dk: vec4<f32>,
     // COARSE: 1 / (1 - alpha).
     inv_rest: f32,
+    // NODES: the share alpha the pixel keeps.
+    node_kept: vec4<f32>,
     c0: vec4<f32>,
     c1: vec4<f32>,
     c2: vec4<f32>,
@@ -234,6 +237,20 @@ fn node_alpha(k: u32) -> f32 {
 fn hat(z: vec4<f32>, k: u32) -> vec4<f32> {
     let zc = clamp(z, vec4<f32>(0.0), vec4<f32>(f32(NODES - 1u)));
     return max(vec4<f32>(0.0), 1.0 - abs(zc - f32(k)));
+}
+
+// z = log3(1 + 2 x) (aquaspec.conespread.lambda_coordinate).
+fn lambda_coordinate(x: vec4<f32>) -> vec4<f32> {
+    return log(1.0 + 2.0 * x) * (1.0 / log(3.0));
+}
+
+// The nodes' kept shares interpolated at z.
+fn node_value_alpha(z: vec4<f32>) -> vec4<f32> {
+    var alpha = vec4<f32>(0.0);
+    for (var k = 0u; k < NODES; k++) {
+        alpha = alpha + node_alpha(k) * hat(z, k);
+    }
+    return alpha;
 }
 
 // The targets' own light in band i (material reflectance rho_m, 0 where
@@ -270,26 +287,22 @@ fn target_band(i: u32, rho_m: vec4<f32>, p: LfPixels, acc: ptr<function, Rgb4>) 
     // (rho is 0 where there is no hit, and ln_e finite: no select needed.)
     var l = rho * exp(ln_e);
     if (NODES > 0u) {
-        // x_i = f_i b_i S (q0.z + mean f b = f_i b_i), its lambda coordinate.
-        let x = (q0.z + prm.fb_mean) * p.s_e;
-        let e = exp(-x);
-        let z = log(1.0 + 2.0 * x) * (1.0 / log(3.0));
+        // x_i = f_i b_i S (q0.z + mean f b = f_i b_i).
+        let e = exp(-(q0.z + prm.fb_mean) * p.s_e);
         if (COARSE) {
-            // The whole cone term, split between the nodes.
-            let cone = l * (1.0 - e);
+            // The rest, split between the nodes at this band's coordinate.
+            let z = lambda_coordinate((q0.z + prm.fb_mean) * p.s_e);
+            let rest = l * (1.0 - p.node_kept) * (1.0 - e);
+            let share = rest / max(1.0 - node_value_alpha(z), vec4<f32>(1e-12));
             for (var k = 0u; k < NODES; k++) {
-                let c = hat(z, k) * cone;
+                let c = hat(z, k) * share;
                 node_acc[k].r = node_acc[k].r + c * wt.x;
                 node_acc[k].g = node_acc[k].g + c * wt.y;
                 node_acc[k].b = node_acc[k].b + c * wt.z;
             }
             return;
         }
-        var alpha = vec4<f32>(0.0);
-        for (var k = 0u; k < NODES; k++) {
-            alpha = alpha + node_alpha(k) * hat(z, k);
-        }
-        l = l * (alpha + (1.0 - alpha) * e);
+        l = l * (p.node_kept + (1.0 - p.node_kept) * e);
     } else if (COARSE) {
         var offset = q0.z;
         if (PROJECTED) {
@@ -493,8 +506,12 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     // (aquaspec.gpu.materials): below GROUPED_MIN_BANDS nested loops, from it
     // four band bodies per iteration, then N_BANDS % 4.
     var acc = Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+    var node_kept = vec4<f32>(0.0);
+    if (NODES > 0u) {
+        node_kept = node_value_alpha(lambda_coordinate(prm.fb_mean * s));
+    }
     let pix = LfPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk,
-                       1.0 / max(1.0 - prm.alpha, 1e-12), c0, c1, c2, use_sigmoid);
+                       1.0 / max(1.0 - prm.alpha, 1e-12), node_kept, c0, c1, c2, use_sigmoid);
     if (!GROUPED_BANDS) {
         // A material vec4 per outer iteration, a band per inner one (trip
         // counts per invocation: the loops stay loops, as materials.wgsl says).
