@@ -408,9 +408,15 @@ def test_multiple_scattering_spread_matches_its_twin(water, n, kind, start, filt
     assert lp.nodes == len(LAMBDA_NODES) and lp.spread_plan[0] == (start or 0)
     comp = lp.reference_compiled()
     assert comp.water.shape[0] == 1 + lp.nodes
-    table = lp.read_water_table()
-    np.testing.assert_allclose(table, comp.water, rtol=2e-4,
+    table = lp.read_water_table(channels=4)
+    np.testing.assert_allclose(table[..., :3], comp.water, rtol=2e-4,
                                atol=2e-6 * np.abs(comp.water).max())
+    # Layer 0's fourth channel: the share a hit pixel keeps (node_alpha).
+    from aquaspec.lightfield_compiled import node_alpha
+    kept = node_alpha(comp, lp._water_distances(5.0))
+    np.testing.assert_allclose(table[0, :, :-1, 3], kept, atol=1e-5)
+    assert 0.0 <= kept.min() and kept.max() < 1.0
+    assert np.ptp(kept) > 0.01 if start else kept.max() == 0.0   # start 0: nothing kept
     linear = lp.read_rgb()
     ref = twin_of(lp, gb, medium)
     assert_matches(linear, ref)

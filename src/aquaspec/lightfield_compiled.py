@@ -421,6 +421,16 @@ def compile_lightfield(tables, *, a, b, e0, response_weights, depth_o: float,
                     alpha_nodes=alpha_nodes)
 
 
+def node_alpha(comp: "Compiled", s) -> np.ndarray:
+    """The multiple-scattering spread's share kept by a pixel at distance
+    ``s``: ``comp.alpha_nodes`` interpolated at ``z = log3(1 + 2 mean(f b) s)``
+    (:func:`surface_rgb`; the GPU's water table holds it in layer 0's fourth
+    channel)."""
+    from .conespread import interp_nodes, lambda_coordinate
+    return interp_nodes(comp.alpha_nodes, lambda_coordinate(np.mean(comp.fb)
+                                                             * np.asarray(s, dtype=float)))
+
+
 def multiple_plan(node_weights, pixels_per_radian: float, start_level: int | None = None):
     """``(L0, tables)`` of the multiple-scattering spread: the start level as
     :func:`spread_plan` chooses it, and :func:`aquaspec.conespread.node_level_tables`
@@ -587,18 +597,18 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
     where that applies, as the GPU does) and ``spread`` the rest divided by ``1 - alpha``, to be weighted by
     the pyramid's levels from ``L0`` (which sum to ``1 - alpha``).
 
-    With ``comp.alpha_nodes`` (the multiple-scattering spread) the pixel
-    keeps ``alpha + (1 - alpha) exp(-x_i)`` of band ``i``'s light, ``x_i =
-    f_i b_i S``, with one ``alpha`` for all bands: the nodes' shares
-    interpolated at the bands' mean ``x = mean(f b) S`` (``z = log3(1 + 2
-    x)``; per band it cost a logarithm and the hat weights in every pixel,
-    +8 ms per 1280x720 frame at 8 bands on lavapipe; a tangent like
-    :func:`kept_share`'s overflows where ``alpha`` changes fast with ``x``).
-    ``spread`` is ``(P, K, 3)``: the rest, ``(1 - alpha) (1 - exp(-x_i))``,
-    split between the nodes by the hat weights of ``z_i = log3(1 + 2 x_i)``
-    (:func:`node_hats`) and divided by ``1 - alpha(z_i)``, as node ``k``'s
-    weights from the start level sum to ``1 - alpha_k``: the spread gives
-    back exactly what the pixel does not keep.
+    With ``comp.alpha_nodes`` (the multiple-scattering spread) the pixel's
+    share is :func:`kept_share`'s with one ``alpha`` for all bands, the
+    nodes' shares interpolated at the bands' mean ``x = mean(f b) S`` (``z =
+    log3(1 + 2 x)``, :func:`node_alpha`; the GPU reads it from the water
+    table). Per band it cost a logarithm and the hat weights in every pixel,
+    +8 ms per 1280x720 frame at 8 bands on lavapipe, and a tangent with
+    ``alpha`` depending on the band overflows where it changes fast.
+    ``spread`` is ``(P, K, 3)``: the rest split between the nodes by the hat
+    weights of ``z_i = log3(1 + 2 f_i b_i S)`` (:func:`node_hats`) and
+    divided by ``1 - alpha(z_i)``, as node ``k``'s weights from the start
+    level sum to ``1 - alpha_k``: the spread gives back exactly what the
+    pixel does not keep.
     """
     from .lightfield import bilinear
     s = np.asarray(s, dtype=float)[:, None]
@@ -608,10 +618,9 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
     l = np.asarray(rho, dtype=float) * np.exp(ln_e)
     if comp.alpha_nodes is not None:
         from .conespread import interp_nodes, lambda_coordinate
-        x = comp.fb[None, :] * s
-        z = lambda_coordinate(x)
-        alpha = interp_nodes(comp.alpha_nodes, lambda_coordinate(comp.fb.mean() * s))
-        rest = (1.0 - alpha) * l * -np.expm1(-x)
+        z = lambda_coordinate(comp.fb[None, :] * s)
+        dk, slope = kept_share(comp.fb.mean(), node_alpha(comp, s[:, 0]), s[:, 0])
+        rest = l - l * dk[:, None] * np.exp(slope[:, None] * s * (comp.fb - comp.fb.mean()))
         share = rest / np.maximum(1.0 - interp_nodes(comp.alpha_nodes, z), 1e-12)
         hats = node_hats(z, comp.alpha_nodes.size)                      # (K, P, n)
         return ((l - rest) @ comp.surface_weights,

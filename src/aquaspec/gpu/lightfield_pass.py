@@ -135,7 +135,8 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
 
 WATER_PARAMS_LAYOUT = UniformLayout("WaterTableParams", [
     ("depth_o", "f32"), ("window_cos", "f32"), ("max_depth", "f32"), ("alpha", "f32"),
-    ("n_out", "u32"), ("n_in", "u32"), ("alpha_lo", "vec4<f32>"), ("alpha_hi", "vec4<f32>"),
+    ("n_out", "u32"), ("n_in", "u32"), ("fb_mean", "f32"), ("alpha_lo", "vec4<f32>"),
+    ("alpha_hi", "vec4<f32>"),
 ])
 
 #: Most lambda nodes of the multiple-scattering spread the shaders take.
@@ -439,6 +440,12 @@ class LightfieldPass:
                 table[0] += alpha * table[1]       # as watertable.wgsl's layer 0
             texels = np.zeros(table.shape[:3] + (4,), np.float32)
             texels[..., :3] = table
+            if self.nodes:
+                # (As watertable.wgsl: the pixel's kept share over the distances.)
+                texels[0, :, :lfc.DISTANCES - 1, 3] = lfc.node_alpha(
+                    types.SimpleNamespace(alpha_nodes=np.array(alpha),
+                                          fb=np.array([self._shape["fb_mean"]])),
+                    self._water_distances(depth_o))
             upload_buffer(dev, self._water_out, texels.reshape(-1))
         else:
             self._encode_water_table(encoder, depth_o, alpha, n_out, n_in, rows)
@@ -456,7 +463,7 @@ class LightfieldPass:
         upload_buffer(dev, self._water_params, WATER_PARAMS_LAYOUT.pack(
             depth_o=depth_o, window_cos=self._shape["window_cos"],
             max_depth=self._shape["max_depth"], alpha=0.0 if self.nodes else alpha,
-            n_out=n_out, n_in=n_in, **_alpha_vec4s(alpha)))
+            n_out=n_out, n_in=n_in, fb_mean=self._shape["fb_mean"], **_alpha_vec4s(alpha)))
         group = dev.create_bind_group(layout=layout, entries=bind_group_entries(
             {0: self._water_params, 1: self._water_band_buffer, 2: self._log_prefactor,
              3: self._water_out}))
@@ -465,13 +472,25 @@ class LightfieldPass:
             (open_column, group, (-(-rows // 64), 1, 1)),
             (hits, group, (-(-(lfc.DISTANCES - 1) // 8), -(-rows // 8), 1))])
 
-    def read_water_table(self) -> np.ndarray:
-        """The last water table built, ``(layers, directions, DISTANCES, 3)`` float32 (tests)."""
+    def _water_distances(self, depth_o: float) -> np.ndarray:
+        """The hit columns' distances of the water table ``(directions, DISTANCES - 1)``,
+        up rays' clipped at the surface (watertable.wgsl's ``s``)."""
+        v, _ = lfc.direction_nodes(self._shape["window_cos"])
+        s = np.broadcast_to(lfc.distance_nodes(), (v.size, lfc.DISTANCES - 1))
+        up = v[:, None] > 0
+        with np.errstate(over="ignore"):       # up rays within 1e-30 of level
+            to_surface = depth_o / np.where(up, v[:, None], 1.0)
+        return np.where(up, np.minimum(s, to_surface), s)
+
+    def read_water_table(self, channels: int = 3) -> np.ndarray:
+        """The last water table built, ``(layers, directions, DISTANCES, channels)``
+        float32 (tests; the fourth channel of layer 0 is the multiple-scattering
+        spread's kept share)."""
         if self._water_key is None:
             raise AquaspecError("no water table yet: run the pass first")
         layers, rows = self._water_shape
         return read_buffer(self.device, self._water_out, np.float32,
-                           (layers, rows, lfc.DISTANCES, 4))[..., :3]
+                           (layers, rows, lfc.DISTANCES, 4))[..., :channels]
 
     def reference_compiled(self) -> "lfc.Compiled":
         """The NumPy compiled model for the last frame's camera depth (the twin's input)."""

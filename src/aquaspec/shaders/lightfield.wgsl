@@ -25,14 +25,13 @@
 //
 // With NODES > 0 (the multiple-scattering spread, lightfield_compiled with
 // alpha_nodes; K = NODES lambda nodes at z = 0 .. K - 1):
-// - the full-resolution pass keeps alpha + (1 - alpha) exp(-x_i) of band
-//   i's target light, x_i = f_i b_i S, alpha the nodes' prm.alpha_lo/hi
-//   interpolated once per pixel at z = log3(1 + 2 mean(f b) S) (an
-//   exponential per band more; the water table's layer 0 already keeps the
-//   water's share);
+// - the kept share is the single-scattering spread's with a per-pixel alpha
+//   instead of prm.alpha: the nodes' shares at z = log3(1 + 2 mean(f b) S),
+//   which the water table's layer 0 holds in its fourth channel (the table
+//   already keeps the water's own share);
 // - COARSE writes K node images of camera RGB: the rest of the target's
-//   light, (1 - alpha) (1 - exp(-x_i)), split by the hat weights of z_i =
-//   log3(1 + 2 x_i) over 1 - alpha(z_i) (lightfield_compiled.surface_rgb),
+//   light split by the hat weights of z_i = log3(1 + 2 f_i b_i S) over
+//   1 - alpha(z_i) (lightfield_compiled.surface_rgb),
 //   plus the water table's layers 1 .. K, in SLOTS vec4 per block, slot m at
 //   column block + m coarse_size.x of cone_out (aquaspec/gpu/conespread_pass.py).
 //
@@ -217,8 +216,6 @@ struct LfPixels {
     dk: vec4<f32>,
     // COARSE: 1 / (1 - alpha).
     inv_rest: f32,
-    // NODES: the share alpha the pixel keeps.
-    node_kept: vec4<f32>,
     c0: vec4<f32>,
     c1: vec4<f32>,
     c2: vec4<f32>,
@@ -280,30 +277,27 @@ fn target_band(i: u32, rho_m: vec4<f32>, p: LfPixels, acc: ptr<function, Rgb4>) 
     if (PER_PIXEL_MATERIALS) {
         rho = select(rho, sigmoid_reflectance(p.c0, p.c1, p.c2, q0.w), p.use_sigmoid);
     }
-    if (SPREAD && !COARSE && !PROJECTED && NODES == 0u) {
+    if (SPREAD && !COARSE && !PROJECTED) {
         // q0.z: f_i b_i minus the bands' mean.
         ln_e = ln_e + p.kept_b * q0.z;
     }
     // (rho is 0 where there is no hit, and ln_e finite: no select needed.)
     var l = rho * exp(ln_e);
-    if (NODES > 0u) {
-        // x_i = f_i b_i S (q0.z + mean f b = f_i b_i).
-        let e = exp(-(q0.z + prm.fb_mean) * p.s_e);
-        if (COARSE) {
-            // The rest, split between the nodes at this band's coordinate.
-            let z = lambda_coordinate((q0.z + prm.fb_mean) * p.s_e);
-            let rest = l * (1.0 - p.node_kept) * (1.0 - e);
-            let share = rest / max(1.0 - node_value_alpha(z), vec4<f32>(1e-12));
-            for (var k = 0u; k < NODES; k++) {
-                let c = hat(z, k) * share;
-                node_acc[k].r = node_acc[k].r + c * wt.x;
-                node_acc[k].g = node_acc[k].g + c * wt.y;
-                node_acc[k].b = node_acc[k].b + c * wt.z;
-            }
-            return;
+    if (COARSE && NODES > 0u) {
+        // The rest, split between the nodes at this band's coordinate
+        // (x_i = f_i b_i S, q0.z + mean f b = f_i b_i).
+        let z = lambda_coordinate((q0.z + prm.fb_mean) * p.s_e);
+        let rest = l - l * p.dk * exp(p.kept_b * q0.z);
+        let share = rest / max(1.0 - node_value_alpha(z), vec4<f32>(1e-12));
+        for (var k = 0u; k < NODES; k++) {
+            let c = hat(z, k) * share;
+            node_acc[k].r = node_acc[k].r + c * wt.x;
+            node_acc[k].g = node_acc[k].g + c * wt.y;
+            node_acc[k].b = node_acc[k].b + c * wt.z;
         }
-        l = l * (p.node_kept + (1.0 - p.node_kept) * e);
-    } else if (COARSE) {
+        return;
+    }
+    if (COARSE) {
         var offset = q0.z;
         if (PROJECTED) {
             offset = wt.w;
@@ -388,8 +382,13 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     // (Layer 0: the water, with the spread W0 + alpha W1; COARSE reads
     // layer 1, the cone's share, alone, or with NODES layers 1 .. NODES into
     // the node images.)
-    let layer = select(0u, 1u, COARSE);
+    let layer = select(0u, 1u, COARSE && NODES == 0u);
+    // NODES: the pixel's kept share (layer 0's fourth channel).
+    var node_kept = vec4<f32>(0.0);
     if (COARSE && NODES > 0u) {
+        for (var k = 0u; k < 4u; k = k + 1u) {
+            node_kept[k] = bilinear4(water_table, w_col[k], w_row[k], 0u, W_DIST, w_rows).w;
+        }
         for (var n = 0u; n < NODES; n++) {
             for (var k = 0u; k < 4u; k = k + 1u) {
                 let w = bilinear4(water_table, w_col[k], w_row[k], 1u + n, W_DIST, w_rows);
@@ -404,6 +403,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
             r[k] = w.x;
             gr[k] = w.y;
             b[k] = w.z;
+            node_kept[k] = w.w;
         }
     }
 
@@ -476,11 +476,12 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     // COARSE takes the rest over 1 - alpha.
     var dk = vec4<f32>(1.0);
     var kept_b = vec4<f32>(0.0);
-    if (SPREAD && NODES == 0u) {
+    if (SPREAD) {
         let e = exp(-s * prm.fb_mean);
+        let alpha = select(vec4<f32>(prm.alpha), node_kept, NODES > 0u);
         // (Floored: alpha = 0 and exp(-x) underflowing would give 0 / 0.)
-        dk = max(prm.alpha + (1.0 - prm.alpha) * e, vec4<f32>(1e-30));
-        kept_b = -(1.0 - prm.alpha) * e / dk * s;
+        dk = max(alpha + (1.0 - alpha) * e, vec4<f32>(1e-30));
+        kept_b = -(1.0 - alpha) * e / dk * s;
     }
     // (With PROJECTED the band's term moves into the pixel's: d_S, S and the
     // basis shifted by lam kb, and exp(mu kb) with dk.)
@@ -506,12 +507,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     // (aquaspec.gpu.materials): below GROUPED_MIN_BANDS nested loops, from it
     // four band bodies per iteration, then N_BANDS % 4.
     var acc = Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
-    var node_kept = vec4<f32>(0.0);
-    if (NODES > 0u) {
-        node_kept = node_value_alpha(lambda_coordinate(prm.fb_mean * s));
-    }
     let pix = LfPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk,
-                       1.0 / max(1.0 - prm.alpha, 1e-12), node_kept, c0, c1, c2, use_sigmoid);
+                       1.0 / max(1.0 - prm.alpha, 1e-12), c0, c1, c2, use_sigmoid);
     if (!GROUPED_BANDS) {
         // A material vec4 per outer iteration, a band per inner one (trip
         // counts per invocation: the loops stay loops, as materials.wgsl says).

@@ -16,7 +16,9 @@
 // NODES > 0 (the multiple-scattering spread, lightfield_compiled.water_table
 // with alpha_nodes): a band's cone term C_i at z_i = log3(1 + 2 f_i b_i S)
 // is kept with alpha(z_i) in layer 0, and layers 1 .. NODES hold it split
-// between the nodes by the hat weights max(0, 1 - |z_i - k|).
+// between the nodes by the hat weights max(0, 1 - |z_i - k|); layer 0's
+// fourth channel holds the share a pixel keeps of its target's cone,
+// alpha at log3(1 + 2 mean(f b) S) (lightfield_compiled.node_alpha).
 
 #include "common.wgsl"
 #include "lftables.wgsl"
@@ -185,7 +187,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let base = out[j * DISTANCES + DISTANCES - 1u].xyz - behind;
     let texel = j * DISTANCES + k;
     if (NODES > 0u) {
-        out[texel] = vec4<f32>(base + kept, 0.0);
+        let zm = log(1.0 + 2.0 * prm.fb_mean * s) / log(3.0);
+        var alpha_s = 0.0;
+        for (var k = 0u; k < NODES; k++) {
+            alpha_s = alpha_s + node_alpha(k) * hat(vec4<f32>(zm), k).x;
+        }
+        out[texel] = vec4<f32>(base + kept, alpha_s);
         for (var k = 0u; k < NODES; k++) {
             out[(k + 1u) * rows * DISTANCES + texel] = vec4<f32>(node_rgb[k], 0.0);
         }
