@@ -43,6 +43,11 @@ def setup_of(water, n, phase, cone=0.0, sensor="nikon-5100-npl", cone_spread=Fal
                          cone_spread=cone_spread)
 
 
+def lfc_node_alpha(comp, s):
+    from aquaspec.lightfield_compiled import node_alpha
+    return node_alpha(comp, s)
+
+
 def gpu_pass(gb, setup, e0_scale=1.0, filtering=None, tables=None):
     from aquaspec.gpu.deferred import DeferredPass
     from aquaspec.gpu.lightfield_pass import LightfieldPass
@@ -108,20 +113,31 @@ def test_matches_reference(water, n, phase, kind, depth, cone, filtering, lightf
 @pytest.mark.parametrize("water,n,depth_h,rank,spread", [
     # Five irradiance functions of eight slots (a second texture read, one term).
     ("I", 6, 12.0, 5, False), ("I", 6, 12.0, 5, True), ("IB", 8, 7.8, 5, True),
+    ("IB", 8, 7.8, 5, "multiple"),
 ])
 def test_seabed_tables(water, n, depth_h, rank, spread, lightfield_gbuffer):
     """Tables with a Lambertian seabed: the water table is built on the CPU
-    (lightfield_compiled.water_table) and the pass matches its twin."""
+    (lightfield_compiled.water_table, with the multiple-scattering spread's
+    node layers and kept share too) and the pass matches its twin."""
     from aquaspec.lightfield import lightfield_tables
     gb = lightfield_gbuffer("builtin", 5.0)
-    setup = setup_of(water, n, "petzold", cone=40.0 if spread else 15.0, cone_spread=spread)
+    setup = setup_of(water, n, "petzold", cone=40.0 if spread else 15.0,
+                     cone_spread=bool(spread))
+    how = "multiple" if spread == "multiple" else "single"
     tables = lightfield_tables(setup.water.on_bands(setup.bands), phase="petzold",
                                seabed_depth_m=depth_h, seabed_albedo=0.3,
-                               forward_cone_deg=setup.cone_deg, cone_spread=spread)
+                               forward_cone_deg=setup.cone_deg, cone_spread=bool(spread),
+                               spread_scattering=how)
     medium = setup.medium(gb.materials)
     lp = gpu_pass(gb, setup, tables=tables)
-    assert lp.seabed and lp.spread == spread and lp._shape["rank"] == rank
+    assert lp.seabed and lp.spread == bool(spread) and lp._shape["rank"] == rank
+    lp.spread_start_level = 1 if how == "multiple" else None
     lp.run()
+    if how == "multiple":
+        comp = lp.reference_compiled()
+        assert lp.nodes == 6 and comp.water.shape[0] == 7
+        np.testing.assert_allclose(lp.read_water_table(channels=4)[0, :, :-1, 3],
+                                   lfc_node_alpha(comp, lp._water_distances(5.0)), atol=1e-6)
     assert_matches(lp.read_rgb(), twin_of(lp, gb, medium), rtol=1e-3 if spread else 1e-4)
     plain = gpu_pass(gb, setup)                      # the same water over deep water
     plain.run()

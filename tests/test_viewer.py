@@ -85,6 +85,24 @@ def test_default_is_the_light_field_with_the_spread():
     assert len(v._setups) == 2 and max(x.seabed.depth_m for x in v._setups.values()) > 8.0
 
 
+def test_multiple_scattering_spread():
+    """spread_scattering="multiple" (aquaspec view --spread-scattering multiple):
+    the setups use it with the spread (the built-in scene's seabed: the water
+    table built on the CPU with its node layers), the title says so, and the
+    image differs from the single-scattering spread's."""
+    single = Viewer(64, 36, bands=4).update().copy()
+    v = Viewer(64, 36, bands=4, spread_scattering="multiple")
+    multi = v.update()
+    assert "cone spread (multiple)" in v.title()
+    (setup,) = v._setups.values()
+    assert setup.spread_scattering == "multiple" and setup.seabed is not None
+    assert np.abs(multi.astype(float) - single).max() > 0
+    v.update(cone_spread=False)
+    assert all(x.spread_scattering == "single" for x in v._setups.values() if not x.cone_spread)
+    with pytest.raises(AquaspecError, match="spread_scattering='double'"):
+        Viewer(32, 18, spread_scattering="double")
+
+
 def test_cone_spread_leaves_the_seeds_model_alone():
     v = Viewer(64, 36, bands=4, ms_model="seeds")
     seeds = v.update().copy()

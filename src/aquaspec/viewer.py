@@ -42,20 +42,24 @@ class Viewer:
         ``exposure`` is ``"auto"`` or EV; ``ms_model`` a key of
         :data:`aquaspec.model.MS_MODELS`; ``cone_spread`` (light field only;
         None: on) spreads the forward cone's light over the image (cone 40
-        degrees).
+        degrees); ``spread_scattering`` ("single" or "multiple") how.
     camspec : path, optional
         Makes the cameras of a camspec file selectable.
     """
 
     def __init__(self, width=640, height=360, *, water="IB", depth_m=5.0, bands=8,
                  sensor="human", exposure="auto", ms_model=DEFAULT_MS_MODEL, cone_spread=None,
-                 camspec=None):
+                 camspec=None, spread_scattering="single"):
         self.width, self.height = width, height
         self.camspec = camspec
         self.state = {"water": water, "depth_m": float(depth_m), "bands": int(bands),
                       "sensor": sensor, "exposure": exposure, "ms_model": ms_model,
                       # (the light field's default: spread; see model.cone_spread_for)
                       "cone_spread": True if cone_spread is None else bool(cone_spread)}
+        if spread_scattering not in ("single", "multiple"):
+            raise AquaspecError(f"spread_scattering={spread_scattering!r}; accepted: "
+                                "'single', 'multiple'")
+        self.spread_scattering = spread_scattering
         self._waters, self._sensors, self._setups = {}, {}, {}
         check_ms_model(ms_model)
         self._renderer = None
@@ -114,7 +118,8 @@ class Viewer:
             self._setups[key] = SpectralSetup(self._waters[water], self._sensors[sensor],
                                               surface_light("overcast"), Bands(bands),
                                               ms_model=ms_model, cone_spread=bool(spread),
-                                              seabed=seabed)
+                                              spread_scattering=self.spread_scattering
+                                              if spread else "single", seabed=seabed)
         return self._setups[key]
 
     def title(self) -> str:
@@ -122,6 +127,8 @@ class Viewer:
         model = "light field" if s["ms_model"] == "lightfield" else "seeds' model"
         if s["ms_model"] == "lightfield" and s["cone_spread"]:
             model += " + cone spread"
+            if self.spread_scattering == "multiple":
+                model += " (multiple)"
         return (f"Jerlov {s['water']}, {s['depth_m']:.1f} m, {s['bands']} bands, "
                 f"{s['sensor']}, {model}, {self.last_frame_ms:.0f} ms")
 

@@ -21,6 +21,8 @@ def register(sub):
     p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
                    help="start with the light field's forward cone spread over the image "
                         "(default: on)")
+    from .common import add_spread_scattering_option
+    add_spread_scattering_option(p)
     p.add_argument("--camspec", metavar="PATH")
     p.add_argument("--size", default="640x360", metavar="WxH")
     p.set_defaults(func=run, command="view")
@@ -32,5 +34,5 @@ def run(args):
     w, h = parse_size(args.size)
     run_viewer(width=w, height=h, water=args.water, depth_m=args.depth, bands=args.bands,
                sensor=args.sensor, ms_model=args.ms_model, cone_spread=args.cone_spread,
-               camspec=args.camspec)
+               camspec=args.camspec, spread_scattering=args.spread_scattering)
     return 0
