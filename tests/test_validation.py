@@ -388,6 +388,34 @@ def test_study_with_a_seabed(tmp_path, capsys):
     assert "--seabed-below '0'; accepted: M[,ALBEDO]" in capsys.readouterr().err
 
 
+def test_reference_medium_follows_the_models_a_and_b():
+    """The medium handed to Mitsuba: c and b / c on a 1-nm grid, so that
+    Mitsuba's linear interpolation between grid points follows the
+    piecewise-linear a and b that aquaspec's band means integrate. Given at
+    the data's 25 nm spacing (as before), b / c between two points was off by
+    several per cent where a rises steeply (Jerlov IB, 575-600 nm)."""
+    from aquaspec.validation.reference import _medium, medium_spectra
+
+    def parse(spec):
+        return (np.array([float(x) for x in spec["wavelengths"].split(",")]),
+                np.array([float(x) for x in spec["values"].split(",")]))
+    water = load_water("IB")
+    med = _medium(water, "isotropic", 0.0)
+    wl_c, c = parse(med["sigma_t"])
+    wl_s, albedo = parse(med["albedo"])
+    assert np.all(np.diff(wl_c) <= 1.0 + 1e-9) and set(water.wavelength_nm) <= set(wl_c)
+    x = np.linspace(576.0, 599.0, 47)              # between the data's 575 and 600 nm
+    a = np.interp(x, water.wavelength_nm, water.a)
+    b = np.interp(x, water.wavelength_nm, water.b)
+    np.testing.assert_allclose(np.interp(x, wl_c, c), a + b, rtol=1e-6)
+    np.testing.assert_allclose(np.interp(x, wl_s, albedo), b / (a + b), rtol=2e-3)
+    # What the data's own spacing would have given: b several per cent off.
+    wl = water.wavelength_nm
+    coarse = np.interp(x, wl, water.b / (water.a + water.b)) * (a + b)
+    assert np.abs(coarse / b - 1).max() > 0.05
+    assert medium_spectra(water)[0][0] == wl[0] and medium_spectra(water)[0][-1] == wl[-1]
+
+
 def test_cache_keys_hold_the_phase_function():
     from aquaspec.validation.reference import phase_key
     # Isotropic and HG keys are what they were (existing caches stay valid).

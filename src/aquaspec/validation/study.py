@@ -37,9 +37,10 @@ from ..light import surface_light
 from ..water import load_water
 from . import metrics
 from .baselines import render_baseline
-from .reference import (FF_DEFAULT_BACKSCATTER, MAX_DEPTH, REFERENCE_BANDS, bands_to_rgb,
-                        cache_key, check_phase, lightfield_phase, measure_kd, phase_function,
-                        phase_key, preflight, render_reference, spectra_digest, water_with_kd)
+from .reference import (FF_DEFAULT_BACKSCATTER, MAX_DEPTH, MEDIUM_SPECTRA, REFERENCE_BANDS,
+                        bands_to_rgb, cache_key, check_phase, lightfield_phase, measure_kd,
+                        phase_function, phase_key, preflight, render_reference, spectra_digest,
+                        water_with_kd)
 from .scenes import board_scene, masks
 
 DEFAULT_WATERS = ("I", "IA", "IB", "II", "3C")
@@ -262,6 +263,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
         data = spectra_digest(water.wavelength_nm, water.a, water.b, light.wavelength_nm,
                               light.values)
         kd_key = cache_key(kind="kd", water=wname, source=source, **pkey, spp=kd_spp,
+                           medium=MEDIUM_SPECTRA,
                            bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
                            depths=list(KD_DEPTHS_M), data=data)
         kd_res, hit = _cached(cache_dir, kd_key, lambda: measure_kd(
@@ -297,7 +299,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                                         for x in (mesh.vertices, mesh.faces)],
                                       *[x for mat in scene.materials
                                         for x in (mat.wavelength_nm, mat.values)])
-            key = cache_key(kind="render", scene=SCENE_VERSION, water=wname, source=source,
+            key = cache_key(kind="render", scene=SCENE_VERSION, medium=MEDIUM_SPECTRA,
+                            water=wname, source=source,
                             depth=depth, size=list(size), spp=spp, **pkey,
                             bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
                             data=data, geometry=geometry)
