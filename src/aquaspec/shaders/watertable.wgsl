@@ -130,7 +130,7 @@ fn node_alpha(k: u32) -> f32 {
 
 // Hat weight of node k at lambda coordinates z (clamped to the nodes).
 fn hat(z: vec4<f32>, k: u32) -> vec4<f32> {
-    let zc = clamp(z, vec4<f32>(0.0), vec4<f32>(f32(NODES - 1u)));
+    let zc = clamp(z, vec4<f32>(0.0), vec4<f32>(f32(max(NODES, 1u) - 1u)));
     return max(vec4<f32>(0.0), 1.0 - abs(zc - f32(k)));
 }
 
