@@ -296,22 +296,23 @@ def _fill_hit_columns(out, base, cone, s, fb, w, alpha_nodes, shape):
     ``cone`` (P, n) at distances ``s`` (P,) (:func:`water_table`'s layers)."""
     from .conespread import interp_nodes, lambda_coordinate
     if alpha_nodes is not None:
-        z = lambda_coordinate(np.asarray(fb)[None, :] * s[:, None])       # (P, n)
-        base = base + interp_nodes(alpha_nodes, z) * cone
-        for k, h in enumerate(node_hats(z, np.size(alpha_nodes))):
+        lam = np.asarray(fb)[None, :] * s[:, None]                        # (P, n)
+        base = base + interp_nodes(alpha_nodes, lambda_coordinate(lam)) * cone
+        for k, h in enumerate(node_hats(lam, np.size(alpha_nodes))):
             out[1 + k, :, :DISTANCES - 1] = ((h * cone) @ w).reshape(shape + (3,))
     out[0, :, :DISTANCES - 1] = (base @ w).reshape(shape + (3,))
     if alpha_nodes is None and out.shape[0] > 1:
         out[1, :, :DISTANCES - 1] = (cone @ w).reshape(shape + (3,))
 
 
-def node_hats(z, nodes: int) -> np.ndarray:
-    """Hat weights ``(nodes, *z.shape)`` of the lambda coordinate ``z`` on the
-    nodes at ``0 .. nodes - 1`` (clamped): ``max(0, 1 - |z - k|)``, as the GPU
-    computes them."""
-    zz = np.clip(np.asarray(z, dtype=float), 0.0, nodes - 1.0)
-    k = np.arange(nodes).reshape((nodes,) + (1,) * zz.ndim)
-    return np.maximum(0.0, 1.0 - np.abs(zz[None] - k))
+def node_hats(lam, nodes: int) -> np.ndarray:
+    """Hat weights ``(nodes, *lam.shape)`` of ``lambda = f b S`` on the first
+    ``nodes`` of :data:`aquaspec.conespread.LAMBDA_NODES`: the model's
+    :func:`aquaspec.conespread.lambda_node_weights`, which the GPU computes
+    as ``max(0, 1 - |z - k|)`` with ``z = log3(1 + 2 lambda)`` (the nodes sit
+    at ``z = 0 .. nodes - 1``, :func:`multiple_plan` checks)."""
+    from .conespread import LAMBDA_NODES, lambda_node_weights
+    return lambda_node_weights(lam, LAMBDA_NODES[:nodes])
 
 
 def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool,
@@ -622,7 +623,7 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
         dk, slope = kept_share(comp.fb.mean(), node_alpha(comp, s[:, 0]), s[:, 0])
         rest = l - l * dk[:, None] * np.exp(slope[:, None] * s * (comp.fb - comp.fb.mean()))
         share = rest / np.maximum(1.0 - interp_nodes(comp.alpha_nodes, z), 1e-12)
-        hats = node_hats(z, comp.alpha_nodes.size)                      # (K, P, n)
+        hats = node_hats(comp.fb[None, :] * s, comp.alpha_nodes.size)   # (K, P, n)
         return ((l - rest) @ comp.surface_weights,
                 np.stack([(h * share) @ comp.surface_weights for h in hats], axis=1))
     if comp.split:
