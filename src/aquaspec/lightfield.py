@@ -516,7 +516,8 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
                       n_mu: int = DEFAULT_N_MU, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
                       n_streams: int = 32, surface: str = "null",
                       forward_cone_deg: float = 0.0, cone_spread: bool = False,
-                      spread_scattering: str = "single", **phase_params) -> dict:
+                      spread_scattering: str = "single", ambient_shadow: bool = False,
+                      **phase_params) -> dict:
     """Per-band tables of the light field for the renderer (float32).
 
     Parameters
@@ -548,6 +549,11 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         ``f b S`` (``"multiple"``: adds ``"cone_lambda_nodes"`` (k,) and
         ``"cone_offset_cdf_nodes"`` (k, m), :mod:`aquaspec.conespread`; the
         NumPy model only, so far).
+    ambient_shadow : bool
+        Also the tables of the scene's first-order shadow in the light field
+        (:mod:`aquaspec.shadow`; NumPy model only): ``"radiance_per_e0"``,
+        ``"shadow_theta"``, ``"shadow_phase"``, ``"shadow_extinction"``;
+        :func:`aquaspec.shading.shade_gbuffer` then subtracts the shadow.
 
     Returns
     -------
@@ -618,7 +624,12 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
             extra["cone_lambda_nodes"] = np.asarray(LAMBDA_NODES, dtype=float)
             extra["cone_offset_cdf_nodes"] = np.stack(
                 [multiple_scattering_cdf(offsets, single, lam) for lam in LAMBDA_NODES])
+    if ambient_shadow:
+        from .shadow import shadow_tables
+        extra.update(shadow_tables(lf, depth, cos, phase=phase, b=b, wavelength_nm=wl,
+                                   **phase_params))
     return {**extra,
+        "forward_cone_deg": np.array([forward_cone_deg], f32),
         "forward_fraction": f_cone.astype(f32),
         "ms_log_prefactor": np.log(pref).astype(f32),
         "irradiance_per_e0": irr.astype(f32),
@@ -841,6 +852,13 @@ def _cut_at_seabed(s, d_o, v, bed):
     return np.minimum(s, to_bed)
 
 
+def surface_radiance(tables, rho, depth_m, n_y, e0) -> np.ndarray:
+    """Lambertian radiance ``rho E(d, n_y) / pi`` of surfaces lit by the light
+    field (irradiance table), shape ``depth.shape + (n_bands,)``."""
+    e = bilinear(tables["irradiance_per_e0"], depth_m, n_y, float(tables["max_depth_m"][0]))
+    return model.lambertian_radiance(rho, e * np.asarray(e0, dtype=float))
+
+
 def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
                               surface_depth=None, n_y=None, form: str = "two_point",
                               split_cone: bool = False):
@@ -886,9 +904,8 @@ def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
         sd = np.asarray(surface_depth, dtype=float)
         ny = np.asarray(n_y, dtype=float)
         sd, ny = np.broadcast_arrays(sd, ny)
-        e = bilinear(tables["irradiance_per_e0"], sd[..., 0] if sd.ndim else sd,
-                     ny[..., 0] if ny.ndim else ny, d_max)
-        l_surf = model.lambertian_radiance(rho, e * e0)
+        l_surf = surface_radiance(tables, rho, sd[..., 0] if sd.ndim else sd,
+                                  ny[..., 0] if ny.ndim else ny, e0)
     f = np.asarray(tables.get("forward_fraction", 0.0), dtype=float)
     if form == "two_point" and np.any(f > 0):
         # The forward cone stays in the beam (extinction c - f b): with the

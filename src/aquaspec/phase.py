@@ -643,13 +643,11 @@ def band_moments(method: str | PhaseFunction, lmax: int, b=None, wavelength_nm=N
         if wavelength_nm is None:
             raise AquaspecError(f"phase {phase.name!r} mixes pure water by wavelength: "
                                 "give wavelength_nm (band centres)")
-        import jerlov
         wl = np.atleast_1d(np.asarray(wavelength_nm, dtype=float))
         if wl.shape != b_arr.shape:
             raise AquaspecError(f"wavelength_nm has shape {wl.shape}; expected {b_arr.shape} "
                                 "(one per band)")
-        bw = np.minimum(np.asarray(jerlov.pure_water_scattering(wl), dtype=float), b_arr)
-        frac_w = np.where(b_arr > 0, bw / np.where(b_arr > 0, b_arr, 1.0), 1.0)
+        frac_w = pure_water_fraction(phase, b_arr, wl)
         chi_w = PureWaterPhase().legendre_moments(lmax)
         out = frac_w[:, None] * chi_w + (1.0 - frac_w[:, None]) * chi
     return out
@@ -681,12 +679,22 @@ def band_cone_fraction(method, half_angle_deg: float, b=None, wavelength_nm=None
 
     f = np.full(b_arr.size, cone(phase))
     if phase.name in MIXED_WITH_WATER:
-        import jerlov
-        wl = np.atleast_1d(np.asarray(wavelength_nm, dtype=float))
-        bw = np.minimum(np.asarray(jerlov.pure_water_scattering(wl), dtype=float), b_arr)
-        frac_w = np.where(b_arr > 0, bw / np.where(b_arr > 0, b_arr, 1.0), 1.0)
+        frac_w = pure_water_fraction(phase, b_arr, wavelength_nm)
         f = frac_w * cone(PureWaterPhase()) + (1.0 - frac_w) * f
     return f
+
+
+def pure_water_fraction(phase: PhaseFunction, b, wavelength_nm=None) -> np.ndarray:
+    """Share of ``b`` that scatters with pure water's phase function, per band:
+    ``min(b_w(lambda), b) / b`` for the phase functions mixed with pure water
+    (:data:`MIXED_WITH_WATER`, at the band centres ``wavelength_nm``), else 0."""
+    b_arr = np.atleast_1d(np.asarray(b, dtype=float))
+    if phase.name not in MIXED_WITH_WATER:
+        return np.zeros(b_arr.size)
+    import jerlov
+    wl = np.atleast_1d(np.asarray(wavelength_nm, dtype=float))
+    bw = np.minimum(np.asarray(jerlov.pure_water_scattering(wl), dtype=float), b_arr)
+    return np.where(b_arr > 0, bw / np.where(b_arr > 0, b_arr, 1.0), 1.0)
 
 
 def _cone_offset_cdf_one(ph, theta_c, offsets):
@@ -731,10 +739,7 @@ def band_cone_offset_cdf(method, half_angle_deg: float, offsets_rad, b=None,
     mass, cdf = _cone_offset_cdf_one(phase, theta_c, offsets)
     out = np.tile(cdf, (b_arr.size, 1))
     if phase.name in MIXED_WITH_WATER:
-        import jerlov
-        wl = np.atleast_1d(np.asarray(wavelength_nm, dtype=float))
-        bw = np.minimum(np.asarray(jerlov.pure_water_scattering(wl), dtype=float), b_arr)
-        frac_w = np.where(b_arr > 0, bw / np.where(b_arr > 0, b_arr, 1.0), 1.0)[:, None]
+        frac_w = pure_water_fraction(phase, b_arr, wavelength_nm)[:, None]
         mass_w, cdf_w = _cone_offset_cdf_one(PureWaterPhase(), theta_c, offsets)
         m_w, m_p = frac_w * mass_w, (1.0 - frac_w) * mass
         out = (m_w * cdf_w + m_p * cdf) / (m_w + m_p)

@@ -59,6 +59,9 @@ class SpectralSetup:
     #: a Poisson number of times (``"multiple"``, NumPy model only so far;
     #: :mod:`aquaspec.conespread`).
     spread_scattering: str = "single"
+    #: The scene's first-order shadow in the light field (:mod:`aquaspec.shadow`;
+    #: NumPy model only so far, seconds per image: for validation).
+    ambient_shadow: bool = False
     #: The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`);
     #: None: deep water. The seeds' model has none.
     seabed: object = None
@@ -87,6 +90,7 @@ class SpectralSetup:
                                        forward_cone_deg=self.cone_deg,
                                        cone_spread=self.cone_spread,
                                        spread_scattering=self.spread_scattering,
+                                       ambient_shadow=self.ambient_shadow,
                                        **bed, **dict(self.phase_params))
             object.__setattr__(self, "_tables", cached)
         return cached
@@ -108,6 +112,7 @@ class SpectralSetup:
                               "forward_cone_deg": self.cone_deg,
                               "cone_spread": self.cone_spread,
                               "spread_scattering": self.spread_scattering,
+                              "ambient_shadow": self.ambient_shadow,
                               "seabed": None if self.seabed is None
                               else self.seabed.describe()})
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),

@@ -179,9 +179,15 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     # (lightfield_tables(cone_spread=True)): each pixel's cone term is kept
     # apart, convolved with the cone's kernel, then added.
     spread = lightfield is not None and "cone_offset_cdf" in lightfield
+    # The scene's shadow in the light field (lightfield_tables(ambient_shadow=True)):
+    # needs every surface's own radiance, then aquaspec.shadow.ambient_shadow.
+    shadow = lightfield is not None and "shadow_phase" in lightfield
+    whole = spread or shadow
     rgb = np.empty((hgt, wid, 3))
-    radiance = np.empty((hgt, wid, n)) if (return_radiance or spread) else None
+    radiance = np.empty((hgt, wid, n)) if (return_radiance or whole) else None
     cone_flat = np.zeros((hgt * wid, n)) if spread else None
+    surf_flat = np.zeros((hgt * wid, n)) if shadow else None
+    hit_all = np.zeros(hgt * wid, dtype=bool)
 
     def split(result, where, r0):
         """The radiance of ``result``; with the spread, its cone term is stored
@@ -217,6 +223,11 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
             rho[pp] = sigmoid_reflectance(sig[hit][pp], t)
             rho[~pp] = mb[m[~pp]]
             surface_depth = -(o_y + s[hit] * v_y[hit])
+            if shadow:
+                from .lightfield import surface_radiance
+                idx = r0 * wid + np.flatnonzero(hit)
+                surf_flat[idx] = surface_radiance(lightfield, rho, surface_depth, n_y[hit], e0)
+                hit_all[idx] = True
             lrad[hit] = split(radiance_of(
                 v_y=v_y[hit, None], s=s[hit, None], rho=rho,
                 surface_depth=surface_depth[:, None], n_y=n_y[hit, None], ambient=ambient),
@@ -241,7 +252,13 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         from .conespread import pyramid_weights, spread as pyramid_spread
         radiance += pyramid_spread(cone_flat.reshape(hgt, wid, n),
                                    pyramid_weights(lightfield, cam.fy, hgt, wid))
-    if spread:
+    if shadow:
+        from .shadow import ambient_shadow
+        hit_img = hit_all.reshape(hgt, wid)
+        radiance -= ambient_shadow(
+            lightfield, cam, np.where(hit_img, gbuffer.distance, np.inf), gbuffer.normal,
+            surf_flat.reshape(hgt, wid, n), b=b, e0=e0, hit=hit_img)
+    if whole:
         rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}
     if return_radiance:
