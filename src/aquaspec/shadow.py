@@ -68,17 +68,20 @@ MAX_SOURCES = 1500
 T_NODES = 48
 #: Nodes of the per-band phase table in angle (geometric towards forward).
 PHASE_NODES = 512
-#: Near a hit the source blocks are too coarse: the last stretch of each
-#: hit pixel's ray, NEAR_BLOCKS source blocks long (at the hit's distance),
-#: is integrated over directions instead, with the surface's own plane as
-#: the occluder where the G-buffer agrees (:func:`_near_field`).
-NEAR_BLOCKS = 2.5
-#: Quadrature of the near field: nodes along the ray, angles from the ray's
-#: direction (geometric cells from NEAR_THETA_MIN rad to pi) and azimuths.
-NEAR_U_NODES = 6
-NEAR_THETA_CELLS = 32
-NEAR_THETA_MIN = 1e-3
-NEAR_PHI_CELLS = 12
+#: The cap-averaged phase table (:func:`disc_phase_table`): angles from
+#: forward (0, then geometric from 1 mrad) and cap radii (geometric from
+#: DISC_ALPHA_MIN rad to 90 degrees).
+DISC_THETA = 96
+DISC_ALPHA = 40
+DISC_ALPHA_MIN = 1e-3
+#: Rays that end on a surface are integrated over directions instead (the
+#: source blocks are too coarse where the forward peak of the phase
+#: function meets them): nodes along the ray, angles from the ray's
+#: direction (geometric cells from HIT_THETA_MIN rad to pi) and azimuths.
+HIT_U_NODES = 12
+HIT_THETA_CELLS = 32
+HIT_THETA_MIN = 1e-3
+HIT_PHI_CELLS = 12
 
 
 def phase_table(method, b, wavelength_nm=None, **params):
@@ -95,6 +98,40 @@ def phase_table(method, b, wavelength_nm=None, **params):
     return theta, values
 
 
+def disc_phase_table(theta, values, theta_out, alpha):
+    """The phase functions averaged over discs on the sphere: ``(mean, shift)``, each
+    ``(n, len(theta_out), len(alpha))``: the mean of ``p`` over a cap of angular
+    radius ``alpha`` centred ``theta_out`` from forward, and the p-weighted mean
+    angular offset of the cap's points towards forward (rad).
+
+    A source block seen from a point on the ray covers a range of scattering
+    angles over which a forward-peaked ``p`` changes by orders of magnitude;
+    its mean over the block's solid angle (a cap of the same area) is what the
+    sum over blocks needs, and the radiance is taken where ``p`` puts its
+    weight: the block's centre moved towards forward by ``shift``. ``values`` (n, m) on ``theta`` (:func:`phase_table`);
+    midpoint quadrature in the cap's polar coordinates."""
+    n_rho, n_psi = 24, 32
+    out = np.empty((values.shape[0], theta_out.size, alpha.size))
+    shift = np.empty_like(out)
+    psi = (np.arange(n_psi) + 0.5) * 2 * np.pi / n_psi
+    for ia, a in enumerate(alpha):
+        edges = np.linspace(0.0, a, n_rho + 1)
+        rho = 0.5 * (edges[1:] + edges[:-1])
+        w = np.cos(edges[:-1]) - np.cos(edges[1:])            # cap area per ring / 2 pi
+        cos_g = (np.cos(theta_out)[:, None, None] * np.cos(rho)[None, :, None]
+                 + np.sin(theta_out)[:, None, None] * np.sin(rho)[None, :, None]
+                 * np.cos(psi)[None, None, :])
+        g = np.arccos(np.clip(cos_g, -1.0, 1.0)).reshape(-1)
+        for i in range(values.shape[0]):
+            pv = np.interp(g, theta, values[i]).reshape(theta_out.size, n_rho, n_psi)
+            mass = np.sum(pv.mean(axis=-1) * w, axis=-1)
+            out[i, :, ia] = mass / w.sum()
+            # The p-weighted mean offset towards forward (psi = 0 points there).
+            toward = np.sum(np.mean(pv * np.cos(psi), axis=-1) * rho * w, axis=-1)
+            shift[i, :, ia] = toward / np.maximum(mass, 1e-300)
+    return out, shift
+
+
 def shadow_tables(lf, depth, cosine, *, phase, b, wavelength_nm=None, **phase_params) -> dict:
     """The tables :func:`ambient_shadow` reads, for ``lightfield_tables(ambient_shadow=True)``:
     ``"radiance_per_e0"`` (n, n_depth, n_mu) the open water's radiance ``L_bg(d, w_y)/E0``
@@ -103,23 +140,21 @@ def shadow_tables(lf, depth, cosine, *, phase, b, wavelength_nm=None, **phase_pa
     from .phase import band_cone_fraction
     theta, values = phase_table(phase, b, wavelength_nm, **phase_params)
     f = band_cone_fraction(phase, SHADOW_CONE_DEG, b, wavelength_nm, **phase_params)
+    th_disc = np.concatenate([[0.0], np.geomspace(1e-3, np.pi, DISC_THETA - 1)])
+    alpha = np.geomspace(DISC_ALPHA_MIN, np.pi / 2, DISC_ALPHA)
     return {"radiance_per_e0": lf.radiance(np.asarray(depth)[:, None],
                                            np.asarray(cosine)[None, :]),
             "shadow_theta": theta, "shadow_phase": values,
+            "shadow_disc_theta": th_disc, "shadow_disc_alpha": alpha,
+            **dict(zip(("shadow_disc_phase", "shadow_disc_shift"),
+                       disc_phase_table(theta, values, th_disc, alpha))),
             "shadow_extinction": lf.c - f * np.asarray(b, dtype=float)}
 
 
-def _grid(n_px: int, step: int) -> np.ndarray:
-    """Centres (pixel-edge coordinates) of ``ceil(n_px / step)`` blocks of ``step`` pixels."""
-    k = np.arange(-(-n_px // step))
-    return step * k + 0.5 * step
-
-
-def _directions(cam, x, y) -> np.ndarray:
-    """Unit rays through pixel-edge coordinates ``x`` (columns) and ``y`` (rows)."""
-    d = (cam.right * ((x - cam.cx) / cam.fx)[..., None]
-         - cam.true_up * ((y - cam.cy) / cam.fy)[..., None] + cam.forward)
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+def _receiver_pixels(n_px: int, step: int) -> np.ndarray:
+    """Every ``step``-th pixel from ``step // 2``, and the last pixel."""
+    k = np.arange(step // 2, n_px, step)
+    return k if k[-1] == n_px - 1 else np.append(k, n_px - 1)
 
 
 def _sources(cam, distance, normal, surface_radiance, hit):
@@ -149,7 +184,7 @@ def _sources(cam, distance, normal, surface_radiance, hit):
     rad = blocks(area[..., None] * surface_radiance)[keep] / w[keep][:, None]
     ray = pts - cam.position
     v_y = ray[:, 1] / np.linalg.norm(ray, axis=-1)
-    return a_sum[keep], pts, nrm, v_y, rad, step
+    return a_sum[keep], pts, nrm, v_y, rad
 
 
 def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
@@ -180,11 +215,11 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
     (H, W, n) float64
         ``dL`` per pixel and band, to subtract from the model's radiance.
     """
-    for key in ("radiance_per_e0", "shadow_phase", "shadow_theta", "shadow_extinction"):
+    for key in ("radiance_per_e0", "shadow_phase", "shadow_theta", "shadow_extinction",
+                "shadow_disc_phase", "shadow_disc_shift"):
         if key not in tables:
             raise AquaspecError(f"the light-field tables have no {key!r}; make them with "
                                 "lightfield_tables(..., ambient_shadow=True)")
-    from .lightfield import bilinear
     cam = camera
     distance = np.asarray(distance, dtype=float)
     hgt, wid = distance.shape
@@ -193,162 +228,239 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
                             f"{cam.height}x{cam.width}")
     hit = np.isfinite(distance) if hit is None else np.asarray(hit, dtype=bool)
     b = np.asarray(b, dtype=float)
-    e0 = np.asarray(e0, dtype=float)
     n = b.size
     out = np.zeros((hgt, wid, n))
     if not np.any(hit):
         return out
-    area, pts, nrm, vy_src, l_s, src_step = _sources(cam, distance, np.asarray(normal, dtype=float),
-                                           np.asarray(surface_radiance, dtype=float), hit)
-    d_max = float(tables["max_depth_m"][0])
-    lrad = np.asarray(tables["radiance_per_e0"], dtype=float)
-    d_src = np.clip(-pts[:, 1], 0.0, None)
-    # The in-cone part the forward cone already took: L_bg(d_y, v') - L_s.
-    cone_cos = np.cos(np.radians(float(np.asarray(tables.get("forward_cone_deg", [0.0]))[0])))
-    in_cone_dl = bilinear(lrad, d_src, vy_src, d_max) * e0 - l_s
-    theta_nodes = np.asarray(tables["shadow_theta"], dtype=float)
-    phase = np.asarray(tables["shadow_phase"], dtype=float)
-    k = np.asarray(tables["shadow_extinction"], dtype=float)
-
-    # Receivers: rays through a coarse grid; t nodes up to the farthest source.
+    ctx = _Context(tables, cam, distance, np.asarray(normal, dtype=float),
+                   np.asarray(surface_radiance, dtype=float), hit, b,
+                   np.asarray(e0, dtype=float))
+    say = progress or (lambda f: None)
+    # Receivers: every step-th pixel (and the last) of each axis.
     step = max(1, int(np.ceil(max(hgt, wid) / RECEIVERS_LONG_SIDE)))
-    ry, rx = _grid(hgt, step), _grid(wid, step)
-    rdir = _directions(cam, rx[None, :], ry[:, None]).reshape(-1, 3)
-    t_max = float(np.max(np.linalg.norm(pts - cam.position, axis=-1)))
-    t = np.linspace(0.0, t_max, T_NODES)
-    g = np.zeros((rdir.shape[0], T_NODES, n))
-    o = cam.position
-    for q, v in enumerate(rdir):
-        x = o + t[:, None] * v                                  # (K, 3)
-        w = pts[None, :, :] - x[:, None, :]                     # (K, M, 3)
-        r = np.maximum(np.linalg.norm(w, axis=-1), 1e-9)
-        u = w / r[..., None]
-        facing = np.maximum(-np.sum(nrm[None] * u, axis=-1), 0.0)
-        disc = 2 * np.pi * (1.0 - r / np.sqrt(r * r + area / np.pi))
-        solid = facing * np.minimum(area / (r * r), disc)
-        live = solid > 0
-        if not np.any(live):
-            continue
-        kk, mm = np.nonzero(live)
-        mu = np.sum(u[kk, mm] * v, axis=-1)
-        th = np.arccos(np.clip(mu, -1.0, 1.0))
-        p = np.stack([np.interp(th, theta_nodes, phase[i]) for i in range(n)], axis=-1)
-        lbg = bilinear(lrad, d_src[mm], u[kk, mm, 1], d_max) * e0
-        dl = lbg - l_s[mm] - (mu > cone_cos)[:, None] * in_cone_dl[mm]
-        att = np.exp(-k * (t[kk] + r[kk, mm])[:, None])
-        contrib = (b * p * att * dl) * solid[kk, mm][:, None]
-        np.add.at(g[q], kk, contrib)
-        if progress is not None:
-            progress((q + 1) / rdir.shape[0])
-    # Cumulative integral over t (trapezoid), then per pixel at its own ray length.
-    cum = np.concatenate([np.zeros((g.shape[0], 1, n)),
-                          np.cumsum(0.5 * (g[:, 1:] + g[:, :-1]) * np.diff(t)[None, :, None],
-                                    axis=1)], axis=1)
-    cum = cum.reshape(ry.size, rx.size, T_NODES, n)
-    dirs = cam.ray_directions()
-    nrm_img = np.asarray(normal, dtype=float)
-    # The near field's stretch of each hit pixel's ray (module constants).
-    cos_in = np.clip(-np.sum(nrm_img * dirs, axis=-1), 0.25, 1.0)
-    near_len = np.where(hit, NEAR_BLOCKS * src_step * np.where(hit, distance, 0.0)
-                        / (cam.fx * cos_in), 0.0)
-    length = np.clip(np.where(hit, distance - near_len, t_max), 0.0, t_max)
-    # Up rays without a hit end at the water surface.
-    d_o = -float(o[1])
-    up = (dirs[..., 1] > 0) & ~hit
-    length = np.where(up, np.minimum(length, d_o / np.where(up, dirs[..., 1], 1.0)), length)
-    ft = length / t_max * (T_NODES - 1) if t_max > 0 else np.zeros_like(length)
-    i_t = np.minimum(np.floor(ft).astype(int), T_NODES - 2)
-    f_t = (ft - i_t)[..., None]
-    from .conespread import bilinear_at
-    rows = (np.arange(hgt) + 0.5 - ry[0]) / step if ry.size > 1 else np.zeros(hgt)
-    cols = (np.arange(wid) + 0.5 - rx[0]) / step if rx.size > 1 else np.zeros(wid)
-    # (Bilinear in the receivers for every t node is (H, W, K, n): by rows of the image.)
-    for r0 in range(hgt):
-        line = bilinear_at(cum, rows[r0:r0 + 1], cols)[0]      # (W, K, n)
-        j = np.arange(wid)
-        lo = line[j, i_t[r0]]
-        hi = line[j, i_t[r0] + 1]
-        out[r0] = lo + (hi - lo) * f_t[r0]
-    out += _near_field(cam, dirs, distance, nrm_img, np.asarray(surface_radiance, dtype=float),
-                       hit, near_len, lrad=lrad, d_max=d_max, e0=e0, b=b, k=k,
-                       theta_nodes=theta_nodes, phase=phase, cone_cos=cone_cos)
+    ry, rx = _receiver_pixels(hgt, step), _receiver_pixels(wid, step)
+    rr, rc = (a.reshape(-1) for a in np.meshgrid(ry, rx, indexing="ij"))
+    rec_hit = hit[rr, rc]
+    # Rays that end on a surface: over directions (their own plane blocks).
+    hit_tot = np.zeros((rr.size, n))
+    hit_tot[rec_hit] = ctx.hit_rays(rr[rec_hit], rc[rec_hit])
+    say(0.5)
+    # Open water: over the sources, cumulative along the ray.
+    cum = np.zeros((rr.size, T_NODES, n))
+    cum[~rec_hit] = ctx.open_rays(ctx.dirs[rr[~rec_hit], rc[~rec_hit]])
+    say(0.9)
+    idx, wgt, lonely = _neighbours(ry, rx, rec_hit.reshape(ry.size, rx.size), hit)
+    pix_hit = hit.reshape(-1)
+    flat = out.reshape(-1, n)
+    sel = pix_hit & ~lonely
+    flat[sel] = np.einsum("pk,pkn->pn", wgt[sel], hit_tot[idx[sel]])
+    sel_open = np.flatnonzero(~pix_hit & ~lonely)
+    length = ctx.open_length().reshape(-1)
+    for c0 in range(0, sel_open.size, 1024):
+        p = sel_open[c0:c0 + 1024]
+        vals = ctx.at_length(cum[idx[p]], length[p][:, None])      # (P, 4, n)
+        flat[p] = np.einsum("pk,pkn->pn", wgt[p], vals)
+    # Pixels with no receiver of their kind around: their own ray.
+    li, lj = np.divmod(np.flatnonzero(lonely & pix_hit), wid)
+    if li.size:
+        out[li, lj] = ctx.hit_rays(li, lj)
+    li, lj = np.divmod(np.flatnonzero(lonely & ~pix_hit), wid)
+    if li.size:
+        own = ctx.open_rays(ctx.dirs[li, lj])
+        out[li, lj] = ctx.at_length(own, length.reshape(hgt, wid)[li, lj])
+    say(1.0)
     if not np.all(np.isfinite(out)):
         raise AquaspecError("the ambient shadow came out non-finite; check the G-buffer")
     return out
 
 
-def _near_field(cam, dirs, distance, normal, surface_radiance, hit, near_len, *, lrad, d_max,
-                e0, b, k, theta_nodes, phase, cone_cos) -> np.ndarray:
-    """The shadow term over the last ``near_len`` of each hit pixel's ray.
+def _neighbours(ry, rx, rec_kind, kind):
+    """Per pixel the four receivers around it (flat indices into ry x rx), their
+    bilinear weights among those of the pixel's kind (normalised), and whether
+    none is (lonely). A ray that grazes a silhouette is not taken for its
+    neighbours across it."""
+    hgt, wid = kind.shape
+    fr = np.interp(np.arange(hgt), ry, np.arange(ry.size))
+    fc = np.interp(np.arange(wid), rx, np.arange(rx.size))
+    i0 = np.minimum(np.floor(fr).astype(int), max(ry.size - 2, 0))
+    j0 = np.minimum(np.floor(fc).astype(int), max(rx.size - 2, 0))
+    i1, j1 = np.minimum(i0 + 1, ry.size - 1), np.minimum(j0 + 1, rx.size - 1)
+    wr, wc = (fr - i0)[:, None], (fc - j0)[None, :]
+    corners = [(i0[:, None], j0[None, :], (1 - wr) * (1 - wc)),
+               (i0[:, None], j1[None, :], (1 - wr) * wc),
+               (i1[:, None], j0[None, :], wr * (1 - wc)),
+               (i1[:, None], j1[None, :], wr * wc)]
+    idx = np.stack([np.broadcast_to(i * rx.size + j, (hgt, wid)) for i, j, _ in corners], -1)
+    w = np.stack([np.broadcast_to(wt * (rec_kind[i, j] == kind), (hgt, wid))
+                  for i, j, wt in corners], -1)
+    total = w.sum(axis=-1)
+    lonely = total <= 0
+    w = w / np.where(lonely, 1.0, total)[..., None]
+    return idx.reshape(-1, 4), w.reshape(-1, 4), lonely.reshape(-1)
 
-    Directions from each point ``x`` there (a quadrature around the ray's
-    direction) meet the hit's tangent plane at ``q``; ``q`` blocks if the
-    G-buffer sees a surface at ``q``'s distance there (2 % or 2 cm), so the
-    plane's edges are the G-buffer's. Returns (H, W, n)."""
-    from .lightfield import bilinear
-    hgt, wid = distance.shape
-    n = b.size
-    out = np.zeros((hgt, wid, n))
-    o = cam.position
-    # Quadrature: Gauss-Legendre in u (distance back from the hit along the
-    # ray), cells geometric in theta (midpoint) and uniform in phi.
-    gu, gw = np.polynomial.legendre.leggauss(NEAR_U_NODES)
-    edges = np.concatenate([[0.0], np.geomspace(NEAR_THETA_MIN, np.pi, NEAR_THETA_CELLS)])
-    th = 0.5 * (edges[1:] + edges[:-1])
-    dth = np.cos(edges[:-1]) - np.cos(edges[1:])               # int sin theta d theta
-    ph = (np.arange(NEAR_PHI_CELLS) + 0.5) * 2 * np.pi / NEAR_PHI_CELLS
-    th_g, ph_g = np.meshgrid(th, ph, indexing="ij")
-    dw = (dth[:, None] * np.full(NEAR_PHI_CELLS, 2 * np.pi / NEAR_PHI_CELLS)).reshape(-1)
-    ct, st = np.cos(th_g).reshape(-1), np.sin(th_g).reshape(-1)
-    cp, sp = np.cos(ph_g).reshape(-1), np.sin(ph_g).reshape(-1)
-    p_dir = np.stack([np.interp(th_g.reshape(-1), theta_nodes, phase[i]) for i in range(n)],
-                     axis=-1)                                   # (J, n)
-    in_cone = ct > cone_cos
-    ii, jj = np.nonzero(hit & (near_len > 0))
-    chunk = 32
-    for c0 in range(0, ii.size, chunk):
-        pi, pj = ii[c0:c0 + chunk], jj[c0:c0 + chunk]
-        v = dirs[pi, pj]                                        # (P, 3)
-        nrm = normal[pi, pj]
-        s = distance[pi, pj]
-        u_len = near_len[pi, pj]
-        # A frame around v.
-        e1 = np.cross(v, np.where(np.abs(v[:, 1:2]) < 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]]))
-        e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
-        e2 = np.cross(v, e1)
-        w = (ct[None, :, None] * v[:, None, :] + (st * cp)[None, :, None] * e1[:, None, :]
-             + (st * sp)[None, :, None] * e2[:, None, :])      # (P, J, 3)
-        towards = -np.sum(w * nrm[:, None, :], axis=-1)         # (P, J): > 0 meets the plane
-        u = 0.5 * (gu[None, :] + 1.0) * u_len[:, None]          # (P, U)
-        wu = 0.5 * gw[None, :] * u_len[:, None]
-        h = u * np.clip(-np.sum(v * nrm, axis=-1), 0.0, 1.0)[:, None]   # height above the plane
-        r = h[:, :, None] / np.where(towards > 1e-6, towards, np.inf)[:, None, :]   # (P, U, J)
-        x = (o + (s[:, None] - u)[..., None] * v[:, None, :])   # (P, U, 3)
-        q = x[:, :, None, :] + r[..., None] * w[:, None, :, :]  # (P, U, J, 3)
-        dq = q - o
-        z = dq @ cam.forward
-        zs = np.where(z > 1e-9, z, 1.0)
-        px = cam.cx + cam.fx * (dq @ cam.right) / zs
-        py = cam.cy - cam.fy * (dq @ cam.true_up) / zs
-        col = np.floor(px).astype(int)
-        row = np.floor(py).astype(int)
-        inside = (z > 1e-9) & (col >= 0) & (col < wid) & (row >= 0) & (row < hgt) & np.isfinite(r)
-        cc, rr = np.clip(col, 0, wid - 1), np.clip(row, 0, hgt - 1)
-        dist_q = np.linalg.norm(dq, axis=-1)
-        seen = distance[rr, cc]
-        blocked = inside & hit[rr, cc] & (np.abs(np.where(hit[rr, cc], seen, 0.0) - dist_q)
-                                          < np.maximum(0.02 * dist_q, 0.02))
-        if not np.any(blocked):
-            continue
-        a, bu, bj = np.nonzero(blocked)
-        qq = q[a, bu, bj]
-        d_q = np.clip(-qq[:, 1], 0.0, None)
-        l_s = surface_radiance[rr[a, bu, bj], cc[a, bu, bj]]
-        l_bg = bilinear(lrad, d_q, w[a, bj, 1], d_max) * e0
-        l_v = bilinear(lrad, d_q, dq[a, bu, bj, 1] / dist_q[a, bu, bj], d_max) * e0
-        dl = l_bg - l_s - in_cone[bj][:, None] * (l_v - l_s)
-        tt = s[a] - u[a, bu]
-        att = np.exp(-k * (tt + r[a, bu, bj])[:, None])
-        val = b * p_dir[bj] * att * dl * (dw[bj] * wu[a, bu])[:, None]
-        np.add.at(out, (pi[a], pj[a]), val)
-    return out
+
+class _Context:
+    """What both integrations read: the tables, the camera, the G-buffer and the sources."""
+
+    def __init__(self, tables, cam, distance, normal, surface_radiance, hit, b, e0):
+        self.cam, self.distance, self.normal, self.hit = cam, distance, normal, hit
+        self.l_s_img = surface_radiance
+        self.b, self.e0 = b, e0
+        self.dirs = cam.ray_directions()
+        self.d_max = float(tables["max_depth_m"][0])
+        self.lrad = np.asarray(tables["radiance_per_e0"], dtype=float)
+        self.cone_cos = np.cos(np.radians(float(np.asarray(
+            tables.get("forward_cone_deg", [0.0]))[0])))
+        self.theta_nodes = np.asarray(tables["shadow_theta"], dtype=float)
+        self.phase = np.asarray(tables["shadow_phase"], dtype=float)
+        self.k = np.asarray(tables["shadow_extinction"], dtype=float)
+        self.disc_theta = np.asarray(tables["shadow_disc_theta"], dtype=float)
+        self.disc_alpha = np.asarray(tables["shadow_disc_alpha"], dtype=float)
+        self.disc_phase = np.asarray(tables["shadow_disc_phase"], dtype=float)
+        self.disc_shift = np.asarray(tables["shadow_disc_shift"], dtype=float)
+        self.area, self.pts, self.nrm, vy_src, self.l_s = _sources(
+            cam, distance, normal, surface_radiance, hit)
+        self.d_src = np.clip(-self.pts[:, 1], 0.0, None)
+        # The in-cone part the forward cone already took: L_bg(d_y, v') - L_s.
+        self.in_cone_dl = self.l_bg(self.d_src, vy_src) - self.l_s
+        self.t_max = float(np.max(np.linalg.norm(self.pts - cam.position, axis=-1)))
+        self.t = np.linspace(0.0, self.t_max, T_NODES)
+
+    def l_bg(self, depth, look_y):
+        """The open water's radiance looking along a direction of up component ``look_y``."""
+        from .lightfield import bilinear
+        return bilinear(self.lrad, depth, look_y, self.d_max) * self.e0
+
+    def open_length(self):
+        """Where an open-water pixel's ray stops counting: the farthest source,
+        or the water surface for up rays."""
+        d_o = -float(self.cam.position[1])
+        vy = self.dirs[..., 1]
+        up = vy > 0
+        return np.where(up, np.minimum(self.t_max, d_o / np.where(up, vy, 1.0)), self.t_max)
+
+    def at_length(self, cum, length):
+        """Cumulative integrals ``cum`` (..., K, n) read linearly at ``length`` (...)."""
+        ft = np.clip(np.asarray(length, dtype=float) / max(self.t_max, 1e-12), 0.0, 1.0) \
+            * (T_NODES - 1)
+        i = np.minimum(np.floor(ft).astype(int), T_NODES - 2)
+        f = (ft - i)[..., None]
+        lo = np.take_along_axis(cum, i[..., None, None], axis=-2)[..., 0, :]
+        hi = np.take_along_axis(cum, (i + 1)[..., None, None], axis=-2)[..., 0, :]
+        return lo + (hi - lo) * f
+
+    def open_rays(self, rays):
+        """Cumulative ``int_0^t`` of the term along rays ``(R, 3)`` that end on no
+        surface, summed over the source blocks: (R, K, n)."""
+        o, t, n = self.cam.position, self.t, self.b.size
+        g = np.zeros((rays.shape[0], T_NODES, n))
+        for q, v in enumerate(rays):
+            x = o + t[:, None] * v                                  # (K, 3)
+            w = self.pts[None, :, :] - x[:, None, :]                # (K, M, 3)
+            r = np.maximum(np.linalg.norm(w, axis=-1), 1e-9)
+            u = w / r[..., None]
+            facing = np.maximum(-np.sum(self.nrm[None] * u, axis=-1), 0.0)
+            disc = 2 * np.pi * (1.0 - r / np.sqrt(r * r + self.area / np.pi))
+            solid = facing * np.minimum(self.area / (r * r), disc)
+            kk, mm = np.nonzero(solid > 0)
+            if kk.size == 0:
+                continue
+            ud = u[kk, mm]
+            mu = ud @ v
+            # The phase function averaged over the block (a cap of its solid
+            # angle), and the radiance taken where it puts its weight: the
+            # direction turned towards v by the p-weighted offset (bands' mean).
+            th = np.arccos(np.clip(mu, -1.0, 1.0))
+            cap = np.arccos(np.clip(1.0 - solid[kk, mm] / (2 * np.pi), -1.0, 1.0))
+            xi = np.interp(th, self.disc_theta, np.arange(self.disc_theta.size))
+            yi = np.interp(cap, self.disc_alpha, np.arange(self.disc_alpha.size))
+            p = _lookup2(self.disc_phase, xi, yi)
+            turn = np.minimum(_lookup2(self.disc_shift, xi, yi).mean(axis=-1), th)
+            perp = v - mu[:, None] * ud
+            perp /= np.maximum(np.linalg.norm(perp, axis=-1, keepdims=True), 1e-12)
+            look_y = np.cos(turn) * ud[:, 1] + np.sin(turn) * perp[:, 1]
+            dl = (self.l_bg(self.d_src[mm], look_y) - self.l_s[mm]
+                  - (mu > self.cone_cos)[:, None] * self.in_cone_dl[mm])
+            att = np.exp(-self.k * (t[kk] + r[kk, mm])[:, None])
+            np.add.at(g[q], kk, (self.b * p * att * dl) * solid[kk, mm][:, None])
+        steps = np.diff(t)[None, :, None]
+        return np.concatenate([np.zeros((g.shape[0], 1, n)),
+                               np.cumsum(0.5 * (g[:, 1:] + g[:, :-1]) * steps, axis=1)], axis=1)
+
+    def hit_rays(self, rows, cols) -> np.ndarray:
+        """The term along the rays of hit pixels ``(rows, cols)``, over directions.
+
+        From points ``x`` on the ray (Gauss-Legendre in ``sqrt`` of the distance
+        back from the hit, dense near it) a quadrature around the ray's
+        direction; a direction meets the hit's tangent plane at ``q``, which
+        blocks if the G-buffer sees a surface at ``q``'s distance there (2 % or
+        2 cm), so the plane's edges are the G-buffer's. Returns (P, n)."""
+        cam, hgt, wid = self.cam, *self.distance.shape
+        n, o = self.b.size, cam.position
+        gx, gw = np.polynomial.legendre.leggauss(HIT_U_NODES)
+        gx, gw = 0.5 * (gx + 1.0), 0.5 * gw
+        edges = np.concatenate([[0.0], np.geomspace(HIT_THETA_MIN, np.pi, HIT_THETA_CELLS)])
+        th = 0.5 * (edges[1:] + edges[:-1])
+        dth = np.cos(edges[:-1]) - np.cos(edges[1:])            # int sin theta d theta
+        phi = (np.arange(HIT_PHI_CELLS) + 0.5) * 2 * np.pi / HIT_PHI_CELLS
+        th_g, ph_g = np.meshgrid(th, phi, indexing="ij")
+        dw = np.repeat(dth, HIT_PHI_CELLS) * (2 * np.pi / HIT_PHI_CELLS)
+        ct, st = np.cos(th_g).reshape(-1), np.sin(th_g).reshape(-1)
+        cp, sp = np.cos(ph_g).reshape(-1), np.sin(ph_g).reshape(-1)
+        p_dir = np.stack([np.interp(th_g.reshape(-1), self.theta_nodes, self.phase[i])
+                          for i in range(n)], axis=-1)          # (J, n)
+        in_cone = ct > self.cone_cos
+        out = np.zeros((rows.size, n))
+        for c0 in range(0, rows.size, 16):
+            pr, pc = rows[c0:c0 + 16], cols[c0:c0 + 16]
+            v, nrm, s = self.dirs[pr, pc], self.normal[pr, pc], self.distance[pr, pc]
+            e1 = np.cross(v, np.where(np.abs(v[:, 1:2]) < 0.9, [[0.0, 1.0, 0.0]],
+                                      [[1.0, 0.0, 0.0]]))
+            e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
+            e2 = np.cross(v, e1)
+            w = (ct[None, :, None] * v[:, None, :] + (st * cp)[None, :, None] * e1[:, None, :]
+                 + (st * sp)[None, :, None] * e2[:, None, :])  # (P, J, 3)
+            towards = -np.sum(w * nrm[:, None, :], axis=-1)     # (P, J): > 0 meets the plane
+            # u: distance back from the hit, u = s x^2 (x Gauss-Legendre on [0, 1]).
+            u = s[:, None] * gx[None, :] ** 2                   # (P, U)
+            wu = s[:, None] * 2 * gx[None, :] * gw[None, :]
+            h = u * np.clip(-np.sum(v * nrm, axis=-1), 0.0, 1.0)[:, None]
+            r = h[:, :, None] / np.where(towards > 1e-6, towards, np.inf)[:, None, :]
+            x = o + (s[:, None] - u)[..., None] * v[:, None, :]  # (P, U, 3)
+            q = x[:, :, None, :] + r[..., None] * w[:, None, :, :]
+            dq = q - o
+            z = dq @ cam.forward
+            zs = np.where(z > 1e-9, z, 1.0)
+            col = np.floor(cam.cx + cam.fx * (dq @ cam.right) / zs).astype(int)
+            row = np.floor(cam.cy - cam.fy * (dq @ cam.true_up) / zs).astype(int)
+            inside = ((z > 1e-9) & (col >= 0) & (col < wid) & (row >= 0) & (row < hgt)
+                      & np.isfinite(r))
+            cc, rw = np.clip(col, 0, wid - 1), np.clip(row, 0, hgt - 1)
+            dist_q = np.linalg.norm(dq, axis=-1)
+            seen_hit = self.hit[rw, cc]
+            seen = np.where(seen_hit, self.distance[rw, cc], 0.0)
+            blocked = inside & seen_hit & (np.abs(seen - dist_q)
+                                           < np.maximum(0.02 * dist_q, 0.02))
+            a, bu, bj = np.nonzero(blocked)
+            if a.size == 0:
+                continue
+            d_q = np.clip(-q[a, bu, bj, 1], 0.0, None)
+            l_s = self.l_s_img[rw[a, bu, bj], cc[a, bu, bj]]
+            dl = (self.l_bg(d_q, w[a, bj, 1]) - l_s - in_cone[bj][:, None]
+                  * (self.l_bg(d_q, dq[a, bu, bj, 1] / dist_q[a, bu, bj]) - l_s))
+            att = np.exp(-self.k * (s[a] - u[a, bu] + r[a, bu, bj])[:, None])
+            np.add.at(out, c0 + a, self.b * p_dir[bj] * att * dl
+                      * (dw[bj] * wu[a, bu])[:, None])
+        return out
+
+
+def _lookup2(table, x, y) -> np.ndarray:
+    """Bilinear values of ``table`` (n, X, Y) at fractional indices ``x``, ``y``; (..., n)."""
+    nx, ny = table.shape[1:]
+    i = np.clip(np.floor(x).astype(int), 0, nx - 2)
+    j = np.clip(np.floor(y).astype(int), 0, ny - 2)
+    fx = np.clip(x - i, 0.0, 1.0)[..., None]
+    fy = np.clip(y - j, 0.0, 1.0)[..., None]
+    t = np.moveaxis(table, 0, -1)
+    return ((1 - fx) * ((1 - fy) * t[i, j] + fy * t[i, j + 1])
+            + fx * ((1 - fy) * t[i + 1, j] + fy * t[i + 1, j + 1]))

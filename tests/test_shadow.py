@@ -1,0 +1,141 @@
+"""The scene's first-order shadow in the light field (aquaspec.shadow) against a
+direct integration over directions with the board's rectangle as the occluder."""
+
+import numpy as np
+import pytest
+
+from aquaspec import shadow
+from aquaspec.bands import Bands
+from aquaspec.camera import Camera
+from aquaspec.errors import AquaspecError
+from aquaspec.gpu.raster import raycast_gbuffer
+from aquaspec.lightfield import bilinear, lightfield_tables, surface_radiance
+from aquaspec.reflectance import Reflectance
+from aquaspec.scene import Mesh, Scene
+from aquaspec.water import load_water
+
+DEPTH = 5.0
+BOARD = 3.0                 # distance of the board, m
+HALF_W, HALF_H = 0.8, 0.55  # the board's half sizes, m
+RHO = 0.3
+
+
+@pytest.fixture(scope="module")
+def setup():
+    bands = Bands(4)
+    water = load_water("II", "solonenko2015").on_bands(bands)
+    tables = lightfield_tables(water, phase="petzold", forward_cone_deg=40.0, cone_spread=True,
+                               ambient_shadow=True)
+    cam_pos = np.array([0.0, -DEPTH, 0.0])
+    cam = Camera.look_at(cam_pos, cam_pos + [0.0, 0.0, -1.0], width=48, height=36,
+                         fov_y_deg=40.0)
+    scene = Scene(camera=cam)
+    m = scene.add_material(Reflectance.constant(RHO, "board"))
+    v = np.array([[-HALF_W, -DEPTH - HALF_H, -BOARD], [HALF_W, -DEPTH - HALF_H, -BOARD],
+                  [HALF_W, -DEPTH + HALF_H, -BOARD], [-HALF_W, -DEPTH + HALF_H, -BOARD]])
+    scene.add(Mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), np.tile([0.0, 0.0, 1.0], (4, 1)), m))
+    gb = raycast_gbuffer(scene, cam)
+    e0 = np.ones(bands.n)
+    d_hit = np.where(gb.hit, -(cam.position[1] + gb.distance * cam.ray_directions()[..., 1]),
+                     0.0)
+    l_s = np.where(gb.hit[..., None],
+                   surface_radiance(tables, np.full(bands.n, RHO), d_hit, gb.normal[..., 1], e0),
+                   0.0)
+    dl = shadow.ambient_shadow(tables, cam, np.where(gb.hit, gb.distance, np.inf), gb.normal,
+                               l_s, b=water.b, e0=e0, hit=gb.hit)
+    return dict(tables=tables, cam=cam, gb=gb, b=np.asarray(water.b), e0=e0, dl=dl)
+
+
+def direct(setup, row, col, n_t=160, n_theta=90, n_phi=64):
+    """dL at one pixel by quadrature over the ray and over directions, the
+    board's rectangle tested analytically."""
+    tb, cam, gb = setup["tables"], setup["cam"], setup["gb"]
+    b, e0 = setup["b"], setup["e0"]
+    n = b.size
+    v = cam.ray_directions()[row, col]
+    # (Open water: up to the board's plane; behind it the board's front, the
+    # only side the G-buffer has, faces away.)
+    s = gb.distance[row, col] if gb.hit[row, col] else BOARD / -v[2]
+    lrad = np.asarray(tb["radiance_per_e0"], dtype=float)
+    d_max = float(tb["max_depth_m"][0])
+    k = np.asarray(tb["shadow_extinction"], dtype=float)
+    cone_cos = np.cos(np.radians(float(tb["forward_cone_deg"][0])))
+    th_nodes, ph_tab = np.asarray(tb["shadow_theta"]), np.asarray(tb["shadow_phase"])
+    # t: graded towards the end of the ray (where the board fills the view).
+    x = np.linspace(0.0, 1.0, n_t + 1)
+    t_edges = s * (1.0 - (1.0 - x) ** 3)
+    t_mid, t_w = 0.5 * (t_edges[1:] + t_edges[:-1]), np.diff(t_edges)
+    edges = np.concatenate([[0.0], np.geomspace(1e-4, np.pi, n_theta)])
+    th = 0.5 * (edges[1:] + edges[:-1])
+    dth = np.cos(edges[:-1]) - np.cos(edges[1:])
+    ph = (np.arange(n_phi) + 0.5) * 2 * np.pi / n_phi
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    e1 = np.cross(v, [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(v, e1)
+    w = (np.cos(T)[..., None] * v + np.sin(T)[..., None]
+         * (np.cos(P)[..., None] * e1 + np.sin(P)[..., None] * e2)).reshape(-1, 3)
+    dw = np.repeat(dth, n_phi) * 2 * np.pi / n_phi
+    mu = np.cos(T).reshape(-1)
+    p = np.stack([np.interp(T.reshape(-1), th_nodes, ph_tab[i]) for i in range(n)], -1)
+    total = np.zeros(n)
+    for t, wt in zip(t_mid, t_w):
+        xp = cam.position + t * v
+        ok = w[:, 2] < -1e-12     # towards the board's plane, in front of it
+        r = np.where(ok, (xp[2] + BOARD) / np.where(ok, -w[:, 2], 1.0), np.inf)
+        q = xp + r[:, None] * w
+        on = ok & (np.abs(q[:, 0]) <= HALF_W) & (np.abs(q[:, 1] + DEPTH) <= HALF_H)
+        if not on.any():
+            continue
+        qq, rr = q[on], r[on]
+        d_q = -qq[:, 1]
+        l_s = surface_radiance(tb, np.full(n, RHO), d_q, np.zeros(d_q.size), e0)
+        l_bg = bilinear(lrad, d_q, w[on, 1], d_max) * e0
+        vq = qq - cam.position
+        l_v = bilinear(lrad, d_q, vq[:, 1] / np.linalg.norm(vq, axis=-1), d_max) * e0
+        dl = l_bg - l_s - (mu[on] > cone_cos)[:, None] * (l_v - l_s)
+        total += wt * np.exp(-k * t) * b * np.sum(
+            p[on] * np.exp(-k[None, :] * rr[:, None]) * dl * dw[on, None], axis=0)
+    return total
+
+
+@pytest.mark.slow
+def test_shadow_matches_direct_integration(setup):
+    gb = setup["gb"]
+    rows = np.nonzero(gb.hit.any(axis=1))[0]
+    cols = np.nonzero(gb.hit.any(axis=0))[0]
+    mid = int(np.median(cols))
+    lower = rows[-3]           # the board's lower half: the shadow darkens its veil
+    upper = rows[2]            # the upper half: the term changes sign
+    below = rows[-1] + 2       # open water just below the board
+    rows = (lower, upper, below)
+    want = np.stack([direct(setup, row, mid) for row in rows])
+    got = setup["dl"][list(rows), mid]
+    # Per band, within 5 % of the term's size in this image (it changes sign
+    # on the upper half, so a relative error there says little).
+    scale = np.max(np.abs(want), axis=0)
+    assert np.all(scale > 0)
+    assert np.all(np.abs(got - want) <= 0.05 * scale), (got, want)
+    # The board's lower half loses light (dL > 0 in the blue-green), and more
+    # than its upper half.
+    assert np.all(setup["dl"][lower, mid, :3] > setup["dl"][upper, mid, :3])
+    assert np.all(setup["dl"][lower, mid, :3] > 0)
+
+
+def test_no_surface_no_shadow(setup):
+    cam, tb = setup["cam"], setup["tables"]
+    n = setup["b"].size
+    none = np.full((cam.height, cam.width), np.inf)
+    out = shadow.ambient_shadow(tb, cam, none, np.zeros((cam.height, cam.width, 3)),
+                                np.zeros((cam.height, cam.width, n)), b=setup["b"],
+                                e0=setup["e0"])
+    assert out.shape == (cam.height, cam.width, n)
+    assert np.all(out == 0)
+
+
+def test_shadow_needs_its_tables(setup):
+    cam = setup["cam"]
+    tb = {k: v for k, v in setup["tables"].items() if k != "shadow_phase"}
+    with pytest.raises(AquaspecError, match="ambient_shadow=True"):
+        shadow.ambient_shadow(tb, cam, setup["gb"].distance, setup["gb"].normal,
+                              np.zeros((cam.height, cam.width, 4)), b=setup["b"], e0=setup["e0"])
