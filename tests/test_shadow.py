@@ -139,3 +139,29 @@ def test_shadow_needs_its_tables(setup):
     with pytest.raises(AquaspecError, match="ambient_shadow=True"):
         shadow.ambient_shadow(tb, cam, setup["gb"].distance, setup["gb"].normal,
                               np.zeros((cam.height, cam.width, 4)), b=setup["b"], e0=setup["e0"])
+
+
+def test_shading_subtracts_the_shadow(setup):
+    """shade_gbuffer with the shadow tables = without them minus ambient_shadow
+    of the surfaces' own radiance (the wiring: hits, surface radiance, bands)."""
+    from aquaspec.shading import shade_gbuffer
+    gb, tb = setup["gb"], setup["tables"]
+    n = setup["b"].size
+    plain = {k: v for k, v in tb.items() if not (k.startswith("shadow_")
+                                                  or k == "radiance_per_e0")}
+    water = load_water("II", "solonenko2015").on_bands(Bands(4))
+    kw = dict(a=water.a, b=water.b, kd=water.kd, e0=setup["e0"],
+              response_weights=np.ones((n, 3)), material_bands=np.full((1, n), RHO),
+              sigmoid_centers_t=np.zeros(n), return_radiance=True)
+    with_shadow = shade_gbuffer(gb, lightfield=tb, **kw)["radiance"]
+    without = shade_gbuffer(gb, lightfield=plain, **kw)["radiance"]
+    np.testing.assert_allclose(without - with_shadow, setup["dl"], rtol=1e-9, atol=1e-15)
+    assert np.abs(setup["dl"]).max() > 1e-4
+
+
+def test_render_asks_for_the_numpy_backend():
+    from aquaspec.renderer import render
+    with pytest.raises(AquaspecError, match="backend='numpy'"):
+        render(size=(32, 18), bands=4, ambient_shadow=True)
+    with pytest.raises(AquaspecError, match="light-field model"):
+        render(size=(32, 18), bands=4, ambient_shadow=True, backend="numpy", ms_model="seeds")

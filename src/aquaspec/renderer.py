@@ -239,7 +239,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
-           spread_scattering: str = "single", seabed="scene", exposure="auto", white_balance="none", tonemap="filmic",
+           spread_scattering: str = "single", ambient_shadow: bool = False, seabed="scene",
+           exposure="auto", white_balance="none", tonemap="filmic",
            colour_matrix="auto", return_radiance: bool = False, backend: str = "gpu",
            progress=None) -> RenderResult:
     """Render one image.
@@ -284,6 +285,10 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         With ``cone_spread``: the cone's light scattered once, or a Poisson
         number of times with mean ``f b S`` per pixel and band
         (:func:`aquaspec.lightfield.lightfield_tables`).
+    ambient_shadow : bool
+        Subtract the scene's first-order shadow in the water's light field
+        (:mod:`aquaspec.shadow`; goes with ``spread_scattering="multiple"``).
+        NumPy model only so far (``backend="numpy"``), seconds per image.
     seabed : "scene", None or Seabed
         The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`):
         ``"scene"`` takes the scene's (the built-in scene's sand; none for
@@ -312,6 +317,12 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     say = progress or (lambda msg: None)
     if backend not in BACKENDS:
         raise AquaspecError(f"backend {backend!r} is unknown; accepted: {', '.join(BACKENDS)}")
+    if ambient_shadow and backend != "numpy":
+        raise AquaspecError("ambient_shadow is in the NumPy model only so far; use "
+                            "backend='numpy' (or leave ambient_shadow off)")
+    if ambient_shadow and ms_model != "lightfield":
+        raise AquaspecError(f"ambient_shadow is part of the light-field model; ms_model="
+                            f"{ms_model!r}; accepted: 'lightfield'")
     depth = check_depth(depth_m)
     width, height = parse_size(size)
     t0 = time.perf_counter()
@@ -323,7 +334,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase,
                           forward_cone_deg=forward_cone_deg, cone_spread=cone_spread,
-                          spread_scattering=spread_scattering)
+                          spread_scattering=spread_scattering, ambient_shadow=ambient_shadow)
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
 

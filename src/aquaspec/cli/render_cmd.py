@@ -46,6 +46,9 @@ def register(sub):
                         "cone points in the image (an image pyramid; default: on for the "
                         "light field)")
     add_spread_scattering_option(p)
+    p.add_argument("--ambient-shadow", action="store_true",
+                   help="subtract the scene's first-order shadow in the water's light field "
+                        "(goes with --spread-scattering multiple; needs --backend numpy)")
     p.add_argument("--seabed", default="scene", metavar="scene|none|DEPTH[,ALBEDO]",
                    help="the light field's lower boundary: the scene's (default; the "
                         "built-in scene's sand), none (deep water), or a flat Lambertian "
@@ -106,7 +109,7 @@ def run(args):
                  ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                  ms_model=args.ms_model, phase=args.phase,
                  forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
-                 spread_scattering=args.spread_scattering,
+                 spread_scattering=args.spread_scattering, ambient_shadow=args.ambient_shadow,
                  seabed=seabed,
                  exposure=exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",

@@ -48,6 +48,10 @@ def register(sub):
                         "points in the image (a convolution), not from the pixel's own surface "
                         "(default: on when the models include lightfield)")
     add_spread_scattering_option(p)
+    p.add_argument("--ambient-shadow", action="store_true",
+                   help="light-field model: subtract the scene's first-order shadow in the "
+                        "water's light field (aquaspec.shadow; goes with --spread-scattering "
+                        "multiple; NumPy, seconds per scene)")
     p.add_argument("--seabed-below", metavar="M[,ALBEDO]",
                    help="a flat grey Lambertian seabed M metres below the camera (albedo "
                         "default 0.2) in the reference and in the light field; the light "
@@ -112,6 +116,7 @@ def run(args):
                     g=g, backscatter=backscatter, ms_models=ms_models,
                     forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
                     spread_scattering=args.spread_scattering,
+                    ambient_shadow=args.ambient_shadow,
                     **_seabed_below(args.seabed_below),
                     gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))

@@ -141,7 +141,7 @@ def _cached(cache_dir, key, compute):
 
 
 def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=None,
-              cone_spread=False, seabed=None, spread_scattering="single"):
+              cone_spread=False, seabed=None, spread_scattering="single", ambient_shadow=False):
     from ..renderer import SpectralSetup
     from ..sensors import get_sensor
     from ..shading import shade_gbuffer
@@ -151,7 +151,8 @@ def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_
                           cone_spread=cone_spread and ms_model == "lightfield",
                           spread_scattering=(spread_scattering if cone_spread
                                              and ms_model == "lightfield" else "single"),
-                          seabed=seabed if ms_model == "lightfield" else None)
+                          seabed=seabed if ms_model == "lightfield" else None,
+                          ambient_shadow=ambient_shadow and ms_model == "lightfield")
     out = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
                         lightfield=setup.lightfield_tables())
     return out["radiance"]
@@ -194,7 +195,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
               band_counts=(8, 16), ms_models=("seeds",),
               kd_modes=("database", "measured"), forward_cone_deg: float | None = None,
               cone_spread: bool | None = None, spread_scattering: str = "single",
-              seabed_below_m: float | None = None,
+              ambient_shadow: bool = False, seabed_below_m: float | None = None,
               seabed_albedo: float = 0.2,
               cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
@@ -218,7 +219,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     image (:mod:`aquaspec.conespread`; None: when ``ms_models`` has the light
     field, as :func:`aquaspec.model.cone_spread_for`), its light taken as
     scattered once or a Poisson number of times (``spread_scattering``,
-    :mod:`aquaspec.conespread`); ``forward_cone_deg``
+    :mod:`aquaspec.conespread`); ``ambient_shadow`` subtracts the scene's
+    first-order shadow in the light field (:mod:`aquaspec.shadow`); ``forward_cone_deg``
     None is the model's default cone (15 degrees, 40 with the spread).
     """
     from ..gpu.raster import raycast_gbuffer
@@ -229,6 +231,9 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
         cone_spread = "lightfield" in ms_models
     if cone_spread and "lightfield" not in ms_models:
         raise AquaspecError(f"cone_spread is part of the light-field model; ms_models="
+                            f"{list(ms_models)}; accepted: a list with 'lightfield'")
+    if ambient_shadow and "lightfield" not in ms_models:
+        raise AquaspecError(f"ambient_shadow is part of the light-field model; ms_models="
                             f"{list(ms_models)}; accepted: a list with 'lightfield'")
     from ..lightfield import forward_cone
     forward_cone_deg = forward_cone(forward_cone_deg, cone_spread)
@@ -322,14 +327,15 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         methods[(name, mode)] = ("bands", n, _spectral(
                             gb, waters_by_mode[mode], light, n, ms, phase_lf,
                             phase_params, forward_cone_deg, cone_spread, scene.seabed,
-                            spread_scattering))
+                            spread_scattering, ambient_shadow))
                         numpy_seconds[name] = time.perf_counter() - t0
                         if ms == "lightfield" and scene.seabed is not None and n != 3:
                             # What leaving the seabed out of the light field costs.
                             methods[(f"lightfield-deep-n{n}", mode)] = ("bands", n, _spectral(
                                 gb, waters_by_mode[mode], light, n, ms, phase_lf,
                                 phase_params, forward_cone_deg, cone_spread,
-                                spread_scattering=spread_scattering))
+                                spread_scattering=spread_scattering,
+                                ambient_shadow=ambient_shadow))
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             for mode in kd_modes:       # the image-formation model's B_inf and J use Kd
                 methods[("ifm", mode)] = ("baseline", "ifm", None)
@@ -393,6 +399,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                        "ms_models": list(ms_models), "forward_cone_deg": forward_cone_deg,
                        "cone_spread": bool(cone_spread),
                        "spread_scattering": spread_scattering,
+                       "ambient_shadow": bool(ambient_shadow),
                        "seabed": None if seabed_below_m is None else
                        {"below_camera_m": float(seabed_below_m),
                         "albedo": float(seabed_albedo)}}}
