@@ -399,7 +399,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         if gbuffer is None:
             say("ray casting the G-buffer (NumPy)")
             gbuffer = raycast_gbuffer(scene, camera)
-        say(f"shading {camera.width}x{camera.height} pixels x {n} bands in NumPy")
+        say(f"shading {camera.width}x{camera.height} pixels x {n} bands in NumPy"
+            + (" with the scene's shadow in the light field" if ambient_shadow else ""))
         out = shade_gbuffer(gbuffer, **setup.medium(gbuffer.materials),
                             return_radiance=return_radiance,
                             lightfield=setup.lightfield_tables())
