@@ -165,3 +165,14 @@ def test_render_asks_for_the_numpy_backend():
         render(size=(32, 18), bands=4, ambient_shadow=True)
     with pytest.raises(AquaspecError, match="light-field model"):
         render(size=(32, 18), bands=4, ambient_shadow=True, backend="numpy", ms_model="seeds")
+
+
+def test_gpu_renderer_refuses_the_shadow():
+    from aquaspec.renderer import Renderer, SpectralSetup
+    from aquaspec.light import surface_light
+    from aquaspec.sensors import get_sensor
+    setup = SpectralSetup(load_water("IB", "solonenko2015"), get_sensor("human"),
+                          surface_light("overcast"), Bands(4), ms_model="lightfield",
+                          cone_spread=True, spread_scattering="multiple", ambient_shadow=True)
+    with pytest.raises(AquaspecError, match="no ambient shadow"):
+        Renderer(32, 18, 4).set_spectral(setup, [])

@@ -552,7 +552,7 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
     ambient_shadow : bool
         Also the tables of the scene's first-order shadow in the light field
         (:mod:`aquaspec.shadow`; NumPy model only): ``"radiance_per_e0"``,
-        ``"shadow_theta"``, ``"shadow_phase"``, ``"shadow_extinction"``;
+        ``"shadow_*"`` (:func:`aquaspec.shadow.shadow_tables`);
         :func:`aquaspec.shading.shade_gbuffer` then subtracts the shadow.
 
     Returns
@@ -566,7 +566,7 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         up just below the surface, seen for ``v_y > window_cos``;
         ``"window_cos"`` (1,); ``"seabed"`` (2,) = (depth m or inf, unused);
         ``"seabed_albedo"`` (n,); ``"depth_m"`` (n_depth,) and ``"cosine"``
-        (n_mu,): the axes; ``"max_depth_m"`` (1,).
+        (n_mu,): the axes; ``"max_depth_m"`` (1,); ``"forward_cone_deg"`` (1,).
     """
     if spread_scattering not in ("single", "multiple"):
         raise AquaspecError(f"spread_scattering={spread_scattering!r}; accepted: 'single' "

@@ -144,6 +144,10 @@ class Renderer:
         self._use_lightfield = False
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
+        if setup.ambient_shadow:
+            raise AquaspecError("the GPU renderer has no ambient shadow yet; shade with "
+                                "aquaspec.shading.shade_gbuffer (backend='numpy') or set "
+                                "ambient_shadow=False")
         key = (id(setup), tuple(id(m) for m in materials))
         if key != self._medium_key:
             self._use_lightfield = setup.ms_model == "lightfield"

@@ -149,8 +149,10 @@ def disc_phase_table(theta, values, theta_out, alpha):
 def shadow_tables(lf, depth, cosine, *, phase, b, wavelength_nm=None, **phase_params) -> dict:
     """The tables :func:`ambient_shadow` reads, for ``lightfield_tables(ambient_shadow=True)``:
     ``"radiance_per_e0"`` (n, n_depth, n_mu) the open water's radiance ``L_bg(d, w_y)/E0``
-    on the tables' axes, ``"shadow_theta"`` / ``"shadow_phase"`` (:func:`phase_table`)
-    and ``"shadow_extinction"`` (n,) ``k = c - f(15 deg) b``."""
+    on the tables' axes, ``"shadow_theta"`` / ``"shadow_phase"`` (:func:`phase_table`),
+    ``"shadow_disc_theta"`` / ``"shadow_disc_alpha"`` / ``"shadow_disc_phase"`` /
+    ``"shadow_disc_shift"`` (:func:`disc_phase_table`) and ``"shadow_extinction"``
+    (n,) ``k = c - f(15 deg) b``."""
     from .phase import band_cone_fraction
     theta, values = phase_table(phase, b, wavelength_nm, **phase_params)
     f = band_cone_fraction(phase, SHADOW_CONE_DEG, b, wavelength_nm, **phase_params)
