@@ -60,7 +60,9 @@ def direct(setup, row, col, n_t=160, n_theta=90, n_phi=64):
     d_max = float(tb["max_depth_m"][0])
     k = np.asarray(tb["shadow_extinction"], dtype=float)
     cone_cos = np.cos(np.radians(float(tb["forward_cone_deg"][0])))
-    th_nodes, ph_tab = np.asarray(tb["shadow_theta"]), np.asarray(tb["shadow_phase"])
+    th_nodes, basis = np.asarray(tb["shadow_theta"]), np.asarray(tb["shadow_phase"])
+    # The band phase functions: particles mixed with pure water by band.
+    ph_tab = basis[0] + np.asarray(tb["shadow_phase_mix"])[:, None] * (basis[1] - basis[0])
     # t: graded towards the end of the ray (where the board fills the view).
     x = np.linspace(0.0, 1.0, n_t + 1)
     t_edges = s * (1.0 - (1.0 - x) ** 3)

@@ -780,9 +780,13 @@ def bilinear(table, depth_m, cos, max_depth_m):
     j = np.minimum(np.floor(y).astype(int), nm - 2)
     fx = (x - i)[..., None]
     fy = (y - j)[..., None]
-    tt = np.moveaxis(t, 0, -1).astype(float)
-    return ((1 - fx) * ((1 - fy) * tt[i, j] + fy * tt[i, j + 1])
-            + fx * ((1 - fy) * tt[i + 1, j] + fy * tt[i + 1, j + 1]))
+    tt = np.moveaxis(t, 0, -1)      # (a view: the texels read are converted, not the table)
+
+    def at(ii, jj):
+        return tt[ii, jj].astype(float)
+
+    return ((1 - fx) * ((1 - fy) * at(i, j) + fy * at(i, j + 1))
+            + fx * ((1 - fy) * at(i + 1, j) + fy * at(i + 1, j + 1)))
 
 
 def _two_point(tables, *, a, b, e0, depth_o, v_y, s):

@@ -99,31 +99,38 @@ HIT_PHI_CELLS = 12
 
 
 def phase_table(method, b, wavelength_nm=None, **params):
-    """``(theta nodes (m,), values (n, m))``: the band phase functions at angles
-    geometric towards forward (mixed with pure water as
-    :func:`aquaspec.phase.band_cone_fraction`)."""
+    """``(theta (m,), basis (2, m), mix (n,))``: the band phase functions at angles
+    geometric towards forward, ``p_i = basis[0] + mix_i (basis[1] - basis[0])``
+    (the particles' or the whole water's function, and pure water's, mixed by
+    band as :func:`aquaspec.phase.band_cone_fraction` does)."""
     from .phase import PhaseFunction, PureWaterPhase, get_phase, pure_water_fraction
     phase = method if isinstance(method, PhaseFunction) else get_phase(method, **params)
     theta = np.concatenate([[0.0], np.geomspace(1e-5, np.pi, PHASE_NODES - 1)])
     mu = np.cos(theta)
-    frac_w = pure_water_fraction(phase, b, wavelength_nm)
-    p = phase.value(mu)
-    values = p[None, :] + frac_w[:, None] * (PureWaterPhase().value(mu) - p)[None, :]
-    return theta, values
+    basis = np.stack([phase.value(mu), PureWaterPhase().value(mu)])
+    return theta, basis, pure_water_fraction(phase, b, wavelength_nm)
+
+
+def _mixed(basis_values, mix):
+    """Band values ``(..., n)`` from the two basis functions' values ``(2, ...)``."""
+    p0, p1 = basis_values[0][..., None], basis_values[1][..., None]
+    return p0 + mix * (p1 - p0)
 
 
 def disc_phase_table(theta, values, theta_out, alpha):
-    """The phase functions averaged over discs on the sphere: ``(mean, shift)``, each
-    ``(n, len(theta_out), len(alpha))``: the mean of ``p`` over a cap of angular
-    radius ``alpha`` centred ``theta_out`` from forward, and the p-weighted mean
-    angular offset of the cap's points towards forward (rad).
+    """Phase functions averaged over discs on the sphere: ``(mean, shift)``, each
+    ``(k, len(theta_out), len(alpha))`` for ``values`` (k, m): the mean of ``p``
+    over a cap of angular radius ``alpha`` centred ``theta_out`` from forward,
+    and the p-weighted mean angular offset of the cap's points towards forward
+    (rad).
 
     A source block seen from a point on the ray covers a range of scattering
     angles over which a forward-peaked ``p`` changes by orders of magnitude;
     its mean over the block's solid angle (a cap of the same area) is what the
     sum over blocks needs, and the radiance is taken where ``p`` puts its
-    weight: the block's centre moved towards forward by ``shift``. ``values`` (n, m) on ``theta`` (:func:`phase_table`);
-    midpoint quadrature in the cap's polar coordinates."""
+    weight: the block's centre moved towards forward by ``shift``. ``values``
+    on ``theta`` (:func:`phase_table`); midpoint quadrature in the cap's polar
+    coordinates."""
     n_rho, n_psi = 24, 32
     out = np.empty((values.shape[0], theta_out.size, alpha.size))
     shift = np.empty_like(out)
@@ -149,21 +156,23 @@ def disc_phase_table(theta, values, theta_out, alpha):
 def shadow_tables(lf, depth, cosine, *, phase, b, wavelength_nm=None, **phase_params) -> dict:
     """The tables :func:`ambient_shadow` reads, for ``lightfield_tables(ambient_shadow=True)``:
     ``"radiance_per_e0"`` (n, n_depth, n_mu) the open water's radiance ``L_bg(d, w_y)/E0``
-    on the tables' axes, ``"shadow_theta"`` / ``"shadow_phase"`` (:func:`phase_table`),
+    on the tables' axes, ``"shadow_theta"`` / ``"shadow_phase"`` / ``"shadow_phase_mix"``
+    (:func:`phase_table`),
     ``"shadow_disc_theta"`` / ``"shadow_disc_alpha"`` / ``"shadow_disc_phase"`` /
     ``"shadow_disc_shift"`` (:func:`disc_phase_table`) and ``"shadow_extinction"``
     (n,) ``k = c - f(15 deg) b``."""
     from .phase import band_cone_fraction
-    theta, values = phase_table(phase, b, wavelength_nm, **phase_params)
+    theta, basis, mix = phase_table(phase, b, wavelength_nm, **phase_params)
     f = band_cone_fraction(phase, SHADOW_CONE_DEG, b, wavelength_nm, **phase_params)
     th_disc = np.concatenate([[0.0], np.geomspace(1e-3, np.pi, DISC_THETA - 1)])
     alpha = np.geomspace(DISC_ALPHA_MIN, np.pi / 2, DISC_ALPHA)
+    mean, shift = disc_phase_table(theta, basis, th_disc, alpha)
     return {"radiance_per_e0": lf.radiance(np.asarray(depth)[:, None],
                                            np.asarray(cosine)[None, :]),
-            "shadow_theta": theta, "shadow_phase": values,
+            "shadow_theta": theta, "shadow_phase": basis, "shadow_phase_mix": mix,
             "shadow_disc_theta": th_disc, "shadow_disc_alpha": alpha,
-            **dict(zip(("shadow_disc_phase", "shadow_disc_shift"),
-                       disc_phase_table(theta, values, th_disc, alpha))),
+            # (The shift of the first function: the forward peak is the particles'.)
+            "shadow_disc_phase": mean, "shadow_disc_shift": shift[0],
             "shadow_extinction": lf.c - f * np.asarray(b, dtype=float)}
 
 
@@ -231,8 +240,8 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
     (H, W, n) float64
         ``dL`` per pixel and band, to subtract from the model's radiance.
     """
-    for key in ("radiance_per_e0", "shadow_phase", "shadow_theta", "shadow_extinction",
-                "shadow_disc_phase", "shadow_disc_shift"):
+    for key in ("radiance_per_e0", "shadow_phase", "shadow_phase_mix", "shadow_theta",
+                "shadow_extinction", "shadow_disc_phase", "shadow_disc_shift"):
         if key not in tables:
             raise AquaspecError(f"the light-field tables have no {key!r}; make them with "
                                 "lightfield_tables(..., ambient_shadow=True)")
@@ -329,6 +338,7 @@ class _Context:
             tables.get("forward_cone_deg", [0.0]))[0])))
         self.theta_nodes = np.asarray(tables["shadow_theta"], dtype=float)
         self.phase = np.asarray(tables["shadow_phase"], dtype=float)
+        self.mix = np.asarray(tables["shadow_phase_mix"], dtype=float)
         self.k = np.asarray(tables["shadow_extinction"], dtype=float)
         self.disc_theta = np.asarray(tables["shadow_disc_theta"], dtype=float)
         self.disc_alpha = np.asarray(tables["shadow_disc_alpha"], dtype=float)
@@ -370,6 +380,8 @@ class _Context:
         surface, summed over the source blocks: (R, K, n)."""
         o, t, n = self.cam.position, self.t, self.b.size
         g = np.zeros((rays.shape[0], T_NODES, n))
+        ix_t = np.arange(self.disc_theta.size)
+        ix_a = np.arange(self.disc_alpha.size)
         for q, v in enumerate(rays):
             x = o + t[:, None] * v                                  # (K, 3)
             w = self.pts[None, :, :] - x[:, None, :]                # (K, M, 3)
@@ -377,28 +389,23 @@ class _Context:
             u = w / r[..., None]
             facing = np.maximum(-np.sum(self.nrm[None] * u, axis=-1), 0.0)
             disc = 2 * np.pi * (1.0 - r / np.sqrt(r * r + self.area / np.pi))
-            solid = facing * np.minimum(self.area / (r * r), disc)
-            kk, mm = np.nonzero(solid > 0)
-            if kk.size == 0:
-                continue
-            ud = u[kk, mm]
-            mu = ud @ v
+            solid = facing * np.minimum(self.area / (r * r), disc)  # (K, M), 0: not facing
+            mu = u @ v
             # The phase function averaged over the block (a cap of its solid
             # angle), and the radiance taken where it puts its weight: the
-            # direction turned towards v by the p-weighted offset (bands' mean).
+            # direction turned towards v by the p-weighted offset.
             th = np.arccos(np.clip(mu, -1.0, 1.0))
-            cap = np.arccos(np.clip(1.0 - solid[kk, mm] / (2 * np.pi), -1.0, 1.0))
-            xi = np.interp(th, self.disc_theta, np.arange(self.disc_theta.size))
-            yi = np.interp(cap, self.disc_alpha, np.arange(self.disc_alpha.size))
-            p = _lookup2(self.disc_phase, xi, yi)
-            turn = np.minimum(_lookup2(self.disc_shift, xi, yi).mean(axis=-1), th)
-            perp = v - mu[:, None] * ud
+            cap = np.arccos(np.clip(1.0 - solid / (2 * np.pi), -1.0, 1.0))
+            xi, yi = np.interp(th, self.disc_theta, ix_t), np.interp(cap, self.disc_alpha, ix_a)
+            p = _mixed(_lookup2(self.disc_phase, xi, yi), self.mix)           # (K, M, n)
+            turn = np.minimum(_lookup2(self.disc_shift[None], xi, yi)[0], th)
+            perp = v - mu[..., None] * u
             perp /= np.maximum(np.linalg.norm(perp, axis=-1, keepdims=True), 1e-12)
-            look_y = np.cos(turn) * ud[:, 1] + np.sin(turn) * perp[:, 1]
-            dl = (self.l_bg(self.d_src[mm], look_y) - self.l_s[mm]
-                  - (mu > self.cone_cos)[:, None] * self.in_cone_dl[mm])
-            att = np.exp(-self.k * (t[kk] + r[kk, mm])[:, None])
-            np.add.at(g[q], kk, (self.b * p * att * dl) * solid[kk, mm][:, None])
+            look_y = np.cos(turn) * u[..., 1] + np.sin(turn) * perp[..., 1]
+            dl = (self.l_bg(np.broadcast_to(self.d_src, look_y.shape), look_y) - self.l_s
+                  - (mu > self.cone_cos)[..., None] * self.in_cone_dl)
+            att = np.exp(-self.k * (t[:, None] + r)[..., None])
+            g[q] = np.einsum("kmn,km->kn", p * att * dl, solid) * self.b
         steps = np.diff(t)[None, :, None]
         return np.concatenate([np.zeros((g.shape[0], 1, n)),
                                np.cumsum(0.5 * (g[:, 1:] + g[:, :-1]) * steps, axis=1)], axis=1)
@@ -423,8 +430,8 @@ class _Context:
         dw = np.repeat(dth, HIT_PHI_CELLS) * (2 * np.pi / HIT_PHI_CELLS)
         ct, st = np.cos(th_g).reshape(-1), np.sin(th_g).reshape(-1)
         cp, sp = np.cos(ph_g).reshape(-1), np.sin(ph_g).reshape(-1)
-        p_dir = np.stack([np.interp(th_g.reshape(-1), self.theta_nodes, self.phase[i])
-                          for i in range(n)], axis=-1)          # (J, n)
+        p_dir = _mixed(np.stack([np.interp(th_g.reshape(-1), self.theta_nodes, f)
+                                 for f in self.phase]), self.mix)   # (J, n)
         in_cone = ct > self.cone_cos
         out = np.zeros((rows.size, n))
         for c0 in range(0, rows.size, 16):
@@ -471,12 +478,11 @@ class _Context:
 
 
 def _lookup2(table, x, y) -> np.ndarray:
-    """Bilinear values of ``table`` (n, X, Y) at fractional indices ``x``, ``y``; (..., n)."""
+    """Bilinear values of ``table`` (k, X, Y) at fractional indices ``x``, ``y``; (k, ...)."""
     nx, ny = table.shape[1:]
     i = np.clip(np.floor(x).astype(int), 0, nx - 2)
     j = np.clip(np.floor(y).astype(int), 0, ny - 2)
-    fx = np.clip(x - i, 0.0, 1.0)[..., None]
-    fy = np.clip(y - j, 0.0, 1.0)[..., None]
-    t = np.moveaxis(table, 0, -1)
-    return ((1 - fx) * ((1 - fy) * t[i, j] + fy * t[i, j + 1])
-            + fx * ((1 - fy) * t[i + 1, j] + fy * t[i + 1, j + 1]))
+    fx = np.clip(x - i, 0.0, 1.0)
+    fy = np.clip(y - j, 0.0, 1.0)
+    return ((1 - fx) * ((1 - fy) * table[:, i, j] + fy * table[:, i, j + 1])
+            + fx * ((1 - fy) * table[:, i + 1, j] + fy * table[:, i + 1, j + 1]))
