@@ -80,7 +80,7 @@ RECEIVERS_LONG_SIDE = 32
 MAX_SOURCES = 1500
 #: Nodes of the cumulative integral along the rays.
 T_NODES = 48
-#: Nodes of the per-band phase table in angle (geometric towards forward).
+#: Nodes of the phase functions' table in angle (geometric towards forward).
 PHASE_NODES = 512
 #: The cap-averaged phase table (:func:`disc_phase_table`): angles from
 #: forward (0, then geometric from 1 mrad) and cap radii (geometric from
@@ -189,6 +189,7 @@ def _sources(cam, distance, normal, surface_radiance, hit):
     dirs = cam.ray_directions()
     fwd_cos = np.clip(dirs @ cam.forward, 1e-6, 1.0)
     s = np.where(hit, distance, 0.0)
+    normal = np.where(hit[..., None], normal, 0.0)     # (whatever open water holds)
     cos_n = np.clip(-np.sum(normal * dirs, axis=-1), 0.05, 1.0)
     # A pixel's solid angle seen from the camera is cos^3 / (fx fy).
     area = np.where(hit, s * s * fwd_cos ** 3 / (cam.fx * cam.fy) / cos_n, 0.0)
