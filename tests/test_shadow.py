@@ -178,3 +178,15 @@ def test_gpu_renderer_refuses_the_shadow():
                           cone_spread=True, spread_scattering="multiple", ambient_shadow=True)
     with pytest.raises(AquaspecError, match="no ambient shadow"):
         Renderer(32, 18, 4).set_spectral(setup, [])
+
+
+def test_open_water_normals_are_not_read(setup):
+    cam, gb, tb = setup["cam"], setup["gb"], setup["tables"]
+    d_hit = np.where(gb.hit, -(cam.position[1] + gb.distance * cam.ray_directions()[..., 1]),
+                     0.0)
+    l_s = np.where(gb.hit[..., None], surface_radiance(tb, np.full(4, RHO), d_hit,
+                                                       gb.normal[..., 1], setup["e0"]), 0.0)
+    normal = np.where(gb.hit[..., None], gb.normal, np.nan)
+    out = shadow.ambient_shadow(tb, cam, np.where(gb.hit, gb.distance, np.inf), normal, l_s,
+                                b=setup["b"], e0=setup["e0"], hit=gb.hit)
+    np.testing.assert_array_equal(out, setup["dl"])
