@@ -27,7 +27,7 @@ def setup():
     tables = lightfield_tables(water, phase="petzold", forward_cone_deg=40.0, cone_spread=True,
                                ambient_shadow=True)
     cam_pos = np.array([0.0, -DEPTH, 0.0])
-    cam = Camera.look_at(cam_pos, cam_pos + [0.0, 0.0, -1.0], width=48, height=36,
+    cam = Camera.look_at(cam_pos, cam_pos + [0.0, 0.0, -1.0], width=96, height=72,
                          fov_y_deg=40.0)
     scene = Scene(camera=cam)
     m = scene.add_material(Reflectance.constant(RHO, "board"))
@@ -107,9 +107,11 @@ def test_shadow_matches_direct_integration(setup):
     rows = np.nonzero(gb.hit.any(axis=1))[0]
     cols = np.nonzero(gb.hit.any(axis=0))[0]
     mid = int(np.median(cols))
-    lower = rows[-3]           # the board's lower half: the shadow darkens its veil
-    upper = rows[2]            # the upper half: the term changes sign
-    below = rows[-1] + 2       # open water just below the board
+    # (Away from the board's top and bottom edges, whose place in the
+    # G-buffer is only as sharp as its pixels.)
+    lower = rows[int(0.8 * rows.size)]   # the lower half: the shadow darkens its veil
+    upper = rows[int(0.2 * rows.size)]   # the upper half: the term is smaller there
+    below = rows[-1] + 2                 # open water just below the board
     rows = (lower, upper, below)
     want = np.stack([direct(setup, row, mid) for row in rows])
     got = setup["dl"][list(rows), mid]

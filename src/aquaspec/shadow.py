@@ -90,12 +90,16 @@ DISC_ALPHA = 40
 DISC_ALPHA_MIN = 1e-3
 #: Rays that end on a surface are integrated over directions instead (the
 #: source blocks are too coarse where the forward peak of the phase
-#: function meets them): nodes along the ray, angles from the ray's
-#: direction (geometric cells from HIT_THETA_MIN rad to pi) and azimuths.
+#: function meets them): nodes along the ray; angles from the ray's
+#: direction in cells geometric from HIT_THETA_MIN to HIT_THETA_KNEE rad
+#: (the forward peak), then even to pi (a target's edges seen from close);
+#: azimuths.
 HIT_U_NODES = 12
-HIT_THETA_CELLS = 32
+HIT_THETA_PEAK_CELLS = 20
+HIT_THETA_WIDE_CELLS = 24
 HIT_THETA_MIN = 1e-3
-HIT_PHI_CELLS = 12
+HIT_THETA_KNEE = 0.2
+HIT_PHI_CELLS = 24
 
 
 def phase_table(method, b, wavelength_nm=None, **params):
@@ -423,7 +427,9 @@ class _Context:
         n, o = self.b.size, cam.position
         gx, gw = np.polynomial.legendre.leggauss(HIT_U_NODES)
         gx, gw = 0.5 * (gx + 1.0), 0.5 * gw
-        edges = np.concatenate([[0.0], np.geomspace(HIT_THETA_MIN, np.pi, HIT_THETA_CELLS)])
+        edges = np.concatenate([[0.0], np.geomspace(HIT_THETA_MIN, HIT_THETA_KNEE,
+                                                    HIT_THETA_PEAK_CELLS),
+                                np.linspace(HIT_THETA_KNEE, np.pi, HIT_THETA_WIDE_CELLS + 1)[1:]])
         th = 0.5 * (edges[1:] + edges[:-1])
         dth = np.cos(edges[:-1]) - np.cos(edges[1:])            # int sin theta d theta
         phi = (np.arange(HIT_PHI_CELLS) + 0.5) * 2 * np.pi / HIT_PHI_CELLS
@@ -449,7 +455,10 @@ class _Context:
             u = s[:, None] * gx[None, :] ** 2                   # (P, U)
             wu = s[:, None] * 2 * gx[None, :] * gw[None, :]
             h = u * np.clip(-np.sum(v * nrm, axis=-1), 0.0, 1.0)[:, None]
-            r = h[:, :, None] / np.where(towards > 1e-6, towards, np.inf)[:, None, :]
+            # (Directions that do not meet the plane never block: r = 0 and masked.)
+            meets = np.broadcast_to((towards > 1e-6)[:, None, :], (v.shape[0], u.shape[1],
+                                                                   towards.shape[1]))
+            r = np.where(meets, h[:, :, None] / np.where(meets, towards[:, None, :], 1.0), 0.0)
             x = o + (s[:, None] - u)[..., None] * v[:, None, :]  # (P, U, 3)
             q = x[:, :, None, :] + r[..., None] * w[:, None, :, :]
             dq = q - o
@@ -457,8 +466,7 @@ class _Context:
             zs = np.where(z > 1e-9, z, 1.0)
             col = np.floor(cam.cx + cam.fx * (dq @ cam.right) / zs).astype(int)
             row = np.floor(cam.cy - cam.fy * (dq @ cam.true_up) / zs).astype(int)
-            inside = ((z > 1e-9) & (col >= 0) & (col < wid) & (row >= 0) & (row < hgt)
-                      & np.isfinite(r))
+            inside = meets & (z > 1e-9) & (col >= 0) & (col < wid) & (row >= 0) & (row < hgt)
             cc, rw = np.clip(col, 0, wid - 1), np.clip(row, 0, hgt - 1)
             dist_q = np.linalg.norm(dq, axis=-1)
             seen_hit = self.hit[rw, cc]
