@@ -47,18 +47,19 @@ Rays are integrated on a grid of receiver pixels (every few pixels):
 
 Each pixel interpolates bilinearly between the receivers around it that
 are of its own kind (hit or open water), or has its own ray integrated
-where none is. Measured against a direct integration over directions and
-along the ray with the board's rectangle as the occluder
-(``tests/test_shadow.py``): within 1-3 % of the term's size on the board
-and just below it; changing the quadratures 2x moved it by 1-3 %.
+where none is. Measured against a direct integration over directions and along the ray
+with the board's rectangle as the occluder (``tests/test_shadow.py``, 96x72,
+Jerlov II, Petzold): within 1 % of the term's size on the board's lower
+half, 2-4 % on its upper half and just below it; finer quadratures (2x in
+each) moved it by 1-3 %.
 
 Measured on the validation scene (Jerlov II, IB, 3C, 3 m, Petzold's phase
 function, 96x72, 30 bands, Mitsuba at 4096 samples per pixel, 28 cameras,
 region brightness; 2026-11-24), the light field with the multiple-scattering
-cone spread without / with this term: grey patch +14.6 / +2.1 %, +5.4 /
--0.4 %, +13.4 / +2.9 %; 24 patches +8.3 / +1.8 %, +4.7 / +0.2 %, +7.6 /
-+2.3 %. With the single-scattering spread it over-corrects (II: 24 patches
-+1.1 / -5.0 %), because that spread keeps too much of a target's own
+cone spread without / with this term: grey patch +14.6 / +2.4 %, +5.4 /
+-0.3 %, +13.4 / +3.3 %; 24 patches +8.3 / +2.1 %, +4.7 / +0.2 %, +7.6 /
++2.5 %. With the single-scattering spread it over-corrects (II: 24 patches
++1.1 / -5.1 %), because that spread keeps too much of a target's own
 light on it: the term belongs with ``spread_scattering="multiple"``.
 """
 
