@@ -323,7 +323,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         raise AquaspecError(f"backend {backend!r} is unknown; accepted: {', '.join(BACKENDS)}")
     if ambient_shadow and backend != "numpy":
         raise AquaspecError("ambient_shadow is in the NumPy model only so far; use "
-                            "backend='numpy' (or leave ambient_shadow off)")
+                            "backend='numpy' (on the command line --backend numpy), or "
+                            "leave it off")
     if ambient_shadow and ms_model != "lightfield":
         raise AquaspecError(f"ambient_shadow is part of the light-field model; ms_model="
                             f"{ms_model!r}; accepted: 'lightfield'")
