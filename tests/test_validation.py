@@ -357,6 +357,18 @@ def test_small_study_with_fournier_forand(tmp_path):
     srows = [r for r in spread["rows"] if r["method"] == "lightfield-n8"]
     assert len(srows) == len(rows) and all(np.isfinite(r["rmse_rel"]) for r in srows)
     assert any(a["mean_ratio"] != b["mean_ratio"] for a, b in zip(rows, srows))
+    # With the multiple spread and the scene's shadow (aquaspec.shadow): recorded, other numbers.
+    shade = run_study(waters=("IB",), depths=(4.0,), sensors={"human": get_sensor("human")},
+                      size=(24, 18), spp=8, kd_spp=2000, band_counts=(8,), phase="ff",
+                      backscatter=0.03, ms_models=("lightfield",), cache_dir=tmp_path,
+                      forward_cone_deg=30.0, spread_scattering="multiple", ambient_shadow=True)
+    assert shade["params"]["ambient_shadow"] is True
+    hrows = [r for r in shade["rows"] if r["method"] == "lightfield-n8"]
+    assert len(hrows) == len(rows) and all(np.isfinite(r["rmse_rel"]) for r in hrows)
+    assert any(a["mean_ratio"] != b["mean_ratio"] for a, b in zip(srows, hrows))
+    with pytest.raises(AquaspecError, match="ambient_shadow is part of the light-field model"):
+        run_study(waters=("IB",), depths=(4.0,), sensors={"human": get_sensor("human")},
+                  ms_models=("seeds",), ambient_shadow=True, cache_dir=tmp_path)
     with pytest.raises(AquaspecError, match="cone_spread is part of the light-field model"):
         run_study(waters=("IB",), depths=(4.0,), sensors={"human": get_sensor("human")},
                   ms_models=("seeds",), cone_spread=True, cache_dir=tmp_path)
