@@ -187,7 +187,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     radiance = np.empty((hgt, wid, n)) if (return_radiance or whole) else None
     cone_flat = np.zeros((hgt * wid, n)) if spread else None
     surf_flat = np.zeros((hgt * wid, n)) if shadow else None
-    hit_all = np.zeros(hgt * wid, dtype=bool)
+    hit_all = np.zeros(hgt * wid, dtype=bool) if shadow else None
 
     def split(result, where, r0):
         """The radiance of ``result``; with the spread, its cone term is stored
