@@ -69,6 +69,9 @@ class SpectralSetup:
     def __post_init__(self):
         object.__setattr__(self, "cone_spread",
                            model.cone_spread_for(self.ms_model, self.cone_spread))
+        if self.ambient_shadow and self.ms_model != "lightfield":
+            raise AquaspecError(f"ambient_shadow is part of the light-field model; ms_model="
+                                f"{self.ms_model!r}; accepted: 'lightfield'")
 
     @property
     def cone_deg(self) -> float:
@@ -325,9 +328,6 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         raise AquaspecError("ambient_shadow is in the NumPy model only so far; use "
                             "backend='numpy' (on the command line --backend numpy), or "
                             "leave it off")
-    if ambient_shadow and ms_model != "lightfield":
-        raise AquaspecError(f"ambient_shadow is part of the light-field model; ms_model="
-                            f"{ms_model!r}; accepted: 'lightfield'")
     depth = check_depth(depth_m)
     width, height = parse_size(size)
     t0 = time.perf_counter()
