@@ -189,11 +189,11 @@ def _receiver_pixels(n_px: int, step: int) -> np.ndarray:
     return k if k[-1] == n_px - 1 else np.append(k, n_px - 1)
 
 
-def _sources(cam, distance, normal, surface_radiance, hit):
-    """Blocks of hit pixels: area (m^2), mean point, normal, camera ray's v_y and radiance."""
+def _sources(cam, dirs, distance, normal, surface_radiance, hit):
+    """Blocks of hit pixels (``dirs``: the camera's rays): area (m^2), mean point,
+    normal, camera ray's v_y and radiance."""
     hgt, wid = distance.shape
     step = max(1, int(np.ceil(np.sqrt(hgt * wid / MAX_SOURCES))))
-    dirs = cam.ray_directions()
     fwd_cos = np.clip(dirs @ cam.forward, 1e-6, 1.0)
     s = np.where(hit, distance, 0.0)
     normal = np.where(hit[..., None], normal, 0.0)     # (whatever open water holds)
@@ -221,7 +221,7 @@ def _sources(cam, distance, normal, surface_radiance, hit):
 
 
 def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
-                   hit=None, progress=None) -> np.ndarray:
+                   hit=None) -> np.ndarray:
     """The radiance the scene's surfaces take from the water's light field (module docstring).
 
     Parameters
@@ -240,8 +240,6 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
         Scattering coefficient (1/m) and downwelling irradiance below the surface.
     hit : (H, W) bool array, optional
         Which pixels hit a surface (default: finite ``distance``).
-    progress : callable, optional
-        Called with a fraction done.
 
     Returns
     -------
@@ -268,7 +266,6 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
     ctx = _Context(tables, cam, distance, np.asarray(normal, dtype=float),
                    np.asarray(surface_radiance, dtype=float), hit, b,
                    np.asarray(e0, dtype=float))
-    say = progress or (lambda f: None)
     # Receivers: every step-th pixel (and the last) of each axis.
     step = max(1, int(np.ceil(max(hgt, wid) / RECEIVERS_LONG_SIDE)))
     ry, rx = _receiver_pixels(hgt, step), _receiver_pixels(wid, step)
@@ -277,11 +274,9 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
     # Rays that end on a surface: over directions (their own plane blocks).
     hit_tot = np.zeros((rr.size, n))
     hit_tot[rec_hit] = ctx.hit_rays(rr[rec_hit], rc[rec_hit])
-    say(0.5)
     # Open water: over the sources, cumulative along the ray.
     cum = np.zeros((rr.size, T_NODES, n))
     cum[~rec_hit] = ctx.open_rays(ctx.dirs[rr[~rec_hit], rc[~rec_hit]])
-    say(0.9)
     idx, wgt, lonely = _neighbours(ry, rx, rec_hit.reshape(ry.size, rx.size), hit)
     pix_hit = hit.reshape(-1)
     flat = out.reshape(-1, n)
@@ -301,7 +296,6 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
     if li.size:
         own = ctx.open_rays(ctx.dirs[li, lj])
         out[li, lj] = ctx.at_length(own, length.reshape(hgt, wid)[li, lj])
-    say(1.0)
     if not np.all(np.isfinite(out)):
         raise AquaspecError("the ambient shadow came out non-finite; check the G-buffer")
     return out
@@ -353,7 +347,7 @@ class _Context:
         self.disc_phase = np.asarray(tables["shadow_disc_phase"], dtype=float)
         self.disc_shift = np.asarray(tables["shadow_disc_shift"], dtype=float)
         self.area, self.pts, self.nrm, vy_src, self.l_s = _sources(
-            cam, distance, normal, surface_radiance, hit)
+            cam, self.dirs, distance, normal, surface_radiance, hit)
         self.d_src = np.clip(-self.pts[:, 1], 0.0, None)
         # The in-cone part the forward cone already took: L_bg(d_y, v') - L_s.
         self.in_cone_dl = self.l_bg(self.d_src, vy_src) - self.l_s
