@@ -209,6 +209,22 @@ class TestRenderCommand:
         np.testing.assert_allclose(np.load(lin), np.load(ref), rtol=2e-3,
                                    atol=2e-3 * np.abs(np.load(ref)).max())
 
+    def test_ambient_shadow_on_the_gpu(self, tmp_path):
+        """--ambient-shadow with the GPU backend: recorded in the sidecar, and
+        it darkens the pixels where targets block the water's light (by 5.8 %
+        at the 99th percentile here, 0.8 % brighter at the 1st: a surface
+        brighter than the water it hides gives light back)."""
+        args = ["render", "--water", "II", "--size", "48x27", "--bands", "4",
+                "--spread-scattering", "multiple", "--exposure", "0"]
+        lin, lin0 = tmp_path / "a.npy", tmp_path / "b.npy"
+        assert main([*args, "--ambient-shadow", "-o", str(tmp_path / "a.png"),
+                     "--linear", str(lin)]) == 0
+        assert json.loads((tmp_path / "a.png.json").read_text())["ambient_shadow"] is True
+        assert main([*args, "-o", str(tmp_path / "b.png"), "--linear", str(lin0)]) == 0
+        with_shadow, without = np.load(lin), np.load(lin0)
+        assert np.all(np.isfinite(with_shadow))
+        assert np.percentile((without - with_shadow) / without, 99) > 0.02
+
     def test_linear_exr(self, tmp_path):
         from aquaspec.output import read_linear
         out, lin = tmp_path / "x.png", tmp_path / "x.exr"

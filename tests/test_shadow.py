@@ -163,23 +163,44 @@ def test_shading_subtracts_the_shadow(setup):
     assert np.abs(setup["dl"]).max() > 1e-4
 
 
-def test_render_asks_for_the_numpy_backend():
+def test_render_refuses_the_shadow_without_the_light_field():
     from aquaspec.renderer import render
-    with pytest.raises(AquaspecError, match="backend='numpy'"):
-        render(size=(32, 18), bands=4, ambient_shadow=True)
     with pytest.raises(AquaspecError, match="light-field model"):
         render(size=(32, 18), bands=4, ambient_shadow=True, backend="numpy", ms_model="seeds")
 
 
-def test_gpu_renderer_refuses_the_shadow():
-    from aquaspec.renderer import Renderer, SpectralSetup
+def test_gpu_renderer_subtracts_the_shadow():
+    """The GPU renderer with the shadow = without it minus the camera RGB of
+    scene_shadow on the G-buffer it rasterised (the wiring), and the same
+    image as the NumPy model with the shadow (within the compiled model's
+    interpolation, as test_render's cone spread test)."""
+    from aquaspec.gpu.raster import RasterPass
     from aquaspec.light import surface_light
+    from aquaspec.model import radiance_to_rgb
+    from aquaspec.renderer import Renderer, SpectralSetup
     from aquaspec.sensors import get_sensor
-    setup = SpectralSetup(load_water("IB", "solonenko2015"), get_sensor("human"),
-                          surface_light("overcast"), Bands(4), ms_model="lightfield",
-                          cone_spread=True, spread_scattering="multiple", ambient_shadow=True)
-    with pytest.raises(AquaspecError, match="no ambient shadow"):
-        Renderer(32, 18, 4).set_spectral(setup, [])
+    from aquaspec.shading import scene_shadow, shade_gbuffer
+    from aquaspec.scene.builtin import builtin_scene
+    import dataclasses
+    kw = dict(ms_model="lightfield", phase="petzold", cone_spread=True,
+              spread_scattering="multiple")
+    setup = SpectralSetup(load_water("II", "solonenko2015"), get_sensor("human"),
+                          surface_light("overcast"), Bands(4), ambient_shadow=True, **kw)
+    plain = dataclasses.replace(setup, ambient_shadow=False)
+    scene, cam = builtin_scene(depth_m=DEPTH, width=64, height=36)
+    r = Renderer(64, 36, 4)
+    with_shadow = r.render_scene(scene, cam, setup)
+    without = r.render_scene(scene, cam, plain)
+    gb = RasterPass().render(scene, cam)
+    medium = setup.medium(gb.materials)
+    dl = scene_shadow(gb, **medium, lightfield=setup.lightfield_tables())
+    drgb = radiance_to_rgb(dl.reshape(-1, 4), medium["response_weights"]).reshape(36, 64, 3)
+    scale = np.abs(without).max()
+    assert np.abs(drgb).max() > 1e-3 * scale      # the term is there to be seen
+    np.testing.assert_allclose(without - with_shadow, drgb, atol=2e-6 * scale)
+    ref = shade_gbuffer(gb, **medium, lightfield=setup.lightfield_tables())["camera_rgb"]
+    np.testing.assert_allclose(with_shadow, ref, rtol=2e-3, atol=2e-3 * np.abs(ref).max())
+    assert np.all(np.isfinite(with_shadow))
 
 
 def test_open_water_normals_are_not_read(setup):

@@ -23,7 +23,7 @@ instead, the same on the GPU (``shaders/conespread.wgsl``) and here:
   bilinear interpolation at ``(x + 0.5) / 2 - 0.5`` (clamped to the edge);
 - the spread image is ``alpha_0 P_0 + up(U_1)``.
 
-With ``spread_scattering="multiple"`` (NumPy model only, so far) the cone's
+With ``spread_scattering="multiple"`` (NumPy and GPU) the cone's
 light is taken as scattered ``N >= 1`` times inside the cone, ``N`` Poisson
 with mean ``lambda = f b S`` per band and pixel, the offsets adding as 2-D
 vectors (:func:`multiple_scattering_cdf`); kernels are made at the

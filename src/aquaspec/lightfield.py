@@ -547,11 +547,10 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         With ``cone_spread``: the cone's light taken as scattered once
         (``"single"``, the renderer's) or a Poisson number of times with mean
         ``f b S`` (``"multiple"``: adds ``"cone_lambda_nodes"`` (k,) and
-        ``"cone_offset_cdf_nodes"`` (k, m), :mod:`aquaspec.conespread`; the
-        NumPy model only, so far).
+        ``"cone_offset_cdf_nodes"`` (k, m), :mod:`aquaspec.conespread`).
     ambient_shadow : bool
         Also the tables of the scene's first-order shadow in the light field
-        (:mod:`aquaspec.shadow`; NumPy model only): ``"radiance_per_e0"``,
+        (:mod:`aquaspec.shadow`, integrated in NumPy): ``"radiance_per_e0"``,
         ``"shadow_*"`` (:func:`aquaspec.shadow.shadow_tables`);
         :func:`aquaspec.shading.shade_gbuffer` then subtracts the shadow.
 

@@ -56,11 +56,11 @@ class SpectralSetup:
     #: light field).
     cone_spread: bool | None = None
     #: With ``cone_spread``: the cone's light scattered once (``"single"``) or
-    #: a Poisson number of times (``"multiple"``, NumPy model only so far;
-    #: :mod:`aquaspec.conespread`).
+    #: a Poisson number of times (``"multiple"``; :mod:`aquaspec.conespread`).
     spread_scattering: str = "single"
     #: The scene's first-order shadow in the light field (:mod:`aquaspec.shadow`;
-    #: NumPy model only so far, seconds per image: for validation).
+    #: integrated in NumPy from the G-buffer, seconds per image, also for the
+    #: GPU renderer: :meth:`Renderer.subtract_shadow`).
     ambient_shadow: bool = False
     #: The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`);
     #: None: deep water. The seeds' model has none.
@@ -147,10 +147,6 @@ class Renderer:
         self._use_lightfield = False
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
-        if setup.ambient_shadow:
-            raise AquaspecError("the GPU renderer has no ambient shadow yet; shade with "
-                                "aquaspec.shading.shade_gbuffer (backend='numpy') or set "
-                                "ambient_shadow=False")
         key = (id(setup), tuple(id(m) for m in materials))
         if key != self._medium_key:
             self._use_lightfield = setup.ms_model == "lightfield"
@@ -168,22 +164,48 @@ class Renderer:
         return self.lightfield if self._use_lightfield else self.deferred
 
     def render_scene(self, scene, camera: Camera, setup: SpectralSetup) -> np.ndarray:
-        """Rasterise and shade on the GPU; returns linear camera RGB (H, W, 3) float32."""
+        """Rasterise and shade on the GPU; returns linear camera RGB (H, W, 3) float32.
+
+        With ``setup.ambient_shadow`` the G-buffer is read back and the
+        scene's shadow in the light field subtracted (:meth:`subtract_shadow`).
+        """
         self._check_camera(camera)
         self.set_spectral(setup, scene.materials)
         enc = self.deferred.device.create_command_encoder()
         self.raster.render_to(self.deferred, scene, camera, encoder=enc)
         self._shading_pass().encode(enc)
         self.deferred.device.queue.submit([enc.finish()])
-        return self._shading_pass().read_rgb()
+        rgb = self._shading_pass().read_rgb()
+        if setup.ambient_shadow:
+            rgb = self.subtract_shadow(rgb, self.raster.render(scene, camera), setup)
+        return rgb
 
     def render_gbuffer(self, gbuffer: GBuffer, setup: SpectralSetup) -> np.ndarray:
-        """Shade a G-buffer made elsewhere (e.g. RGB-D) on the GPU."""
+        """Shade a G-buffer made elsewhere (e.g. RGB-D) on the GPU (and subtract
+        the shadow with ``setup.ambient_shadow``, as :meth:`render_scene`)."""
         self._check_camera(gbuffer.camera)
         self.set_spectral(setup, gbuffer.materials)
         self.deferred.set_gbuffer(gbuffer)
         self._shading_pass().run()
-        return self._shading_pass().read_rgb()
+        rgb = self._shading_pass().read_rgb()
+        if setup.ambient_shadow:
+            rgb = self.subtract_shadow(rgb, gbuffer, setup)
+        return rgb
+
+    @staticmethod
+    def subtract_shadow(rgb: np.ndarray, gbuffer: GBuffer, setup: SpectralSetup) -> np.ndarray:
+        """``rgb`` minus the scene's shadow in the light field, in camera RGB.
+
+        The term (:func:`aquaspec.shading.scene_shadow`) is integrated in
+        NumPy from ``gbuffer`` (seconds per image; no WGSL pass yet) and is
+        linear in the band radiance, so its camera RGB is subtracted from the
+        GPU's image as the NumPy model subtracts it from the radiance.
+        """
+        from .shading import scene_shadow
+        medium = setup.medium(gbuffer.materials)
+        dl = scene_shadow(gbuffer, **medium, lightfield=setup.lightfield_tables())
+        drgb = model.radiance_to_rgb(dl.reshape(-1, dl.shape[-1]), medium["response_weights"])
+        return (rgb - drgb.reshape(rgb.shape)).astype(rgb.dtype)
 
     def read_radiance(self) -> np.ndarray:
         return self.deferred.read_radiance()
@@ -295,7 +317,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     ambient_shadow : bool
         Subtract the scene's first-order shadow in the water's light field
         (:mod:`aquaspec.shadow`; goes with ``spread_scattering="multiple"``).
-        NumPy model only so far (``backend="numpy"``), seconds per image.
+        Integrated in NumPy from the G-buffer with either backend (the GPU's
+        image has it subtracted in camera RGB): seconds per image.
     seabed : "scene", None or Seabed
         The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`):
         ``"scene"`` takes the scene's (the built-in scene's sand; none for
@@ -324,10 +347,6 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     say = progress or (lambda msg: None)
     if backend not in BACKENDS:
         raise AquaspecError(f"backend {backend!r} is unknown; accepted: {', '.join(BACKENDS)}")
-    if ambient_shadow and backend != "numpy":
-        raise AquaspecError("ambient_shadow is in the NumPy model only so far; use "
-                            "backend='numpy' (on the command line --backend numpy), or "
-                            "leave it off")
     depth = check_depth(depth_m)
     width, height = parse_size(size)
     t0 = time.perf_counter()
@@ -384,7 +403,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     n = setup.bands.n
     radiance = None
     if backend == "gpu":
-        say(f"shading {camera.width}x{camera.height} pixels x {n} bands on the GPU")
+        say(f"shading {camera.width}x{camera.height} pixels x {n} bands on the GPU"
+            + (" (the scene's shadow in the light field in NumPy)" if ambient_shadow else ""))
         if return_radiance and ms_model != "seeds":
             raise AquaspecError("per-band radiance from the GPU is available for "
                                 "ms_model='seeds'; use backend='numpy' for the light field")

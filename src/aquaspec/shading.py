@@ -180,14 +180,12 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     # apart, convolved with the cone's kernel, then added.
     spread = lightfield is not None and "cone_offset_cdf" in lightfield
     # The scene's shadow in the light field (lightfield_tables(ambient_shadow=True)):
-    # needs every surface's own radiance, then aquaspec.shadow.ambient_shadow.
+    # scene_shadow, subtracted once the image is whole.
     shadow = lightfield is not None and "shadow_phase" in lightfield
     whole = spread or shadow
     rgb = np.empty((hgt, wid, 3))
     radiance = np.empty((hgt, wid, n)) if (return_radiance or whole) else None
     cone_flat = np.zeros((hgt * wid, n)) if spread else None
-    surf_flat = np.zeros((hgt * wid, n)) if shadow else None
-    hit_all = np.zeros(hgt * wid, dtype=bool) if shadow else None
 
     def split(result, where, r0):
         """The radiance of ``result``; with the spread, its cone term is stored
@@ -207,9 +205,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         mat = gbuffer.material[r0:r1].reshape(-1)
         n_y = gbuffer.normal[r0:r1, :, 1].reshape(-1).astype(float)
         sig = gbuffer.sigmoid[r0:r1].reshape(-1, 3)
-        # A hit counts only if the ray reaches it before the water surface.
-        to_surface = np.where(v_y > 0, d_o / np.where(v_y > 0, v_y, 1.0), np.inf)
-        hit = np.isfinite(s) & (s <= to_surface)
+        hit = _reached(s, v_y, d_o)
         s = np.where(hit, s, np.inf)
 
         lrad = np.empty((v_y.size, n))
@@ -223,11 +219,6 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
             rho[pp] = sigmoid_reflectance(sig[hit][pp], t)
             rho[~pp] = mb[m[~pp]]
             surface_depth = -(o_y + s[hit] * v_y[hit])
-            if shadow:
-                from .lightfield import surface_radiance
-                idx = r0 * wid + np.flatnonzero(hit)
-                surf_flat[idx] = surface_radiance(lightfield, rho, surface_depth, n_y[hit], e0)
-                hit_all[idx] = True
             lrad[hit] = split(radiance_of(
                 v_y=v_y[hit, None], s=s[hit, None], rho=rho,
                 surface_depth=surface_depth[:, None], n_y=n_y[hit, None], ambient=ambient),
@@ -253,14 +244,57 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         radiance += pyramid_spread(cone_flat.reshape(hgt, wid, n),
                                    pyramid_weights(lightfield, cam.fy, hgt, wid))
     if shadow:
-        from .shadow import ambient_shadow
-        hit_img = hit_all.reshape(hgt, wid)
-        radiance -= ambient_shadow(
-            lightfield, cam, np.where(hit_img, gbuffer.distance, np.inf), gbuffer.normal,
-            surf_flat.reshape(hgt, wid, n), b=b, e0=e0, hit=hit_img)
+        radiance -= scene_shadow(gbuffer, b=b, e0=e0, material_bands=mb,
+                                 sigmoid_centers_t=t, lightfield=lightfield)
     if whole:
         rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}
     if return_radiance:
         out["radiance"] = radiance
     return out
+
+
+def _reached(s, v_y, d_o):
+    """Which hits count: a finite distance ``s`` the ray (up component ``v_y``)
+    reaches before the water surface (camera depth ``d_o``)."""
+    to_surface = np.where(v_y > 0, d_o / np.where(v_y > 0, v_y, 1.0), np.inf)
+    return np.isfinite(s) & (s <= to_surface)
+
+
+def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
+                 lightfield: dict, **_medium) -> np.ndarray:
+    """The scene's first-order shadow in the light field for a G-buffer: ``dL``
+    (H, W, n), to subtract from the band radiance (:mod:`aquaspec.shadow`).
+
+    The surfaces' own radiance ``rho E(d, n_y) / pi`` comes from the light
+    field's irradiance table, as in :func:`shade_gbuffer`, which calls this
+    with ``lightfield_tables(ambient_shadow=True)``; the GPU renderer calls it
+    too (:class:`aquaspec.renderer.Renderer`), on the G-buffer it rasterised,
+    and subtracts the result in camera RGB. Takes the keyword arguments of
+    :meth:`aquaspec.renderer.SpectralSetup.medium` (those it does not use are
+    ignored). NumPy: seconds per image, almost independent of its size.
+    """
+    from .lightfield import surface_radiance
+    from .shadow import ambient_shadow
+    cam = gbuffer.camera
+    d_o = camera_depth(cam)
+    b = np.asarray(b, dtype=float)
+    e0 = np.asarray(e0, dtype=float)
+    mb = np.asarray(material_bands, dtype=float).reshape(-1, b.size)
+    v_y = cam.ray_directions()[..., 1]
+    dist = gbuffer.distance.astype(float)
+    hit = _reached(dist, v_y, d_o)
+    mat = gbuffer.material[hit]
+    per_pixel = mat == PER_PIXEL
+    if np.any(~per_pixel & (mat >= len(mb))):
+        raise AquaspecError(f"G-buffer material index {int(mat[~per_pixel].max())} is out of "
+                            f"range; {len(mb)} materials are defined")
+    rho = np.empty((mat.size, b.size))
+    rho[per_pixel] = sigmoid_reflectance(gbuffer.sigmoid[hit][per_pixel],
+                                         np.asarray(sigmoid_centers_t, dtype=float))
+    rho[~per_pixel] = mb[mat[~per_pixel]]
+    l_s = np.zeros(dist.shape + (b.size,))
+    l_s[hit] = surface_radiance(lightfield, rho, -(cam.position[1] + dist[hit] * v_y[hit]),
+                                gbuffer.normal[..., 1][hit].astype(float), e0)
+    return ambient_shadow(lightfield, cam, np.where(hit, dist, np.inf), gbuffer.normal, l_s,
+                          b=b, e0=e0, hit=hit)
