@@ -67,6 +67,9 @@ light on it: the term belongs with ``spread_scattering="multiple"``.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from .errors import AquaspecError
@@ -349,6 +352,15 @@ class _Context:
         self.area, self.pts, self.nrm, vy_src, self.l_s = _sources(
             cam, self.dirs, distance, normal, surface_radiance, hit)
         self.d_src = np.clip(-self.pts[:, 1], 0.0, None)
+        # The radiance table's row at each source's depth (M, n_mu, n): the
+        # open rays then interpolate in direction alone (the same bilinear
+        # value, its depth step taken once per source).
+        nd, nm = self.lrad.shape[1:]
+        x = np.sqrt(np.clip(self.d_src, 0.0, self.d_max) / self.d_max) * (nd - 1)
+        i = np.minimum(np.floor(x).astype(int), nd - 2)
+        fx = (x - i)[:, None, None]
+        tt = np.moveaxis(self.lrad, 0, -1)
+        self.src_rows = ((1 - fx) * tt[i] + fx * tt[i + 1]) * self.e0
         # The in-cone part the forward cone already took: L_bg(d_y, v') - L_s.
         self.in_cone_dl = self.l_bg(self.d_src, vy_src) - self.l_s
         self.t_max = float(np.max(np.linalg.norm(self.pts - cam.position, axis=-1)))
@@ -358,6 +370,15 @@ class _Context:
         """The open water's radiance looking along a direction of up component ``look_y``."""
         from .lightfield import bilinear
         return bilinear(self.lrad, depth, look_y, self.d_max) * self.e0
+
+    def l_src(self, look_y):
+        """:meth:`l_bg` at the sources' depths, ``look_y`` (..., M): (..., M, n)."""
+        nm = self.src_rows.shape[1]
+        y = (1.0 - np.arccos(np.clip(look_y, -1.0, 1.0)) / np.pi) * (nm - 1)
+        j = np.minimum(np.floor(y).astype(int), nm - 2)
+        fy = (y - j)[..., None]
+        m = np.arange(self.src_rows.shape[0])
+        return (1 - fy) * self.src_rows[m, j] + fy * self.src_rows[m, j + 1]
 
     def open_length(self):
         """Where an open-water pixel's ray stops counting: the farthest source,
@@ -380,37 +401,41 @@ class _Context:
     def open_rays(self, rays):
         """Cumulative ``int_0^t`` of the term along rays ``(R, 3)`` that end on no
         surface, summed over the source blocks: (R, K, n)."""
-        o, t, n = self.cam.position, self.t, self.b.size
+        t, n = self.t, self.b.size
         g = np.zeros((rays.shape[0], T_NODES, n))
-        ix_t = np.arange(self.disc_theta.size)
-        ix_a = np.arange(self.disc_alpha.size)
-        for q, v in enumerate(rays):
-            x = o + t[:, None] * v                                  # (K, 3)
-            w = self.pts[None, :, :] - x[:, None, :]                # (K, M, 3)
-            r = np.maximum(np.linalg.norm(w, axis=-1), 1e-9)
-            u = w / r[..., None]
-            facing = np.maximum(-np.sum(self.nrm[None] * u, axis=-1), 0.0)
-            disc = 2 * np.pi * (1.0 - r / np.sqrt(r * r + self.area / np.pi))
-            solid = facing * np.minimum(self.area / (r * r), disc)  # (K, M), 0: not facing
-            mu = u @ v
-            # The phase function averaged over the block (a cap of its solid
-            # angle), and the radiance taken where it puts its weight: the
-            # direction turned towards v by the p-weighted offset.
-            th = np.arccos(np.clip(mu, -1.0, 1.0))
-            cap = np.arccos(np.clip(1.0 - solid / (2 * np.pi), -1.0, 1.0))
-            xi, yi = np.interp(th, self.disc_theta, ix_t), np.interp(cap, self.disc_alpha, ix_a)
-            p = _mixed(_lookup2(self.disc_phase, xi, yi), self.mix)           # (K, M, n)
-            turn = np.minimum(_lookup2(self.disc_shift[None], xi, yi)[0], th)
-            perp = v - mu[..., None] * u
-            perp /= np.maximum(np.linalg.norm(perp, axis=-1, keepdims=True), 1e-12)
-            look_y = np.cos(turn) * u[..., 1] + np.sin(turn) * perp[..., 1]
-            dl = (self.l_bg(np.broadcast_to(self.d_src, look_y.shape), look_y) - self.l_s
-                  - (mu > self.cone_cos)[..., None] * self.in_cone_dl)
-            att = np.exp(-self.k * (t[:, None] + r)[..., None])
-            g[q] = np.einsum("kmn,km->kn", p * att * dl, solid) * self.b
+        for q, gq in enumerate(_in_threads(self._open_ray, list(rays))):
+            g[q] = gq
         steps = np.diff(t)[None, :, None]
         return np.concatenate([np.zeros((g.shape[0], 1, n)),
                                np.cumsum(0.5 * (g[:, 1:] + g[:, :-1]) * steps, axis=1)], axis=1)
+
+    def _open_ray(self, v):
+        """The integrand of :meth:`open_rays` at its nodes along one ray ``v``: (K, n)."""
+        o, t = self.cam.position, self.t
+        x = o + t[:, None] * v                                  # (K, 3)
+        w = self.pts[None, :, :] - x[:, None, :]                # (K, M, 3)
+        r = np.maximum(np.linalg.norm(w, axis=-1), 1e-9)
+        u = w / r[..., None]
+        facing = np.maximum(-np.sum(self.nrm[None] * u, axis=-1), 0.0)
+        disc = 2 * np.pi * (1.0 - r / np.sqrt(r * r + self.area / np.pi))
+        solid = facing * np.minimum(self.area / (r * r), disc)  # (K, M), 0: not facing
+        mu = u @ v
+        # The phase function averaged over the block (a cap of its solid
+        # angle), and the radiance taken where it puts its weight: the
+        # direction turned towards v by the p-weighted offset.
+        th = np.arccos(np.clip(mu, -1.0, 1.0))
+        cap = np.arccos(np.clip(1.0 - solid / (2 * np.pi), -1.0, 1.0))
+        xi = np.interp(th, self.disc_theta, np.arange(self.disc_theta.size))
+        yi = np.interp(cap, self.disc_alpha, np.arange(self.disc_alpha.size))
+        p = _mixed(_lookup2(self.disc_phase, xi, yi), self.mix)           # (K, M, n)
+        turn = np.minimum(_lookup2(self.disc_shift[None], xi, yi)[0], th)
+        perp = v - mu[..., None] * u
+        perp /= np.maximum(np.linalg.norm(perp, axis=-1, keepdims=True), 1e-12)
+        look_y = np.cos(turn) * u[..., 1] + np.sin(turn) * perp[..., 1]
+        dl = (self.l_src(look_y) - self.l_s
+              - (mu > self.cone_cos)[..., None] * self.in_cone_dl)
+        att = np.exp(-self.k * (t[:, None] + r)[..., None])
+        return np.einsum("kmn,km->kn", p * att * dl, solid) * self.b
 
     def hit_rays(self, rows, cols) -> np.ndarray:
         """The term along the rays of hit pixels ``(rows, cols)``, over directions.
@@ -437,9 +462,11 @@ class _Context:
         p_dir = _mixed(np.stack([np.interp(th_g.reshape(-1), self.theta_nodes, f)
                                  for f in self.phase]), self.mix)   # (J, n)
         in_cone = ct > self.cone_cos
-        out = np.zeros((rows.size, n))
-        for c0 in range(0, rows.size, 16):
-            pr, pc = rows[c0:c0 + 16], cols[c0:c0 + 16]
+        chunks = [(rows[c0:c0 + 16], cols[c0:c0 + 16]) for c0 in range(0, rows.size, 16)]
+
+        def chunk(rc):
+            pr, pc = rc
+            out = np.zeros((pr.size, n))
             v, nrm, s = self.dirs[pr, pc], self.normal[pr, pc], self.distance[pr, pc]
             e1 = np.cross(v, np.where(np.abs(v[:, 1:2]) < 0.9, [[0.0, 1.0, 0.0]],
                                       [[1.0, 0.0, 0.0]]))
@@ -472,15 +499,35 @@ class _Context:
                                            < np.maximum(0.02 * dist_q, 0.02))
             a, bu, bj = np.nonzero(blocked)
             if a.size == 0:
-                continue
+                return out
             d_q = np.clip(-q[a, bu, bj, 1], 0.0, None)
             l_s = self.l_s_img[rw[a, bu, bj], cc[a, bu, bj]]
             dl = (self.l_bg(d_q, w[a, bj, 1]) - l_s - in_cone[bj][:, None]
                   * (self.l_bg(d_q, dq[a, bu, bj, 1] / dist_q[a, bu, bj]) - l_s))
             att = np.exp(-self.k * (s[a] - u[a, bu] + r[a, bu, bj])[:, None])
-            np.add.at(out, c0 + a, self.b * p_dir[bj] * att * dl
+            np.add.at(out, a, self.b * p_dir[bj] * att * dl
                       * (dw[bj] * wu[a, bu])[:, None])
-        return out
+            return out
+
+        if not chunks:
+            return np.zeros((0, n))
+        return np.concatenate(_in_threads(chunk, chunks))
+
+
+def _workers() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:                      # (not on Linux)
+        return max(1, os.cpu_count() or 1)
+
+
+def _in_threads(fn, items) -> list:
+    """``[fn(x) for x in items]`` over the machine's cores (NumPy's array
+    operations release the GIL, so threads share the work)."""
+    if len(items) < 2 or _workers() == 1:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(max_workers=min(_workers(), len(items))) as pool:
+        return list(pool.map(fn, items))
 
 
 def _lookup2(table, x, y) -> np.ndarray:
