@@ -621,8 +621,9 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
             from .conespread import LAMBDA_NODES, cone_cdf, multiple_scattering_cdf
             _, single = cone_cdf(extra)
             extra["cone_lambda_nodes"] = np.asarray(LAMBDA_NODES, dtype=float)
-            extra["cone_offset_cdf_nodes"] = np.stack(
-                [multiple_scattering_cdf(offsets, single, lam) for lam in LAMBDA_NODES])
+            from .parallel import in_threads
+            extra["cone_offset_cdf_nodes"] = np.stack(in_threads(
+                lambda lam: multiple_scattering_cdf(offsets, single, lam), LAMBDA_NODES))
     if ambient_shadow:
         from .shadow import shadow_tables
         extra.update(shadow_tables(lf, depth, cos, phase=phase, b=b, wavelength_nm=wl,

@@ -67,12 +67,10 @@ light on it: the term belongs with ``spread_scattering="multiple"``.
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 
 from .errors import AquaspecError
+from .parallel import in_threads
 
 #: Forward cone (degrees) whose scattering stays in the shadow's beam:
 #: ``k = c - f(SHADOW_CONE_DEG) b``. In the helper experiment 15 brought
@@ -403,7 +401,7 @@ class _Context:
         surface, summed over the source blocks: (R, K, n)."""
         t, n = self.t, self.b.size
         g = np.zeros((rays.shape[0], T_NODES, n))
-        for q, gq in enumerate(_in_threads(self._open_ray, list(rays))):
+        for q, gq in enumerate(in_threads(self._open_ray, list(rays))):
             g[q] = gq
         steps = np.diff(t)[None, :, None]
         return np.concatenate([np.zeros((g.shape[0], 1, n)),
@@ -511,23 +509,7 @@ class _Context:
 
         if not chunks:
             return np.zeros((0, n))
-        return np.concatenate(_in_threads(chunk, chunks))
-
-
-def _workers() -> int:
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:                      # (not on Linux)
-        return max(1, os.cpu_count() or 1)
-
-
-def _in_threads(fn, items) -> list:
-    """``[fn(x) for x in items]`` over the machine's cores (NumPy's array
-    operations release the GIL, so threads share the work)."""
-    if len(items) < 2 or _workers() == 1:
-        return [fn(x) for x in items]
-    with ThreadPoolExecutor(max_workers=min(_workers(), len(items))) as pool:
-        return list(pool.map(fn, items))
+        return np.concatenate(in_threads(chunk, chunks))
 
 
 def _lookup2(table, x, y) -> np.ndarray:
