@@ -311,8 +311,9 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
         at = pos[idx]                       # (weights 0 where a corner was not computed)
         sel = kind[served]
         flat[served[sel]] = np.einsum("pk,pkn->pn", wgt[sel], hit_tot[at[sel]])
-        for c0 in range(0, int(np.sum(~sel)), 1024):
-            q = np.flatnonzero(~sel)[c0:c0 + 1024]
+        open_px = np.flatnonzero(~sel)
+        for c0 in range(0, open_px.size, 1024):
+            q = open_px[c0:c0 + 1024]
             vals = ctx.at_length(cum[at[q]], length[served[q]][:, None])   # (P, 4, n)
             flat[served[q]] = np.einsum("pk,pkn->pn", wgt[q], vals)
         remaining = remaining[lonely]
