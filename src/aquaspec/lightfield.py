@@ -762,16 +762,23 @@ def spread_cone_light(cone_term, tables, pixels_per_radian: float) -> np.ndarray
     return out
 
 
-def bilinear(table, depth_m, cos, max_depth_m):
+def bilinear(table, depth_m, cos, max_depth_m, *, band_last: bool = False):
     """Bilinear lookup of ``table[band, depth, cos]`` as a GPU sampler would.
 
     Texel coordinates: ``x = sqrt(clamp(d, 0, D)/D) (n_depth - 1)``,
     ``y = (1 - acos(clamp(v, -1, 1))/pi) (n_mu - 1)``; on a GPU with linear filtering
     the texture coordinate is ``(x + 0.5) / n_depth`` (texel centres). Returns
-    shape ``depth.shape + (n_bands,)`` (band axis last).
+    shape ``depth.shape + (n_bands,)`` (band axis last). ``band_last``: the
+    table is ``[depth, cos, band]`` already (:func:`band_last_table`: many
+    lookups in one table read each texel's bands in one piece).
     """
-    t = np.asarray(table, dtype=np.float32)
-    nb, nd, nm = t.shape
+    if band_last:
+        tt = np.asarray(table)
+        nd, nm = tt.shape[:2]
+    else:
+        t = np.asarray(table, dtype=np.float32)
+        nd, nm = t.shape[1:]
+        tt = np.moveaxis(t, 0, -1)  # (a view: the texels read are converted, not the table)
     d = np.clip(np.asarray(depth_m, dtype=float), 0.0, max_depth_m)
     x = np.sqrt(d / max_depth_m) * (nd - 1)
     y = (1.0 - np.arccos(np.clip(np.asarray(cos, dtype=float), -1.0, 1.0)) / np.pi) * (nm - 1)
@@ -780,13 +787,25 @@ def bilinear(table, depth_m, cos, max_depth_m):
     j = np.minimum(np.floor(y).astype(int), nm - 2)
     fx = (x - i)[..., None]
     fy = (y - j)[..., None]
-    tt = np.moveaxis(t, 0, -1)      # (a view: the texels read are converted, not the table)
 
-    def at(ii, jj):
-        return tt[ii, jj].astype(float)
+    if band_last:
+        flat = tt.reshape(nd * nm, -1)
+
+        def at(ii, jj):             # (np.take on flat indices: the fastest gather)
+            return np.take(flat, ii * nm + jj, axis=0)
+    else:
+        def at(ii, jj):
+            return tt[ii, jj].astype(float)
 
     return ((1 - fx) * ((1 - fy) * at(i, j) + fy * at(i, j + 1))
             + fx * ((1 - fy) * at(i + 1, j) + fy * at(i + 1, j + 1)))
+
+
+def band_last_table(table) -> np.ndarray:
+    """``table[band, depth, cos]`` as float32 texels laid out ``[depth, cos, band]``
+    in float64, for ``bilinear(..., band_last=True)`` (the same values)."""
+    t = np.asarray(table, dtype=np.float32).astype(float)
+    return np.ascontiguousarray(np.moveaxis(t, 0, -1))
 
 
 def _two_point(tables, *, a, b, e0, depth_o, v_y, s):

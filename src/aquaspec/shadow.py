@@ -355,7 +355,10 @@ class _Context:
         self.b, self.e0 = b, e0
         self.dirs = cam.ray_directions()
         self.d_max = float(tables["max_depth_m"][0])
+        from .lightfield import band_last_table
         self.lrad = np.asarray(tables["radiance_per_e0"], dtype=float)
+        # (The radiance itself, each texel's bands together: most lookups are here.)
+        self.lrad_e0 = band_last_table(self.lrad) * e0
         self.cone_cos = np.cos(np.radians(float(np.asarray(
             tables.get("forward_cone_deg", [0.0]))[0])))
         self.theta_nodes = np.asarray(tables["shadow_theta"], dtype=float)
@@ -366,6 +369,8 @@ class _Context:
         self.disc_alpha = np.asarray(tables["shadow_disc_alpha"], dtype=float)
         self.disc_phase = np.asarray(tables["shadow_disc_phase"], dtype=float)
         self.disc_shift = np.asarray(tables["shadow_disc_shift"], dtype=float)
+        # (Both phase functions' cap means and the shift, (theta, alpha, 3).)
+        self.disc_all = np.ascontiguousarray(np.stack([*self.disc_phase, self.disc_shift], -1))
         self.area, self.pts, self.nrm, vy_src, self.l_s = _sources(
             cam, self.dirs, distance, normal, surface_radiance, hit)
         self.d_src = np.clip(-self.pts[:, 1], 0.0, None)
@@ -386,7 +391,7 @@ class _Context:
     def l_bg(self, depth, look_y):
         """The open water's radiance looking along a direction of up component ``look_y``."""
         from .lightfield import bilinear
-        return bilinear(self.lrad, depth, look_y, self.d_max) * self.e0
+        return bilinear(self.lrad_e0, depth, look_y, self.d_max, band_last=True)
 
     def l_src(self, look_y):
         """:meth:`l_bg` at the sources' depths, ``look_y`` (..., M): (..., M, n)."""
@@ -394,8 +399,9 @@ class _Context:
         y = (1.0 - np.arccos(np.clip(look_y, -1.0, 1.0)) / np.pi) * (nm - 1)
         j = np.minimum(np.floor(y).astype(int), nm - 2)
         fy = (y - j)[..., None]
-        m = np.arange(self.src_rows.shape[0])
-        return (1 - fy) * self.src_rows[m, j] + fy * self.src_rows[m, j + 1]
+        flat = self.src_rows.reshape(-1, self.src_rows.shape[-1])
+        k = np.arange(self.src_rows.shape[0]) * nm + j          # (flat indices: np.take)
+        return (1 - fy) * np.take(flat, k, axis=0) + fy * np.take(flat, k + 1, axis=0)
 
     def open_length(self):
         """Where an open-water pixel's ray stops counting: the farthest source,
@@ -444,15 +450,17 @@ class _Context:
         cap = np.arccos(np.clip(1.0 - solid / (2 * np.pi), -1.0, 1.0))
         xi = np.interp(th, self.disc_theta, np.arange(self.disc_theta.size))
         yi = np.interp(cap, self.disc_alpha, np.arange(self.disc_alpha.size))
-        p = _mixed(_lookup2(self.disc_phase, xi, yi), self.mix)           # (K, M, n)
-        turn = np.minimum(_lookup2(self.disc_shift[None], xi, yi)[0], th)
+        p0, p1, shift = np.moveaxis(_lookup2(self.disc_all, xi, yi), -1, 0)
+        turn = np.minimum(shift, th)
         perp = v - mu[..., None] * u
         perp /= np.maximum(np.linalg.norm(perp, axis=-1, keepdims=True), 1e-12)
         look_y = np.cos(turn) * u[..., 1] + np.sin(turn) * perp[..., 1]
         dl = (self.l_src(look_y) - self.l_s
               - (mu > self.cone_cos)[..., None] * self.in_cone_dl)
-        att = np.exp(-self.k * (t[:, None] + r)[..., None])
-        return np.einsum("kmn,km->kn", p * att * dl, solid) * self.b
+        dl *= np.exp(-self.k * (t[:, None] + r)[..., None])
+        # The band's phase function p0 + mix (p1 - p0): two sums over the blocks.
+        return (np.einsum("km,kmn->kn", solid * p0, dl)
+                + self.mix * np.einsum("km,kmn->kn", solid * (p1 - p0), dl)) * self.b
 
     def hit_rays(self, rows, cols) -> np.ndarray:
         """The term along the rays of hit pixels ``(rows, cols)``, over directions.
@@ -532,11 +540,16 @@ class _Context:
 
 
 def _lookup2(table, x, y) -> np.ndarray:
-    """Bilinear values of ``table`` (k, X, Y) at fractional indices ``x``, ``y``; (k, ...)."""
-    nx, ny = table.shape[1:]
+    """Bilinear values of ``table`` (X, Y, k) at fractional indices ``x``, ``y``: (..., k)."""
+    nx, ny = table.shape[:2]
     i = np.clip(np.floor(x).astype(int), 0, nx - 2)
     j = np.clip(np.floor(y).astype(int), 0, ny - 2)
-    fx = np.clip(x - i, 0.0, 1.0)
-    fy = np.clip(y - j, 0.0, 1.0)
-    return ((1 - fx) * ((1 - fy) * table[:, i, j] + fy * table[:, i, j + 1])
-            + fx * ((1 - fy) * table[:, i + 1, j] + fy * table[:, i + 1, j + 1]))
+    fx = np.clip(x - i, 0.0, 1.0)[..., None]
+    fy = np.clip(y - j, 0.0, 1.0)[..., None]
+    flat = table.reshape(nx * ny, -1)
+    k = i * ny + j                                              # (flat indices: np.take)
+
+    def at(kk):
+        return np.take(flat, kk, axis=0)
+    return ((1 - fx) * ((1 - fy) * at(k) + fy * at(k + 1))
+            + fx * ((1 - fy) * at(k + ny) + fy * at(k + ny + 1)))
