@@ -527,11 +527,17 @@ class _Context:
                 return out
             d_q = np.clip(-q[a, bu, bj, 1], 0.0, None)
             l_s = self.l_s_img[rw[a, bu, bj], cc[a, bu, bj]]
-            dl = (self.l_bg(d_q, w[a, bj, 1]) - l_s - in_cone[bj][:, None]
-                  * (self.l_bg(d_q, dq[a, bu, bj, 1] / dist_q[a, bu, bj]) - l_s))
-            att = np.exp(-self.k * (s[a] - u[a, bu] + r[a, bu, bj])[:, None])
-            np.add.at(out, a, self.b * p_dir[bj] * att * dl
-                      * (dw[bj] * wu[a, bu])[:, None])
+            dl = self.l_bg(d_q, w[a, bj, 1]) - l_s
+            # (Inside the forward cone, less what the cone took: the blocker's
+            # radiance seen along its own camera ray.)
+            c = np.flatnonzero(in_cone[bj])
+            dl[c] -= self.l_bg(d_q[c], dq[a[c], bu[c], bj[c], 1] / dist_q[a[c], bu[c], bj[c]]) \
+                - l_s[c]
+            dl *= p_dir[bj] * np.exp(-self.k * (s[a] - u[a, bu] + r[a, bu, bj])[:, None])
+            dl *= (dw[bj] * wu[a, bu])[:, None]
+            # (a is sorted: np.nonzero's order; one sum per receiver.)
+            first = np.flatnonzero(np.r_[True, a[1:] != a[:-1]])
+            out[a[first]] = np.add.reduceat(dl, first, axis=0) * self.b
             return out
 
         if not chunks:
