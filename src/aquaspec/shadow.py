@@ -1,4 +1,9 @@
-"""The scene's own shadow in the water's light field, to first order (NumPy model).
+"""The scene's own shadow in the water's light field, to first order (NumPy).
+
+Integrated from a G-buffer (:func:`aquaspec.shading.scene_shadow`) for the
+NumPy model and under the GPU renderer's image
+(:meth:`aquaspec.renderer.Renderer.subtract_shadow`), the receivers' rays
+spread over the machine's cores (:mod:`aquaspec.parallel`).
 
 The light-field model's in-scattering comes from a horizontally uniform,
 one-dimensional light field: water with nothing in it. A target blocks
