@@ -209,7 +209,7 @@ class TestRenderCommand:
         np.testing.assert_allclose(np.load(lin), np.load(ref), rtol=2e-3,
                                    atol=2e-3 * np.abs(np.load(ref)).max())
 
-    def test_ambient_shadow_on_the_gpu(self, tmp_path):
+    def test_ambient_shadow_on_the_gpu(self, tmp_path, capsys):
         """--ambient-shadow with the GPU backend: recorded in the sidecar, and
         it darkens the pixels where targets block the water's light (by 5.8 %
         at the 99th percentile here, 0.8 % brighter at the 1st: a surface
@@ -220,6 +220,8 @@ class TestRenderCommand:
         assert main([*args, "--ambient-shadow", "-o", str(tmp_path / "a.png"),
                      "--linear", str(lin)]) == 0
         assert json.loads((tmp_path / "a.png.json").read_text())["ambient_shadow"] is True
+        # (Its progress: a line per grid of receivers.)
+        assert "the scene's shadow: " in capsys.readouterr().err
         assert main([*args, "-o", str(tmp_path / "b.png"), "--linear", str(lin0)]) == 0
         with_shadow, without = np.load(lin), np.load(lin0)
         assert np.all(np.isfinite(with_shadow))

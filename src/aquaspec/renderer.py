@@ -163,11 +163,13 @@ class Renderer:
     def _shading_pass(self):
         return self.lightfield if self._use_lightfield else self.deferred
 
-    def render_scene(self, scene, camera: Camera, setup: SpectralSetup) -> np.ndarray:
+    def render_scene(self, scene, camera: Camera, setup: SpectralSetup,
+                     progress=None) -> np.ndarray:
         """Rasterise and shade on the GPU; returns linear camera RGB (H, W, 3) float32.
 
         With ``setup.ambient_shadow`` the G-buffer is read back and the
-        scene's shadow in the light field subtracted (:meth:`subtract_shadow`).
+        scene's shadow in the light field subtracted (:meth:`subtract_shadow`,
+        which calls ``progress`` with a short message per step).
         """
         self._check_camera(camera)
         self.set_spectral(setup, scene.materials)
@@ -177,10 +179,11 @@ class Renderer:
         self.deferred.device.queue.submit([enc.finish()])
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
-            rgb = self.subtract_shadow(rgb, self.raster.render(scene, camera), setup)
+            rgb = self.subtract_shadow(rgb, self.raster.render(scene, camera), setup, progress)
         return rgb
 
-    def render_gbuffer(self, gbuffer: GBuffer, setup: SpectralSetup) -> np.ndarray:
+    def render_gbuffer(self, gbuffer: GBuffer, setup: SpectralSetup,
+                       progress=None) -> np.ndarray:
         """Shade a G-buffer made elsewhere (e.g. RGB-D) on the GPU (and subtract
         the shadow with ``setup.ambient_shadow``, as :meth:`render_scene`)."""
         self._check_camera(gbuffer.camera)
@@ -189,11 +192,12 @@ class Renderer:
         self._shading_pass().run()
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
-            rgb = self.subtract_shadow(rgb, gbuffer, setup)
+            rgb = self.subtract_shadow(rgb, gbuffer, setup, progress)
         return rgb
 
     @staticmethod
-    def subtract_shadow(rgb: np.ndarray, gbuffer: GBuffer, setup: SpectralSetup) -> np.ndarray:
+    def subtract_shadow(rgb: np.ndarray, gbuffer: GBuffer, setup: SpectralSetup,
+                        progress=None) -> np.ndarray:
         """``rgb`` minus the scene's shadow in the light field, in camera RGB.
 
         The term (:func:`aquaspec.shading.scene_shadow`) is integrated in
@@ -203,7 +207,8 @@ class Renderer:
         """
         from .shading import scene_shadow
         medium = setup.medium(gbuffer.materials)
-        dl = scene_shadow(gbuffer, **medium, lightfield=setup.lightfield_tables())
+        dl = scene_shadow(gbuffer, **medium, lightfield=setup.lightfield_tables(),
+                          progress=progress)
         drgb = model.radiance_to_rgb(dl.reshape(-1, dl.shape[-1]), medium["response_weights"])
         return (rgb - drgb.reshape(rgb.shape)).astype(rgb.dtype)
 
@@ -410,12 +415,12 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
                                 "ms_model='seeds'; use backend='numpy' for the light field")
         r = Renderer(camera.width, camera.height, n, debug_radiance=return_radiance)
         if gbuffer is None:
-            linear = r.render_scene(scene, camera, setup).astype(np.float64)
+            linear = r.render_scene(scene, camera, setup, say).astype(np.float64)
             if return_radiance:
                 radiance = r.read_radiance()
             gbuffer = None
         else:
-            linear = r.render_gbuffer(gbuffer, setup).astype(np.float64)
+            linear = r.render_gbuffer(gbuffer, setup, say).astype(np.float64)
             if return_radiance:
                 radiance = r.read_radiance()
     else:
@@ -428,7 +433,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
             + (" with the scene's shadow in the light field" if ambient_shadow else ""))
         out = shade_gbuffer(gbuffer, **setup.medium(gbuffer.materials),
                             return_radiance=return_radiance,
-                            lightfield=setup.lightfield_tables())
+                            lightfield=setup.lightfield_tables(), progress=say)
         linear, radiance = out["camera_rgb"], out.get("radiance")
     bad = ~np.isfinite(linear)
     if bad.any():

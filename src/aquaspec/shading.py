@@ -107,7 +107,8 @@ def camera_depth(camera) -> float:
 
 def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_bands,
                   sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
-                  return_radiance: bool = False, lightfield: dict | None = None) -> dict:
+                  return_radiance: bool = False, lightfield: dict | None = None,
+                  progress=None) -> dict:
     """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
 
     Parameters
@@ -135,6 +136,9 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         Tables from :func:`aquaspec.lightfield.lightfield_tables`: shade with
         the light-field multiple-scattering model (``ms_model="lightfield"``)
         instead of the seeds' (then ``kd`` and ``ambient`` are not used).
+    progress : callable, optional
+        Called with a short message at each step of the scene's shadow
+        (tables with ``ambient_shadow``: :func:`scene_shadow`).
 
     Returns
     -------
@@ -245,7 +249,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
                                    pyramid_weights(lightfield, cam.fy, hgt, wid))
     if shadow:
         radiance -= scene_shadow(gbuffer, b=b, e0=e0, material_bands=mb,
-                                 sigmoid_centers_t=t, lightfield=lightfield)
+                                 sigmoid_centers_t=t, lightfield=lightfield, progress=progress)
     if whole:
         rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}
@@ -262,7 +266,7 @@ def _reached(s, v_y, d_o):
 
 
 def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
-                 lightfield: dict, **_medium) -> np.ndarray:
+                 lightfield: dict, progress=None, **_medium) -> np.ndarray:
     """The scene's first-order shadow in the light field for a G-buffer: ``dL``
     (H, W, n), to subtract from the band radiance (:mod:`aquaspec.shadow`).
 
@@ -272,7 +276,8 @@ def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
     too (:class:`aquaspec.renderer.Renderer`), on the G-buffer it rasterised,
     and subtracts the result in camera RGB. Takes the keyword arguments of
     :meth:`aquaspec.renderer.SpectralSetup.medium` (those it does not use are
-    ignored). NumPy: seconds per image, almost independent of its size.
+    ignored). NumPy: seconds per image, almost independent of its size;
+    ``progress`` is called with a short message per grid of receivers.
     """
     from .lightfield import surface_radiance
     from .shadow import ambient_shadow
@@ -297,4 +302,4 @@ def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
     l_s[hit] = surface_radiance(lightfield, rho, -(cam.position[1] + dist[hit] * v_y[hit]),
                                 gbuffer.normal[..., 1][hit].astype(float), e0)
     return ambient_shadow(lightfield, cam, np.where(hit, dist, np.inf), gbuffer.normal, l_s,
-                          b=b, e0=e0, hit=hit)
+                          b=b, e0=e0, hit=hit, progress=progress)

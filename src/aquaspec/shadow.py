@@ -238,7 +238,7 @@ def _sources(cam, dirs, distance, normal, surface_radiance, hit):
 
 
 def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
-                   hit=None) -> np.ndarray:
+                   hit=None, progress=None) -> np.ndarray:
     """The radiance the scene's surfaces take from the water's light field (module docstring).
 
     Parameters
@@ -257,6 +257,8 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
         Scattering coefficient (1/m) and downwelling irradiance below the surface.
     hit : (H, W) bool array, optional
         Which pixels hit a surface (default: finite ``distance``).
+    progress : callable, optional
+        Called with a short message per grid of receivers.
 
     Returns
     -------
@@ -306,6 +308,10 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
         pos[need] = np.arange(need.size)
         rr, rc = ry[need // rx.size], rx[need % rx.size]
         need_hit = hit[rr, rc]
+        if progress is not None and need.size:
+            progress(f"the scene's shadow: receivers {step} px apart for {served.size} of "
+                     f"{hgt * wid} pixels, {int(need_hit.sum())} rays on surfaces and "
+                     f"{int((~need_hit).sum())} in open water")
         # Rays that end on a surface: over directions (their own plane blocks).
         hit_tot = np.zeros((need.size, n))
         hit_tot[need_hit] = ctx.hit_rays(rr[need_hit], rc[need_hit])
