@@ -554,3 +554,59 @@ def test_converged_means_leave_out_noisy_scenes():
     (r,) = converged_means(rows, scenes, region="grey")
     assert r["scenes"] == 1 and r["rmse_rel"] == pytest.approx(0.1)
     assert "left out: 7C 12 m" in format_converged(rows, scenes, regions=("grey",))
+
+
+def test_board_views():
+    """view="down": the board lies flat (facing up) 3 m along a view pitched
+    45 degrees down, and every patch is seen; the level view is the thesis's
+    board facing the camera (the cached references' geometry)."""
+    from aquaspec.gpu.raster import raycast_gbuffer
+    from aquaspec.validation.scenes import (BOARD_DISTANCE_M, DOWN_PITCH_DEG, GREY_PATCH,
+                                            PATCH_PITCH_M, board_scene, masks)
+    scene, cam = board_scene(5.0, view="down")
+    s = np.sin(np.radians(DOWN_PITCH_DEG))
+    np.testing.assert_allclose(cam.forward, [0.0, -s, -np.cos(np.radians(DOWN_PITCH_DEG))])
+    for mesh in scene.meshes:
+        np.testing.assert_allclose(mesh.normals, np.tile([0.0, 1.0, 0.0], (4, 1)))
+        assert np.all(np.abs(-mesh.vertices[:, 1] - (5.0 + BOARD_DISTANCE_M * s)) < 0.003)
+    gb = raycast_gbuffer(scene, cam)
+    m = masks(gb)
+    assert all(p.sum() >= 4 for p in m["patches"]), [int(p.sum()) for p in m["patches"]]
+    assert m["grey"].sum() >= 6
+    # Around the board the camera sees the open water below it.
+    assert m["background"].any()
+    assert np.all(cam.ray_directions()[..., 1][m["background"]] < 0)
+    # The first row of the chart is the far one, as the level board's is the top one.
+    rows = [np.nonzero(m["patches"][k].any(axis=1))[0].mean() for k in (0, 18)]
+    assert rows[0] < rows[1]
+    level, lcam = board_scene(5.0)
+    np.testing.assert_array_equal(lcam.forward, [0.0, 0.0, -1.0])
+    v = level.meshes[GREY_PATCH].vertices
+    row, col = divmod(GREY_PATCH, 6)
+    np.testing.assert_allclose(v.mean(axis=0), [(col - 2.5) * PATCH_PITCH_M,
+                                                -5.0 + (1.5 - row) * PATCH_PITCH_M, -2.998])
+    with pytest.raises(AquaspecError, match="view='up'; accepted: level, down"):
+        board_scene(5.0, view="up")
+    # A seabed must lie under the board, which is 2.1 m below a camera looking down.
+    with pytest.raises(AquaspecError, match="seabed_below_m=1.5; accepted: a distance > 2.1"):
+        board_scene(5.0, view="down", seabed_below_m=1.5)
+    assert board_scene(5.0, view="down", seabed_below_m=3.0)[0].seabed.depth_m == 8.0
+
+
+def test_study_looking_down(tmp_path):
+    """--view down end to end: the study records the view and its reference is
+    another render than the level view's."""
+    mitsuba()
+    out = tmp_path / "out"
+    base = ["validate", "--waters", "IB", "--depths", "4", "--size", "24x18", "--spp", "8",
+            "--kd-spp", "2000", "--ms-models", "lightfield", "--no-cone-spread",
+            "--sensors", "human", "--cache", str(tmp_path / "cache")]
+    assert main([*base, "--view", "down", "-o", str(out)]) == 0
+    import json
+    doc = json.loads((out / "validation.json").read_text())
+    assert doc["params"]["view"] == "down"
+    rows = [r for r in doc["rows"] if r["region"] == "image" and r["method"] == "lightfield-n8"]
+    assert rows and all(np.isfinite(r["mean_ratio"]) for r in rows)
+    assert len(list((tmp_path / "cache").glob("*.npz"))) == 2       # Kd and the render
+    assert main([*base, "-o", str(tmp_path / "level")]) == 0
+    assert len(list((tmp_path / "cache").glob("*.npz"))) == 3

@@ -56,6 +56,10 @@ def register(sub):
                    help="a flat grey Lambertian seabed M metres below the camera (albedo "
                         "default 0.2) in the reference and in the light field; the light "
                         "field also runs without it (lightfield-deep-n*)")
+    p.add_argument("--view", default="level", choices=("level", "down"),
+                   help="the board facing the camera, which looks level (default, the "
+                        "thesis's scene), or lying flat with the camera looking down at it "
+                        "at 45 degrees")
     p.add_argument("--gpu-timing", action="store_true",
                    help="also time aquaspec's GPU renderer per scene (n = largest band count) "
                         "for the speed-up over the reference at equal pixel count")
@@ -117,7 +121,7 @@ def run(args):
                     forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
                     spread_scattering=args.spread_scattering,
                     ambient_shadow=args.ambient_shadow,
-                    **_seabed_below(args.seabed_below),
+                    **_seabed_below(args.seabed_below), view=args.view,
                     gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
     from ..validation.study import REGIONS

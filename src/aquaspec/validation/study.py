@@ -196,7 +196,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
               kd_modes=("database", "measured"), forward_cone_deg: float | None = None,
               cone_spread: bool | None = None, spread_scattering: str = "single",
               ambient_shadow: bool = False, seabed_below_m: float | None = None,
-              seabed_albedo: float = 0.2,
+              seabed_albedo: float = 0.2, view: str = "level",
               cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
 
@@ -222,6 +222,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     :mod:`aquaspec.conespread`); ``ambient_shadow`` subtracts the scene's
     first-order shadow in the light field (:mod:`aquaspec.shadow`); ``forward_cone_deg``
     None is the model's default cone (15 degrees, 40 with the spread).
+    ``view`` is the board's view (:data:`.scenes.VIEWS`: facing the camera,
+    or lying flat seen from above).
     """
     from ..gpu.raster import raycast_gbuffer
     say = progress or (lambda m: None)
@@ -257,7 +259,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
         # A broken scene should fail in a second, not after the Kd meters.
         say("checking the reference scene on an 8x6 test image")
         scene0, cam0 = board_scene(depths[0], width=size[0], height=size[1],
-                                   seabed_below_m=seabed_below_m, seabed_albedo=seabed_albedo)
+                                   seabed_below_m=seabed_below_m, seabed_albedo=seabed_albedo,
+                                   view=view)
         preflight(scene0, cam0, load_water(waters[0], source), light, phase=phase, g=g,
                   backscatter=backscatter)
     k = 0
@@ -288,7 +291,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
             k += 1
             scene, cam = board_scene(depth, width=size[0], height=size[1],
                                      seabed_below_m=seabed_below_m,
-                                     seabed_albedo=seabed_albedo)
+                                     seabed_albedo=seabed_albedo, view=view)
             gb = raycast_gbuffer(scene, cam)
             m = masks(gb)
             going_down = cam.ray_directions()[..., 1] <= 0
@@ -308,7 +311,10 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                             water=wname, source=source,
                             depth=depth, size=list(size), spp=spp, **pkey,
                             bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
-                            data=data, geometry=geometry)
+                            data=data, geometry=geometry,
+                            # (The level view's keys predate the views.)
+                            **({} if view == "level" else
+                               {"camera": [cam.position.tolist(), cam.forward.tolist()]}))
             t0 = time.perf_counter()
             ref, hit = _cached(cache_dir, key, lambda: render_reference(
                 scene, cam, water, light, spp=spp, phase=phase, g=g,
@@ -399,7 +405,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                        "ms_models": list(ms_models), "forward_cone_deg": forward_cone_deg,
                        "cone_spread": bool(cone_spread),
                        "spread_scattering": spread_scattering,
-                       "ambient_shadow": bool(ambient_shadow),
+                       "ambient_shadow": bool(ambient_shadow), "view": view,
                        "seabed": None if seabed_below_m is None else
                        {"below_camera_m": float(seabed_below_m),
                         "albedo": float(seabed_albedo)}}}
