@@ -779,14 +779,10 @@ def bilinear(table, depth_m, cos, max_depth_m, *, band_last: bool = False):
         t = np.asarray(table, dtype=np.float32)
         nd, nm = t.shape[1:]
         tt = np.moveaxis(t, 0, -1)  # (a view: the texels read are converted, not the table)
-    d = np.clip(np.asarray(depth_m, dtype=float), 0.0, max_depth_m)
-    x = np.sqrt(d / max_depth_m) * (nd - 1)
-    y = (1.0 - np.arccos(np.clip(np.asarray(cos, dtype=float), -1.0, 1.0)) / np.pi) * (nm - 1)
-    x, y = np.broadcast_arrays(x, y)
-    i = np.minimum(np.floor(x).astype(int), nd - 2)
-    j = np.minimum(np.floor(y).astype(int), nm - 2)
-    fx = (x - i)[..., None]
-    fy = (y - j)[..., None]
+    i, fx = table_depth_index(depth_m, max_depth_m, nd)
+    j, fy = table_cos_index(cos, nm)
+    i, fx, j, fy = np.broadcast_arrays(i, fx, j, fy)
+    fx, fy = fx[..., None], fy[..., None]
 
     if band_last:
         flat = tt.reshape(nd * nm, -1)
@@ -799,6 +795,24 @@ def bilinear(table, depth_m, cos, max_depth_m, *, band_last: bool = False):
 
     return ((1 - fx) * ((1 - fy) * at(i, j) + fy * at(i, j + 1))
             + fx * ((1 - fy) * at(i + 1, j) + fy * at(i + 1, j + 1)))
+
+
+def table_depth_index(depth_m, max_depth_m, n_depth):
+    """The depth axis of :func:`bilinear`: lower texel ``i`` and weight ``f`` of
+    ``x = sqrt(clamp(d, 0, D)/D) (n_depth - 1)`` (the texel below the last one
+    at the axis' end)."""
+    d = np.clip(np.asarray(depth_m, dtype=float), 0.0, max_depth_m)
+    x = np.sqrt(d / max_depth_m) * (n_depth - 1)
+    i = np.minimum(np.floor(x).astype(int), n_depth - 2)
+    return i, x - i
+
+
+def table_cos_index(cos, n_mu):
+    """The direction axis of :func:`bilinear`: lower texel ``j`` and weight ``f`` of
+    ``y = (1 - acos(clamp(v, -1, 1))/pi) (n_mu - 1)``."""
+    y = (1.0 - np.arccos(np.clip(np.asarray(cos, dtype=float), -1.0, 1.0)) / np.pi) * (n_mu - 1)
+    j = np.minimum(np.floor(y).astype(int), n_mu - 2)
+    return j, y - j
 
 
 def band_last_table(table) -> np.ndarray:

@@ -167,7 +167,7 @@ class Renderer:
                      progress=None) -> np.ndarray:
         """Rasterise and shade on the GPU; returns linear camera RGB (H, W, 3) float32.
 
-        With ``setup.ambient_shadow`` the G-buffer is read back and the
+        With ``setup.ambient_shadow`` the frame's G-buffer is read back and the
         scene's shadow in the light field subtracted (:meth:`subtract_shadow`,
         which calls ``progress`` with a short message per step).
         """
@@ -179,7 +179,8 @@ class Renderer:
         self.deferred.device.queue.submit([enc.finish()])
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
-            rgb = self.subtract_shadow(rgb, self.raster.render(scene, camera), setup, progress)
+            gbuffer = self.raster.read_gbuffer(scene, camera, self.deferred.gbuffer_textures)
+            rgb = self.subtract_shadow(rgb, gbuffer, setup, progress)
         return rgb
 
     def render_gbuffer(self, gbuffer: GBuffer, setup: SpectralSetup,

@@ -217,11 +217,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         if np.any(ow):
             lrad[ow] = split(radiance_of(v_y=v_y[ow, None], s=s[ow, None]), ow, r0)
         if np.any(hit):
-            m = mat[hit]
-            pp = m == PER_PIXEL
-            rho = np.empty((m.size, n))
-            rho[pp] = sigmoid_reflectance(sig[hit][pp], t)
-            rho[~pp] = mb[m[~pp]]
+            rho = _hit_reflectance(mat[hit], sig[hit], mb, t)
             surface_depth = -(o_y + s[hit] * v_y[hit])
             lrad[hit] = split(radiance_of(
                 v_y=v_y[hit, None], s=s[hit, None], rho=rho,
@@ -258,6 +254,17 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     return out
 
 
+def _hit_reflectance(material, sigmoid, material_bands, t):
+    """Band reflectance (P, n) of hit pixels: their material's (``material_bands``
+    rows), or with :data:`~aquaspec.gbuffer.PER_PIXEL` their sigmoid's at ``t``.
+    (The G-buffer holds only defined material indices: GBuffer checks them.)"""
+    per_pixel = material == PER_PIXEL
+    rho = np.empty((material.size, material_bands.shape[1]))
+    rho[per_pixel] = sigmoid_reflectance(sigmoid[per_pixel], t)
+    rho[~per_pixel] = material_bands[material[~per_pixel]]
+    return rho
+
+
 def _reached(s, v_y, d_o):
     """Which hits count: a finite distance ``s`` the ray (up component ``v_y``)
     reaches before the water surface (camera depth ``d_o``)."""
@@ -289,15 +296,11 @@ def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
     v_y = cam.ray_directions()[..., 1]
     dist = gbuffer.distance.astype(float)
     hit = _reached(dist, v_y, d_o)
-    mat = gbuffer.material[hit]
-    per_pixel = mat == PER_PIXEL
-    if np.any(~per_pixel & (mat >= len(mb))):
-        raise AquaspecError(f"G-buffer material index {int(mat[~per_pixel].max())} is out of "
-                            f"range; {len(mb)} materials are defined")
-    rho = np.empty((mat.size, b.size))
-    rho[per_pixel] = sigmoid_reflectance(gbuffer.sigmoid[hit][per_pixel],
-                                         np.asarray(sigmoid_centers_t, dtype=float))
-    rho[~per_pixel] = mb[mat[~per_pixel]]
+    if len(mb) != len(gbuffer.materials):
+        raise AquaspecError(f"material_bands has {len(mb)} rows but the G-buffer defines "
+                            f"{len(gbuffer.materials)} materials")
+    rho = _hit_reflectance(gbuffer.material[hit], gbuffer.sigmoid[hit], mb,
+                           np.asarray(sigmoid_centers_t, dtype=float))
     l_s = np.zeros(dist.shape + (b.size,))
     l_s[hit] = surface_radiance(lightfield, rho, -(cam.position[1] + dist[hit] * v_y[hit]),
                                 gbuffer.normal[..., 1][hit].astype(float), e0)

@@ -366,10 +366,9 @@ class _Context:
         self.b, self.e0 = b, e0
         self.dirs = cam.ray_directions()
         self.d_max = float(tables["max_depth_m"][0])
-        from .lightfield import band_last_table
-        self.lrad = np.asarray(tables["radiance_per_e0"], dtype=float)
+        from .lightfield import band_last_table, table_depth_index
         # (The radiance itself, each texel's bands together: most lookups are here.)
-        self.lrad_e0 = band_last_table(self.lrad) * e0
+        self.lrad_e0 = band_last_table(tables["radiance_per_e0"]) * e0
         self.cone_cos = np.cos(np.radians(float(np.asarray(
             tables.get("forward_cone_deg", [0.0]))[0])))
         self.theta_nodes = np.asarray(tables["shadow_theta"], dtype=float)
@@ -378,22 +377,19 @@ class _Context:
         self.k = np.asarray(tables["shadow_extinction"], dtype=float)
         self.disc_theta = np.asarray(tables["shadow_disc_theta"], dtype=float)
         self.disc_alpha = np.asarray(tables["shadow_disc_alpha"], dtype=float)
-        self.disc_phase = np.asarray(tables["shadow_disc_phase"], dtype=float)
-        self.disc_shift = np.asarray(tables["shadow_disc_shift"], dtype=float)
-        # (Both phase functions' cap means and the shift, (theta, alpha, 3).)
-        self.disc_all = np.ascontiguousarray(np.stack([*self.disc_phase, self.disc_shift], -1))
+        # Both phase functions' cap means and the shift, (theta, alpha, 3).
+        self.disc_all = np.ascontiguousarray(np.stack(
+            [*np.asarray(tables["shadow_disc_phase"], dtype=float),
+             np.asarray(tables["shadow_disc_shift"], dtype=float)], -1))
         self.area, self.pts, self.nrm, vy_src, self.l_s = _sources(
             cam, self.dirs, distance, normal, surface_radiance, hit)
         self.d_src = np.clip(-self.pts[:, 1], 0.0, None)
         # The radiance table's row at each source's depth (M, n_mu, n): the
         # open rays then interpolate in direction alone (the same bilinear
         # value, its depth step taken once per source).
-        nd, nm = self.lrad.shape[1:]
-        x = np.sqrt(np.clip(self.d_src, 0.0, self.d_max) / self.d_max) * (nd - 1)
-        i = np.minimum(np.floor(x).astype(int), nd - 2)
-        fx = (x - i)[:, None, None]
-        tt = np.moveaxis(self.lrad, 0, -1)
-        self.src_rows = ((1 - fx) * tt[i] + fx * tt[i + 1]) * self.e0
+        i, fx = table_depth_index(self.d_src, self.d_max, self.lrad_e0.shape[0])
+        fx = fx[:, None, None]
+        self.src_rows = (1 - fx) * self.lrad_e0[i] + fx * self.lrad_e0[i + 1]
         # The in-cone part the forward cone already took: L_bg(d_y, v') - L_s.
         self.in_cone_dl = self.l_bg(self.d_src, vy_src) - self.l_s
         self.t_max = float(np.max(np.linalg.norm(self.pts - cam.position, axis=-1)))
@@ -406,10 +402,10 @@ class _Context:
 
     def l_src(self, look_y):
         """:meth:`l_bg` at the sources' depths, ``look_y`` (..., M): (..., M, n)."""
+        from .lightfield import table_cos_index
         nm = self.src_rows.shape[1]
-        y = (1.0 - np.arccos(np.clip(look_y, -1.0, 1.0)) / np.pi) * (nm - 1)
-        j = np.minimum(np.floor(y).astype(int), nm - 2)
-        fy = (y - j)[..., None]
+        j, fy = table_cos_index(look_y, nm)
+        fy = fy[..., None]
         flat = self.src_rows.reshape(-1, self.src_rows.shape[-1])
         k = np.arange(self.src_rows.shape[0]) * nm + j          # (flat indices: np.take)
         return (1 - fy) * np.take(flat, k, axis=0) + fy * np.take(flat, k + 1, axis=0)
@@ -437,7 +433,7 @@ class _Context:
         surface, summed over the source blocks: (R, K, n)."""
         t, n = self.t, self.b.size
         g = np.zeros((rays.shape[0], T_NODES, n))
-        for q, gq in enumerate(in_threads(self._open_ray, list(rays))):
+        for q, gq in enumerate(in_threads(self._open_ray, rays)):
             g[q] = gq
         steps = np.diff(t)[None, :, None]
         return np.concatenate([np.zeros((g.shape[0], 1, n)),

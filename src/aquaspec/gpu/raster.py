@@ -350,11 +350,18 @@ class RasterPass:
         encoder = self.device.create_command_encoder()
         self.encode(encoder, scene, camera)
         self.device.queue.submit([encoder.finish()])
+        return self.read_gbuffer(scene, camera)
+
+    def read_gbuffer(self, scene: Scene, camera: Camera, textures=None) -> GBuffer:
+        """The G-buffer of ``scene`` and ``camera`` last rasterised, read back from
+        :attr:`targets`, or from ``textures`` (``{"surface", "sigmoid"}``, e.g. a
+        :class:`~aquaspec.gpu.deferred.DeferredPass`'s after :meth:`render_to`)."""
+        src = self.targets if textures is None else textures
         w, h = camera.width, camera.height
         distance, normal, material = unpack_surface(
-            self._read(self.targets["surface"], np.uint32, w, h))
+            self._read(src["surface"], np.uint32, w, h))
         if self.per_pixel:
-            sigmoid = self._read(self.targets["sigmoid"], np.float32, w, h)[..., :3].copy()
+            sigmoid = self._read(src["sigmoid"], np.float32, w, h)[..., :3].copy()
         else:
             sigmoid = np.zeros((h, w, 3), np.float32)
         hit = distance >= 0
