@@ -892,7 +892,8 @@ def _cut_at_seabed(s, d_o, v, bed):
 def surface_radiance(tables, rho, depth_m, n_y, e0) -> np.ndarray:
     """Lambertian radiance ``rho E(d, n_y) / pi`` of surfaces lit by the light
     field (irradiance table), shape ``depth.shape + (n_bands,)``."""
-    e = bilinear(tables["irradiance_per_e0"], depth_m, n_y, float(tables["max_depth_m"][0]))
+    e = bilinear(band_last_table(tables["irradiance_per_e0"]), depth_m, n_y,
+                 float(tables["max_depth_m"][0]), band_last=True)
     return model.lambertian_radiance(rho, e * np.asarray(e0, dtype=float))
 
 

@@ -219,11 +219,9 @@ def _sources(cam, dirs, distance, normal, surface_radiance, hit):
     area = np.where(hit, s * s * fwd_cos ** 3 / (cam.fx * cam.fy) / cos_n, 0.0)
     point = cam.position + s[..., None] * dirs
 
-    def blocks(x):
-        hb, wb = -(-hgt // step), -(-wid // step)
-        pad = [(0, hb * step - hgt), (0, wb * step - wid)] + [(0, 0)] * (x.ndim - 2)
-        xp = np.pad(x, pad)
-        return xp.reshape((hb, step, wb, step) + x.shape[2:]).sum(axis=(1, 3))
+    def blocks(x):              # (sums over step x step blocks, the last ones partial)
+        rows = np.add.reduceat(x, np.arange(0, hgt, step), axis=0)
+        return np.add.reduceat(rows, np.arange(0, wid, step), axis=1)
 
     a_sum = blocks(area)
     keep = a_sum > 0
@@ -321,12 +319,9 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
         cum[~need_hit] = ctx.open_rays(ctx.dirs[rr[~need_hit], rc[~need_hit]])
         at = pos[idx]                       # (weights 0 where a corner was not computed)
         sel = kind[served]
-        flat[served[sel]] = np.einsum("pk,pkn->pn", wgt[sel], hit_tot[at[sel]])
-        open_px = np.flatnonzero(~sel)
-        for c0 in range(0, open_px.size, 1024):
-            q = open_px[c0:c0 + 1024]
-            vals = ctx.at_length(cum[at[q]], length[served[q]][:, None])   # (P, 4, n)
-            flat[served[q]] = np.einsum("pk,pkn->pn", wgt[q], vals)
+        flat[served[sel]] = _weighted_rows(hit_tot, at[sel], wgt[sel])
+        q = np.flatnonzero(~sel)
+        flat[served[q]] = ctx.at_length(cum, at[q], wgt[q], length[served[q]])
         remaining = remaining[lonely]
         if step == 1:                       # (every pixel is its own receiver there)
             break
@@ -418,15 +413,19 @@ class _Context:
         up = vy > 0
         return np.where(up, np.minimum(self.t_max, d_o / np.where(up, vy, 1.0)), self.t_max)
 
-    def at_length(self, cum, length):
-        """Cumulative integrals ``cum`` (..., K, n) read linearly at ``length`` (...)."""
+    def at_length(self, cum, rays, weights, length):
+        """Cumulative integrals ``cum`` (R, K, n) of receiver rays ``rays`` (P, 4),
+        read linearly at each pixel's ``length`` (P,) and weighted by ``weights``
+        (P, 4): (P, n)."""
         ft = np.clip(np.asarray(length, dtype=float) / max(self.t_max, 1e-12), 0.0, 1.0) \
             * (T_NODES - 1)
         i = np.minimum(np.floor(ft).astype(int), T_NODES - 2)
-        f = (ft - i)[..., None]
-        lo = np.take_along_axis(cum, i[..., None, None], axis=-2)[..., 0, :]
-        hi = np.take_along_axis(cum, (i + 1)[..., None, None], axis=-2)[..., 0, :]
-        return lo + (hi - lo) * f
+        f = (ft - i)[:, None]
+        # (A row per ray and node: the pixel's two nodes are rows i and i + 1.)
+        flat = cum.reshape(-1, cum.shape[-1])
+        at = rays * T_NODES + i[:, None]
+        return (_weighted_rows(flat, at, weights) * (1.0 - f)
+                + _weighted_rows(flat, at + 1, weights) * f)
 
     def open_rays(self, rays):
         """Cumulative ``int_0^t`` of the term along rays ``(R, 3)`` that end on no
@@ -550,6 +549,18 @@ class _Context:
         if not chunks:
             return np.zeros((0, n))
         return np.concatenate(in_threads(chunk, chunks))
+
+
+def _weighted_rows(values, rows, weights) -> np.ndarray:
+    """``sum_k weights[:, k] values[rows[:, k]]`` (P, n) for ``rows`` / ``weights`` (P, 4),
+    a corner at a time (no (P, 4, n) gather)."""
+    out = np.empty((rows.shape[0], values.shape[-1]))
+    for c0 in range(0, rows.shape[0], 8192):        # (in chunks that stay in cache)
+        r, w, o = rows[c0:c0 + 8192], weights[c0:c0 + 8192], out[c0:c0 + 8192]
+        np.multiply(w[:, :1], np.take(values, r[:, 0], axis=0), out=o)
+        for k in range(1, rows.shape[1]):
+            o += w[:, k:k + 1] * np.take(values, r[:, k], axis=0)
+    return out
 
 
 def _lookup2(table, x, y) -> np.ndarray:
