@@ -9,41 +9,21 @@ from aquaspec.bands import Bands
 from aquaspec.camera import Camera
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.raster import raycast_gbuffer
-from aquaspec.lightfield import bilinear, lightfield_tables, surface_radiance
+from aquaspec.lightfield import bilinear, surface_radiance
 from aquaspec.reflectance import Reflectance
 from aquaspec.scene import Mesh, Scene
 from aquaspec.water import load_water
 
-DEPTH = 5.0
-BOARD = 3.0                 # distance of the board, m
-HALF_W, HALF_H = 0.8, 0.55  # the board's half sizes, m
-RHO = 0.3
+from shadow_board import BOARD, DEPTH, HALF_H, HALF_W, RHO, board
 
 
 @pytest.fixture(scope="module")
 def setup():
-    bands = Bands(4)
-    water = load_water("II", "solonenko2015").on_bands(bands)
-    tables = lightfield_tables(water, phase="petzold", forward_cone_deg=40.0, cone_spread=True,
-                               ambient_shadow=True)
-    cam_pos = np.array([0.0, -DEPTH, 0.0])
-    cam = Camera.look_at(cam_pos, cam_pos + [0.0, 0.0, -1.0], width=96, height=72,
-                         fov_y_deg=40.0)
-    scene = Scene(camera=cam)
-    m = scene.add_material(Reflectance.constant(RHO, "board"))
-    v = np.array([[-HALF_W, -DEPTH - HALF_H, -BOARD], [HALF_W, -DEPTH - HALF_H, -BOARD],
-                  [HALF_W, -DEPTH + HALF_H, -BOARD], [-HALF_W, -DEPTH + HALF_H, -BOARD]])
-    scene.add(Mesh(v, np.array([[0, 1, 2], [0, 2, 3]]), np.tile([0.0, 0.0, 1.0], (4, 1)), m))
-    gb = raycast_gbuffer(scene, cam)
-    e0 = np.ones(bands.n)
-    d_hit = np.where(gb.hit, -(cam.position[1] + gb.distance * cam.ray_directions()[..., 1]),
-                     0.0)
-    l_s = np.where(gb.hit[..., None],
-                   surface_radiance(tables, np.full(bands.n, RHO), d_hit, gb.normal[..., 1], e0),
-                   0.0)
-    dl = shadow.ambient_shadow(tables, cam, np.where(gb.hit, gb.distance, np.inf), gb.normal,
-                               l_s, b=water.b, e0=e0, hit=gb.hit)
-    return dict(tables=tables, cam=cam, gb=gb, b=np.asarray(water.b), e0=e0, l_s=l_s, dl=dl)
+    s = board(4)
+    gb = s["gb"]
+    s["dl"] = shadow.ambient_shadow(s["tables"], s["cam"], s["dist"], gb.normal, s["l_s"],
+                                    b=s["b"], e0=s["e0"], hit=gb.hit)
+    return s
 
 
 def direct(setup, row, col, n_t=160, n_theta=90, n_phi=64):
@@ -175,6 +155,7 @@ def test_gpu_renderer_subtracts_the_shadow():
     image as the NumPy model with the shadow (within the compiled model's
     interpolation, as test_render's cone spread test)."""
     from aquaspec.gpu.raster import RasterPass
+    from aquaspec.gpu.shadow_rays import ShadowRays
     from aquaspec.light import surface_light
     from aquaspec.model import radiance_to_rgb
     from aquaspec.renderer import Renderer, SpectralSetup
@@ -193,7 +174,9 @@ def test_gpu_renderer_subtracts_the_shadow():
     without = r.render_scene(scene, cam, plain)
     gb = RasterPass().render(scene, cam)
     medium = setup.medium(gb.materials)
-    dl = scene_shadow(gb, **medium, lightfield=setup.lightfield_tables())
+    # (The renderer integrates the receivers' rays on its device: the same here.)
+    dl = scene_shadow(gb, **medium, lightfield=setup.lightfield_tables(),
+                      rays=ShadowRays(r.deferred.device, 4))
     drgb = radiance_to_rgb(dl.reshape(-1, 4), medium["response_weights"]).reshape(36, 64, 3)
     scale = np.abs(without).max()
     assert np.abs(drgb).max() > 1e-3 * scale      # the term is there to be seen
@@ -236,7 +219,7 @@ def test_thin_structures_take_receivers_not_a_ray_per_pixel(setup, monkeypatch):
     cols = np.flatnonzero(gb.hit.any(axis=0))
     assert cols.size == 16 and shadow.RECEIVERS_LONG_SIDE == 32    # 4 columns per pole
     rays = {"hit": 0, "open": 0}
-    hit_rays, open_rays = shadow._Context.hit_rays, shadow._Context.open_rays
+    hit_rays, open_rays = shadow._Context.hit_rays, shadow._Context.open_integrand
 
     def count_hit(self, rows, cols):
         rays["hit"] += len(rows)
@@ -246,11 +229,13 @@ def test_thin_structures_take_receivers_not_a_ray_per_pixel(setup, monkeypatch):
         rays["open"] += len(dirs)
         return open_rays(self, dirs)
     monkeypatch.setattr(shadow._Context, "hit_rays", count_hit)
-    monkeypatch.setattr(shadow._Context, "open_rays", count_open)
+    monkeypatch.setattr(shadow._Context, "open_integrand", count_open)
     dl = shadow.ambient_shadow(tb, cam, dist, gb.normal, l_s, b=b, e0=e0, hit=gb.hit)
     n_hit = int(gb.hit.sum())
-    assert rays["hit"] < 0.15 * n_hit, rays          # (measured 122 of 1312)
-    assert rays["open"] < 0.1 * (gb.hit.size - n_hit), rays
+    # (Measured with SERVE_WEIGHT 0.75: 358 of 1312 and 1201 of 13088; 122
+    # and 793 with 0.5. A ray per pixel fails both.)
+    assert rays["hit"] < 0.35 * n_hit, rays
+    assert rays["open"] < 0.12 * (gb.hit.size - n_hit), rays
     # The first pole against its pixels' own rays.
     pole = np.zeros_like(gb.hit)
     pole[:, cols[:4]] = gb.hit[:, cols[:4]]

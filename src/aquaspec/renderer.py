@@ -145,6 +145,7 @@ class Renderer:
         self._medium_key = None
         self.lightfield = None      # LightfieldPass, made when first needed
         self._use_lightfield = False
+        self._shadow_rays = None    # ShadowRays, made when first needed
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         key = (id(setup), tuple(id(m) for m in materials))
@@ -196,20 +197,24 @@ class Renderer:
             rgb = self.subtract_shadow(rgb, gbuffer, setup, progress)
         return rgb
 
-    @staticmethod
-    def subtract_shadow(rgb: np.ndarray, gbuffer: GBuffer, setup: SpectralSetup,
+    def subtract_shadow(self, rgb: np.ndarray, gbuffer: GBuffer, setup: SpectralSetup,
                         progress=None) -> np.ndarray:
         """``rgb`` minus the scene's shadow in the light field, in camera RGB.
 
-        The term (:func:`aquaspec.shading.scene_shadow`) is integrated in
-        NumPy from ``gbuffer`` (seconds per image; no WGSL pass yet) and is
-        linear in the band radiance, so its camera RGB is subtracted from the
-        GPU's image as the NumPy model subtracts it from the radiance.
+        The term (:func:`aquaspec.shading.scene_shadow`) is planned in NumPy
+        from ``gbuffer`` (which pixels take which receivers, the source
+        blocks), its receivers' rays are integrated on this renderer's device
+        (:class:`aquaspec.gpu.shadow_rays.ShadowRays`), and it is linear in the
+        band radiance, so its camera RGB is subtracted from the GPU's image as
+        the NumPy model subtracts it from the radiance.
         """
+        from .gpu.shadow_rays import ShadowRays
         from .shading import scene_shadow
+        if self._shadow_rays is None:
+            self._shadow_rays = ShadowRays(self.deferred.device, self.deferred.n_bands)
         medium = setup.medium(gbuffer.materials)
         dl = scene_shadow(gbuffer, **medium, lightfield=setup.lightfield_tables(),
-                          progress=progress)
+                          progress=progress, rays=self._shadow_rays)
         drgb = model.radiance_to_rgb(dl.reshape(-1, dl.shape[-1]), medium["response_weights"])
         return (rgb - drgb.reshape(rgb.shape)).astype(rgb.dtype)
 

@@ -273,7 +273,7 @@ def _reached(s, v_y, d_o):
 
 
 def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
-                 lightfield: dict, progress=None, **_medium) -> np.ndarray:
+                 lightfield: dict, progress=None, rays=None, **_medium) -> np.ndarray:
     """The scene's first-order shadow in the light field for a G-buffer: ``dL``
     (H, W, n), to subtract from the band radiance (:mod:`aquaspec.shadow`).
 
@@ -283,8 +283,10 @@ def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
     too (:class:`aquaspec.renderer.Renderer`), on the G-buffer it rasterised,
     and subtracts the result in camera RGB. Takes the keyword arguments of
     :meth:`aquaspec.renderer.SpectralSetup.medium` (those it does not use are
-    ignored). NumPy: seconds per image, almost independent of its size;
-    ``progress`` is called with a short message per grid of receivers.
+    ignored). ``progress`` is called with a short message per grid of
+    receivers; ``rays`` integrates the receivers' rays elsewhere (the GPU
+    renderer's :class:`aquaspec.gpu.shadow_rays.ShadowRays`; default NumPy:
+    seconds per image, almost independent of its size).
     """
     from .lightfield import surface_radiance
     from .shadow import ambient_shadow
@@ -305,4 +307,4 @@ def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
     l_s[hit] = surface_radiance(lightfield, rho, -(cam.position[1] + dist[hit] * v_y[hit]),
                                 gbuffer.normal[..., 1][hit].astype(float), e0)
     return ambient_shadow(lightfield, cam, np.where(hit, dist, np.inf), gbuffer.normal, l_s,
-                          b=b, e0=e0, hit=hit, progress=progress)
+                          b=b, e0=e0, hit=hit, progress=progress, rays=rays)

@@ -94,10 +94,13 @@ MAX_SOURCES = 1500
 #: own kind (hit or open water) carry more than this share of its bilinear
 #: weights; otherwise it goes to a grid twice as fine (down to its own ray).
 #: Against a direct integration at the board's edges (tests/test_shadow.py's
-#: scene, 96x72) 0.5 took the worst pixels beside the board from 33 to 12 %
-#: of the term's size, 0.75 also its top row from 36 to 5 %; the built-in
-#: scene at 1280x720, 8 bands, cost 5.6 / 7.5 / 13.0 s with 0 / 0.5 / 0.75.
-SERVE_WEIGHT = 0.5
+#: scene, 96x72; the worst band) 0 / 0.5 / 0.75 left the worst pixels beside
+#: the board at 33 / 12 / 12 % of the term's size, its top row at 36 / 36 /
+#: 5 %, the rows above and below it at 21 / 21 / 11 % and 14 / 14 / 7 %. The
+#: built-in scene at 1280x720, 8 bands, took 988 / 1876 receivers' rays
+#: with 0.5 / 0.75 (NumPy 7.5 / 13.0 s for the term, with the rays on the
+#: GPU 1.7-2.3 / 2.4-3.3 s).
+SERVE_WEIGHT = 0.75
 #: Nodes of the cumulative integral along the rays.
 T_NODES = 48
 #: Nodes of the phase functions' table in angle (geometric towards forward).
@@ -236,7 +239,7 @@ def _sources(cam, dirs, distance, normal, surface_radiance, hit):
 
 
 def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
-                   hit=None, progress=None) -> np.ndarray:
+                   hit=None, progress=None, rays=None) -> np.ndarray:
     """The radiance the scene's surfaces take from the water's light field (module docstring).
 
     Parameters
@@ -257,6 +260,11 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
         Which pixels hit a surface (default: finite ``distance``).
     progress : callable, optional
         Called with a short message per grid of receivers.
+    rays : optional
+        Where the receivers' rays are integrated: ``None`` here in NumPy
+        (:meth:`_Context.hit_rays`, :meth:`_Context.open_integrand`), or an
+        object with the same two methods taking the context first, such as
+        :class:`aquaspec.gpu.shadow_rays.ShadowRays` (WGSL, the same maths).
 
     Returns
     -------
@@ -312,11 +320,14 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
                      f"{int((~need_hit).sum())} in open water")
         # Rays that end on a surface: over directions (their own plane blocks).
         hit_tot = np.zeros((need.size, n))
-        hit_tot[need_hit] = ctx.hit_rays(rr[need_hit], rc[need_hit])
+        hit_tot[need_hit] = (ctx.hit_rays(rr[need_hit], rc[need_hit]) if rays is None
+                             else rays.hit_rays(ctx, rr[need_hit], rc[need_hit]))
         # Open water: over the sources, cumulative along the ray, read at each
         # pixel's own length.
         cum = np.zeros((need.size, T_NODES, n))
-        cum[~need_hit] = ctx.open_rays(ctx.dirs[rr[~need_hit], rc[~need_hit]])
+        dirs = ctx.dirs[rr[~need_hit], rc[~need_hit]]
+        cum[~need_hit] = ctx.cumulative(ctx.open_integrand(dirs) if rays is None
+                                        else rays.open_integrand(ctx, dirs))
         at = pos[idx]                       # (weights 0 where a corner was not computed)
         sel = kind[served]
         flat[served[sel]] = _weighted_rows(hit_tot, at[sel], wgt[sel])
@@ -427,19 +438,22 @@ class _Context:
         return (_weighted_rows(flat, at, weights) * (1.0 - f)
                 + _weighted_rows(flat, at + 1, weights) * f)
 
-    def open_rays(self, rays):
-        """Cumulative ``int_0^t`` of the term along rays ``(R, 3)`` that end on no
-        surface, summed over the source blocks: (R, K, n)."""
-        t, n = self.t, self.b.size
-        g = np.zeros((rays.shape[0], T_NODES, n))
+    def open_integrand(self, rays):
+        """The term's integrand at the nodes :attr:`t` along rays ``(R, 3)`` that end
+        on no surface, summed over the source blocks: (R, K, n)."""
+        g = np.zeros((rays.shape[0], T_NODES, self.b.size))
         for q, gq in enumerate(in_threads(self._open_ray, rays)):
             g[q] = gq
-        steps = np.diff(t)[None, :, None]
-        return np.concatenate([np.zeros((g.shape[0], 1, n)),
+        return g
+
+    def cumulative(self, g):
+        """``int_0^t`` of integrands ``g`` (R, K, n) at the nodes :attr:`t` (trapezoids)."""
+        steps = np.diff(self.t)[None, :, None]
+        return np.concatenate([np.zeros((g.shape[0], 1, g.shape[2])),
                                np.cumsum(0.5 * (g[:, 1:] + g[:, :-1]) * steps, axis=1)], axis=1)
 
     def _open_ray(self, v):
-        """The integrand of :meth:`open_rays` at its nodes along one ray ``v``: (K, n)."""
+        """The integrand of :meth:`open_integrand` along one ray ``v``: (K, n)."""
         o, t = self.cam.position, self.t
         x = o + t[:, None] * v                                  # (K, 3)
         w = self.pts[None, :, :] - x[:, None, :]                # (K, M, 3)
@@ -468,6 +482,27 @@ class _Context:
         return (np.einsum("km,kmn->kn", solid * p0, dl)
                 + self.mix * np.einsum("km,kmn->kn", solid * (p1 - p0), dl)) * self.b
 
+    def hit_quadrature(self):
+        """The quadrature of :meth:`hit_rays` (its GPU twin uploads the same):
+        ``(cos theta, sin theta cos phi, sin theta sin phi, dw, in the forward
+        cone)`` per direction cell around the ray (J,) in the frame of
+        :func:`ray_frames`, the cells' band phase functions (J, n), and the
+        Gauss-Legendre nodes and weights on [0, 1] along the ray (U,)."""
+        gx, gw = np.polynomial.legendre.leggauss(HIT_U_NODES)
+        edges = np.concatenate([[0.0], np.geomspace(HIT_THETA_MIN, HIT_THETA_KNEE,
+                                                    HIT_THETA_PEAK_CELLS),
+                                np.linspace(HIT_THETA_KNEE, np.pi, HIT_THETA_WIDE_CELLS + 1)[1:]])
+        th = np.repeat(0.5 * (edges[1:] + edges[:-1]), HIT_PHI_CELLS)
+        dw = np.repeat(np.cos(edges[:-1]) - np.cos(edges[1:]),   # int sin theta d theta
+                       HIT_PHI_CELLS) * (2 * np.pi / HIT_PHI_CELLS)
+        phi = np.tile((np.arange(HIT_PHI_CELLS) + 0.5) * 2 * np.pi / HIT_PHI_CELLS,
+                      edges.size - 1)
+        p_dir = _mixed(np.stack([np.interp(th, self.theta_nodes, f) for f in self.phase]),
+                       self.mix)
+        ct, st = np.cos(th), np.sin(th)
+        return ((ct, st * np.cos(phi), st * np.sin(phi), dw, ct > self.cone_cos), p_dir,
+                0.5 * (gx + 1.0), 0.5 * gw)
+
     def hit_rays(self, rows, cols) -> np.ndarray:
         """The term along the rays of hit pixels ``(rows, cols)``, over directions.
 
@@ -478,33 +513,16 @@ class _Context:
         2 cm), so the plane's edges are the G-buffer's. Returns (P, n)."""
         cam, hgt, wid = self.cam, *self.distance.shape
         n, o = self.b.size, cam.position
-        gx, gw = np.polynomial.legendre.leggauss(HIT_U_NODES)
-        gx, gw = 0.5 * (gx + 1.0), 0.5 * gw
-        edges = np.concatenate([[0.0], np.geomspace(HIT_THETA_MIN, HIT_THETA_KNEE,
-                                                    HIT_THETA_PEAK_CELLS),
-                                np.linspace(HIT_THETA_KNEE, np.pi, HIT_THETA_WIDE_CELLS + 1)[1:]])
-        th = 0.5 * (edges[1:] + edges[:-1])
-        dth = np.cos(edges[:-1]) - np.cos(edges[1:])            # int sin theta d theta
-        phi = (np.arange(HIT_PHI_CELLS) + 0.5) * 2 * np.pi / HIT_PHI_CELLS
-        th_g, ph_g = np.meshgrid(th, phi, indexing="ij")
-        dw = np.repeat(dth, HIT_PHI_CELLS) * (2 * np.pi / HIT_PHI_CELLS)
-        ct, st = np.cos(th_g).reshape(-1), np.sin(th_g).reshape(-1)
-        cp, sp = np.cos(ph_g).reshape(-1), np.sin(ph_g).reshape(-1)
-        p_dir = _mixed(np.stack([np.interp(th_g.reshape(-1), self.theta_nodes, f)
-                                 for f in self.phase]), self.mix)   # (J, n)
-        in_cone = ct > self.cone_cos
+        (ct, c1, c2, dw, in_cone), p_dir, gx, gw = self.hit_quadrature()
         chunks = [(rows[c0:c0 + 16], cols[c0:c0 + 16]) for c0 in range(0, rows.size, 16)]
 
         def chunk(rc):
             pr, pc = rc
             out = np.zeros((pr.size, n))
             v, nrm, s = self.dirs[pr, pc], self.normal[pr, pc], self.distance[pr, pc]
-            e1 = np.cross(v, np.where(np.abs(v[:, 1:2]) < 0.9, [[0.0, 1.0, 0.0]],
-                                      [[1.0, 0.0, 0.0]]))
-            e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
-            e2 = np.cross(v, e1)
-            w = (ct[None, :, None] * v[:, None, :] + (st * cp)[None, :, None] * e1[:, None, :]
-                 + (st * sp)[None, :, None] * e2[:, None, :])  # (P, J, 3)
+            e1, e2 = ray_frames(v)
+            w = (ct[None, :, None] * v[:, None, :] + c1[None, :, None] * e1[:, None, :]
+                 + c2[None, :, None] * e2[:, None, :])           # (P, J, 3)
             towards = -np.sum(w * nrm[:, None, :], axis=-1)     # (P, J): > 0 meets the plane
             # u: distance back from the hit, u = s x^2 (x Gauss-Legendre on [0, 1]).
             u = s[:, None] * gx[None, :] ** 2                   # (P, U)
@@ -549,6 +567,14 @@ class _Context:
         if not chunks:
             return np.zeros((0, n))
         return np.concatenate(in_threads(chunk, chunks))
+
+
+def ray_frames(v):
+    """Unit vectors ``(e1, e2)`` (P, 3) across rays ``v`` (P, 3): the frame of
+    :meth:`_Context.hit_quadrature`'s azimuths."""
+    e1 = np.cross(v, np.where(np.abs(v[:, 1:2]) < 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]]))
+    e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
+    return e1, np.cross(v, e1)
 
 
 def _weighted_rows(values, rows, weights) -> np.ndarray:
