@@ -59,8 +59,8 @@ class SpectralSetup:
     #: a Poisson number of times (``"multiple"``; :mod:`aquaspec.conespread`).
     spread_scattering: str = "single"
     #: The scene's first-order shadow in the light field (:mod:`aquaspec.shadow`;
-    #: integrated in NumPy from the G-buffer, seconds per image, also for the
-    #: GPU renderer: :meth:`Renderer.subtract_shadow`).
+    #: planned in NumPy from the G-buffer, seconds per image; the GPU renderer
+    #: integrates its rays on its device: :meth:`Renderer.subtract_shadow`).
     ambient_shadow: bool = False
     #: The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`);
     #: None: deep water. The seeds' model has none.

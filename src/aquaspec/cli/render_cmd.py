@@ -48,8 +48,9 @@ def register(sub):
     add_spread_scattering_option(p)
     p.add_argument("--ambient-shadow", action="store_true",
                    help="subtract the scene's first-order shadow in the water's light field "
-                        "(goes with --spread-scattering multiple; integrated in NumPy from the "
-                        "G-buffer with either backend: seconds per image)")
+                        "(goes with --spread-scattering multiple; planned in NumPy from the "
+                        "G-buffer, its rays integrated on the GPU with --backend gpu: seconds "
+                        "per image)")
     p.add_argument("--seabed", default="scene", metavar="scene|none|DEPTH[,ALBEDO]",
                    help="the light field's lower boundary: the scene's (default; the "
                         "built-in scene's sand), none (deep water), or a flat Lambertian "
