@@ -95,11 +95,12 @@ MAX_SOURCES = 1500
 #: weights; otherwise it goes to a grid twice as fine (down to its own ray).
 #: Against a direct integration at the board's edges (tests/test_shadow.py's
 #: scene, 96x72; the worst band) 0 / 0.5 / 0.75 left the worst pixels beside
-#: the board at 33 / 12 / 12 % of the term's size, its top row at 36 / 36 /
-#: 5 %, the rows above and below it at 21 / 21 / 11 % and 14 / 14 / 7 %. The
-#: built-in scene at 1280x720, 8 bands, took 988 / 1876 receivers' rays
-#: with 0.5 / 0.75 (NumPy 7.5 / 13.0 s for the term, with the rays on the
-#: GPU 1.7-2.3 / 2.4-3.3 s).
+#: the board at 33 / 12 / 12 % of the term's size and its top row at 36 / 36
+#: / 5 %; 0.5 / 0.75 the rows above and below it at 21 / 11 % and 14 / 7 %.
+#: The built-in scene at 1280x720, 8 bands, takes 988 / 1876 receivers'
+#: rays with 0.5 / 0.75: the term 1.7-2.3 / 2.4-3.3 s with the rays on the
+#: GPU (in NumPy, before its rays and interpolation were made faster, 7.5 /
+#: 13.0 s).
 SERVE_WEIGHT = 0.75
 #: Nodes of the cumulative integral along the rays.
 T_NODES = 48
