@@ -108,7 +108,7 @@ def camera_depth(camera) -> float:
 def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_bands,
                   sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
                   return_radiance: bool = False, lightfield: dict | None = None,
-                  progress=None) -> dict:
+                  progress=None, shadow_rays=None) -> dict:
     """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
 
     Parameters
@@ -139,6 +139,9 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     progress : callable, optional
         Called with a short message at each step of the scene's shadow
         (tables with ``ambient_shadow``: :func:`scene_shadow`).
+    shadow_rays : optional
+        Where the shadow's receivers' rays are integrated (``scene_shadow``'s
+        ``rays``; default here, in NumPy).
 
     Returns
     -------
@@ -245,7 +248,8 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
                                    pyramid_weights(lightfield, cam.fy, hgt, wid))
     if shadow:
         radiance -= scene_shadow(gbuffer, b=b, e0=e0, material_bands=mb,
-                                 sigmoid_centers_t=t, lightfield=lightfield, progress=progress)
+                                 sigmoid_centers_t=t, lightfield=lightfield, progress=progress,
+                                 rays=shadow_rays)
     if whole:
         rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}

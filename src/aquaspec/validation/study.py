@@ -24,6 +24,7 @@ per-pixel errors).
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import time
@@ -154,8 +155,23 @@ def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_
                           seabed=seabed if ms_model == "lightfield" else None,
                           ambient_shadow=ambient_shadow and ms_model == "lightfield")
     out = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
-                        lightfield=setup.lightfield_tables())
+                        lightfield=setup.lightfield_tables(),
+                        shadow_rays=_shadow_rays(n) if setup.ambient_shadow else None)
     return out["radiance"]
+
+
+@functools.lru_cache(maxsize=4)
+def _shadow_rays(n: int):
+    """The shadow's ray integrals on the GPU when there is one (its WGSL twins
+    agree with NumPy within 1e-5 of the term; several times faster), else
+    None (NumPy). One per band count (the pipelines are compiled once)."""
+    from ..errors import GPUUnavailableError
+    try:
+        from ..gpu.device import get_device
+        from ..gpu.shadow_rays import ShadowRays
+        return ShadowRays(get_device()[1], n)
+    except GPUUnavailableError:
+        return None
 
 
 def gpu_frame_seconds(scene, camera, water, light, n: int, *, ms_model="seeds",
