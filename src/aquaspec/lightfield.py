@@ -98,7 +98,7 @@ from numpy.polynomial.legendre import leggauss
 
 from . import model
 from .errors import AquaspecError
-from .phase import PhaseFunction, band_moments, redistribution_matrix
+from .phase import band_moments, redistribution_matrix
 
 #: Surface boundary conditions (the radiance looking up just below y = 0).
 SURFACES = ("null", "refracted")

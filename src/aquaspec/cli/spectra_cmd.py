@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import numpy as np
-
-from .common import add_band_options, add_sensor_options, add_water_options
+from .common import add_band_options, add_water_options
 
 
 def register(sub):
