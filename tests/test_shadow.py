@@ -219,7 +219,7 @@ def test_thin_structures_take_receivers_not_a_ray_per_pixel(setup, monkeypatch):
     cols = np.flatnonzero(gb.hit.any(axis=0))
     assert cols.size == 16 and shadow.RECEIVERS_LONG_SIDE == 32    # 4 columns per pole
     rays = {"hit": 0, "open": 0}
-    hit_rays, open_rays = shadow._Context.hit_rays, shadow._Context.open_integrand
+    hit_rays, open_integrand = shadow._Context.hit_rays, shadow._Context.open_integrand
 
     def count_hit(self, rows, cols):
         rays["hit"] += len(rows)
@@ -227,7 +227,7 @@ def test_thin_structures_take_receivers_not_a_ray_per_pixel(setup, monkeypatch):
 
     def count_open(self, dirs):
         rays["open"] += len(dirs)
-        return open_rays(self, dirs)
+        return open_integrand(self, dirs)
     monkeypatch.setattr(shadow._Context, "hit_rays", count_hit)
     monkeypatch.setattr(shadow._Context, "open_integrand", count_open)
     dl = shadow.ambient_shadow(tb, cam, dist, gb.normal, l_s, b=b, e0=e0, hit=gb.hit)

@@ -8,7 +8,7 @@ source blocks. WGSL: ``shaders/shadow_open.wgsl``, one invocation per
 private array (bands four to a vec4). Conventions: metres, y up, water surface y = 0, depth -y.
 The cumulative integral along the rays stays on the host
 (:meth:`~aquaspec.shadow._Context.cumulative`).
-``tests/test_gpu_shadow_open.py`` holds the pass against ``_open_ray``.
+``tests/test_gpu_shadow.py`` holds the pass against ``_open_ray``.
 
 Bands are four to a vec4 (the last padded with zeros) in every per-band
 buffer, band-contiguous. Bindings of shadow_open.wgsl (float32):
@@ -17,12 +17,12 @@ buffer, band-contiguous. Bindings of shadow_open.wgsl (float32):
 0   uniform ``OpenParams``      camera position, counts, ``t`` step, cone, axes
 1   ``array<vec4<f32>>``        ray directions
 2   ``array<vec4<f32>>``        per source ``(mean point, area)``, ``(normal, 0)``
-3   ``array<f32>``              ``src_rows - l_s`` [source, cos, band], then
+3   ``array<vec4<f32>>``        ``src_rows - l_s`` [source, cos, band], then
                                 ``in_cone_dl`` [source, band]
 4   ``array<vec4<f32>>``        ``disc_all`` [theta, alpha] ``(p0, p1, shift, 0)``
 5   ``array<f32>``              ``disc_theta``, then ``disc_alpha``
 6   ``array<vec4<f32>>``        ``k`` [band], then ``mix`` [band], then ``b`` [band]
-7   ``array<f32>``              the integrand [ray, node, band]
+7   ``array<vec4<f32>>``        the integrand [ray, node, band]
 ==  ==========================  ===============================================
 """
 
