@@ -9,6 +9,9 @@ from pathlib import Path
 import pytest
 
 os.environ.setdefault("XDG_RUNTIME_DIR", tempfile.mkdtemp(prefix="aquaspec-xdg-"))
+# What aquaspec caches per machine (aquaspec.colourdata) goes to a directory of
+# this test run, CLI subprocesses included, not to the user's cache.
+os.environ.setdefault("AQUASPEC_CACHE", tempfile.mkdtemp(prefix="aquaspec-cache-"))
 
 REPO = Path(__file__).resolve().parents[1]
 CAMSPEC = REPO.parent / "shared" / "data" / "camspec_database.txt"

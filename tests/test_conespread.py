@@ -177,3 +177,51 @@ def test_node_tables_and_node_spread():
     assert conespread.node_coordinates_are_integers()
     with pytest.raises(AquaspecError, match="start level"):
         conespread.node_level_tables(w, 5)
+
+
+@pytest.mark.parametrize("level", [1, 2, 3, 4])
+def test_measured_level_cdf_is_the_whole_canvas_sorted(level):
+    # The definition on a canvas twice as wide, every pixel sorted by distance
+    # (ties in row order): the cropped, smaller computation gives the same.
+    size = 2 ** (level + 4)
+    radii = 2.0 ** (np.arange(-4, 4 * (level + 3) + 1) / 4.0)
+    half = 2 ** max(level - 1, 0)
+    w = np.zeros(level + 1)
+    w[level] = 1.0
+    cdfs = []
+    for dy, dx in ((0, 0), (half, 0), (0, half), (half, half)):
+        pos = (size // 2 + dy, size // 2 + dx)
+        img = np.zeros((size, size))
+        img[pos] = 1.0
+        k = conespread.spread(img, w).ravel()
+        y, x = np.indices((size, size))
+        r = np.hypot(y - pos[0], x - pos[1]).ravel()
+        order = np.argsort(r, kind="stable")
+        cdfs.append(np.interp(radii, r[order], np.cumsum(k[order]), left=0.0))
+    got_radii, got = conespread._measured_level_cdf(level)
+    np.testing.assert_array_equal(got_radii, radii)
+    np.testing.assert_allclose(got, np.mean(cdfs, axis=0), rtol=0, atol=1e-14)
+    assert got[-1] == pytest.approx(1.0, abs=1e-12)
+
+
+def test_nnls_matches_scipy():
+    from scipy.optimize import nnls as scipy_nnls
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        m, n = rng.integers(2, 40), rng.integers(1, 13)
+        a = rng.normal(size=(m, n))
+        b = rng.normal(size=m)
+        x = conespread.nnls(a, b)
+        assert x.min() >= 0.0
+        np.testing.assert_allclose(x, scipy_nnls(a, b)[0], rtol=0,
+                                   atol=1e-10 * max(1.0, np.abs(x).max()))
+
+
+def test_nnls_known_answers():
+    # Unconstrained optimum inside the orthant: it is the answer.
+    a = np.eye(3)
+    np.testing.assert_allclose(conespread.nnls(a, [1.0, 2.0, 3.0]), [1.0, 2.0, 3.0])
+    # A negative unconstrained component is clamped to 0.
+    np.testing.assert_allclose(conespread.nnls(a, [1.0, -2.0, 3.0]), [1.0, 0.0, 3.0])
+    # All negative: x = 0.
+    np.testing.assert_array_equal(conespread.nnls(a, [-1.0, -2.0, -3.0]), np.zeros(3))

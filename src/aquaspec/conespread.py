@@ -128,23 +128,40 @@ def spread(image: np.ndarray, weights) -> np.ndarray:
 @lru_cache(maxsize=None)
 def _measured_level_cdf(level: int) -> tuple:
     """Radial CDF of level ``level``'s response to a point, averaged over four
-    positions in a coarse pixel; radii in pixels at 2^(k/4), k = -4 .. 4 (level + 3)."""
-    size = 2 ** (level + 4)
+    positions in a coarse pixel; radii in pixels at 2^(k/4), k = -4 .. 4 (level + 3).
+
+    The CDF is the response accumulated over pixels sorted by distance
+    (ties in row order) and interpolated linearly between them, out to the
+    farthest pixel the response reaches (beyond it the CDF is 1). The
+    response is computed on a canvas of 2^(level + 3) pixels square, which
+    holds it (it reaches 2.5 2^level pixels from the point at most), and
+    only the pixels within its reach are sorted.
+    """
+    size = 2 ** (level + 3)
     radii = 2.0 ** (np.arange(-4, 4 * (level + 3) + 1) / 4.0)
     half = 2 ** max(level - 1, 0)
+    w = np.zeros(level + 1)
+    w[level] = 1.0
     cdfs = []
     for dy, dx in ((0, 0), (half, 0), (0, half), (half, half)):
-        pos = (size // 2 + dy, size // 2 + dx)
+        py, px = size // 2 + dy, size // 2 + dx
         img = np.zeros((size, size))
-        img[pos] = 1.0
-        w = np.zeros(level + 1)
-        w[level] = 1.0
+        img[py, px] = 1.0
         k = spread(img, w)
-        y, x = np.indices(k.shape)
-        r = np.hypot(y - pos[0], x - pos[1]).ravel()
-        order = np.argsort(r)
-        cum = np.cumsum(k.ravel()[order])
-        cdfs.append(np.interp(radii, r[order], cum, left=0.0))
+        if k[[0, -1], :].any() or k[:, [0, -1]].any():
+            raise AssertionError(f"level {level}'s response reaches the canvas's edge")
+        ys, xs = np.nonzero(k)
+        reach = np.hypot(ys - py, xs - px).max()
+        # Every pixel within the reach, on the canvas or not (off it the
+        # response is 0), in row order.
+        m = int(np.ceil(reach))
+        near = np.pad(k, m)[py:py + 2 * m + 1, px:px + 2 * m + 1]
+        oy, ox = np.mgrid[-m:m + 1, -m:m + 1]
+        r = np.hypot(oy, ox)
+        inside = r <= reach
+        r, near = r[inside], near[inside]
+        order = np.argsort(r, kind="stable")
+        cdfs.append(np.interp(radii, r[order], np.cumsum(near[order]), left=0.0))
     return tuple(radii), tuple(np.mean(cdfs, axis=0))
 
 
@@ -169,7 +186,6 @@ def fit_weights(offsets_rad, cdf, pixels_per_radian: float, levels: int) -> np.n
     distribution matches ``cdf`` (``P(alpha <= offsets_rad)``) turned into
     pixels with ``pixels_per_radian``: non-negative least squares on the CDF
     at radii 2^(k/4) pixels, from half a pixel to beyond the kernel."""
-    from scipy.optimize import nnls
     off = np.asarray(offsets_rad, dtype=float) * float(pixels_per_radian)
     f = np.asarray(cdf, dtype=float)
     if not (pixels_per_radian > 0 and np.all(np.diff(off) > 0)):
@@ -178,9 +194,42 @@ def fit_weights(offsets_rad, cdf, pixels_per_radian: float, levels: int) -> np.n
     target = np.interp(radii, off, f, left=0.0, right=1.0)
     basis = np.stack([level_cdf(lev, radii) for lev in range(levels + 1)], axis=1)
     heavy = 100.0
-    a, _ = nnls(np.vstack([basis, np.full((1, levels + 1), heavy)]),
-                np.concatenate([target, [heavy]]))
+    a = nnls(np.vstack([basis, np.full((1, levels + 1), heavy)]),
+             np.concatenate([target, [heavy]]))
     return a / a.sum()
+
+
+def nnls(a, b) -> np.ndarray:
+    """``x >= 0`` minimising ``|a x - b|``: Lawson and Hanson's active-set method.
+
+    Lawson & Hanson, Solving Least Squares Problems (1974), ch. 23. Written
+    here for the pyramid's few weights so that rendering does not import
+    ``scipy.optimize`` (0.3 s); tested against SciPy's ``nnls``.
+    """
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    n = a.shape[1]
+    tol = 10.0 * np.finfo(float).eps * np.abs(a).sum(axis=0).max() * max(a.shape)
+    x = np.zeros(n)
+    free = np.zeros(n, dtype=bool)       # the passive set: x_j > 0
+    for _ in range(3 * n + 1):
+        grad = a.T @ (b - a @ x)
+        if free.all() or grad[~free].max() <= tol:
+            return x
+        free[np.argmax(np.where(free, -np.inf, grad))] = True
+        while True:
+            z = np.zeros(n)
+            z[free] = np.linalg.lstsq(a[:, free], b, rcond=None)[0]
+            if not free.any() or z[free].min() > 0:
+                x = z
+                break
+            # Back along x -> z until the first weight reaches 0; it leaves.
+            out = free & (z <= 0)
+            step = np.min(x[out] / (x[out] - z[out]))
+            x = x + step * (z - x)
+            free &= x > tol
+            x[~free] = 0.0
+    raise AquaspecError(f"non-negative least squares did not converge for a {a.shape} matrix")
 
 
 def cone_cdf(tables) -> tuple:

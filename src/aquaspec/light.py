@@ -104,9 +104,9 @@ def surface_light(kind: str = "overcast", *, total_w_m2: float | None = None,
     if kind == "overcast":
         wl, val, params = np.array([300.0, 830.0]), np.ones(2), {}
     elif kind == "d65":
-        import colour
-        sd = colour.SDS_ILLUMINANTS["D65"]
-        wl, val, params = np.asarray(sd.wavelengths, float), np.asarray(sd.values, float), {}
+        from . import colourdata
+        wl, val = colourdata.d65()
+        params = {}
     else:
         if not 1.0 <= sun_elevation_deg <= 90.0:
             raise AquaspecError(f"sun elevation {sun_elevation_deg!r} deg; accepted: 1 to 90")

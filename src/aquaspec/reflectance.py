@@ -81,12 +81,11 @@ def sigmoid_band_values(coeffs, bands: Bands):
 @functools.lru_cache(maxsize=1)
 def _srgb_matrix():
     """(3, m) matrix: reflectance on _FIT_WL -> linear sRGB under D65 (white -> ~1)."""
-    import colour
+    from . import colourdata
     from .sensors import XYZ_TO_SRGB
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    d65 = colour.SDS_ILLUMINANTS["D65"]
-    xyz = np.stack([np.interp(_FIT_WL, cmfs.wavelengths, cmfs.values[:, k]) for k in range(3)])
-    e = np.interp(_FIT_WL, d65.wavelengths, d65.values)
+    cmfs_wl, cmfs = colourdata.cmfs_1931()
+    xyz = np.stack([np.interp(_FIT_WL, cmfs_wl, cmfs[:, k]) for k in range(3)])
+    e = np.interp(_FIT_WL, *colourdata.d65())
     w = xyz * e
     w /= w[1].sum()
     return XYZ_TO_SRGB @ w
@@ -226,9 +225,7 @@ def reflectance_from_csv(path, name: str | None = None) -> Reflectance:
 @functools.lru_cache(maxsize=1)
 def colorchecker() -> tuple:
     """The 24 ColorChecker patches in chart order (row by row, grey row last)."""
-    import colour
-    sds = colour.SDS_COLOURCHECKERS["BabelColor Average"]
-    return tuple(Reflectance(name, np.asarray(sd.wavelengths, float),
-                             np.clip(np.asarray(sd.values, float), 0, 1),
+    from . import colourdata
+    return tuple(Reflectance(name, wl, np.clip(values, 0, 1),
                              source="ColorChecker, BabelColor Average (colour-science)")
-                 for name, sd in sds.items())
+                 for name, wl, values in colourdata.colorchecker_spectra())

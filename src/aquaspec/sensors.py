@@ -114,12 +114,11 @@ class Sensor:
 
 
 def _fit_srgb_matrix(sensor: Sensor) -> np.ndarray:
-    import colour
+    from . import colourdata
     from .reflectance import colorchecker
     lo, hi = max(400.0, sensor.range_nm[0]), min(700.0, sensor.range_nm[1])
     bands = Bands(int(round(hi - lo)), lo, hi)
-    d65 = colour.SDS_ILLUMINANTS["D65"]
-    e = bands.average(d65.wavelengths, d65.values)
+    e = bands.average(*colourdata.d65())
     refl = np.stack([r.on_bands(bands) for r in colorchecker()])        # (24, n)
     cam = (refl * e) @ sensor.band_weights(bands)                         # (24, 3)
     ref = (refl * e) @ human_sensor().band_weights(bands)
@@ -138,20 +137,18 @@ def _slug(name: str) -> str:
 
 def human_sensor() -> Sensor:
     """CIE 1931 2-degree observer followed by XYZ -> linear sRGB."""
-    import colour
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    xyz = np.asarray(cmfs.values, dtype=float).T
-    return Sensor("human", np.asarray(cmfs.wavelengths, dtype=float), XYZ_TO_SRGB @ xyz,
+    from . import colourdata
+    wl, cmfs = colourdata.cmfs_1931()
+    return Sensor("human", wl, XYZ_TO_SRGB @ cmfs.T,
                   source="CIE 1931 2-degree observer (colour-science) -> linear sRGB "
                          "(IEC 61966-2-1)")
 
 
 def _npl_sensors() -> dict:
-    import colour
+    from . import colourdata
     out = {}
-    for key, msds in colour.MSDS_CAMERA_SENSITIVITIES.items():
-        out[_slug(key)] = Sensor(_slug(key), np.asarray(msds.wavelengths, dtype=float),
-                                 np.asarray(msds.values, dtype=float).T,
+    for key, (wl, rgb) in colourdata.camera_sensitivities().items():
+        out[_slug(key)] = Sensor(_slug(key), wl, rgb.T,
                                  source=f"{key}, colour-science MSDS_CAMERA_SENSITIVITIES")
     return out
 
