@@ -333,15 +333,16 @@ def _multiple_cdf(off_bytes, f1_bytes, lam, samples, seed):
     log_p = ns * np.log(lam) - lam - np.array([lgamma(k + 1.0) for k in ns])
     p = np.exp(log_p - log_p.max())
     p /= p.sum()
-    edges = np.concatenate([[-np.inf], off])   # cumulative counts: r < off_k
     out = np.zeros(off.size)
     acc = np.zeros_like(v1)
     for k, pk in zip(ns, p):
         acc += v1 if k == 1 else v1[rng.permutation(samples)]
         if pk < 1e-9:
             continue
-        counts, _ = np.histogram(np.hypot(acc[:, 0], acc[:, 1]), bins=edges)
-        out += pk * np.cumsum(counts) / samples
+        # Cumulative counts of r < off_k: j = #(off <= r) is below k + 1
+        # exactly when r < off_k (the last, r <= off_K, is set to 1 below).
+        j = np.searchsorted(off, np.hypot(acc[:, 0], acc[:, 1]), side="right")
+        out += pk * np.cumsum(np.bincount(j, minlength=off.size + 1)[:off.size]) / samples
     out[-1] = 1.0
     return np.minimum(np.maximum.accumulate(out), 1.0)
 
