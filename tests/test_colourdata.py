@@ -8,13 +8,13 @@ import sys
 import numpy as np
 import pytest
 
-from aquaspec import colourdata
+from aquaspec import cache, colourdata
 
 
 @pytest.fixture
 def fresh_cache(tmp_path, monkeypatch):
     """An empty cache directory, and tables() forgotten before and after."""
-    monkeypatch.setenv(colourdata.CACHE_ENV, str(tmp_path))
+    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path))
     colourdata.tables.cache_clear()
     yield tmp_path
     colourdata.tables.cache_clear()
@@ -75,11 +75,11 @@ def test_a_damaged_file_is_rebuilt(fresh_cache):
 
 
 def test_off_writes_nothing(tmp_path, monkeypatch):
-    monkeypatch.setenv(colourdata.CACHE_ENV, "off")
+    monkeypatch.setenv(cache.CACHE_ENV, "off")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     colourdata.tables.cache_clear()
     try:
-        assert colourdata.cache_dir() is None
+        assert cache.cache_dir() is None
         assert colourdata.cmfs_1931()[1].shape[1] == 3
     finally:
         colourdata.tables.cache_clear()

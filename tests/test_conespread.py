@@ -225,3 +225,43 @@ def test_nnls_known_answers():
     np.testing.assert_allclose(conespread.nnls(a, [1.0, -2.0, 3.0]), [1.0, 0.0, 3.0])
     # All negative: x = 0.
     np.testing.assert_array_equal(conespread.nnls(a, [-1.0, -2.0, -3.0]), np.zeros(3))
+
+
+def test_multiple_scattering_cdf_is_kept_on_disk(tmp_path, monkeypatch):
+    from aquaspec import cache
+    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path))
+    cdf = ff_cdf()
+    conespread._multiple_cdf.cache_clear()
+    first = conespread.multiple_scattering_cdf(OFFSETS, cdf, 3.0, samples=4000)
+    (path,) = tmp_path.glob("spread-cdf-*.npz")
+    assert not list(tmp_path.glob("*.part*"))
+    # Read back (no Monte Carlo: the file's numbers, marked, come out).
+    with np.load(path) as z:
+        stored = z["cdf"]
+    np.testing.assert_array_equal(stored, first)
+    cache.save_arrays(path, {"cdf": stored * 0.5})
+    conespread._multiple_cdf.cache_clear()
+    np.testing.assert_array_equal(
+        conespread.multiple_scattering_cdf(OFFSETS, cdf, 3.0, samples=4000), 0.5 * first)
+    # Another lambda, sample count or seed is another file.
+    conespread.multiple_scattering_cdf(OFFSETS, cdf, 3.0, samples=4001)
+    conespread.multiple_scattering_cdf(OFFSETS, cdf, 3.5, samples=4000)
+    conespread.multiple_scattering_cdf(OFFSETS, cdf, 3.0, samples=4000, seed=1)
+    assert len(list(tmp_path.glob("spread-cdf-*.npz"))) == 4
+    # A damaged file is computed again.
+    path.write_bytes(b"damaged")
+    conespread._multiple_cdf.cache_clear()
+    np.testing.assert_array_equal(
+        conespread.multiple_scattering_cdf(OFFSETS, cdf, 3.0, samples=4000), first)
+    conespread._multiple_cdf.cache_clear()
+
+
+def test_multiple_scattering_cdf_without_a_cache(monkeypatch, tmp_path):
+    from aquaspec import cache
+    monkeypatch.setenv(cache.CACHE_ENV, "off")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    conespread._multiple_cdf.cache_clear()
+    a = conespread.multiple_scattering_cdf(OFFSETS, ff_cdf(), 2.0, samples=3000)
+    conespread._multiple_cdf.cache_clear()
+    assert not list(tmp_path.iterdir())
+    assert a[-1] == 1.0 and np.all(np.diff(a) >= 0)

@@ -13,35 +13,24 @@ wavelength tables:
 The first call imports colour-science once, copies those tables into a
 ``.npz`` file in the user's cache (named by the installed colour-science
 version, so an upgrade rebuilds it; written to a temporary file, then
-renamed) and later processes read that file instead. Nothing is shipped: the
-file is made on the user's machine from the installed package. Set
-``AQUASPEC_CACHE`` to move the cache or to ``off`` to always import
-colour-science; an unwritable cache only costs the import.
+renamed; :mod:`aquaspec.cache`) and later processes read that file instead.
+Nothing is shipped: the file is made on the user's machine from the installed
+package. Set ``AQUASPEC_CACHE`` to move the cache or to ``off`` to always
+import colour-science; an unwritable cache only costs the import.
 """
 
 from __future__ import annotations
 
 import functools
-import os
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
-CACHE_ENV = "AQUASPEC_CACHE"
+from .cache import cached_arrays
+
 CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
 CHECKER_NAME = "BabelColor Average"
 # Bumped when the file's layout changes.
 _LAYOUT = 1
-
-
-def cache_dir() -> Path | None:
-    """Where aquaspec keeps what it computes once per machine (None: off)."""
-    env = os.environ.get(CACHE_ENV)
-    if env:
-        return None if env.lower() == "off" else Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "aquaspec"
 
 
 def _colour_version() -> str:
@@ -75,39 +64,13 @@ def _from_colour() -> dict:
     return out
 
 
-def _write(path: Path, data: dict) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".part.npz", dir=path.parent)
-    os.close(fd)
-    try:
-        np.savez(tmp, **data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 @functools.lru_cache(maxsize=1)
 def tables() -> dict:
     """All four datasets as ``name -> array`` (read from the cache when it is there).
 
     Shared between calls: the functions below hand out copies.
     """
-    directory = cache_dir()
-    if directory is None:
-        return _from_colour()
-    path = directory / f"colour-science-{_colour_version()}-v{_LAYOUT}.npz"
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
-    except (OSError, ValueError):
-        pass  # not there yet, or unreadable: rebuilt below
-    data = _from_colour()
-    try:
-        _write(path, data)
-    except OSError:
-        pass  # a read-only home only costs the import next time
-    return data
+    return cached_arrays("colour-science", f"{_colour_version()}-v{_LAYOUT}", _from_colour)
 
 
 def cmfs_1931() -> tuple[np.ndarray, np.ndarray]:

@@ -309,12 +309,25 @@ def multiple_scattering_cdf(offsets_rad, cdf, lam: float, *, samples: int = MULT
         raise AquaspecError(f"lam={lam!r}; accepted: a finite number >= 0")
     if lam == 0:
         return f1.copy()
-    # (Cached: the validation makes the same tables for several band counts.)
+    # (Cached in the process, as the validation makes the same tables for
+    # several band counts, and on disk, as a data set renders the same water
+    # image after image: 0.1-0.9 s per node.)
     return _multiple_cdf(off.tobytes(), f1.tobytes(), float(lam), int(samples), int(seed)).copy()
 
 
 @lru_cache(maxsize=64)
 def _multiple_cdf(off_bytes, f1_bytes, lam, samples, seed):
+    from inspect import getsource
+
+    from .cache import cached_arrays, digest
+    # (The key holds the code that computes it: a changed method is not
+    # answered from an old file.)
+    key = digest(off_bytes, f1_bytes, lam, samples, seed, getsource(_multiple_cdf_monte_carlo))
+    return cached_arrays("spread-cdf", key, lambda: {"cdf": _multiple_cdf_monte_carlo(
+        off_bytes, f1_bytes, lam, samples, seed)})["cdf"]
+
+
+def _multiple_cdf_monte_carlo(off_bytes, f1_bytes, lam, samples, seed):
     off = np.frombuffer(off_bytes, dtype=float)
     f1 = np.frombuffer(f1_bytes, dtype=float)
     from math import lgamma

@@ -67,7 +67,8 @@ def register(sub):
                    help="only compare the light-field model's deep radiance distribution with "
                         "Tyler's measurement (1958, Lake Pend Oreille, from jerlov) for several "
                         "phase functions; needs no path tracer; writes tyler.json and tyler.png")
-    p.add_argument("--cache", metavar="DIR", help="reference cache (default ~/.cache/aquaspec)")
+    p.add_argument("--cache", metavar="DIR", help="reference cache (default: reference/ in $AQUASPEC_CACHE, or "
+                   "~/.cache/aquaspec/reference)")
     p.add_argument("--no-cache", action="store_true")
     p.add_argument("-o", "--out", default="validation", metavar="DIR",
                    help="output directory (default ./validation)")

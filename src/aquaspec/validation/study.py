@@ -118,10 +118,12 @@ def format_attenuation(waters: dict, wavelengths_nm=(450.0, 550.0, 650.0)) -> st
     return "\n".join(lines)
 
 
-def default_cache_dir() -> Path:
-    import os
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "aquaspec" / "reference"
+def default_cache_dir() -> Path | None:
+    """Where path-traced references are kept: ``reference`` in aquaspec's cache
+    (:func:`aquaspec.cache.cache_dir`; None when ``AQUASPEC_CACHE=off``)."""
+    from ..cache import cache_dir
+    base = cache_dir()
+    return None if base is None else base / "reference"
 
 
 def _cached(cache_dir, key, compute):

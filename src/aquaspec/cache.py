@@ -1,0 +1,78 @@
+"""What aquaspec computes once per machine and keeps: the cache directory.
+
+``$AQUASPEC_CACHE`` if set (``off``: keep nothing), else
+``$XDG_CACHE_HOME/aquaspec`` or ``~/.cache/aquaspec``. Files are written to a
+temporary name and renamed, so a reader never sees half a file; a file that
+cannot be read is computed again, and a cache that cannot be written only
+costs the computation next time.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+CACHE_ENV = "AQUASPEC_CACHE"
+
+
+def cache_dir() -> Path | None:
+    """The cache directory (None: caching is off)."""
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return None if env.lower() == "off" else Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "aquaspec"
+
+
+def digest(*parts) -> str:
+    """A short hex key of ``parts`` (bytes, str or numbers)."""
+    h = hashlib.sha256()
+    for p in parts:
+        b = p if isinstance(p, bytes) else repr(p).encode()
+        h.update(len(b).to_bytes(8, "little"))
+        h.update(b)
+    return h.hexdigest()[:24]
+
+
+def load_arrays(path: Path) -> dict | None:
+    """The arrays of an ``.npz`` file, or None if it is missing or unreadable."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except (OSError, ValueError, EOFError):
+        return None
+
+
+def save_arrays(path: Path, data: dict) -> bool:
+    """Write ``data`` to ``path`` (``.npz``) atomically; False if it could not be written."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".part.npz", dir=path.parent)
+    except OSError:
+        return False
+    os.close(fd)
+    try:
+        np.savez(tmp, **data)
+        os.replace(tmp, path)
+        return True
+    except OSError:
+        Path(tmp).unlink(missing_ok=True)
+        return False
+
+
+def cached_arrays(name: str, key: str, compute) -> dict:
+    """``compute()`` (a dict of arrays), kept in ``<cache>/<name>-<key>.npz``."""
+    directory = cache_dir()
+    if directory is None:
+        return compute()
+    path = directory / f"{name}-{key}.npz"
+    found = load_arrays(path)
+    if found is not None:
+        return found
+    data = compute()
+    save_arrays(path, data)
+    return data
