@@ -24,7 +24,12 @@ def cache_dir() -> Path | None:
     env = os.environ.get(CACHE_ENV)
     if env:
         return None if env.lower() == "off" else Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    base = os.environ.get("XDG_CACHE_HOME")
+    if not base:
+        try:
+            base = str(Path.home() / ".cache")
+        except RuntimeError:    # no home directory to be found: no cache
+            return None
     return Path(base) / "aquaspec"
 
 
@@ -43,7 +48,7 @@ def load_arrays(path: Path) -> dict | None:
     try:
         with np.load(path, allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError):
+    except Exception:   # (missing, truncated, not a zip, ...: all mean "compute it")
         return None
 
 
