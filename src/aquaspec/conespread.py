@@ -321,8 +321,12 @@ def _multiple_cdf(off_bytes, f1_bytes, lam, samples, seed):
 
     from .cache import cached_arrays, digest
     # (The key holds the code that computes it: a changed method is not
-    # answered from an old file.)
-    key = digest(off_bytes, f1_bytes, lam, samples, seed, getsource(_multiple_cdf_monte_carlo))
+    # answered from an old file; without its source, no file.)
+    try:
+        code = getsource(_multiple_cdf_monte_carlo)
+    except (OSError, TypeError):
+        return _multiple_cdf_monte_carlo(off_bytes, f1_bytes, lam, samples, seed)
+    key = digest(off_bytes, f1_bytes, lam, samples, seed, code)
     return cached_arrays("spread-cdf", key, lambda: {"cdf": _multiple_cdf_monte_carlo(
         off_bytes, f1_bytes, lam, samples, seed)})["cdf"]
 
