@@ -66,7 +66,8 @@ def test_hit_rays_dispatch_rows_and_contexts(hit_case, device, monkeypatch):
     ctx, rows, cols, want = hit_case
     hp = sh.HitRayPass(device, ctx.b.size)
     first = hp.hit_rays(ctx, rows[:20], cols[:20])
-    monkeypatch.setattr(sh, "MAX_GROUPS_X", 7)          # (3 rows of 7 workgroups)
+    from aquaspec.gpu import shadow_rays
+    monkeypatch.setattr(shadow_rays, "MAX_GROUPS_X", 7)  # (3 rows of 7 workgroups)
     np.testing.assert_array_equal(hp.hit_rays(ctx, rows[:20], cols[:20]), first)
     brighter, _ = board_context(ctx.b.size, e0_scale=2.0)
     np.testing.assert_allclose(hp.hit_rays(brighter, rows[:20], cols[:20]), 2 * first,
@@ -145,12 +146,12 @@ def test_open_integrand_split_dispatch_and_a_new_context(device, monkeypatch):
     """Workgroups in rows (a small MAX_GROUPS_X) give the same values; a second
     context (twice the irradiance) is uploaded, not the first one's reused;
     odd band count 5."""
-    from aquaspec.gpu import shadow_open
+    from aquaspec.gpu import shadow_open, shadow_rays
     ctx, gb = board_context(5)
     rays = open_rays(ctx, gb)[::3]
     ps = shadow_open.OpenRayPass(device, 5)
     whole = ps.integrand(ctx, rays)
-    monkeypatch.setattr(shadow_open, "MAX_GROUPS_X", 7)
+    monkeypatch.setattr(shadow_rays, "MAX_GROUPS_X", 7)
     assert -(-rays.shape[0] * shadow.T_NODES // shadow_open.WORKGROUP) > 7
     np.testing.assert_array_equal(ps.integrand(ctx, rays), whole)
     worst, _ = band_errors(whole, np.stack([ctx._open_ray(v) for v in rays]))

@@ -52,8 +52,9 @@ def load_arrays(path: Path) -> dict | None:
         return None
 
 
-def save_arrays(path: Path, data: dict) -> bool:
-    """Write ``data`` to ``path`` (``.npz``) atomically; False if it could not be written."""
+def save_arrays(path: Path, data: dict, *, compressed: bool = False) -> bool:
+    """Write ``data`` to ``path`` (``.npz``, zip-deflated if ``compressed``)
+    atomically; False if it could not be written."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".part.npz", dir=path.parent)
@@ -61,7 +62,7 @@ def save_arrays(path: Path, data: dict) -> bool:
         return False
     os.close(fd)
     try:
-        np.savez(tmp, **data)
+        (np.savez_compressed if compressed else np.savez)(tmp, **data)
         os.replace(tmp, path)
         return True
     except OSError:

@@ -40,12 +40,10 @@ import numpy as np
 
 from .deferred import CAMERA_FIELDS, camera_fields
 from .layout import UniformLayout
-from .shadow_rays import BandRayPass
+from .shadow_rays import BandRayPass, group_grid
 
 #: Invocations per workgroup (one workgroup per receiver).
 WORKGROUP = 64
-#: Workgroups along x of a dispatch (more receivers take rows of them).
-MAX_GROUPS_X = 65535
 #: The G-buffer distance of a pixel that sees no surface.
 NO_HIT = -1.0
 #: Workgroup memory for the reduction, in vec4 (16 KB, WebGPU's minimum).
@@ -111,7 +109,6 @@ class HitRayPass(BandRayPass):
         self.prepare(ctx)
         if p == 0:
             return np.zeros((0, n))
-        gx = min(p, MAX_GROUPS_X)
-        out = self._run(self._receivers(ctx, rows, cols), p * self.n_vec4, (gx, -(-p // gx), 1),
+        out = self._run(self._receivers(ctx, rows, cols), p * self.n_vec4, group_grid(p),
                         **camera_fields(ctx.cam), n_receivers=p).reshape(p, -1)
         return out[:, :n].astype(float) * ctx.b

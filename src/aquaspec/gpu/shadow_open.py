@@ -31,12 +31,10 @@ from __future__ import annotations
 import numpy as np
 
 from .layout import UniformLayout
-from .shadow_rays import BandRayPass
+from .shadow_rays import BandRayPass, group_grid
 
 #: Invocations per workgroup (consecutive nodes of a ray share one).
 WORKGROUP = 64
-#: Workgroups along x of a dispatch (more take rows of them).
-MAX_GROUPS_X = 65535
 
 PARAMS_LAYOUT = UniformLayout("OpenParams", [
     ("origin", "vec4<f32>"), ("n_rays", "u32"), ("n_nodes", "u32"), ("n_sources", "u32"),
@@ -89,8 +87,7 @@ class OpenRayPass(BandRayPass):
             return np.zeros((r, k, n))
         dirs = np.zeros((r, 4))
         dirs[:, :3] = rays
-        groups = -(-r * k // WORKGROUP)
-        gx = min(groups, MAX_GROUPS_X)
-        out = self._run(dirs, r * k * self.n_vec4, (gx, -(-groups // gx), 1), n_rays=r,
-                        row_invocations=gx * WORKGROUP).reshape(r, k, -1)
+        grid = group_grid(-(-r * k // WORKGROUP))
+        out = self._run(dirs, r * k * self.n_vec4, grid, n_rays=r,
+                        row_invocations=grid[0] * WORKGROUP).reshape(r, k, -1)
         return out[..., :n].astype(float)

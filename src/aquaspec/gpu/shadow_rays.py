@@ -23,6 +23,15 @@ from .buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
 from .deferred import bind_group_entries, bind_group_layout
 from .shaders import load_wgsl
 
+#: Workgroups along x of a dispatch (WebGPU's minimum limit; more take rows of them).
+MAX_GROUPS_X = 65535
+
+
+def group_grid(groups: int) -> tuple:
+    """``(x, y, 1)`` workgroups covering ``groups`` (rows of at most :data:`MAX_GROUPS_X`)."""
+    gx = max(1, min(int(groups), MAX_GROUPS_X))
+    return gx, -(-int(groups) // gx), 1
+
 
 class BandRayPass:
     """What both ray passes share: a compute pipeline for ``n_bands`` bands (four

@@ -28,6 +28,7 @@ import functools
 import io
 import json
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -127,20 +128,21 @@ def default_cache_dir() -> Path | None:
 
 
 def _cached(cache_dir, key, compute):
+    """``(arrays, found)``: ``compute()``'s arrays (its dicts and Bands left
+    out) kept in ``cache_dir/key.npz`` (:mod:`aquaspec.cache`'s reading and
+    atomic writing), and whether they were read from there."""
     if cache_dir is None:
         return compute(), False
+    from ..cache import load_arrays, save_arrays
     path = Path(cache_dir) / f"{key}.npz"
-    if path.is_file():
-        with np.load(path, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}, True
-    out = compute()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part.npz")
-    np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in out.items()
-                                if not isinstance(v, (dict, Bands))})
-    tmp.replace(path)
-    with np.load(path, allow_pickle=False) as z:
-        return {k: z[k] for k in z.files}, False
+    found = load_arrays(path)
+    if found is not None:
+        return found, True
+    arrays = {k: np.asarray(v) for k, v in compute().items()
+              if not isinstance(v, (dict, Bands))}
+    if not save_arrays(path, arrays, compressed=True):
+        warnings.warn(f"could not write the reference cache file {path}", stacklevel=2)
+    return arrays, False
 
 
 def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=None,
