@@ -9,8 +9,8 @@ from aquaspec.bands import Bands
 from aquaspec.errors import AquaspecError
 from aquaspec.light import LIGHTS, fresnel_transmittance, surface_light
 from aquaspec.reflectance import (Reflectance, _srgb_matrix, _FIT_WL, colorchecker,
-                                  fit_sigmoid, fit_sigmoid_image, sigmoid_band_values,
-                                  sigmoid_spectrum)
+                                  fit_sigmoid, fit_sigmoid_image, fit_sigmoid_many,
+                                  sigmoid_band_values, sigmoid_spectrum)
 
 
 class TestLight:
@@ -65,6 +65,79 @@ class TestSigmoidUpsampling:
         c_img = fit_sigmoid_image(img)
         c_one, _ = fit_sigmoid(np.round(img[0, 1] * 1023) / 1023)
         np.testing.assert_allclose(c_img[0, 1], c_one, rtol=1e-8)
+
+    def test_many_matches_continuation(self):
+        # Random colours in the cube: the table's start and the continuation
+        # from grey end at the same coefficients, never at a worse fit.
+        rgb = np.random.default_rng(5).random((400, 3))
+        c_ref, r_ref = fit_sigmoid(rgb)
+        c, r = fit_sigmoid_many(rgb)
+        assert np.all(r <= r_ref + 1e-12)
+        good = r_ref < 1e-9
+        assert good.mean() > 0.9
+        np.testing.assert_allclose(c[good], c_ref[good], rtol=1e-6, atol=1e-8)
+
+    def test_many_needs_no_continuation_in_the_gamut(self, monkeypatch):
+        # The table's guesses converge on their own: the continuation is only
+        # a fallback (for colours no reflectance has).
+        import aquaspec.reflectance as refl
+
+        def refuse(*args, **kwargs):
+            raise AssertionError("fell back to the continuation fit")
+        rgb = 0.05 + 0.9 * np.random.default_rng(6).random((300, 3))
+        monkeypatch.setattr(refl, "fit_sigmoid", refuse)
+        c, r = refl.fit_sigmoid_many(rgb)
+        assert np.all(r < 1e-9)
+
+    def test_many_at_the_cube_edges(self):
+        # Black, white, the primaries and their neighbours: finite, and no
+        # worse than the continuation.
+        v = np.array([0.0, 1 / 1023, 0.01, 0.5, 0.99, 1022 / 1023, 1.0])
+        rgb = np.stack(np.meshgrid(v, v, v, indexing="ij"), axis=-1).reshape(-1, 3)
+        c_ref, r_ref = fit_sigmoid(rgb)
+        c, r = fit_sigmoid_many(rgb)
+        assert np.all(np.isfinite(c))
+        assert np.all(r <= r_ref + 1e-12)
+
+    def test_sigmoid_table_holds_fits_of_its_colours(self):
+        from aquaspec.reflectance import (_build_sigmoid_table, _fit_residual,
+                                          _table_brightness, _table_colours)
+        n = 6
+        table = _build_sigmoid_table(n)
+        z = _table_brightness(n)
+        for j in (0, n // 2, n - 1):
+            colours = _table_colours(n, z[j]).reshape(-1, 3)
+            coeffs = table[:, :, :, j].reshape(-1, 3)
+            res = np.abs(_fit_residual(coeffs, colours)[0]).max(axis=1)
+            _, res_ref = fit_sigmoid(colours)
+            assert np.all(res <= np.maximum(res_ref, 1e-12) * (1 + 1e-6) + 1e-12)
+
+    def test_table_guess_is_exact_at_nodes(self):
+        from aquaspec.reflectance import (SIGMOID_TABLE_SIZE, _table_brightness,
+                                          _table_colours, _table_guess, sigmoid_table)
+        n = SIGMOID_TABLE_SIZE
+        table = sigmoid_table()
+        j = 5
+        # Nodes of table 1 (green largest) away from the clipped corners.
+        colours = _table_colours(n, _table_brightness(n)[j])[1, 3:-3:5, 3:-3:7].reshape(-1, 3)
+        expect = table[1, 3:-3:5, 3:-3:7, j].reshape(-1, 3)
+        np.testing.assert_allclose(_table_guess(colours), expect, rtol=1e-9, atol=1e-9)
+
+    def test_sigmoid_table_is_cached_on_disk(self, tmp_path, monkeypatch):
+        import aquaspec.reflectance as refl
+        monkeypatch.setenv("AQUASPEC_CACHE", str(tmp_path))
+        monkeypatch.setattr(refl, "SIGMOID_TABLE_SIZE", 5)
+        refl.sigmoid_table.cache_clear()
+        try:
+            first = refl.sigmoid_table()
+            files = list(tmp_path.glob("sigmoid-table-*.npz"))
+            assert len(files) == 1
+            # A damaged file is computed again, to the same numbers.
+            files[0].write_bytes(b"not a zip")
+            refl.sigmoid_table.cache_clear()
+            np.testing.assert_array_equal(refl.sigmoid_table(), first)
+        finally:
+            refl.sigmoid_table.cache_clear()
 
     def test_band_values_are_centre_samples(self):
         c = np.array([0.1, -0.5, 0.3])

@@ -15,8 +15,13 @@ Three ways to get a spectrum:
   aquaspec writes the polynomial in normalised wavelength
   ``t = (lambda - 550 nm) / 100 nm`` (so float32 on the GPU keeps precision)
   and fits ``c`` so that the spectrum, seen by the CIE 1931 observer under
-  D65, reproduces the given linear sRGB (Gauss-Newton with continuation from
-  grey, as in the paper, vectorised over many colours at once).
+  D65, reproduces the given linear sRGB: Gauss-Newton with continuation from
+  grey (:func:`fit_sigmoid`), or, for many colours at once such as an
+  image's, Gauss-Newton from coefficients interpolated in a table over the
+  RGB cube (:func:`fit_sigmoid_many`). The paper ships such a table for
+  lookup alone; here it only starts the steps, so both routes end at the
+  same fit, and it is computed on the machine (a few seconds, once; kept in
+  aquaspec's cache).
 
 Measured spectra are band-averaged (:meth:`Reflectance.on_bands`); per-pixel
 sigmoid reflectances (textures, RGB-D images) are evaluated at band centres
@@ -91,8 +96,71 @@ def _srgb_matrix():
     return XYZ_TO_SRGB @ w
 
 
+@functools.lru_cache(maxsize=1)
+def _fit_system():
+    """The fit's matrices: M (3, m), the polynomial basis (3, m) and, for the
+    Jacobian, ``basis[j] M^T`` (3, m, 3)."""
+    M = _srgb_matrix()
+    t = normalised_wavelength(_FIT_WL)
+    basis = np.stack([t * t, t, np.ones_like(t)])
+    return M, basis, basis[:, :, None] * M.T[None, :, :]
+
+
+def _fit_residual(coeffs, goal):
+    """RGB of coefficients (N, 3) minus ``goal`` (N, 3), and the polynomial values (N, m)."""
+    M, basis, _ = _fit_system()
+    x = coeffs @ basis
+    return sigmoid(x) @ M.T - goal, x
+
+
+def _gauss_newton(coeffs, goal, *, iterations: int, tol: float = 0.0, halvings: int = 6):
+    """Damped Gauss-Newton steps from ``coeffs`` (N, 3) towards coefficients
+    whose RGB is ``goal`` (N, 3): at most ``iterations``, each step halved
+    (up to ``halvings`` times) where it does not lower the largest residual;
+    rows whose largest residual is at most ``tol`` are left as they are."""
+    _, _, basis_m = _fit_system()
+    c = np.array(coeffs, dtype=float)
+    for _ in range(iterations):
+        r, x = _fit_residual(c, goal)
+        err0 = np.abs(r).max(axis=1)
+        act = np.flatnonzero(err0 > tol)
+        if act.size == 0:
+            break
+        ds = 0.5 / (1.0 + x[act] * x[act]) ** 1.5          # dS/dx
+        J = np.stack([ds @ basis_m[j] for j in range(3)], axis=2)   # d rgb_k / d c_j
+        try:
+            step = np.linalg.solve(J, -r[act][..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            step = np.stack([np.linalg.lstsq(Jn, -rn, rcond=None)[0]
+                             for Jn, rn in zip(J, r[act])])
+        c_act, goal_act, e0 = c[act], goal[act], err0[act]
+        scale = np.ones(act.size)
+        for _half in range(halvings):
+            e1 = np.abs(_fit_residual(c_act + step * scale[:, None], goal_act)[0]).max(axis=1)
+            worse = e1 > e0
+            if not worse.any():
+                break
+            scale = np.where(worse, scale * 0.5, scale)
+        c[act] = c_act + step * scale[:, None]
+    return c
+
+
+def _check_rgb(rgb) -> np.ndarray:
+    rgb = np.asarray(rgb, dtype=float)
+    if rgb.shape[-1:] != (3,):
+        raise AquaspecError(f"RGB albedo must have 3 channels, got shape {rgb.shape}")
+    if not np.all(np.isfinite(rgb)):
+        raise AquaspecError("RGB albedo contains NaN or infinity")
+    return rgb
+
+
 def fit_sigmoid(rgb, *, steps: int = 8, iterations: int = 8):
     """Jakob-Hanika coefficients (normalised wavelength) for linear sRGB albedos.
+
+    Gauss-Newton with continuation from grey: ``steps`` targets on the way
+    from RGB 0.5 to the colour, ``iterations`` steps each. The reference
+    fit; :func:`fit_sigmoid_many` reaches the same coefficients from a table
+    (for many colours at once, such as an image's).
 
     Parameters
     ----------
@@ -107,62 +175,156 @@ def fit_sigmoid(rgb, *, steps: int = 8, iterations: int = 8):
         Max abs RGB error of the fit (about 1e-6 inside the sRGB gamut of
         reflectances; larger for colours no reflectance can have).
     """
-    rgb = np.asarray(rgb, dtype=float)
-    if rgb.shape[-1:] != (3,):
-        raise AquaspecError(f"RGB albedo must have 3 channels, got shape {rgb.shape}")
-    if not np.all(np.isfinite(rgb)):
-        raise AquaspecError("RGB albedo contains NaN or infinity")
+    rgb = _check_rgb(rgb)
     shape = rgb.shape[:-1]
     target = np.clip(rgb.reshape(-1, 3), 1e-3, 1 - 1e-3)
-    M = _srgb_matrix()
-    t = normalised_wavelength(_FIT_WL)
-    basis = np.stack([t * t, t, np.ones_like(t)])        # (3, m)
     c = np.zeros_like(target)
-
-    def residual(coef, goal):
-        x = coef @ basis
-        return sigmoid(x) @ M.T - goal, x
-
     for s in range(1, steps + 1):
         goal = 0.5 + (target - 0.5) * s / steps
-        for _ in range(iterations):
-            r, x = residual(c, goal)
-            ds = 0.5 / (1.0 + x * x) ** 1.5                 # dS/dx, (N, m)
-            J = np.einsum("km,nm,jm->nkj", M, ds, basis)   # d rgb_k / d c_j
-            try:
-                step = np.linalg.solve(J, -r[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                step = np.linalg.lstsq(J.reshape(-1, 3), -r.reshape(-1), rcond=None)[0]
-            # Damped: halve the step where it does not reduce the residual.
-            err0 = np.abs(r).max(axis=1)
-            scale = np.ones(len(c))
-            for _half in range(6):
-                trial = c + step * scale[:, None]
-                err1 = np.abs(residual(trial, goal)[0]).max(axis=1)
-                worse = err1 > err0
-                if not worse.any():
-                    break
-                scale = np.where(worse, scale * 0.5, scale)
-            c = c + step * scale[:, None]
-    r, _ = residual(c, target)
+        c = _gauss_newton(c, goal, iterations=iterations)
+    r, _ = _fit_residual(c, target)
     return c.reshape(shape + (3,)), np.abs(r).max(axis=1).reshape(shape)
+
+
+#: Nodes per axis of the table of coefficients that starts :func:`fit_sigmoid_many`.
+SIGMOID_TABLE_SIZE = 32
+#: Gauss-Newton steps :func:`fit_sigmoid_many` allows from the table's guess,
+#: and the largest RGB residual at which it stops.
+_MANY_ITERATIONS = 30
+_MANY_TOL = 1e-12
+#: A colour whose fit from the table ends above this residual is fitted by
+#: continuation too, and keeps the better of the two.
+_MANY_FALLBACK = 1e-6
+_MANY_CHUNK = 65536
+
+
+def _table_brightness(n: int) -> np.ndarray:
+    """The table's nodes of the largest channel: dense near 0 and 1, where
+    the coefficients change fastest (clipped as the fit clips)."""
+    z = 0.5 - 0.5 * np.cos(np.pi * np.arange(n) / (n - 1))
+    return np.clip(z, 1e-3, 1 - 1e-3)
+
+
+def _table_colours(n: int, z: float) -> np.ndarray:
+    """The table's colours at largest channel ``z``: (3, n, n, 3); table k
+    has channel k largest, channels k + 1 and k + 2 (mod 3) at ``x z`` and
+    ``y z`` for x, y on n nodes in [0, 1]."""
+    u = np.linspace(0.0, 1.0, n)
+    x, y = np.meshgrid(u, u, indexing="ij")
+    out = np.empty((3, n, n, 3))
+    for k in range(3):
+        out[k, ..., k] = z
+        out[k, ..., (k + 1) % 3] = x * z
+        out[k, ..., (k + 2) % 3] = y * z
+    return np.clip(out, 1e-3, 1 - 1e-3)
+
+
+def _build_sigmoid_table(n: int) -> np.ndarray:
+    """Coefficients (3, n, n, n, 3) at the table's colours [k, x, y, z]: the
+    middle brightness by continuation from grey, then brightness by
+    brightness, each slice's Gauss-Newton starting from its neighbour's
+    coefficients (so whole slices are solved at once)."""
+    z = _table_brightness(n)
+    table = np.empty((3, n, n, n, 3))
+    mid = n // 2
+    table[:, :, :, mid] = fit_sigmoid(_table_colours(n, z[mid]))[0]
+    for order in (range(mid + 1, n), range(mid - 1, -1, -1)):
+        prev = table[:, :, :, mid].reshape(-1, 3)
+        for j in order:
+            goal = _table_colours(n, z[j]).reshape(-1, 3)
+            prev = _gauss_newton(prev, goal, iterations=_MANY_ITERATIONS, tol=_MANY_TOL,
+                                 halvings=8)
+            table[:, :, :, j] = prev.reshape(3, n, n, 3)
+    return table
+
+
+@functools.lru_cache(maxsize=1)
+def sigmoid_table() -> np.ndarray:
+    """The table of coefficients (3, n, n, n, 3) of :func:`fit_sigmoid_many`,
+    computed once per machine (a few seconds) and kept in aquaspec's cache."""
+    from inspect import getsource
+
+    from .cache import cached_arrays, digest
+    n = SIGMOID_TABLE_SIZE
+    try:
+        code = "".join(getsource(f) for f in (_build_sigmoid_table, _gauss_newton,
+                                              _table_colours, _table_brightness, fit_sigmoid))
+    except (OSError, TypeError):
+        return _build_sigmoid_table(n)
+    M, basis, _ = _fit_system()
+    key = digest(n, M.tobytes(), basis.tobytes(), SIGMOID_X_MAX, code)
+    table = cached_arrays("sigmoid-table", key, lambda: {"table": _build_sigmoid_table(n)})
+    table = np.asarray(table["table"], dtype=float)
+    if table.shape != (3, n, n, n, 3) or not np.all(np.isfinite(table)):
+        return _build_sigmoid_table(n)
+    return table
+
+
+def _table_guess(target: np.ndarray) -> np.ndarray:
+    """Trilinear interpolation of :func:`sigmoid_table` at clipped colours (N, 3)."""
+    table = sigmoid_table()
+    n = table.shape[1]
+    k = np.argmax(target, axis=1)
+    rows = np.arange(len(target))
+    z = target[rows, k]
+    coords = [target[rows, (k + 1) % 3] / z * (n - 1), target[rows, (k + 2) % 3] / z * (n - 1),
+              # (inverse of _table_brightness)
+              np.arccos(np.clip(1.0 - 2.0 * z, -1.0, 1.0)) / np.pi * (n - 1)]
+    lo = [np.clip(np.floor(c).astype(np.intp), 0, n - 2) for c in coords]
+    frac = [np.clip(c - i, 0.0, 1.0)[:, None] for c, i in zip(coords, lo)]
+    guess = np.zeros((len(target), 3))
+    for dx in (0, 1):
+        wx = frac[0] if dx else 1.0 - frac[0]
+        for dy in (0, 1):
+            wy = frac[1] if dy else 1.0 - frac[1]
+            for dz in (0, 1):
+                wz = frac[2] if dz else 1.0 - frac[2]
+                guess += wx * wy * wz * table[k, lo[0] + dx, lo[1] + dy, lo[2] + dz]
+    return guess
+
+
+def fit_sigmoid_many(rgb):
+    """:func:`fit_sigmoid` for many colours at once, 30-40 times faster.
+
+    Each colour starts from coefficients interpolated in a table over the
+    RGB cube (:func:`sigmoid_table`) and takes Gauss-Newton steps until its
+    RGB residual is under 1e-12 (four to seven steps in the gamut); a colour
+    still above 1e-6 is fitted by continuation as well and keeps the better
+    fit. Same arguments and results as :func:`fit_sigmoid`.
+    """
+    rgb = _check_rgb(rgb)
+    shape = rgb.shape[:-1]
+    target = np.clip(rgb.reshape(-1, 3), 1e-3, 1 - 1e-3)
+    coeffs = np.empty_like(target)
+    for start in range(0, len(target), _MANY_CHUNK):
+        part = target[start:start + _MANY_CHUNK]
+        coeffs[start:start + _MANY_CHUNK] = _gauss_newton(
+            _table_guess(part), part, iterations=_MANY_ITERATIONS, tol=_MANY_TOL, halvings=8)
+    residual = np.abs(_fit_residual(coeffs, target)[0]).max(axis=1) if len(target) else \
+        np.zeros(0)
+    hard = np.flatnonzero(residual > _MANY_FALLBACK)
+    if hard.size:
+        c2, r2 = fit_sigmoid(target[hard])
+        better = r2 < residual[hard]
+        coeffs[hard[better]] = c2[better]
+        residual[hard[better]] = r2[better]
+    return coeffs.reshape(shape + (3,)), residual.reshape(shape)
 
 
 def fit_sigmoid_image(rgb_image):
     """Sigmoid coefficients for an image of linear sRGB albedo ``(H, W, 3)``.
 
-    Colours are fitted once per distinct value (quantised to 1/1024), which
-    keeps photographs with many pixels to seconds.
+    Colours are fitted once per distinct value (quantised to 1/1024) with
+    :func:`fit_sigmoid_many`: a 640x480 photograph with 120 000 distinct
+    colours takes about a second.
     """
     img = np.asarray(rgb_image, dtype=float)
     q = np.round(np.clip(img, 0, 1).reshape(-1, 3) * 1023).astype(np.int32)
     keys = (q[:, 0] << 20) | (q[:, 1] << 10) | q[:, 2]
     uniq, inverse = np.unique(keys, return_inverse=True)
     colours = np.stack([(uniq >> 20) & 1023, (uniq >> 10) & 1023, uniq & 1023], axis=1) / 1023
-    coeffs = np.empty((len(uniq), 3))
-    for start in range(0, len(uniq), 50000):
-        coeffs[start:start + 50000] = fit_sigmoid(colours[start:start + 50000])[0]
-    return coeffs[inverse].reshape(img.shape)
+    coeffs = fit_sigmoid_many(colours)[0]
+    return coeffs[inverse.reshape(-1)].reshape(img.shape)
 
 
 @dataclass(frozen=True)
