@@ -107,10 +107,19 @@ def _fit_system():
 
 
 def _fit_residual(coeffs, goal):
-    """RGB of coefficients (N, 3) minus ``goal`` (N, 3), and the polynomial values (N, m)."""
+    """RGB of coefficients (N, 3) minus ``goal`` (N, 3), and ``sqrt(1 + x^2)``
+    (N, m) of the clamped polynomial values x (what the Jacobian needs)."""
     M, basis, _ = _fit_system()
     x = coeffs @ basis
-    return sigmoid(x) @ M.T - goal, x
+    np.clip(x, -SIGMOID_X_MAX, SIGMOID_X_MAX, out=x)
+    root = x * x
+    root += 1.0
+    np.sqrt(root, out=root)
+    # (sigmoid(x), written in place: this is most of a fit's time.)
+    x /= root
+    x *= 0.5
+    x += 0.5
+    return x @ M.T - goal, root
 
 
 def _gauss_newton(coeffs, goal, *, iterations: int, tol: float = 0.0, halvings: int = 6):
@@ -120,28 +129,33 @@ def _gauss_newton(coeffs, goal, *, iterations: int, tol: float = 0.0, halvings: 
     rows whose largest residual is at most ``tol`` are left as they are."""
     _, _, basis_m = _fit_system()
     c = np.array(coeffs, dtype=float)
+    r, root = _fit_residual(c, goal)
+    err = np.abs(r).max(axis=1)
     for _ in range(iterations):
-        r, x = _fit_residual(c, goal)
-        err0 = np.abs(r).max(axis=1)
-        act = np.flatnonzero(err0 > tol)
+        act = np.flatnonzero(err > tol)
         if act.size == 0:
             break
-        ds = 0.5 / (1.0 + x[act] * x[act]) ** 1.5          # dS/dx
+        ds = 0.5 / root[act] ** 3                       # dS/dx
         J = np.stack([ds @ basis_m[j] for j in range(3)], axis=2)   # d rgb_k / d c_j
         try:
             step = np.linalg.solve(J, -r[act][..., None])[..., 0]
         except np.linalg.LinAlgError:
             step = np.stack([np.linalg.lstsq(Jn, -rn, rcond=None)[0]
                              for Jn, rn in zip(J, r[act])])
-        c_act, goal_act, e0 = c[act], goal[act], err0[act]
+        c_act, goal_act, e0 = c[act], goal[act], err[act]
+        trial = c_act + step
+        r1, root1 = _fit_residual(trial, goal_act)
+        e1 = np.abs(r1).max(axis=1)
         scale = np.ones(act.size)
         for _half in range(halvings):
-            e1 = np.abs(_fit_residual(c_act + step * scale[:, None], goal_act)[0]).max(axis=1)
-            worse = e1 > e0
-            if not worse.any():
+            worse = np.flatnonzero(e1 > e0)
+            if worse.size == 0:
                 break
-            scale = np.where(worse, scale * 0.5, scale)
-        c[act] = c_act + step * scale[:, None]
+            scale[worse] *= 0.5
+            trial[worse] = c_act[worse] + step[worse] * scale[worse, None]
+            r1[worse], root1[worse] = _fit_residual(trial[worse], goal_act[worse])
+            e1[worse] = np.abs(r1[worse]).max(axis=1)
+        c[act], r[act], root[act], err[act] = trial, r1, root1, e1
     return c
 
 
