@@ -67,3 +67,63 @@ def test_damaged_files_read_as_missing(tmp_path, content):
     path = Path(tmp_path) / "x.npz"
     path.write_bytes(content)
     assert cache.load_arrays(path) is None
+
+
+def test_code_key_follows_source_and_constants(monkeypatch):
+    import types
+
+    from aquaspec import lightfield_compiled as lfc
+    key = cache.code_key(lfc)
+    assert key is not None and key == cache.code_key(lfc)
+    monkeypatch.setattr(lfc, "ALS_SWEEPS", lfc.ALS_SWEEPS + 1)
+    assert cache.code_key(lfc) != key
+    # A module without a source file: nothing to key on.
+    assert cache.code_key(types.ModuleType("made_up")) is None
+
+
+def test_lightfield_tables_kept(monkeypatch, tmp_path):
+    from aquaspec import lightfield
+    from aquaspec.bands import Bands
+    from aquaspec.water import get_water
+    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path))
+    water = get_water("II").on_bands(Bands(4))
+    kw = dict(phase="hg", g=0.9, n_depth=8, n_mu=9)
+    first = lightfield.lightfield_tables(water, **kw)
+    assert len(list(tmp_path.glob("lightfield-tables-*.npz"))) == 1
+    computed = lightfield._lightfield_tables
+    monkeypatch.setattr(lightfield, "_lightfield_tables",
+                        lambda *a, **k: pytest.fail("computed again"))
+    again = lightfield.lightfield_tables(water, **kw)
+    assert again.keys() == first.keys()
+    for name in first:
+        assert again[name].dtype == first[name].dtype
+        np.testing.assert_array_equal(again[name], first[name])
+    # Other arguments, or another constant of the code, are another entry.
+    monkeypatch.setattr(lightfield, "_lightfield_tables", computed)
+    other = lightfield.lightfield_tables(water, **{**kw, "g": 0.8})
+    assert not np.array_equal(other["irradiance_per_e0"], first["irradiance_per_e0"])
+    monkeypatch.setattr(lightfield, "CONE_OFFSET_SAMPLES", lightfield.CONE_OFFSET_SAMPLES + 1)
+    lightfield.lightfield_tables(water, **kw)
+    assert len(list(tmp_path.glob("lightfield-tables-*.npz"))) == 3
+
+
+def test_irradiance_factors_kept(monkeypatch, tmp_path):
+    from aquaspec import lightfield
+    from aquaspec import lightfield_compiled as lfc
+    from aquaspec.bands import Bands
+    from aquaspec.water import get_water
+    monkeypatch.setenv(cache.CACHE_ENV, "off")
+    tables = lightfield.lightfield_tables(get_water("IB").on_bands(Bands(12)), n_depth=16,
+                                          n_mu=17)
+    direct = lfc.choose_irradiance_factors(tables)
+    monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path))
+    first = lfc.choose_irradiance_factors(tables)
+    second = lfc.choose_irradiance_factors(tables)
+    for fac in (first, second):
+        np.testing.assert_array_equal(fac["coef"], direct["coef"])
+        np.testing.assert_array_equal(fac["basis"], direct["basis"])
+        assert fac["max_error"] == direct["max_error"]
+        assert isinstance(fac["rms_error"], float)
+    # The ranks tried are part of the key.
+    monkeypatch.setattr(lfc, "IRRADIANCE_RANKS", (8,))
+    assert lfc.choose_irradiance_factors(tables)["coef"].shape[1] == 10

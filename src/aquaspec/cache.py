@@ -82,3 +82,29 @@ def cached_arrays(name: str, key: str, compute) -> dict:
     data = compute()
     save_arrays(path, data)
     return data
+
+
+def code_key(*modules) -> str | None:
+    """A key of the code behind a cached result: the source files of
+    ``modules`` and the values of their module-level UPPERCASE constants
+    (so a changed file, or a constant set at run time, is never answered
+    from an old result), with the versions of NumPy and SciPy. None when a
+    module's source cannot be read (then nothing should be cached)."""
+    parts = [np.__version__]
+    try:
+        import scipy
+        parts.append(scipy.__version__)
+    except ImportError:
+        parts.append("no scipy")
+    for mod in modules:
+        try:
+            parts.append(Path(mod.__file__).read_bytes())
+        except (OSError, TypeError, AttributeError):
+            return None
+        for name in sorted(vars(mod)):
+            if name.isupper() and not name.startswith("_"):
+                value = vars(mod)[name]
+                parts.append(name)
+                parts.append(np.asarray(value).tobytes() if isinstance(value, np.ndarray)
+                             else repr(value))
+    return digest(*parts)

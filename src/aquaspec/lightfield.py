@@ -91,6 +91,7 @@ References
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -520,6 +521,10 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
                       **phase_params) -> dict:
     """Per-band tables of the light field for the renderer (float32).
 
+    Computed once per machine for each set of arguments and kept in
+    aquaspec's cache (:mod:`aquaspec.cache`), keyed by the arguments, the
+    water's coefficients and the code (and data versions) behind them.
+
     Parameters
     ----------
     band_water : BandWater or object with ``a``, ``b`` (n,) in 1/m
@@ -567,6 +572,50 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         ``"seabed_albedo"`` (n,); ``"depth_m"`` (n_depth,) and ``"cosine"``
         (n_mu,): the axes; ``"max_depth_m"`` (1,); ``"forward_cone_deg"`` (1,).
     """
+    args = dict(phase=phase, seabed_depth_m=seabed_depth_m, seabed_albedo=seabed_albedo,
+                n_depth=n_depth, n_mu=n_mu, max_depth_m=max_depth_m, n_streams=n_streams,
+                surface=surface, forward_cone_deg=forward_cone_deg, cone_spread=cone_spread,
+                spread_scattering=spread_scattering, ambient_shadow=ambient_shadow,
+                **phase_params)
+    key = _tables_key(band_water, args)
+    if key is None:
+        return _lightfield_tables(band_water, **args)
+    from .cache import cached_arrays
+    return cached_arrays("lightfield-tables", key,
+                         lambda: _lightfield_tables(band_water, **args))
+
+
+def _tables_key(band_water, args: dict) -> str | None:
+    """The cache key of :func:`lightfield_tables` (None: do not cache): its
+    arguments, the water's a, b and wavelengths, and the code and data
+    versions the tables come from."""
+    import importlib.metadata
+    from . import cache, conespread, model, parallel, phase, shadow
+    code = cache.code_key(sys.modules[__name__], phase, conespread, shadow, model, parallel)
+    if code is None:
+        return None
+    try:
+        jerlov = importlib.metadata.version("jerlov")
+    except importlib.metadata.PackageNotFoundError:
+        jerlov = "none"
+    wl = getattr(band_water, "wavelength_nm", None)
+    if wl is None and getattr(band_water, "bands", None) is not None:
+        wl = band_water.bands.centers_nm
+    parts = [code, jerlov]
+    for x in (band_water.a, band_water.b, wl):
+        parts.append(None if x is None else np.asarray(x, dtype=float).tobytes())
+    for name in sorted(args):
+        value = args[name]
+        parts.append(name)
+        parts.append(np.asarray(value, dtype=float).tobytes()
+                     if isinstance(value, np.ndarray) else repr(value))
+    return cache.digest(*parts)
+
+
+def _lightfield_tables(band_water, *, phase, seabed_depth_m, seabed_albedo, n_depth, n_mu,
+                       max_depth_m, n_streams, surface, forward_cone_deg, cone_spread,
+                       spread_scattering, ambient_shadow, **phase_params) -> dict:
+    """:func:`lightfield_tables` computed."""
     if spread_scattering not in ("single", "multiple"):
         raise AquaspecError(f"spread_scattering={spread_scattering!r}; accepted: 'single' "
                             "or 'multiple'")
@@ -926,7 +975,6 @@ def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
     d_max = float(tables["max_depth_m"][0])
     bed = float(tables["seabed_depth_m"][0])
     s_eff = _cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
-    l_ms = lightfield_l_ms(tables, a=a, b=b, e0=e0, depth_o=d_o, v_y=v, s=s_eff, form=form)
     # The seabed's own radiance (Lambertian under the downwelling light).
     l_bed = 0.0
     if np.isfinite(bed):
@@ -979,6 +1027,7 @@ def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
             return out, cone
         out = r_o + u_o * l_end + t_beam * blocked
     else:
+        l_ms = lightfield_l_ms(tables, a=a, b=b, e0=e0, depth_o=d_o, v_y=v, s=s_eff, form=form)
         t = model.transmittance(c, s_eff)
         out = np.where(t > 0, t * l_surf, 0.0) + l_ms
     if not np.all(np.isfinite(out)):

@@ -152,7 +152,25 @@ def irradiance_factors(tables, rank: int = IRRADIANCE_RANK, sweeps: int = ALS_SW
 
 def choose_irradiance_factors(tables) -> dict:
     """:func:`irradiance_factors` with the first rank of :data:`IRRADIANCE_RANKS`
-    whose largest error is within :data:`IRRADIANCE_TOLERANCE` (else the last)."""
+    whose largest error is within :data:`IRRADIANCE_TOLERANCE` (else the last).
+
+    Kept in aquaspec's cache, keyed by the irradiance table and this
+    module's code and constants."""
+    import sys
+
+    from .cache import cached_arrays, code_key, digest
+    code = code_key(sys.modules[__name__])
+    if code is None:
+        return _choose_irradiance_factors(tables)
+    key = digest(code, *(np.asarray(tables[k], dtype=float).tobytes()
+                         for k in ("irradiance_per_e0", "depth_m")))
+    fac = cached_arrays("irradiance-factors", key, lambda: {
+        k: np.asarray(v) for k, v in _choose_irradiance_factors(tables).items()})
+    return {"coef": fac["coef"], "basis": fac["basis"],
+            "max_error": float(fac["max_error"]), "rms_error": float(fac["rms_error"])}
+
+
+def _choose_irradiance_factors(tables) -> dict:
     for rank in IRRADIANCE_RANKS:
         fac = irradiance_factors(tables, rank)
         if fac["max_error"] <= IRRADIANCE_TOLERANCE:
@@ -332,15 +350,21 @@ def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool,
         open_l = lightfield_pixel_radiance(tables, **kw, v_y=v[:, None],
                                            s=np.full((v.size, 1), np.inf))
         out[0, :, DISTANCES - 1] = open_l @ w
-        vv, ss = (x.reshape(-1, 1) for x in np.meshgrid(v, s_nodes, indexing="ij"))
+        # (Nodes as a (directions, distances, 1) grid: what depends on the
+        # direction alone, such as the light at the camera, is evaluated
+        # once per direction.)
+        vv = v[:, None, None]
         up = vv > 0
-        ss = np.minimum(ss, np.where(up, depth_o / np.where(up, vv, 1.0), np.inf))
-        far = ~np.isfinite(ss[:, 0])
-        sd = np.maximum(depth_o - np.where(far[:, None], 0.0, ss) * vv, 0.0)
+        ss = np.minimum(s_nodes[None, :, None],
+                        np.where(up, depth_o / np.where(up, vv, 1.0), np.inf))
+        sd = np.maximum(depth_o - np.where(np.isfinite(ss), ss, 0.0) * vv, 0.0)
         hit = lightfield_pixel_radiance(tables, **kw, v_y=vv, s=ss, rho=np.zeros(a.size),
-                                        surface_depth=sd, n_y=np.ones_like(vv),
+                                        surface_depth=sd, n_y=np.ones_like(sd),
                                         split_cone=split)
-    base, cone = hit if split else (hit, np.zeros_like(hit))
+        ss = ss.reshape(-1, 1)
+        far = ~np.isfinite(ss[:, 0])
+    base, cone = ((x.reshape(-1, a.size) for x in hit) if split
+                  else (hit.reshape(-1, a.size), np.zeros((ss.shape[0], a.size))))
     base = np.where(far[:, None], np.repeat(open_l, s_nodes.size, axis=0), base)
     cone = np.where(far[:, None], 0.0, cone)
     f = np.asarray(tables.get("forward_fraction", np.zeros(a.size)), dtype=float)

@@ -100,12 +100,16 @@ def ms_path_integral(c, kd, depth_o, v_y, s):
     base = -kd * depth_o
     # x >= 0: exp(-Kd d_o) * (1 - e^-x) / k, i.e. S (1 - e^-x) / x, which is S at k = 0.
     k_safe = np.where(k > 0, k, 1.0)
-    pos = np.exp(base) * np.where(k > 0, -np.expm1(-np.maximum(x, 0.0)) / k_safe, s_f)
+    finite_part = np.exp(base) * np.where(k > 0, -np.expm1(-np.maximum(x, 0.0)) / k_safe, s_f)
     # x < 0: exp(-Kd d_o) * S * (e^y - 1)/y with y = -x; the exponent
     # -Kd d_o + y = -Kd d(S) - c S stays <= 0 for rays that stay under water.
-    y = np.maximum(-x, 0.0)
-    neg = s_f * np.exp(base + _log_psi(y))
-    finite_part = np.where(x >= 0, pos, neg)
+    # (Evaluated only there: few rays, and most of the cost when done everywhere.)
+    neg = x < 0
+    if np.any(neg):
+        shape = finite_part.shape
+        finite_part = np.array(finite_part, copy=True)
+        finite_part[neg] = np.broadcast_to(s_f, shape)[neg] * np.exp(
+            np.broadcast_to(base, shape)[neg] + _log_psi(-np.broadcast_to(x, shape)[neg]))
     k_pos = np.where(k > 0, k, 1.0)
     infinite_part = np.where(k > 0, np.exp(base) / k_pos, np.inf)
     return np.where(finite, finite_part, infinite_part)
