@@ -340,7 +340,8 @@ def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool,
     black target at each finite distance and open water (the seabed seen
     below, the sky above) in the last column and at ``S = inf`` going down.
     The seabed's growing modes have no closed form along the ray in the deep
-    water table's terms, so this is evaluated directly (NumPy; 0.3-1.5 s)."""
+    water table's terms, so this is evaluated directly (NumPy; 0.13-1.0 s at
+    8-64 bands)."""
     from .lightfield import lightfield_pixel_radiance
     v, _ = direction_nodes(float(tables["window_cos"][0]))
     s_nodes = distance_nodes()
