@@ -167,3 +167,30 @@ class TestReflectance:
     def test_bad_rgb(self, rgb):
         with pytest.raises(AquaspecError, match="albedo"):
             Reflectance.from_rgb(rgb)
+
+
+def test_image_fit_remembers_colours(monkeypatch):
+    import aquaspec.reflectance as refl
+    monkeypatch.setattr(refl, "_memo_keys", np.zeros(0, dtype=np.int64))
+    monkeypatch.setattr(refl, "_memo_coeffs", np.zeros((0, 3)))
+    rng = np.random.default_rng(8)
+    first = rng.random((6, 5, 3))
+    c_first = refl.fit_sigmoid_image(first)
+    # A second image with half its colours new: only those are fitted.
+    second = np.concatenate([first[:3], rng.random((3, 5, 3))])
+    fitted = []
+    many = refl.fit_sigmoid_many
+    monkeypatch.setattr(refl, "fit_sigmoid_many", lambda rgb: (fitted.append(len(rgb)),
+                                                                many(rgb))[1])
+    c_second = refl.fit_sigmoid_image(second)
+    assert fitted == [15]
+    np.testing.assert_array_equal(c_second[:3], c_first[:3])
+    # Every colour as fitted alone, whichever call fitted it.
+    for img, c in ((first, c_first), (second, c_second)):
+        one, _ = fit_sigmoid(np.round(img.reshape(-1, 3) * 1023) / 1023)
+        np.testing.assert_allclose(c.reshape(-1, 3), one, rtol=1e-6, atol=1e-8)
+    assert np.all(np.diff(refl._memo_keys) > 0) and refl._memo_keys.size == 45
+    # Over the limit the memory starts again from the last image.
+    monkeypatch.setattr(refl, "MEMO_COLOURS", 40)
+    refl.fit_sigmoid_image(rng.random((2, 4, 3)))
+    assert refl._memo_keys.size == 8

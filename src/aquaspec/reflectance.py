@@ -31,6 +31,7 @@ sigmoid reflectances (textures, RGB-D images) are evaluated at band centres
 from __future__ import annotations
 
 import functools
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -325,20 +326,51 @@ def fit_sigmoid_many(rgb):
     return coeffs.reshape(shape + (3,)), residual.reshape(shape)
 
 
+#: Colours :func:`fit_sigmoid_image` keeps fitted across calls (a data set's
+#: images share most of their colours), at most this many (32 bytes each).
+MEMO_COLOURS = 4_000_000
+_memo_lock = threading.Lock()
+_memo_keys = np.zeros(0, dtype=np.int64)         # sorted quantised colours
+_memo_coeffs = np.zeros((0, 3))
+
+
+def _quantised_keys(q):
+    return (q[:, 0].astype(np.int64) << 20) | (q[:, 1].astype(np.int64) << 10) | q[:, 2]
+
+
 def fit_sigmoid_image(rgb_image):
     """Sigmoid coefficients for an image of linear sRGB albedo ``(H, W, 3)``.
 
     Colours are fitted once per distinct value (quantised to 1/1024) with
-    :func:`fit_sigmoid_many`: a 640x480 photograph with 120 000 distinct
-    colours takes about a second.
+    :func:`fit_sigmoid_many` (a 640x480 photograph with 120 000 distinct
+    colours takes about a second), and kept for later calls in this process
+    (up to :data:`MEMO_COLOURS`): the images of a data set share most of
+    their colours, which are then only looked up.
     """
+    global _memo_keys, _memo_coeffs
     img = np.asarray(rgb_image, dtype=float)
-    q = np.round(np.clip(img, 0, 1).reshape(-1, 3) * 1023).astype(np.int32)
-    keys = (q[:, 0] << 20) | (q[:, 1] << 10) | q[:, 2]
-    uniq, inverse = np.unique(keys, return_inverse=True)
-    colours = np.stack([(uniq >> 20) & 1023, (uniq >> 10) & 1023, uniq & 1023], axis=1) / 1023
-    coeffs = fit_sigmoid_many(colours)[0]
-    return coeffs[inverse.reshape(-1)].reshape(img.shape)
+    q = np.round(np.clip(img, 0, 1).reshape(-1, 3) * 1023).astype(np.int64)
+    uniq, inverse = np.unique(_quantised_keys(q), return_inverse=True)
+    with _memo_lock:
+        keys, coeffs = _memo_keys, _memo_coeffs
+    pos = np.searchsorted(keys, uniq)
+    known = pos < keys.size
+    known[known] = keys[pos[known]] == uniq[known]
+    new = uniq[~known]
+    colours = np.stack([(new >> 20) & 1023, (new >> 10) & 1023, new & 1023], axis=1) / 1023
+    fitted = fit_sigmoid_many(colours)[0]
+    out = np.empty((uniq.size, 3))
+    out[known] = coeffs[pos[known]]
+    out[~known] = fitted
+    if new.size:
+        with _memo_lock:
+            if _memo_keys is keys and keys.size + new.size <= MEMO_COLOURS:
+                at = np.searchsorted(keys, new)
+                _memo_keys = np.insert(keys, at, new)
+                _memo_coeffs = np.insert(coeffs, at, fitted, axis=0)
+            elif uniq.size <= MEMO_COLOURS:
+                _memo_keys, _memo_coeffs = uniq, out.copy()
+    return out[inverse.reshape(-1)].reshape(img.shape)
 
 
 @dataclass(frozen=True)
