@@ -45,7 +45,7 @@ def test_the_cache_file_is_named_by_version_and_read_back(fresh_cache):
     first = colourdata.cmfs_1931()
     files = list(fresh_cache.glob("colour-science-*.npz"))
     assert [f.name for f in files] == [
-        f"colour-science-{colourdata._colour_version()}-v{colourdata._LAYOUT}.npz"]
+        f"colour-science-{cache.package_version('colour-science')}-v{colourdata._LAYOUT}.npz"]
     assert not list(fresh_cache.glob("*.part*")), "the temporary file was left behind"
     colourdata.tables.cache_clear()
     second = colourdata.cmfs_1931()

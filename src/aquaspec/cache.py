@@ -84,6 +84,16 @@ def cached_arrays(name: str, key: str, compute) -> dict:
     return data
 
 
+def package_version(distribution: str) -> str:
+    """The installed version of a package (``"unknown"`` if it is not
+    installed), for keys of results computed from its data."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version(distribution)
+    except PackageNotFoundError:
+        return "unknown"
+
+
 def code_key(*modules) -> str | None:
     """A key of the code behind a cached result: the source files of
     ``modules`` and the values of their module-level UPPERCASE constants

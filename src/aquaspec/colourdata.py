@@ -25,20 +25,12 @@ import functools
 
 import numpy as np
 
-from .cache import cached_arrays
+from .cache import cached_arrays, package_version
 
 CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
 CHECKER_NAME = "BabelColor Average"
 # Bumped when the file's layout changes.
 _LAYOUT = 1
-
-
-def _colour_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-    try:
-        return version("colour-science")
-    except PackageNotFoundError:
-        return "unknown"
 
 
 def _from_colour() -> dict:
@@ -70,7 +62,8 @@ def tables() -> dict:
 
     Shared between calls: the functions below hand out copies.
     """
-    return cached_arrays("colour-science", f"{_colour_version()}-v{_LAYOUT}", _from_colour)
+    return cached_arrays("colour-science", f"{package_version('colour-science')}-v{_LAYOUT}",
+                         _from_colour)
 
 
 def cmfs_1931() -> tuple[np.ndarray, np.ndarray]:

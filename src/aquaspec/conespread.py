@@ -317,14 +317,13 @@ def multiple_scattering_cdf(offsets_rad, cdf, lam: float, *, samples: int = MULT
 
 @lru_cache(maxsize=64)
 def _multiple_cdf(off_bytes, f1_bytes, lam, samples, seed):
-    from inspect import getsource
+    import sys
 
-    from .cache import cached_arrays, digest
-    # (The key holds the code that computes it: a changed method is not
+    from .cache import cached_arrays, code_key, digest
+    # (The key holds the code that computes it: a changed module is not
     # answered from an old file; without its source, no file.)
-    try:
-        code = getsource(_multiple_cdf_monte_carlo)
-    except (OSError, TypeError):
+    code = code_key(sys.modules[__name__])
+    if code is None:
         return _multiple_cdf_monte_carlo(off_bytes, f1_bytes, lam, samples, seed)
     key = digest(off_bytes, f1_bytes, lam, samples, seed, code)
     return cached_arrays("spread-cdf", key, lambda: {"cdf": _multiple_cdf_monte_carlo(

@@ -589,15 +589,11 @@ def _tables_key(band_water, args: dict) -> str | None:
     """The cache key of :func:`lightfield_tables` (None: do not cache): its
     arguments, the water's a, b and wavelengths, and the code and data
     versions the tables come from."""
-    import importlib.metadata
     from . import cache, conespread, model, parallel, phase, shadow
     code = cache.code_key(sys.modules[__name__], phase, conespread, shadow, model, parallel)
     if code is None:
         return None
-    try:
-        jerlov = importlib.metadata.version("jerlov")
-    except importlib.metadata.PackageNotFoundError:
-        jerlov = "none"
+    jerlov = cache.package_version("jerlov")
     wl = getattr(band_water, "wavelength_nm", None)
     if wl is None and getattr(band_water, "bands", None) is not None:
         wl = band_water.bands.centers_nm

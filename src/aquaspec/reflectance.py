@@ -54,8 +54,20 @@ SIGMOID_X_MAX = 1.0e6
 
 def sigmoid(x):
     """``1/2 + x / (2 sqrt(1 + x^2))``, the Jakob-Hanika sigmoid (in (0, 1))."""
-    x = np.clip(np.asarray(x, dtype=float), -SIGMOID_X_MAX, SIGMOID_X_MAX)
-    return 0.5 + 0.5 * x / np.sqrt(1.0 + x * x)
+    return _sigmoid_in_place(np.array(x, dtype=float))[0]
+
+
+def _sigmoid_in_place(x: np.ndarray):
+    """:func:`sigmoid` of a float array, written over it (the fit's largest
+    cost), and ``sqrt(1 + x^2)`` of the clamped x (for derivatives)."""
+    np.clip(x, -SIGMOID_X_MAX, SIGMOID_X_MAX, out=x)
+    root = x * x
+    root += 1.0
+    np.sqrt(root, out=root)
+    x /= root
+    x *= 0.5
+    x += 0.5
+    return x, root
 
 
 def normalised_wavelength(wavelength_nm):
@@ -111,23 +123,16 @@ def _fit_residual(coeffs, goal):
     """RGB of coefficients (N, 3) minus ``goal`` (N, 3), and ``sqrt(1 + x^2)``
     (N, m) of the clamped polynomial values x (what the Jacobian needs)."""
     M, basis, _ = _fit_system()
-    x = coeffs @ basis
-    np.clip(x, -SIGMOID_X_MAX, SIGMOID_X_MAX, out=x)
-    root = x * x
-    root += 1.0
-    np.sqrt(root, out=root)
-    # (sigmoid(x), written in place: this is most of a fit's time.)
-    x /= root
-    x *= 0.5
-    x += 0.5
-    return x @ M.T - goal, root
+    refl, root = _sigmoid_in_place(coeffs @ basis)
+    return refl @ M.T - goal, root
 
 
 def _gauss_newton(coeffs, goal, *, iterations: int, tol: float = 0.0, halvings: int = 6):
     """Damped Gauss-Newton steps from ``coeffs`` (N, 3) towards coefficients
     whose RGB is ``goal`` (N, 3): at most ``iterations``, each step halved
     (up to ``halvings`` times) where it does not lower the largest residual;
-    rows whose largest residual is at most ``tol`` are left as they are."""
+    rows whose largest residual is at most ``tol`` are left as they are.
+    Returns the coefficients and their largest RGB residuals (N,)."""
     _, _, basis_m = _fit_system()
     c = np.array(coeffs, dtype=float)
     r, root = _fit_residual(c, goal)
@@ -157,7 +162,7 @@ def _gauss_newton(coeffs, goal, *, iterations: int, tol: float = 0.0, halvings: 
             r1[worse], root1[worse] = _fit_residual(trial[worse], goal_act[worse])
             e1[worse] = np.abs(r1[worse]).max(axis=1)
         c[act], r[act], root[act], err[act] = trial, r1, root1, e1
-    return c
+    return c, err
 
 
 def _check_rgb(rgb) -> np.ndarray:
@@ -194,11 +199,11 @@ def fit_sigmoid(rgb, *, steps: int = 8, iterations: int = 8):
     shape = rgb.shape[:-1]
     target = np.clip(rgb.reshape(-1, 3), 1e-3, 1 - 1e-3)
     c = np.zeros_like(target)
+    err = np.zeros(len(target))
     for s in range(1, steps + 1):
-        goal = 0.5 + (target - 0.5) * s / steps
-        c = _gauss_newton(c, goal, iterations=iterations)
-    r, _ = _fit_residual(c, target)
-    return c.reshape(shape + (3,)), np.abs(r).max(axis=1).reshape(shape)
+        goal = target if s == steps else 0.5 + (target - 0.5) * s / steps
+        c, err = _gauss_newton(c, goal, iterations=iterations)
+    return c.reshape(shape + (3,)), err.reshape(shape)
 
 
 #: Nodes per axis of the table of coefficients that starts :func:`fit_sigmoid_many`.
@@ -247,8 +252,8 @@ def _build_sigmoid_table(n: int) -> np.ndarray:
         prev = table[:, :, :, mid].reshape(-1, 3)
         for j in order:
             goal = _table_colours(n, z[j]).reshape(-1, 3)
-            prev = _gauss_newton(prev, goal, iterations=_MANY_ITERATIONS, tol=_MANY_TOL,
-                                 halvings=8)
+            prev, _ = _gauss_newton(prev, goal, iterations=_MANY_ITERATIONS, tol=_MANY_TOL,
+                                    halvings=8)
             table[:, :, :, j] = prev.reshape(3, n, n, 3)
     return table
 
@@ -257,17 +262,15 @@ def _build_sigmoid_table(n: int) -> np.ndarray:
 def sigmoid_table() -> np.ndarray:
     """The table of coefficients (3, n, n, n, 3) of :func:`fit_sigmoid_many`,
     computed once per machine (a few seconds) and kept in aquaspec's cache."""
-    from inspect import getsource
+    import sys
 
-    from .cache import cached_arrays, digest
+    from .cache import cached_arrays, code_key, digest
     n = SIGMOID_TABLE_SIZE
-    try:
-        code = "".join(getsource(f) for f in (_build_sigmoid_table, _gauss_newton,
-                                              _table_colours, _table_brightness, fit_sigmoid))
-    except (OSError, TypeError):
+    code = code_key(sys.modules[__name__])
+    if code is None:
         return _build_sigmoid_table(n)
     M, basis, _ = _fit_system()
-    key = digest(n, M.tobytes(), basis.tobytes(), SIGMOID_X_MAX, code)
+    key = digest(code, M.tobytes(), basis.tobytes())
     table = cached_arrays("sigmoid-table", key, lambda: {"table": _build_sigmoid_table(n)})
     table = np.asarray(table["table"], dtype=float)
     if table.shape != (3, n, n, n, 3) or not np.all(np.isfinite(table)):
@@ -311,12 +314,12 @@ def fit_sigmoid_many(rgb):
     shape = rgb.shape[:-1]
     target = np.clip(rgb.reshape(-1, 3), 1e-3, 1 - 1e-3)
     coeffs = np.empty_like(target)
+    residual = np.empty(len(target))
     for start in range(0, len(target), _MANY_CHUNK):
-        part = target[start:start + _MANY_CHUNK]
-        coeffs[start:start + _MANY_CHUNK] = _gauss_newton(
-            _table_guess(part), part, iterations=_MANY_ITERATIONS, tol=_MANY_TOL, halvings=8)
-    residual = np.abs(_fit_residual(coeffs, target)[0]).max(axis=1) if len(target) else \
-        np.zeros(0)
+        part = slice(start, start + _MANY_CHUNK)
+        coeffs[part], residual[part] = _gauss_newton(
+            _table_guess(target[part]), target[part], iterations=_MANY_ITERATIONS,
+            tol=_MANY_TOL, halvings=8)
     hard = np.flatnonzero(residual > _MANY_FALLBACK)
     if hard.size:
         c2, r2 = fit_sigmoid(target[hard])
@@ -334,10 +337,6 @@ _memo_keys = np.zeros(0, dtype=np.int64)         # sorted quantised colours
 _memo_coeffs = np.zeros((0, 3))
 
 
-def _quantised_keys(q):
-    return (q[:, 0].astype(np.int64) << 20) | (q[:, 1].astype(np.int64) << 10) | q[:, 2]
-
-
 def fit_sigmoid_image(rgb_image):
     """Sigmoid coefficients for an image of linear sRGB albedo ``(H, W, 3)``.
 
@@ -350,7 +349,7 @@ def fit_sigmoid_image(rgb_image):
     global _memo_keys, _memo_coeffs
     img = np.asarray(rgb_image, dtype=float)
     q = np.round(np.clip(img, 0, 1).reshape(-1, 3) * 1023).astype(np.int64)
-    uniq, inverse = np.unique(_quantised_keys(q), return_inverse=True)
+    uniq, inverse = np.unique((q[:, 0] << 20) | (q[:, 1] << 10) | q[:, 2], return_inverse=True)
     with _memo_lock:
         keys, coeffs = _memo_keys, _memo_coeffs
     pos = np.searchsorted(keys, uniq)
