@@ -483,7 +483,8 @@ def read_sidecar(image_path) -> dict:
         raise AquaspecError(f"no sidecar {str(p)!r}") from exc
 
 
-def save_image(path, display_image, linear_rgb=None, params=None, *, linear_path=None) -> dict:
+def save_image(path, display_image, linear_rgb=None, params=None, *, linear_path=None,
+               layers=None, layers_path=None) -> dict:
     """Write the PNG, its sidecar and optionally the linear image, all or none.
 
     Parameters
@@ -501,11 +502,17 @@ def save_image(path, display_image, linear_rgb=None, params=None, *, linear_path
     linear_path : str or os.PathLike, optional
         ``.exr`` or ``.npy`` destination for ``linear_rgb`` (EXR falls back
         to NPY as in :func:`write_linear`).
+    layers : dict, optional
+        Image-formation layers (``RenderResult.layers``); written only when
+        ``layers_path`` is given.
+    layers_path : str or os.PathLike, optional
+        ``.exr`` or ``.npz`` destination for ``layers``
+        (:func:`aquaspec.layers.write_layers`).
 
     Returns
     -------
     dict
-        ``png``, ``sidecar``, ``linear`` (paths as str, ``linear`` None when
+        ``png``, ``sidecar``, ``linear``, ``layers`` (paths as str, None when
         not written), ``linear_format``, ``warnings`` (list of str).
 
     Notes
@@ -518,17 +525,26 @@ def save_image(path, display_image, linear_rgb=None, params=None, *, linear_path
     side = check_writable(sidecar_path(png))
     if linear_path is not None and linear_rgb is None:
         raise AquaspecError(f"linear_path={str(linear_path)!r} was given without linear_rgb")
+    if layers_path is not None and layers is None:
+        raise AquaspecError(f"layers_path={str(layers_path)!r} was given without layers "
+                            "(render with layers=True)")
     doc = _stamped(params)
     jobs, result = [], {"png": str(png), "sidecar": str(side), "linear": None,
-                        "linear_format": None, "warnings": []}
+                        "layers": None, "linear_format": None, "warnings": []}
     if linear_path is not None:
         lin, lin_write, lin_info = _plan_linear(linear_path, linear_rgb, doc)
         result.update(linear=str(lin), linear_format=lin_info["format"])
         if lin_info["warning"]:
             result["warnings"].append(lin_info["warning"])
         jobs.append((lin, lin_write))
+    if layers_path is not None:
+        from .layers import plan_layers
+        lay, lay_write = plan_layers(layers_path, layers, doc)
+        result["layers"] = str(lay)
+        jobs.append((lay, lay_write))
     doc["files"] = {"png": png.name, "sidecar": side.name,
-                    "linear": None if result["linear"] is None else Path(result["linear"]).name}
+                    "linear": None if result["linear"] is None else Path(result["linear"]).name,
+                    "layers": None if result["layers"] is None else Path(result["layers"]).name}
     if result["warnings"]:
         doc["warnings"] = list(result["warnings"])
     jobs.append((png, _png_writer(display_image, _dumps(doc))))

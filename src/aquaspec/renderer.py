@@ -242,6 +242,10 @@ class RenderResult:
     gbuffer : GBuffer
     params : dict
         Every parameter of the render (for sidecars).
+    layers : dict or None
+        With ``layers=True``: the image-formation layers
+        (:mod:`aquaspec.layers`: backscatter, direct, surface, albedo,
+        transmission, range_m).
     """
 
     display: np.ndarray
@@ -249,6 +253,7 @@ class RenderResult:
     radiance: np.ndarray | None
     gbuffer: GBuffer | None
     params: dict = field(default_factory=dict)
+    layers: dict | None = None
 
 
 def parse_size(text) -> tuple[int, int]:
@@ -281,8 +286,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
            spread_scattering: str = "single", ambient_shadow: bool = False, seabed="scene",
            exposure="auto", white_balance="none", tonemap="filmic",
-           colour_matrix="auto", return_radiance: bool = False, backend: str = "gpu",
-           progress=None) -> RenderResult:
+           colour_matrix="auto", return_radiance: bool = False, layers: bool = False,
+           backend: str = "gpu", progress=None) -> RenderResult:
     """Render one image.
 
     Parameters
@@ -349,6 +354,12 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         linear output stays camera RGB either way.
     return_radiance : bool
         Also return the per-band radiance.
+    layers : bool
+        Also return the image-formation layers (:mod:`aquaspec.layers`: the
+        backscatter, the direct signal, the surfaces' own light and albedo,
+        the transmission and the range), for restoration research. The
+        backscatter is the image shaded again with every surface black
+        (with ``ambient_shadow``, seconds more).
     backend : {"gpu", "numpy"}
         The WGSL passes through wgpu, or the NumPy reference.
     progress : callable, optional
@@ -441,6 +452,20 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
                             return_radiance=return_radiance,
                             lightfield=setup.lightfield_tables(), progress=say)
         linear, radiance = out["camera_rgb"], out.get("radiance")
+    layer_set = None
+    if layers:
+        from .layers import black_gbuffer, image_layers
+        say("image-formation layers: the image again with every surface black")
+        if backend == "gpu":
+            if gbuffer is None:
+                gbuffer = r.raster.read_gbuffer(scene, camera, r.deferred.gbuffer_textures)
+            back = r.render_gbuffer(black_gbuffer(gbuffer), setup, say).astype(np.float64)
+        else:
+            black = black_gbuffer(gbuffer)
+            back = shade_gbuffer(black, **setup.medium(black.materials),
+                                 lightfield=setup.lightfield_tables(), progress=say)["camera_rgb"]
+        layer_set = image_layers(linear, back, gbuffer, setup.medium(gbuffer.materials),
+                                 setup.lightfield_tables())
     bad = ~np.isfinite(linear)
     if bad.any():
         i, j = np.argwhere(bad.any(axis=-1))[0]
@@ -472,7 +497,14 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         "display": info,
         "render_seconds": time.perf_counter() - t0,
     }
+    if layer_set is not None:
+        from .layers import LAYER_NAMES
+        params["layers"] = {"names": list(LAYER_NAMES), "definitions": "aquaspec.layers: "
+                            "linear = direct + backscatter (the image with every surface "
+                            "black); surface = rho E(d, n)/pi and albedo = rho E0/pi in camera "
+                            "RGB; transmission = RGB(T L_surf)/RGB(L_surf); range_m = S, 0 for "
+                            "open water"}
     if backend == "gpu":
         from .gpu.device import adapter_info
         params["adapter"] = adapter_info()
-    return RenderResult(display, linear, radiance, gbuffer, params)
+    return RenderResult(display, linear, radiance, gbuffer, params, layer_set)

@@ -60,6 +60,10 @@ def register(sub):
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")
     p.add_argument("--linear", metavar="OUT.exr|OUT.npy",
                    help="also write linear camera RGB (float32 EXR, or NPY)")
+    p.add_argument("--layers", metavar="OUT.exr|OUT.npz",
+                   help="also write the image-formation layers (float32): backscatter, "
+                        "direct signal, the surfaces' own light and albedo, transmission, "
+                        "range (aquaspec.layers; ground truth for restoration research)")
     p.set_defaults(func=run, command="render")
 
 
@@ -81,6 +85,13 @@ def run(args):
     check_writable(args.output, suffixes=PNG_SUFFIXES)
     if args.linear:
         check_writable(args.linear, suffixes=LINEAR_SUFFIXES)
+    if args.layers:
+        from ..layers import LAYER_SUFFIXES
+        from ..output import _openexr
+        lay = check_writable(args.layers, suffixes=LAYER_SUFFIXES)
+        if lay.suffix.lower() == ".exr" and _openexr() is None:
+            raise AquaspecError(f"--layers {args.layers!r} needs the OpenEXR module (pip "
+                                "install openexr); or give a .npz path")
     size = parse_size(args.size)
     exposure = args.exposure
     if exposure != "auto":
@@ -115,13 +126,15 @@ def run(args):
                  seabed=seabed,
                  exposure=exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
-                 backend=args.backend, progress=progress)
+                 layers=bool(args.layers), backend=args.backend, progress=progress)
     files = save_image(args.output, res.display, res.linear_rgb if args.linear else None,
-                       res.params, linear_path=args.linear)
+                       res.params, linear_path=args.linear, layers=res.layers,
+                       layers_path=args.layers)
     for w in files.get("warnings", []):
         progress(f"warning: {w}")
     print(f"wrote {files['png']} and {files['sidecar']}"
           + (f" and {files['linear']}" if files.get("linear") else "")
+          + (f" and {files['layers']}" if files.get("layers") else "")
           + f" ({res.params['render_seconds']:.2f} s)")
     return 0
 
