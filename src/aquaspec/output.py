@@ -543,8 +543,9 @@ def save_image(path, display_image, linear_rgb=None, params=None, *, linear_path
         result["layers"] = str(lay)
         jobs.append((lay, lay_write))
     doc["files"] = {"png": png.name, "sidecar": side.name,
-                    "linear": None if result["linear"] is None else Path(result["linear"]).name,
-                    "layers": None if result["layers"] is None else Path(result["layers"]).name}
+                    "linear": None if result["linear"] is None else Path(result["linear"]).name}
+    if result["layers"] is not None:
+        doc["files"]["layers"] = Path(result["layers"]).name
     if result["warnings"]:
         doc["warnings"] = list(result["warnings"])
     jobs.append((png, _png_writer(display_image, _dumps(doc))))

@@ -312,7 +312,14 @@ class LightfieldPass:
         #: (:func:`aquaspec.lightfield_compiled.water_table`; watertable.wgsl
         #: has the deep-water closed form only) and uploaded.
         self.seabed = bool(np.isfinite(float(tables["seabed_depth_m"][0])))
-        self._medium = (tables, a, b, e0, np.asarray(response_weights, dtype=float))
+        previous, self._medium = self._medium, (tables, a, b, e0,
+                                                np.asarray(response_weights, dtype=float))
+        # Only the materials changed (the same tables object, kept alive by
+        # self._medium, and equal bands): the water table and the spread's
+        # plan for this camera still hold.
+        same_water = (previous is not None and previous[0] is tables
+                      and all(np.array_equal(x, y) for x, y in zip(previous[1:],
+                                                                   self._medium[1:])))
         #: Whether the forward cone is spread over the image (tables with
         #: lightfield_tables(cone_spread=True)): :class:`ConeSpreadPass` after this one.
         self.spread = "cone_offset_cdf" in tables
@@ -323,9 +330,10 @@ class LightfieldPass:
         if self.nodes > MAX_NODES:
             raise AquaspecError(f"{self.nodes} lambda nodes; the GPU pass takes at most "
                                 f"{MAX_NODES}")
-        self._spread_pass = None
-        self._spread_key = None
-        self._water_key = None
+        if not same_water:
+            self._spread_pass = None
+            self._spread_key = None
+            self._water_key = None
         self._groups = {}
 
     def _array_texture(self, data, label):
