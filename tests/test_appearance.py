@@ -93,7 +93,9 @@ class TestCli:
 
     @pytest.mark.parametrize("argv,match", [
         (["--water", "XI", "--depth", "5"], "unknown water type 'XI'"),
-        (["--water", "IB", "--depth", "-2"], "depth -2.0 m is not accepted"),
+        (["--water", "IB", "--depth", "-2"], "depth -2.0 m is not accepted; give metres below"),
+        (["--water", "IB", "--depth", "5", "--distance", "-1"],
+         "distance -1.0 m is not accepted; give metres from the camera"),
         (["--water", "IB", "--depth", "5", "--bands", "0"], "n=0 is out of range"),
         (["--water", "IB", "--depth", "5", "--sensor", "leica"], "unknown sensor 'leica'"),
         (["--water", "IB", "--depth", "5", "--range", "350-700"], "sensor 'human' covers 360-830"),

@@ -20,15 +20,17 @@ GREY_CARD_REFLECTANCE = 0.18
 
 
 def check_depth(depth_m, name="depth"):
-    """Validate a depth below the surface in metres (>= 0, finite)."""
+    """Validate a depth below the surface (or, ``name="distance"``, a distance
+    from the camera) in metres (>= 0, finite)."""
+    what = "below the surface" if name == "depth" else "from the camera"
     try:
         d = float(depth_m)
     except (TypeError, ValueError):
-        raise AquaspecError(f"{name} {depth_m!r} is not a number; give metres below the "
-                            "surface (>= 0)") from None
+        raise AquaspecError(f"{name} {depth_m!r} is not a number; give metres {what} "
+                            "(>= 0)") from None
     if not np.isfinite(d) or d < 0:
-        raise AquaspecError(f"{name} {depth_m!r} m is not accepted; give metres below the "
-                            "surface, >= 0 and finite")
+        raise AquaspecError(f"{name} {depth_m!r} m is not accepted; give metres {what}, "
+                            ">= 0 and finite")
     return d
 
 
