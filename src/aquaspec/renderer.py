@@ -452,6 +452,12 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
                             return_radiance=return_radiance,
                             lightfield=setup.lightfield_tables(), progress=say)
         linear, radiance = out["camera_rgb"], out.get("radiance")
+    bad = ~np.isfinite(linear)
+    if bad.any():
+        i, j = np.argwhere(bad.any(axis=-1))[0]
+        raise AquaspecError(f"{int(bad.any(axis=-1).sum())} pixels came out NaN or infinite "
+                            f"(first at row {i}, column {j}); this is a bug, please report it "
+                            "with the parameters")
     layer_set = None
     if layers:
         from .layers import black_gbuffer, image_layers
@@ -466,12 +472,6 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
                                  lightfield=setup.lightfield_tables(), progress=say)["camera_rgb"]
         layer_set = image_layers(linear, back, gbuffer, setup.medium(gbuffer.materials),
                                  setup.lightfield_tables())
-    bad = ~np.isfinite(linear)
-    if bad.any():
-        i, j = np.argwhere(bad.any(axis=-1))[0]
-        raise AquaspecError(f"{int(bad.any(axis=-1).sum())} pixels came out NaN or infinite "
-                            f"(first at row {i}, column {j}); this is a bug, please report it "
-                            "with the parameters")
     reference = None
     if white_balance == "white-patch":
         # The diver's custom white balance: a grey card held 1 m in front of
