@@ -55,6 +55,7 @@ import numpy as np
 from . import model
 from .errors import AquaspecError
 from .gbuffer import GBuffer
+from .output import METADATA_KEY
 from .reflectance import Reflectance
 
 #: The colour layers, (H, W, 3) each, in file order; ``range_m`` (H, W) follows.
@@ -63,8 +64,6 @@ COLOUR_LAYERS = ("backscatter", "direct", "surface", "albedo", "transmission")
 LAYER_NAMES = COLOUR_LAYERS + ("range_m",)
 #: Accepted file suffixes of :func:`write_layers`.
 LAYER_SUFFIXES = (".exr", ".npz")
-#: Header attribute (EXR) / array name (NPZ) holding the parameters as JSON.
-METADATA_KEY = "aquaspec"
 
 _BLACK = Reflectance("black", np.array([100.0, 2000.0]), np.zeros(2),
                      source="aquaspec.layers: reflectance 0, for the backscatter layer")
@@ -127,7 +126,8 @@ def surface_layers(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material
         out["albedo"][p] = model.radiance_to_rgb(model.lambertian_radiance(rho, e0), w)
         # (|w|: a channel with negative lobes keeps t within the bands' T.)
         j = model.radiance_to_rgb(l_surf, np.abs(w))
-        kept = model.radiance_to_rgb(np.exp(-c_beam * s[p, None]) * l_surf, np.abs(w))
+        kept = model.radiance_to_rgb(model.transmittance(c_beam, s[p, None]) * l_surf,
+                                     np.abs(w))
         out["transmission"][p] = np.where(j > 0, kept / np.where(j > 0, j, 1.0), 0.0)
     layers = {k: v.reshape(hgt, wid, 3) for k, v in out.items()}
     layers["range_m"] = np.where(hit, s, 0.0).reshape(hgt, wid)
@@ -187,24 +187,17 @@ def plan_layers(path, layers, metadata: dict):
     """``(final_path, writer)`` of :func:`write_layers` for a staged, atomic write
     (:func:`aquaspec.output.save_image` writes it with the other files);
     ``metadata`` is serialised when the file is written."""
-    from .output import _dumps, check_writable
+    from .output import _dumps, _openexr, check_writable, exr_writer
     p = check_writable(path, suffixes=LAYER_SUFFIXES)
     arrays = _checked(layers)
     if p.suffix.lower() == ".exr":
-        from .output import _openexr
-        exr = _openexr()
-        if exr is None:
+        if _openexr() is None:
             raise AquaspecError(f"writing {str(p)!r} needs the OpenEXR module (pip install "
                                 "openexr); or give a .npz path")
         channels = {f"{k}.{c}": np.ascontiguousarray(arrays[k][..., i])
                     for k in COLOUR_LAYERS for i, c in enumerate("RGB")}
         channels["range_m"] = arrays["range_m"]
-
-        def write(tmp):
-            header = {"compression": exr.ZIP_COMPRESSION, "type": exr.scanlineimage,
-                      METADATA_KEY: _dumps(metadata)}
-            with exr.File(header, channels) as f:
-                f.write(tmp)
+        write = exr_writer(channels, metadata)
     else:
         def write(tmp):
             with open(tmp, "wb") as f:     # a file object: np.savez(name) adds ".npz"
@@ -240,18 +233,10 @@ def read_layers(path) -> tuple[dict, dict]:
             if missing:
                 raise AquaspecError(f"{str(p)!r} lacks {missing}; has {sorted(z.files)}")
             return ({k: z[k] for k in LAYER_NAMES}, json.loads(str(z[METADATA_KEY])))
-    from .output import _openexr
-    exr = _openexr()
-    if exr is None:
-        raise AquaspecError(f"reading {str(p)!r} needs the OpenEXR module: pip install openexr")
-    with exr.File(str(p), separate_channels=True) as f:
-        ch = f.channels()
-        want = [f"{k}.{c}" for k in COLOUR_LAYERS for c in "RGB"] + ["range_m"]
-        missing = [c for c in want if c not in ch]
-        if missing:
-            raise AquaspecError(f"EXR {str(p)!r} lacks channels {missing}; has {sorted(ch)}")
-        layers = {k: np.stack([ch[f"{k}.{c}"].pixels for c in "RGB"], axis=-1)
-                  for k in COLOUR_LAYERS}
-        layers["range_m"] = np.asarray(ch["range_m"].pixels)
-        meta = f.header().get(METADATA_KEY)
+    from .output import read_exr_channels
+    ch, header = read_exr_channels(
+        p, [f"{k}.{c}" for k in COLOUR_LAYERS for c in "RGB"] + ["range_m"])
+    layers = {k: np.stack([ch[f"{k}.{c}"] for c in "RGB"], axis=-1) for k in COLOUR_LAYERS}
+    layers["range_m"] = ch["range_m"]
+    meta = header.get(METADATA_KEY)
     return layers, (json.loads(meta) if meta else {})

@@ -363,6 +363,35 @@ def _linear_pixels(rgb) -> np.ndarray:
     return out
 
 
+def exr_writer(channels: dict, meta):
+    """``writer(tmp_path)`` of a float32 scanline EXR (ZIP) with ``channels``
+    ({name: pixels}) and ``meta`` as JSON in the header attribute
+    :data:`METADATA_KEY`, serialised when the file is written."""
+    exr = _openexr()
+
+    def write(tmp):
+        header = {"compression": exr.ZIP_COMPRESSION, "type": exr.scanlineimage,
+                  METADATA_KEY: _dumps(meta)}
+        with exr.File(header, channels) as f:
+            f.write(tmp)
+    return write
+
+
+def read_exr_channels(path, names) -> tuple[dict, dict]:
+    """``({name: pixels}, header)`` of the EXR at ``path``; an
+    :class:`AquaspecError` names the channels it lacks."""
+    p = Path(path)
+    exr = _openexr()
+    if exr is None:
+        raise AquaspecError(f"reading {str(p)!r} needs the OpenEXR module: pip install openexr")
+    with exr.File(str(p), separate_channels=True) as f:
+        ch = f.channels()
+        missing = [c for c in names if c not in ch]
+        if missing:
+            raise AquaspecError(f"EXR {str(p)!r} lacks channels {missing}; has {sorted(ch)}")
+        return {c: np.asarray(ch[c].pixels) for c in names}, dict(f.header())
+
+
 def _plan_linear(path, rgb, meta):
     """``(final_path, writer, info)`` for a linear image; EXR falls back to NPY."""
     p = check_writable(path, suffixes=LINEAR_SUFFIXES)
@@ -379,12 +408,8 @@ def _plan_linear(path, rgb, meta):
         warnings.warn(info["warning"], UserWarning, stacklevel=3)
 
     if info["format"] == "exr":
-        def write(tmp):
-            header = {"compression": exr.ZIP_COMPRESSION, "type": exr.scanlineimage,
-                      METADATA_KEY: _dumps(meta)}
-            # An (H, W, 3) array under "RGB" becomes the channels R, G, B.
-            with exr.File(header, {"RGB": pixels}) as f:
-                f.write(tmp)
+        # An (H, W, 3) array under "RGB" becomes the channels R, G, B.
+        write = exr_writer({"RGB": pixels}, meta)
     else:
         def write(tmp):
             with open(tmp, "wb") as f:     # a file object: np.save(name) adds ".npy"
@@ -421,15 +446,8 @@ def read_linear(path) -> np.ndarray:
         return np.load(p, allow_pickle=False)
     if p.suffix.lower() != ".exr":
         raise AquaspecError(f"linear image {str(p)!r}; accepted suffixes: .exr, .npy")
-    exr = _openexr()
-    if exr is None:
-        raise AquaspecError(f"reading {str(p)!r} needs the OpenEXR module: pip install openexr")
-    with exr.File(str(p), separate_channels=True) as f:
-        ch = f.channels()
-        missing = [c for c in "RGB" if c not in ch]
-        if missing:
-            raise AquaspecError(f"EXR {str(p)!r} lacks channels {missing}; has {sorted(ch)}")
-        return np.stack([ch[c].pixels for c in "RGB"], axis=-1).astype(np.float32)
+    ch, _ = read_exr_channels(p, "RGB")
+    return np.stack([ch[c] for c in "RGB"], axis=-1).astype(np.float32)
 
 
 # ---------------------------------------------------------------------------
