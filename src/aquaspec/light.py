@@ -17,6 +17,12 @@ Three kinds (:data:`LIGHTS`), each scaled by a total irradiance:
 ``total_w_m2`` is the irradiance integrated over 400-700 nm (W m^-2) after
 scaling; by default 100 W m^-2 for ``overcast`` and ``d65``, and SPECTRL2's
 own absolute level for ``sun-sky``.
+
+``sun-sky`` also carries its sun (:attr:`SurfaceLight.sun`, an
+:class:`aquaspec.sun.Sun` at ``sun_azimuth_deg``): the renderer lights
+surfaces with the refracted beam, shadows it and scatters it once towards
+the camera; :attr:`SurfaceLight.values` stays the whole ``E0``, sky and sun
+(the sun's share is ``mu0 * beam_normal``).
 """
 
 from __future__ import annotations
@@ -43,16 +49,38 @@ class SurfaceLight:
     wavelength_nm: np.ndarray
     values: np.ndarray
     params: dict
+    #: The direct sun (:class:`aquaspec.sun.Sun`), or None (sky only).
+    sun: object = None
 
     def on_bands(self, bands: Bands) -> np.ndarray:
+        """``E0`` per band: everything, sky and sun."""
         return bands.average(self.wavelength_nm, self.values, name=f"light {self.name}")
+
+    def sun_horizontal_on(self, bands: Bands) -> np.ndarray:
+        """The sun's share of ``E0`` per band (0 without a sun)."""
+        if self.sun is None:
+            return np.zeros(bands.n)
+        return self.sun.mu0 * self.sun.beam_on(bands)
+
+    def sky_on(self, bands: Bands) -> np.ndarray:
+        """The diffuse sky's share of ``E0`` per band."""
+        return np.maximum(self.on_bands(bands) - self.sun_horizontal_on(bands), 0.0)
+
+    def without_sun(self) -> "SurfaceLight":
+        """The same ``E0`` with the sun's beam not rendered separately
+        (the whole light taken as diffuse sky, as before the sun existed)."""
+        return SurfaceLight(self.name, self.wavelength_nm, self.values,
+                            {**self.params, "sun_rendered": False}, None)
 
     def total_w_m2(self, lo_nm=TOTAL_RANGE_NM[0], hi_nm=TOTAL_RANGE_NM[1]) -> float:
         return float(Bands(1, lo_nm, hi_nm).average(self.wavelength_nm, self.values)[0]
                      * (hi_nm - lo_nm))
 
     def describe(self) -> dict:
-        return {"name": self.name, "total_w_m2_400_700": self.total_w_m2(), **self.params}
+        out = {"name": self.name, "total_w_m2_400_700": self.total_w_m2(), **self.params}
+        if self.sun is not None:
+            out["sun"] = self.sun.describe()
+        return out
 
 
 def fresnel_transmittance(cos_i, n: float = N_WATER):
@@ -69,7 +97,8 @@ def fresnel_transmittance(cos_i, n: float = N_WATER):
 SKY_TRANSMITTANCE = 0.934
 
 
-def _sun_sky(elevation_deg):
+def _sun_sky(elevation_deg, azimuth_deg):
+    from .sun import Sun, refracted_to_sun
     import pvlib
     zen = 90.0 - elevation_deg
     airmass = float(pvlib.atmosphere.get_relative_airmass(zen))
@@ -81,12 +110,20 @@ def _sun_sky(elevation_deg):
     cos_z = np.cos(np.radians(zen))
     direct = np.ravel(r["dni"]) * cos_z * fresnel_transmittance(cos_z)
     diffuse = np.ravel(r["dhi"]) * SKY_TRANSMITTANCE
+    mu0 = refracted_to_sun(elevation_deg, azimuth_deg)[1]
+    sun = Sun(elevation_deg, azimuth_deg, wl, direct / mu0)
     return wl, direct + diffuse, {"sun_elevation_deg": elevation_deg,
-                                  "model": "SPECTRL2 (pvlib), Fresnel through a flat surface"}
+                                  "sun_azimuth_deg": sun.azimuth_deg,
+                                  "model": "SPECTRL2 (pvlib), Fresnel through a flat surface"}, sun
+
+
+#: Default sun azimuth: behind the built-in camera's right shoulder.
+DEFAULT_SUN_AZIMUTH_DEG = 150.0
 
 
 def surface_light(kind: str = "overcast", *, total_w_m2: float | None = None,
-                  sun_elevation_deg: float = 60.0) -> SurfaceLight:
+                  sun_elevation_deg: float = 60.0,
+                  sun_azimuth_deg: float = DEFAULT_SUN_AZIMUTH_DEG) -> SurfaceLight:
     """E0(lambda) just below the surface.
 
     Parameters
@@ -96,11 +133,15 @@ def surface_light(kind: str = "overcast", *, total_w_m2: float | None = None,
         Irradiance over 400-700 nm after scaling, W m^-2 (> 0).
     sun_elevation_deg : float
         For ``sun-sky``: elevation of the sun above the horizon, 1-90 deg.
+    sun_azimuth_deg : float
+        For ``sun-sky``: compass angle of the sun from ``-z`` towards ``+x``
+        (:mod:`aquaspec.sun`; 0 in front of the built-in camera, 180 behind).
     """
     if kind not in LIGHTS:
         raise AquaspecError(f"unknown surface light {kind!r}; known: {', '.join(LIGHTS)}")
     if total_w_m2 is not None and not (np.isfinite(total_w_m2) and total_w_m2 > 0):
         raise AquaspecError(f"total irradiance {total_w_m2!r} W/m^2 must be a positive number")
+    sun = None
     if kind == "overcast":
         wl, val, params = np.array([300.0, 830.0]), np.ones(2), {}
     elif kind == "d65":
@@ -108,12 +149,14 @@ def surface_light(kind: str = "overcast", *, total_w_m2: float | None = None,
         wl, val = colourdata.d65()
         params = {}
     else:
-        if not 1.0 <= sun_elevation_deg <= 90.0:
-            raise AquaspecError(f"sun elevation {sun_elevation_deg!r} deg; accepted: 1 to 90")
-        wl, val, params = _sun_sky(float(sun_elevation_deg))
-    light = SurfaceLight(kind, wl, val, params)
+        from .sun import check_azimuth, check_elevation
+        wl, val, params, sun = _sun_sky(check_elevation(sun_elevation_deg),
+                                        check_azimuth(sun_azimuth_deg))
+    light = SurfaceLight(kind, wl, val, params, sun)
     if total_w_m2 is None and kind != "sun-sky":
         total_w_m2 = DEFAULT_TOTAL_W_M2
     if total_w_m2 is not None:
-        light = SurfaceLight(kind, wl, val * (total_w_m2 / light.total_w_m2()), params)
+        scale = total_w_m2 / light.total_w_m2()
+        light = SurfaceLight(kind, wl, val * scale, params,
+                             None if sun is None else sun.scaled(scale))
     return light
