@@ -80,7 +80,11 @@ class SpectralSetup:
         return forward_cone(self.forward_cone_deg, self.cone_spread)
 
     def lightfield_tables(self) -> dict | None:
-        """Light-field tables for ``ms_model="lightfield"`` (None for the seeds' model)."""
+        """Light-field tables for ``ms_model="lightfield"`` (None for the seeds' model).
+
+        With a sun (``light.sun``) the field is the sky's and the sun's
+        diffuse light, still per unit of the whole ``E0``.
+        """
         if self.ms_model != "lightfield":
             return None
         cached = self.__dict__.get("_tables")
@@ -89,6 +93,11 @@ class SpectralSetup:
             bed = ({} if self.seabed is None else
                    {"seabed_depth_m": float(self.seabed.depth_m),
                     "seabed_albedo": self.seabed.albedo_on(self.bands)})
+            if self.light.sun is not None:
+                e0 = self.light.on_bands(self.bands)
+                bed = {**bed, "sun_mu0": self.light.sun.mu0,
+                       "sun_fraction": np.clip(self.light.sun_horizontal_on(self.bands)
+                                               / np.where(e0 > 0, e0, 1.0), 0.0, 1.0)}
             cached = lightfield_tables(self.water.on_bands(self.bands), phase=self.phase,
                                        forward_cone_deg=self.cone_deg,
                                        cone_spread=self.cone_spread,
@@ -96,6 +105,39 @@ class SpectralSetup:
                                        ambient_shadow=self.ambient_shadow,
                                        **bed, **dict(self.phase_params))
             object.__setattr__(self, "_tables", cached)
+        return cached
+
+    def sun_inputs(self):
+        """What the sun's terms need per band (:class:`aquaspec.sun.SunInputs`),
+        or None without a sun.
+
+        The beam's extinction is the light field's delta-M ``c*`` (its diffuse
+        field complements that beam) or ``c`` for the seeds' model; on the way
+        to the camera the sun's light has the extinction the surfaces' light
+        has (``c - f b`` with the light field's forward cone, else ``c``).
+        """
+        sun = self.light.sun
+        if sun is None:
+            return None
+        cached = self.__dict__.get("_sun")
+        if cached is None:
+            from .sun import SunInputs, phase_table
+            bw = self.water.on_bands(self.bands)
+            a, b = np.asarray(bw.a, dtype=float), np.asarray(bw.b, dtype=float)
+            c = a + b
+            tables = self.lightfield_tables()
+            if tables is None:
+                c_sun = c_view = c
+            else:
+                from .lightfield import _beam_extinction
+                c_sun = np.asarray(tables["beam_extinction"], dtype=float)
+                c_view = _beam_extinction(tables, a, b)
+            cached = SunInputs(beam0=sun.beam_on(self.bands), c_sun=c_sun, c_view=c_view, b=b,
+                               log_phase=phase_table(self.phase, b=b,
+                                                     wavelength_nm=self.bands.centers_nm,
+                                                     **dict(self.phase_params)),
+                               to_sun=sun.to_sun)
+            object.__setattr__(self, "_sun", cached)
         return cached
 
     def medium(self, materials) -> dict:
@@ -146,6 +188,10 @@ class Renderer:
         self.lightfield = None      # LightfieldPass, made when first needed
         self._use_lightfield = False
         self._shadow_rays = None    # ShadowRays, made when first needed
+        self.sun = None             # SunPass, made when a light first has a sun
+        self._sun_key = None
+        #: Shadow-map side for the sun (texels).
+        self.sun_map_size = None
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         key = (id(setup), tuple(id(m) for m in materials))
@@ -164,6 +210,27 @@ class Renderer:
     def _shading_pass(self):
         return self.lightfield if self._use_lightfield else self.deferred
 
+    def _sun_pass(self, setup: SpectralSetup, materials):
+        """The sun pass with ``setup``'s inputs uploaded, or None without a sun."""
+        sun = setup.sun_inputs()
+        if sun is None:
+            return None
+        from .gpu.sun_pass import SunPass
+        from .sun import DEFAULT_MAP_SIZE
+        size = self.sun_map_size or DEFAULT_MAP_SIZE
+        if self.sun is None or self.sun.map_size != size:
+            self.sun = SunPass(self.deferred.device, self.width, self.height,
+                               self.deferred.n_bands, map_size=size)
+            self._sun_key = None
+        key = (id(setup), tuple(id(m) for m in materials))
+        if key != self._sun_key:
+            medium = setup.medium(materials)
+            self.sun.set_inputs(sun, response_weights=medium["response_weights"],
+                                material_bands=medium["material_bands"],
+                                sigmoid_centers_t=medium["sigmoid_centers_t"])
+            self._sun_key = key
+        return self.sun
+
     def render_scene(self, scene, camera: Camera, setup: SpectralSetup,
                      progress=None) -> np.ndarray:
         """Rasterise and shade on the GPU; returns linear camera RGB (H, W, 3) float32.
@@ -174,9 +241,14 @@ class Renderer:
         """
         self._check_camera(camera)
         self.set_spectral(setup, scene.materials)
+        sun = self._sun_pass(setup, scene.materials)
         enc = self.deferred.device.create_command_encoder()
         self.raster.render_to(self.deferred, scene, camera, encoder=enc)
         self._shading_pass().encode(enc)
+        if sun is not None:
+            sun.encode_shadow_map(enc, self.raster, scene, camera)
+            sun.encode(enc, camera, self.deferred.gbuffer_textures,
+                       self._shading_pass().rgb_buffer)
         self.deferred.device.queue.submit([enc.finish()])
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
@@ -185,13 +257,29 @@ class Renderer:
         return rgb
 
     def render_gbuffer(self, gbuffer: GBuffer, setup: SpectralSetup,
-                       progress=None) -> np.ndarray:
+                       progress=None, *, sun_scene=None) -> np.ndarray:
         """Shade a G-buffer made elsewhere (e.g. RGB-D) on the GPU (and subtract
-        the shadow with ``setup.ambient_shadow``, as :meth:`render_scene`)."""
+        the shadow with ``setup.ambient_shadow``, as :meth:`render_scene`).
+
+        With a sun, ``sun_scene`` (the scene the G-buffer shows, if any)
+        casts the sun's shadows; without it nothing does.
+        """
         self._check_camera(gbuffer.camera)
         self.set_spectral(setup, gbuffer.materials)
         self.deferred.set_gbuffer(gbuffer)
-        self._shading_pass().run()
+        sun = self._sun_pass(setup, gbuffer.materials)
+        if sun is None:
+            self._shading_pass().run()
+        else:
+            enc = self.deferred.device.create_command_encoder()
+            self._shading_pass().encode(enc)
+            if sun_scene is not None:
+                sun.encode_shadow_map(enc, self.raster, sun_scene, gbuffer.camera)
+            else:
+                sun.no_shadows()
+            sun.encode(enc, gbuffer.camera, self.deferred.gbuffer_textures,
+                       self._shading_pass().rgb_buffer)
+            self.deferred.device.queue.submit([enc.finish()])
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
             rgb = self.subtract_shadow(rgb, gbuffer, setup, progress)
@@ -281,6 +369,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            sensor="human", camspec=None, bands: int = 16, wavelength_range=(400.0, 700.0),
            size=(1280, 720), scene=None, camera: Camera | None = None, mesh=None, albedo=None,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
+           sun_azimuth_deg=None, sun_shadow_map: int | None = None,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
@@ -315,6 +404,15 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         underwater one with the camera at ``depth_m``.
     light : str or SurfaceLight
         ``overcast``, ``d65`` or ``sun-sky`` (see :mod:`aquaspec.light`).
+        ``sun-sky`` has a sun (at ``sun_elevation_deg``, ``sun_azimuth_deg``):
+        its refracted beam lights the surfaces, is shadowed by the scene and
+        is scattered once towards the camera (:mod:`aquaspec.sun`).
+    sun_shadow_map : int, optional
+        Side of the sun's shadow map in texels (default
+        :data:`aquaspec.sun.DEFAULT_MAP_SIZE`); shadows are resolved within
+        :data:`aquaspec.sun.DEFAULT_MAP_RADIUS_M` of the camera. RGB-D
+        images cast no sun shadows (they have no geometry behind the
+        visible surfaces).
     ambient : str
         Ambient irradiance model of the seeds' model
         (:data:`aquaspec.model.AMBIENT_MODELS`).
@@ -374,8 +472,12 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     t0 = time.perf_counter()
     water_obj = water if isinstance(water, Water) else get_water(water, source)
     sensor_obj = sensor if isinstance(sensor, Sensor) else get_sensor(sensor, camspec)
+    from .light import DEFAULT_SUN_AZIMUTH_DEG
+    from .sun import DEFAULT_MAP_SIZE
     light_obj = light if isinstance(light, SurfaceLight) else surface_light(
-        light, total_w_m2=irradiance_w_m2, sun_elevation_deg=sun_elevation_deg)
+        light, total_w_m2=irradiance_w_m2, sun_elevation_deg=sun_elevation_deg,
+        sun_azimuth_deg=DEFAULT_SUN_AZIMUTH_DEG if sun_azimuth_deg is None else sun_azimuth_deg)
+    map_size = DEFAULT_MAP_SIZE if sun_shadow_map is None else sun_shadow_map
     from .appearance import check_ms_model
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase,
@@ -431,6 +533,10 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
             raise AquaspecError("per-band radiance from the GPU is available for "
                                 "ms_model='seeds'; use backend='numpy' for the light field")
         r = Renderer(camera.width, camera.height, n, debug_radiance=return_radiance)
+        r.sun_map_size = map_size
+        if return_radiance and light_obj.sun is not None:
+            raise AquaspecError("per-band radiance with a sun is available from "
+                                "backend='numpy'")
         if gbuffer is None:
             linear = r.render_scene(scene, camera, setup, say).astype(np.float64)
             if return_radiance:
@@ -448,9 +554,15 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
             gbuffer = raycast_gbuffer(scene, camera)
         say(f"shading {camera.width}x{camera.height} pixels x {n} bands in NumPy"
             + (" with the scene's shadow in the light field" if ambient_shadow else ""))
+        sun_shadow = None
+        if light_obj.sun is not None and rgbd is None:
+            from .sun import numpy_shadow_map
+            say(f"the sun's shadow map, {map_size}x{map_size} texels (NumPy)")
+            sun_shadow = numpy_shadow_map(scene, camera, light_obj.sun.to_sun, size=map_size)
         out = shade_gbuffer(gbuffer, **setup.medium(gbuffer.materials),
                             return_radiance=return_radiance,
-                            lightfield=setup.lightfield_tables(), progress=say)
+                            lightfield=setup.lightfield_tables(), progress=say,
+                            sun=setup.sun_inputs(), sun_shadow=sun_shadow)
         linear, radiance = out["camera_rgb"], out.get("radiance")
     bad = ~np.isfinite(linear)
     if bad.any():
@@ -465,11 +577,14 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         if backend == "gpu":
             if gbuffer is None:
                 gbuffer = r.raster.read_gbuffer(scene, camera, r.deferred.gbuffer_textures)
-            back = r.render_gbuffer(black_gbuffer(gbuffer), setup, say).astype(np.float64)
+            back = r.render_gbuffer(black_gbuffer(gbuffer), setup, say,
+                                    sun_scene=scene if rgbd is None else None
+                                    ).astype(np.float64)
         else:
             black = black_gbuffer(gbuffer)
             back = shade_gbuffer(black, **setup.medium(black.materials),
-                                 lightfield=setup.lightfield_tables(), progress=say)["camera_rgb"]
+                                 lightfield=setup.lightfield_tables(), progress=say,
+                                 sun=setup.sun_inputs(), sun_shadow=sun_shadow)["camera_rgb"]
         layer_set = image_layers(linear, back, gbuffer, setup.medium(gbuffer.materials),
                                  setup.lightfield_tables())
     reference = None

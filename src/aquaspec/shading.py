@@ -108,7 +108,7 @@ def camera_depth(camera) -> float:
 def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_bands,
                   sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
                   return_radiance: bool = False, lightfield: dict | None = None,
-                  progress=None, shadow_rays=None) -> dict:
+                  progress=None, shadow_rays=None, sun=None, sun_shadow=None) -> dict:
     """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
 
     Parameters
@@ -142,6 +142,12 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     shadow_rays : optional
         Where the shadow's receivers' rays are integrated (``scene_shadow``'s
         ``rays``; default here, in NumPy).
+    sun : aquaspec.sun.SunInputs, optional
+        Add the direct sun: lit surfaces and the beam's single scattering
+        (:func:`aquaspec.sun.sun_radiance`).
+    sun_shadow : (height_map, ShadowMapSpec), optional
+        The sun's shadow map (:func:`aquaspec.sun.shadow_map_numpy`); None:
+        nothing shadows the sun.
 
     Returns
     -------
@@ -250,6 +256,18 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         radiance -= scene_shadow(gbuffer, b=b, e0=e0, material_bands=mb,
                                  sigmoid_centers_t=t, lightfield=lightfield, progress=progress,
                                  rays=shadow_rays)
+    if sun is not None:
+        from .sun import sun_radiance
+        if progress is not None:
+            progress("the sun: lit surfaces and single scattering")
+        hmap, spec = sun_shadow if sun_shadow is not None else (None, None)
+        l_sun = sun_radiance(gbuffer, sun, height_map=hmap, spec=spec,
+                             rho_of_hits=lambda m: _hit_reflectance(
+                                 gbuffer.material[m], gbuffer.sigmoid[m], mb, t))
+        if radiance is not None:
+            radiance += l_sun
+        if not whole:
+            rgb += model.radiance_to_rgb(l_sun.reshape(-1, n), w).reshape(hgt, wid, 3)
     if whole:
         rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}

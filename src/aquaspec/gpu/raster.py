@@ -55,6 +55,8 @@ DEPTH_FORMAT = "depth32float"
 #: fragment entry points (and pipeline), :data:`_ENTRY`.
 MODE_MATERIAL, MODE_TEXTURE, MODE_VERTEX = 0, 1, 2
 _ENTRY = {MODE_MATERIAL: "material", MODE_TEXTURE: "texture", MODE_VERTEX: "vertex"}
+#: Bytes per vertex of each mode: position, normal, then the mode's attribute.
+VERTEX_STRIDE = {MODE_MATERIAL: 28, MODE_TEXTURE: 32, MODE_VERTEX: 36}
 
 
 def _mode(mesh: Mesh) -> int:
@@ -209,7 +211,7 @@ class RasterPass:
             label=f"gbuffer {name}",
             layout=self._pipeline_layouts[mode == MODE_TEXTURE],
             vertex={"module": module, "entry_point": f"vs_{name}", "buffers": [{
-                "array_stride": 24 + extra[1],
+                "array_stride": VERTEX_STRIDE[mode],
                 "step_mode": wgpu.VertexStepMode.vertex,
                 "attributes": [
                     {"format": f32x3, "offset": 0, "shader_location": 0},
@@ -224,6 +226,14 @@ class RasterPass:
             fragment={"module": module, "entry_point": fragment, "targets": targets})
         self._pipelines[key] = pipe
         return pipe
+
+    def draws(self, scene: Scene) -> list:
+        """The scene's draw calls (uploaded once per scene): each has ``mode``,
+        ``vertex`` (position at offset 0, :data:`VERTEX_STRIDE` of its mode),
+        ``index``, ``index_format`` and ``count``. The sun's shadow map
+        (:mod:`aquaspec.gpu.sun_pass`) draws the same buffers."""
+        self._upload(scene)
+        return list(self._draws)
 
     def invalidate(self):
         """Forget the uploaded scene (call after editing its meshes in place)."""

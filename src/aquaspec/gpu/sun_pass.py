@@ -1,0 +1,250 @@
+"""The direct sun on the GPU: its shadow map and its light, added to a shading pass's image.
+
+Two passes (maths in :mod:`aquaspec.sun`, NumPy twin
+:func:`aquaspec.sun.sun_radiance`):
+
+- the shadow map: the scene's draw calls (:meth:`aquaspec.gpu.raster.RasterPass.draws`)
+  rasterised depth-only along the refracted beam (``shaders/sun_shadow.wgsl``,
+  :meth:`aquaspec.sun.ShadowMapSpec.clip_matrix`) into a ``depth32float``
+  texture of :data:`aquaspec.sun.DEFAULT_MAP_SIZE` texels a side;
+- the sun's radiance (``shaders/sun.wgsl``): per pixel the beam's single
+  scattering along the ray (``n_steps`` equal steps against the map) and the
+  sun-lit surface's light, per band, into camera RGB added to the shading
+  pass's linear image (its ``rgb_buffer``), so :meth:`read_rgb` of that pass
+  returns the whole image.
+
+Bindings of sun.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
+surface and sigmoid textures (:mod:`aquaspec.gpu.deferred`); 3 material band
+reflectances (M * n f32); 4 two vec4 per band; 5 ``ln p`` per band
+(:func:`aquaspec.sun.phase_table`); 6 the shadow map; 7 the image (vec4 per
+pixel, read and written).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import AquaspecError
+from ..sun import (BIAS_TEXELS, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, NORMAL_OFFSET_TEXELS,
+                   TAIL, ShadowMapSpec, SunInputs, shadow_map_spec)
+from .buffers import create_storage_buffer, create_uniform_buffer, upload_buffer
+from .deferred import CAMERA_FIELDS, camera_fields
+from .layout import UniformLayout
+from .shaders import load_wgsl
+
+PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
+    ("to_sun", "vec3<f32>"), ("mu0", "f32"),
+    ("e1", "vec3<f32>"), ("u0", "f32"),
+    ("e2", "vec3<f32>"), ("v0", "f32"),
+    ("width", "u32"), ("height", "u32"), ("shadowed", "u32"), ("map_size", "u32"),
+    ("texel", "f32"), ("h_min", "f32"), ("h_max", "f32"), ("bias", "f32"),
+    ("normal_offset", "f32"), ("neg_log_tail", "f32"),
+])
+CLIP_LAYOUT = UniformLayout("ShadowClip", [("clip", "mat4x4<f32>")])
+WORKGROUP = (8, 8)
+DEPTH_FORMAT = "depth32float"
+
+
+class SunPass:
+    """The sun's shadow map and radiance for one image size and band count.
+
+    Parameters
+    ----------
+    device : wgpu.GPUDevice
+    width, height, n_bands : int
+    n_steps : int
+        Steps of the march along each camera ray (a compile-time constant).
+    map_size : int
+        Shadow-map side in texels.
+    """
+
+    def __init__(self, device, width: int, height: int, n_bands: int, *,
+                 n_steps: int | None = None, map_size: int = DEFAULT_MAP_SIZE):
+        import wgpu
+        from ..sun import DEFAULT_STEPS, PHASE_TABLE_SIZE
+        self.device = device
+        self.width, self.height, self.n_bands = int(width), int(height), int(n_bands)
+        self.n_steps = int(DEFAULT_STEPS if n_steps is None else n_steps)
+        if not 1 <= self.n_steps <= 256:
+            raise AquaspecError(f"sun march steps {n_steps!r}; accepted: 1 ... 256")
+        self.map_size = int(map_size)
+        self.phase_size = PHASE_TABLE_SIZE
+        src = load_wgsl("sun.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
+                        params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
+                        n_steps=self.n_steps, phase_size=self.phase_size)
+        module = device.create_shader_module(label="sun.wgsl", code=src)
+        self._pipeline = device.create_compute_pipeline(
+            label="sun", layout="auto", compute={"module": module, "entry_point": "main"})
+        self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="sun params")
+        self._clip = create_uniform_buffer(device, CLIP_LAYOUT, label="sun shadow clip")
+        self._bands = create_storage_buffer(device, 32 * self.n_bands, label="sun bands")
+        self._phase = create_storage_buffer(device, 4 * self.n_bands * self.phase_size,
+                                            label="sun phase")
+        self._materials = create_storage_buffer(device, 16, label="sun materials")
+        self._map = device.create_texture(
+            label="sun shadow map", size=(self.map_size, self.map_size, 1), format=DEPTH_FORMAT,
+            usage=wgpu.TextureUsage.RENDER_ATTACHMENT | wgpu.TextureUsage.TEXTURE_BINDING
+            | wgpu.TextureUsage.COPY_SRC)
+        self._map_view = self._map.create_view()
+        shadow_src = load_wgsl("sun_shadow.wgsl")
+        self._shadow_module = device.create_shader_module(label="sun_shadow.wgsl",
+                                                          code=shadow_src)
+        self._shadow_pipelines = {}
+        self._clip_group = None
+        self._bind_key = None
+        self._group = None
+        self.spec: ShadowMapSpec | None = None
+        self.shadowed = False
+        self._inputs = None
+
+    # ---- per-band inputs --------------------------------------------------------
+    def set_inputs(self, sun: SunInputs, *, response_weights, material_bands,
+                   sigmoid_centers_t) -> None:
+        """Upload the per-band constants, the phase table and the materials."""
+        n = self.n_bands
+        w = np.asarray(response_weights, dtype=float)
+        if sun.b.size != n or w.shape != (n, 3):
+            raise AquaspecError(f"the sun pass was made for {n} bands; got {sun.b.size}")
+        mu0 = sun.mu0
+        bands = np.zeros((n, 2, 4), np.float32)
+        bands[:, 0, 0] = sun.c_view
+        bands[:, 0, 1] = np.asarray(sun.c_sun, dtype=float) / mu0
+        bands[:, 0, 2] = sun.b * sun.beam0
+        bands[:, 0, 3] = sun.beam0 / np.pi
+        bands[:, 1, :3] = w
+        bands[:, 1, 3] = sigmoid_centers_t
+        upload_buffer(self.device, self._bands, bands)
+        upload_buffer(self.device, self._phase, np.asarray(sun.log_phase, np.float32))
+        mb = np.asarray(material_bands if material_bands is not None else np.zeros((0, n)),
+                        np.float32).reshape(-1)
+        if mb.nbytes > self._materials.size or mb.size == 0:
+            self._materials = create_storage_buffer(
+                self.device, mb if mb.size else np.zeros(4, np.float32), label="sun materials")
+            self._bind_key = None
+        else:
+            upload_buffer(self.device, self._materials, mb)
+        self._inputs = sun
+
+    # ---- the shadow map ---------------------------------------------------------
+    def _shadow_pipeline(self, stride: int):
+        import wgpu
+        if stride not in self._shadow_pipelines:
+            self._shadow_pipelines[stride] = self.device.create_render_pipeline(
+                label="sun shadow map", layout="auto",
+                vertex={"module": self._shadow_module, "entry_point": "vs_main", "buffers": [{
+                    "array_stride": stride, "step_mode": wgpu.VertexStepMode.vertex,
+                    "attributes": [{"format": wgpu.VertexFormat.float32x3, "offset": 0,
+                                    "shader_location": 0}]}]},
+                primitive={"topology": wgpu.PrimitiveTopology.triangle_list,
+                           "cull_mode": wgpu.CullMode.none},
+                depth_stencil={"format": DEPTH_FORMAT, "depth_write_enabled": True,
+                               "depth_compare": wgpu.CompareFunction.less},
+                multisample={"count": 1}, fragment=None)
+        return self._shadow_pipelines[stride]
+
+    def encode_shadow_map(self, encoder, raster, scene, camera, *,
+                          radius_m: float = DEFAULT_MAP_RADIUS_M) -> ShadowMapSpec | None:
+        """Record the shadow map of ``scene`` (None for no scene: nothing is shadowed)."""
+        import wgpu
+        from .raster import VERTEX_STRIDE
+        if self._inputs is None:
+            raise AquaspecError("SunPass.set_inputs() first")
+        spec = None
+        if scene is not None and scene.meshes:
+            spec = shadow_map_spec(scene.bounds(), camera.position, self._inputs.to_sun,
+                                   size=self.map_size, radius_m=radius_m)
+        self.spec, self.shadowed = spec, spec is not None
+        if spec is None:
+            return None
+        upload_buffer(self.device, self._clip, CLIP_LAYOUT.pack(
+            clip=np.asarray(spec.clip_matrix().T, np.float32).reshape(-1)))
+        rp = encoder.begin_render_pass(
+            color_attachments=[],
+            depth_stencil_attachment={"view": self._map_view, "depth_clear_value": 1.0,
+                                      "depth_load_op": wgpu.LoadOp.clear,
+                                      "depth_store_op": wgpu.StoreOp.store})
+        for d in raster.draws(scene):
+            pipe = self._shadow_pipeline(VERTEX_STRIDE[d.mode])
+            if self._clip_group is None:
+                self._clip_group = self.device.create_bind_group(
+                    layout=pipe.get_bind_group_layout(0),
+                    entries=[{"binding": 0, "resource": {"buffer": self._clip, "offset": 0,
+                                                         "size": CLIP_LAYOUT.size}}])
+            rp.set_pipeline(pipe)
+            rp.set_bind_group(0, self._clip_group)
+            rp.set_vertex_buffer(0, d.vertex)
+            rp.set_index_buffer(d.index, d.index_format)
+            rp.draw_indexed(d.count)
+        rp.end()
+        return spec
+
+    def no_shadows(self) -> None:
+        """Nothing shadows the sun in the next :meth:`encode` (e.g. RGB-D images)."""
+        self.spec, self.shadowed = None, False
+
+    # ---- the sun's radiance -----------------------------------------------------
+    def encode(self, encoder, camera, gbuffer_textures: dict, rgb_buffer) -> None:
+        """Record the sun's light added into ``rgb_buffer`` (vec4 per pixel)."""
+        if self._inputs is None:
+            raise AquaspecError("SunPass.set_inputs() first")
+        if (camera.width, camera.height) != (self.width, self.height):
+            raise AquaspecError(f"camera is {camera.width}x{camera.height}; the sun pass was "
+                                f"made for {self.width}x{self.height}")
+        spec = self.spec
+        geo = dict(e1=spec.e1, u0=spec.u0, e2=spec.e2, v0=spec.v0, map_size=spec.size,
+                   texel=spec.texel, h_min=spec.h_min, h_max=spec.h_max,
+                   bias=BIAS_TEXELS * spec.texel,
+                   normal_offset=NORMAL_OFFSET_TEXELS * spec.texel) if self.shadowed else dict(
+            e1=(1.0, 0.0, 0.0), u0=0.0, e2=(0.0, 0.0, 1.0), v0=0.0, map_size=self.map_size,
+            texel=1.0, h_min=0.0, h_max=1.0, bias=0.0, normal_offset=0.0)
+        upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
+            **camera_fields(camera), to_sun=self._inputs.to_sun, mu0=self._inputs.mu0,
+            width=self.width, height=self.height, shadowed=int(self.shadowed),
+            neg_log_tail=-np.log(TAIL), **geo))
+        key = (id(gbuffer_textures["surface"]), id(gbuffer_textures["sigmoid"]),
+               id(rgb_buffer), id(self._materials))
+        if key != self._bind_key:
+            self._group = self.device.create_bind_group(
+                layout=self._pipeline.get_bind_group_layout(0), entries=[
+                    {"binding": 0, "resource": {"buffer": self._params, "offset": 0,
+                                                "size": PARAMS_LAYOUT.size}},
+                    {"binding": 1, "resource": gbuffer_textures["surface"].create_view()},
+                    {"binding": 2, "resource": gbuffer_textures["sigmoid"].create_view()},
+                    {"binding": 3, "resource": {"buffer": self._materials, "offset": 0,
+                                                "size": self._materials.size}},
+                    {"binding": 4, "resource": {"buffer": self._bands, "offset": 0,
+                                                "size": self._bands.size}},
+                    {"binding": 5, "resource": {"buffer": self._phase, "offset": 0,
+                                                "size": self._phase.size}},
+                    {"binding": 6, "resource": self._map_view},
+                    {"binding": 7, "resource": {"buffer": rgb_buffer, "offset": 0,
+                                                "size": rgb_buffer.size}}])
+            self._bind_key = key
+        cp = encoder.begin_compute_pass()
+        cp.set_pipeline(self._pipeline)
+        cp.set_bind_group(0, self._group)
+        cp.dispatch_workgroups(-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]))
+        cp.end()
+
+    def read_shadow_map(self) -> np.ndarray | None:
+        """The last shadow map as heights ``h`` (size, size) float64 (``-inf``
+        where no surface), for tests; None when nothing is shadowed."""
+        if not self.shadowed:
+            return None
+        import wgpu
+        n = self.map_size
+        row = -(-4 * n // 256) * 256
+        buf = self.device.create_buffer(size=row * n, usage=wgpu.BufferUsage.COPY_DST
+                                        | wgpu.BufferUsage.MAP_READ)
+        enc = self.device.create_command_encoder()
+        enc.copy_texture_to_buffer({"texture": self._map, "mip_level": 0, "origin": (0, 0, 0),
+                                    "aspect": wgpu.TextureAspect.depth_only},
+                                   {"buffer": buf, "offset": 0, "bytes_per_row": row,
+                                    "rows_per_image": n}, (n, n, 1))
+        self.device.queue.submit([enc.finish()])
+        buf.map_sync(wgpu.MapMode.READ)
+        z = np.frombuffer(buf.read_mapped(), np.float32).reshape(n, row // 4)[:, :n].copy()
+        buf.unmap()
+        spec = self.spec
+        h = spec.h_max - z.astype(float) * (spec.h_max - spec.h_min)
+        return np.where(z >= 1.0, -np.inf, h)
