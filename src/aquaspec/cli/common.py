@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ..bands import Bands
-from ..light import LIGHTS, surface_light
+from ..light import DEFAULT_SUN_AZIMUTH_DEG, LIGHTS, surface_light
 from ..model import AMBIENT_MODELS, DEFAULT_AMBIENT, DEFAULT_MS_MODEL, MS_MODELS
 from ..sensors import get_sensor
 from ..water import DEFAULT_SOURCE, SOURCES, get_water
@@ -42,6 +42,10 @@ def add_light_options(p):
                    help="total surface irradiance over 400-700 nm, W/m^2 (default 100)")
     p.add_argument("--sun-elevation", type=float, default=60.0, metavar="DEG",
                    help="sun elevation for --light sun-sky (default 60)")
+    p.add_argument("--sun-azimuth", type=float, default=DEFAULT_SUN_AZIMUTH_DEG, metavar="DEG",
+                   help="sun compass angle for --light sun-sky, from -z (the built-in camera's "
+                        "view: 0 = sun ahead, 180 = behind) towards +x (default "
+                        f"{DEFAULT_SUN_AZIMUTH_DEG:g})")
     p.add_argument("--ambient", default=DEFAULT_AMBIENT, choices=list(AMBIENT_MODELS),
                    help=f"seeds model: how surface irradiance depends on the normal (default "
                         f"{DEFAULT_AMBIENT})")
@@ -103,4 +107,5 @@ def sensor_from(args):
 
 def light_from(args):
     return surface_light(args.light, total_w_m2=args.irradiance,
-                         sun_elevation_deg=args.sun_elevation)
+                         sun_elevation_deg=args.sun_elevation,
+                         sun_azimuth_deg=args.sun_azimuth)

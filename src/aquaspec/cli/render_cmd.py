@@ -55,6 +55,9 @@ def register(sub):
                    help="the light field's lower boundary: the scene's (default; the "
                         "built-in scene's sand), none (deep water), or a flat Lambertian "
                         "seabed DEPTH m below the surface with a grey ALBEDO (default 0.2)")
+    p.add_argument("--sun-shadow-map", type=int, default=None, metavar="TEXELS",
+                   help="--light sun-sky: side of the sun's shadow map (default 2048; shadows "
+                        "are resolved within 40 m of the camera)")
     p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
                    help="gpu (WGSL through wgpu) or numpy (the slow reference)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")
@@ -119,6 +122,7 @@ def run(args):
                  camspec=args.camspec, bands=args.bands, wavelength_range=parse_range(args.range),
                  size=size, mesh=args.mesh, albedo=albedo, rgbd=rgbd, light=args.light,
                  irradiance_w_m2=args.irradiance, sun_elevation_deg=args.sun_elevation,
+                 sun_azimuth_deg=args.sun_azimuth, sun_shadow_map=args.sun_shadow_map,
                  ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                  ms_model=args.ms_model, phase=args.phase,
                  forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
