@@ -8,6 +8,7 @@ from .common import add_spread_scattering_option
 
 
 def register(sub):
+    from ..light import DEFAULT_SUN_AZIMUTH_DEG
     p = sub.add_parser(
         "validate", help="compare with a spectral path tracer (Mitsuba 3) over waters x depths x "
                          "cameras",
@@ -60,6 +61,18 @@ def register(sub):
                    help="the board facing the camera, which looks level (default, the "
                         "thesis's scene), or lying flat with the camera looking down at it "
                         "at 45 degrees")
+    p.add_argument("--light", default="overcast", choices=("overcast", "sun-sky"),
+                   help="surface light of both sides: overcast (default; a uniform sky, the "
+                        "thesis's setting) or sun-sky (SPECTRL2 sun and sky; the reference "
+                        "gets the refracted sun as a directional emitter and the rest as a "
+                        "uniform sky)")
+    p.add_argument("--sun-elevation", type=float, default=None, metavar="DEG",
+                   help="for --light sun-sky: the sun's elevation above the horizon, 1-90 "
+                        "(default 60)")
+    p.add_argument("--sun-azimuth", type=float, default=None, metavar="DEG",
+                   help="for --light sun-sky: the sun's compass angle from -z (the camera's "
+                        f"view) towards +x (default {DEFAULT_SUN_AZIMUTH_DEG:g}: behind the "
+                        "camera's right shoulder)")
     p.add_argument("--gpu-timing", action="store_true",
                    help="also time aquaspec's GPU renderer per scene (n = largest band count) "
                         "for the speed-up over the reference at equal pixel count")
@@ -77,12 +90,15 @@ def register(sub):
 
 def run(args):
     from ..errors import AquaspecError
+    from ..light import DEFAULT_SUN_AZIMUTH_DEG
     from ..model import MS_MODELS
+    from ..sun import check_azimuth, check_elevation
     from ..renderer import parse_size
     from ..sensors import builtin_sensors, get_sensor, load_camspec
     from ..validation.reference import FF_DEFAULT_BACKSCATTER, check_phase, require_mitsuba
-    from ..validation.study import (default_cache_dir, format_attenuation, format_converged,
-                                    format_summary, format_timing, run_study, write_results)
+    from ..validation.study import (DEFAULT_SUN_ELEVATION_DEG, default_cache_dir,
+                                    format_attenuation, format_converged, format_summary,
+                                    format_timing, run_study, write_results)
     if args.g is not None and args.phase != "hg":
         raise AquaspecError(f"--g is the Henyey-Greenstein parameter: it needs --phase hg, "
                             f"not --phase {args.phase}")
@@ -92,6 +108,14 @@ def run(args):
     g = (0.92 if args.g is None else args.g) if args.phase == "hg" else 0.0
     backscatter = FF_DEFAULT_BACKSCATTER if args.backscatter is None else args.backscatter
     check_phase(args.phase, g, backscatter)        # bad g or B: before anything is rendered
+    for opt, val in (("--sun-elevation", args.sun_elevation), ("--sun-azimuth", args.sun_azimuth)):
+        if val is not None and args.light != "sun-sky":
+            raise AquaspecError(f"{opt} places the sun: it needs --light sun-sky, not "
+                                f"--light {args.light}")
+    sun_elevation = check_elevation(DEFAULT_SUN_ELEVATION_DEG if args.sun_elevation is None
+                                    else args.sun_elevation)
+    sun_azimuth = check_azimuth(DEFAULT_SUN_AZIMUTH_DEG if args.sun_azimuth is None
+                                else args.sun_azimuth)
     out_dir = _output_dir(args.out, "tyler.json" if args.tyler else "validation.json")
     if args.tyler:
         return _run_tyler(out_dir)
@@ -123,6 +147,8 @@ def run(args):
                     spread_scattering=args.spread_scattering,
                     ambient_shadow=args.ambient_shadow,
                     **_seabed_below(args.seabed_below), view=args.view,
+                    light=args.light, sun_elevation_deg=sun_elevation,
+                    sun_azimuth_deg=sun_azimuth,
                     gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
     from ..validation.study import REGIONS

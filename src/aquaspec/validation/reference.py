@@ -5,9 +5,20 @@ meshes (written as PLY), their reflectance spectra (``diffuse`` BSDFs with
 irregular spectra), the water's a and b (a ``homogeneous`` medium filling a
 2 km x 1 km box whose top face is the water surface y = 0; the box has a
 ``null`` BSDF, so light enters without refraction, and no exterior medium),
-the camera (inside the medium), and an overcast sky (a ``constant``
-environment of radiance E0 / pi, so that the downwelling irradiance just
-below the surface is E0). The water's phase function (:data:`PHASES`,
+the camera (inside the medium), and the sky (a ``constant`` environment of
+radiance E_sky / pi, so that the sky's downwelling irradiance just below the
+surface is E_sky). Without a sun (``overcast``, ``d65``) E_sky is the
+light's whole E0; with one (``sun-sky``, :attr:`SurfaceLight.sun`) it is
+E0 minus the sun's share ``mu0 * beam_normal`` (:func:`sky_irradiance`),
+and the sun is a Mitsuba ``directional`` emitter (:func:`sun_emitter`)
+whose ``direction`` is the refracted beam's way of travel under water and
+whose ``irradiance`` is ``beam_normal``, the irradiance on a plane normal
+to the beam (Mitsuba's ``directional``: "spectral power per unit area
+received by a hypothetical surface normal to the specified direction";
+``direction``: "direction towards which the emitter is radiating"). The
+surface does not refract, so the emitter is given the underwater direction:
+the beam in the water is the refracted one, the sky is seen at every angle
+(not through Snell's window). The water's phase function (:data:`PHASES`,
 :func:`reference_phase`) is Mitsuba's ``isotropic``, ``hg``, or for
 Fournier-Forand (``ff``, from its backscatter fraction) and Petzold's
 average particle phase function (``petzold``) a ``tabphase`` holding
@@ -25,7 +36,15 @@ area), so each channel is the band-averaged radiance; camera RGB follows as
 Kd is also measured in the path-traced water (:func:`measure_kd`):
 irradiance meters facing up at several depths, fitted per band by a
 log-linear least-squares fit, so the analytic model can be run with the Kd
-of exactly the water the path tracer sees.
+of exactly the water the path tracer sees. A path tracer's irradiance meter
+never receives a delta (directional) emitter's light unscattered: its rays
+reach the sun only by next-event estimation at scattering events. With a
+sun the meters therefore measure the sky's light and the sun's scattered
+light, and the unscattered beam, ``mu0 * beam_normal * exp(-c d / mu0)``
+exactly in a homogeneous medium, is added in closed form on the medium's
+own spectra (:func:`direct_sun_irradiance`); tests check the sum against
+horizontal white Lambertian plates, whose next-event estimation does see the
+sun.
 
 Mitsuba is an optional dependency: ``pip install aquaspec[validation]``.
 """
@@ -230,20 +249,94 @@ def _medium(water: Water, phase: str, g: float, backscatter: float = FF_DEFAULT_
 
 
 def _check_range(water, light, bands):
-    for name, (lo, hi) in (("water", water.range_nm),
-                           ("light", (light.wavelength_nm[0], light.wavelength_nm[-1]))):
+    ranges = [("water", water.range_nm),
+              ("light", (light.wavelength_nm[0], light.wavelength_nm[-1]))]
+    if light.sun is not None:
+        ranges.append(("sun", (light.sun.wavelength_nm[0], light.sun.wavelength_nm[-1])))
+    for name, (lo, hi) in ranges:
         if lo > bands.lo_nm or hi < bands.hi_nm:
             raise AquaspecError(f"{name} spectra cover {lo:g}-{hi:g} nm but the reference film "
                                 f"samples {bands.lo_nm:g}-{bands.hi_nm:g} nm")
 
 
-def _base(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER):
+def sun_horizontal(light: SurfaceLight) -> np.ndarray:
+    """The sun's horizontal irradiance just below the surface, ``mu0 * beam_normal``,
+    on the light's own wavelength grid (0 without a sun, and outside the
+    sun's spectrum)."""
+    wl = np.asarray(light.wavelength_nm, dtype=float)
+    if light.sun is None:
+        return np.zeros_like(wl)
+    sun = light.sun
+    if sun.wavelength_nm.shape == wl.shape and np.array_equal(sun.wavelength_nm, wl):
+        beam = sun.beam_normal
+    else:
+        beam = np.interp(wl, sun.wavelength_nm, sun.beam_normal, left=0.0, right=0.0)
+    return sun.mu0 * beam
+
+
+def sky_irradiance(light: SurfaceLight) -> np.ndarray:
+    """The diffuse sky's downwelling irradiance just below the surface, on the
+    light's wavelength grid: ``E0`` minus the sun's share, clipped at 0
+    (without a sun, ``E0``). The reference's sky radiance is this over pi."""
+    return np.maximum(np.asarray(light.values, dtype=float) - sun_horizontal(light), 0.0)
+
+
+def sun_emitter(light: SurfaceLight) -> dict | None:
+    """Mitsuba's ``directional`` emitter of the light's sun (None without one).
+
+    ``direction`` is the way the refracted beam travels under water
+    (:attr:`aquaspec.sun.Sun.direction`, y < 0); ``irradiance`` the beam's
+    irradiance normal to it just below the surface (``beam_normal``).
+    """
+    if light.sun is None:
+        return None
+    sun = light.sun
+    return {"type": "directional", "direction": [float(x) for x in sun.direction],
+            "irradiance": _spectrum(sun.wavelength_nm, sun.beam_normal)}
+
+
+def light_key(light: SurfaceLight) -> dict:
+    """The sun's entries of a cache key: ``{}`` without a sun (so the keys of
+    sky-only references stay as they were), else its angles, underwater
+    direction and a digest of its beam spectrum (the light's E0 is in the
+    keys' ``data`` digest already)."""
+    if light.sun is None:
+        return {}
+    sun = light.sun
+    return {"sun": {"elevation_deg": float(sun.elevation_deg),
+                    "azimuth_deg": float(sun.azimuth_deg), "n_water": float(sun.n_water),
+                    "direction": [round(float(x), 12) for x in sun.direction],
+                    "beam": spectra_digest(sun.wavelength_nm, sun.beam_normal)}}
+
+
+def direct_sun_irradiance(water: Water, light: SurfaceLight, depths_m,
+                          bands: Bands = REFERENCE_BANDS) -> np.ndarray:
+    """The sun's unscattered horizontal irradiance at depth, per band, (n_depths, n).
+
+    ``mu0 * beam_normal(lambda) * exp(-c(lambda) d / mu0)`` averaged over each
+    band on a 0.05 nm grid, with ``c`` exactly as handed to Mitsuba
+    (:func:`medium_spectra`) and the beam linear between its wavelengths (as
+    Mitsuba's ``irregular`` spectrum). Zero without a sun.
+    """
+    depths = np.atleast_1d(np.asarray(depths_m, dtype=float))
+    if light.sun is None:
+        return np.zeros((depths.size, bands.n))
+    sun = light.sun
+    fine = np.arange(bands.lo_nm, bands.hi_nm + 1e-9, 0.05)
+    mwl, c, _ = medium_spectra(water)
+    c_f = np.interp(fine, mwl, c)
+    beam = np.interp(fine, sun.wavelength_nm, sun.beam_normal)
+    vals = sun.mu0 * beam[None, :] * np.exp(-c_f[None, :] * depths[:, None] / sun.mu0)
+    return bands.average(fine, vals, name="direct sun")
+
+
+def _base(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER, max_depth=MAX_DEPTH):
     mi = require_mitsuba()
     T = mi.ScalarTransform4f
-    sky = _spectrum(light.wavelength_nm, np.asarray(light.values) / np.pi)
-    return {
+    sky = _spectrum(light.wavelength_nm, sky_irradiance(light) / np.pi)
+    d = {
         "type": "scene",
-        "integrator": {"type": "volpathmis", "max_depth": MAX_DEPTH},
+        "integrator": {"type": "volpathmis", "max_depth": int(max_depth)},
         "water_medium": _medium(water, phase, g, backscatter),
         "water": {"type": "cube",
                   "to_world": T().translate([0.0, -WATER_BOX_M / 2, 0.0]).scale(
@@ -252,18 +345,23 @@ def _base(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER):
                   "interior": {"type": "ref", "id": "water_medium"}},
         "sky": {"type": "constant", "radiance": sky},
     }
+    sun = sun_emitter(light)
+    if sun is not None:
+        d["sun"] = sun
+    return d
 
 
 def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
                mesh_dir, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
-               g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER) -> dict:
+               g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
+               max_depth: int = MAX_DEPTH) -> dict:
     """The Mitsuba scene dictionary (meshes are written as PLY into ``mesh_dir``)."""
     import trimesh
     mi = require_mitsuba()
     _check_range(water, light, bands)
     if abs(camera.cx - camera.width / 2) > 1e-6 or abs(camera.cy - camera.height / 2) > 1e-6:
         raise AquaspecError("the reference camera needs the principal point at the image centre")
-    d = _base(water, light, phase, g, backscatter)
+    d = _base(water, light, phase, g, backscatter, max_depth)
     fov_y = float(np.degrees(2 * np.arctan(camera.height / 2 / camera.fy)))
     d["sensor"] = {
         "type": "perspective", "fov": fov_y, "fov_axis": "y",
@@ -290,17 +388,24 @@ def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
 
 def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: int = 256,
                      seed: int = 0, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
-                     g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER) -> dict:
+                     g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
+                     max_depth: int = MAX_DEPTH) -> dict:
     """Path-trace the scene; returns ``band_radiance`` (H, W, n) and timing.
 
     ``band_radiance`` is the radiance averaged over each band of ``bands``
     (W m^-2 sr^-1 nm^-1), the same quantity aquaspec computes per band.
     ``phase``, ``g`` (``hg``) and ``backscatter`` (``ff``): see :data:`PHASES`.
+    ``max_depth`` is volpathmis's path length limit (-1: none, the
+    reference's setting); it counts scattering events in the medium and at
+    non-null surfaces (the water's null surface does not count): 1 gives the
+    sky seen directly, 2 adds light scattered once (next-event estimation
+    at the first event), e.g. the sun's single scattering alone when the
+    light is the sun only.
     """
     mi = require_mitsuba()
     with tempfile.TemporaryDirectory(prefix="aquaspec-ref-") as tmp:
         d = scene_dict(scene, camera, water, light, spp=spp, mesh_dir=tmp, bands=bands,
-                       phase=phase, g=g, backscatter=backscatter)
+                       phase=phase, g=g, backscatter=backscatter, max_depth=max_depth)
         t0 = time.perf_counter()
         mscene = mi.load_dict(d)
         img = np.array(mi.render(mscene, seed=seed), dtype=np.float64)
@@ -351,6 +456,13 @@ def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.
     band, ``kd`` (n,) from a least-squares fit of ``ln E_d`` against depth,
     and ``kd_stderr`` (n,), the fit's standard error. The water (and the
     meters' copy of it) has the phase function of :func:`render_reference`.
+
+    With a sun (``light.sun``) ``e_d`` is the whole downwelling irradiance:
+    the meters' reading (the sky's light, scattered or not, and the sun's
+    scattered light; a meter never receives the delta emitter's unscattered
+    beam) plus the unscattered beam in closed form
+    (:func:`direct_sun_irradiance`), which is also returned as
+    ``e_d_direct`` (zeros without a sun).
     """
     mi = require_mitsuba()
     _check_range(water, light, bands)
@@ -375,7 +487,8 @@ def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.
         }
         img = np.array(mi.render(mi.load_dict(d), seed=seed + i), dtype=np.float64)
         e_d.append(img.reshape(bands.n))
-    e_d = np.array(e_d)
+    e_direct = direct_sun_irradiance(water, light, depths, bands)
+    e_d = np.array(e_d) + e_direct
     if np.any(e_d <= 0):
         raise AquaspecError("an irradiance meter received no light; use more samples or "
                             "shallower depths")
@@ -387,7 +500,46 @@ def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.
     resid = y - A @ coef
     s2 = (resid ** 2).sum(axis=0) / dof
     se = np.sqrt(s2 / ((depths - depths.mean()) ** 2).sum())
-    return {"depths_m": depths, "e_d": e_d, "kd": kd, "kd_stderr": se, "bands": bands}
+    return {"depths_m": depths, "e_d": e_d, "e_d_direct": e_direct, "kd": kd, "kd_stderr": se,
+            "bands": bands}
+
+
+def measure_plate(water: Water, light: SurfaceLight, *, depths_m, albedo: float = 1.0,
+                  spp: int = 20_000, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
+                  g: float = 0.0, seed: int = 0, backscatter: float = FF_DEFAULT_BACKSCATTER,
+                  max_depth: int = MAX_DEPTH, size_m: float = 0.02,
+                  above_m: float = 0.01) -> np.ndarray:
+    """Radiance of horizontal Lambertian plates in the path-traced water, (n_depths, n).
+
+    At each depth a ``size_m`` square plate facing up (``diffuse``, reflectance
+    ``albedo``) and a ``radiancemeter`` ``above_m`` above its centre looking
+    straight down; per band the plate's radiance, ``albedo / pi`` times the
+    irradiance on its top, times ``exp(-c above_m)`` on the way up (not
+    removed here: 1 cm of water). Unlike an irradiance meter, the plate
+    receives a directional sun by next-event estimation, so
+    ``pi L / albedo`` measures the whole downwelling irradiance, sun's beam
+    included (a cosine collector).
+    """
+    mi = require_mitsuba()
+    _check_range(water, light, bands)
+    T = mi.ScalarTransform4f
+    out = []
+    for i, depth in enumerate(np.atleast_1d(np.asarray(depths_m, dtype=float))):
+        d = _base(water, light, phase, g, backscatter, max_depth)
+        d["plate"] = {
+            "type": "rectangle",
+            "to_world": T().translate([0.0, -float(depth), 0.0]).rotate([1, 0, 0], -90).scale(
+                size_m / 2),
+            "bsdf": {"type": "diffuse", "reflectance": {"type": "spectrum",
+                                                         "value": float(albedo)}}}
+        d["meter"] = {"type": "radiancemeter",
+                      "origin": [0.0, -float(depth) + above_m, 0.0], "direction": [0.0, -1.0, 0.0],
+                      "film": _film(bands, 1, 1),
+                      "sampler": {"type": "independent", "sample_count": int(spp)},
+                      "medium": {"type": "ref", "id": "water_medium"}}
+        img = np.array(mi.render(mi.load_dict(d), seed=seed + i), dtype=np.float64)
+        out.append(img.reshape(bands.n))
+    return np.array(out)
 
 
 def water_with_kd(water: Water, kd_bands: np.ndarray, bands: Bands = REFERENCE_BANDS) -> Water:

@@ -35,18 +35,21 @@ import numpy as np
 
 from ..bands import Bands
 from ..errors import AquaspecError
-from ..light import surface_light
+from ..light import DEFAULT_SUN_AZIMUTH_DEG, surface_light
 from ..water import load_water
 from . import metrics
 from .baselines import render_baseline
 from .reference import (FF_DEFAULT_BACKSCATTER, MAX_DEPTH, MEDIUM_SPECTRA, REFERENCE_BANDS,
-                        bands_to_rgb, cache_key, check_phase, lightfield_phase, measure_kd,
-                        phase_function, phase_key, preflight, render_reference, spectra_digest,
-                        water_with_kd)
+                        bands_to_rgb, cache_key, check_phase, light_key, lightfield_phase,
+                        measure_kd, phase_function, phase_key, preflight, render_reference,
+                        spectra_digest, water_with_kd)
 from .scenes import board_scene, masks
 
 DEFAULT_WATERS = ("I", "IA", "IB", "II", "3C")
 DEFAULT_DEPTHS = (3.0, 5.0, 9.0)
+#: Surface lights of the study (:func:`aquaspec.light.surface_light`).
+STUDY_LIGHTS = ("overcast", "sun-sky")
+DEFAULT_SUN_ELEVATION_DEG = 60.0
 SCENE_VERSION = "board-v1"
 #: Depths of the irradiance meters that measure Kd in the reference, m.
 KD_DEPTHS_M = (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
@@ -216,7 +219,9 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
               kd_modes=("database", "measured"), forward_cone_deg: float | None = None,
               cone_spread: bool | None = None, spread_scattering: str = "single",
               ambient_shadow: bool = False, seabed_below_m: float | None = None,
-              seabed_albedo: float = 0.2, view: str = "level",
+              seabed_albedo: float = 0.2, view: str = "level", light: str = "overcast",
+              sun_elevation_deg: float = DEFAULT_SUN_ELEVATION_DEG,
+              sun_azimuth_deg: float = DEFAULT_SUN_AZIMUTH_DEG,
               cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
 
@@ -244,6 +249,18 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     None is the model's default cone (15 degrees, 40 with the spread).
     ``view`` is the board's view (:data:`.scenes.VIEWS`: facing the camera,
     or lying flat seen from above).
+
+    ``light`` (:data:`STUDY_LIGHTS`) is the surface light of both sides:
+    ``overcast`` (the thesis's setting), or ``sun-sky`` with the sun at
+    ``sun_elevation_deg`` and ``sun_azimuth_deg``
+    (:func:`aquaspec.light.surface_light`). The same light object, with its
+    sun, goes to aquaspec's shading (:func:`_spectral`, the baselines), to
+    the reference (a ``directional`` emitter plus the rest of E0 as the
+    sky: :mod:`.reference`) and to the Kd meters (which add the sun's
+    unscattered beam: :func:`.reference.measure_kd`); the sun is in the
+    reference caches' keys (:func:`.reference.light_key`). The light-field
+    Kd of the attenuation table (:func:`lightfield_kd`) is for a diffuse
+    sky: it is the light-field solution's own, whatever the light.
     """
     from ..gpu.raster import raycast_gbuffer
     say = progress or (lambda m: None)
@@ -264,7 +281,12 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
         raise AquaspecError(f"spread_scattering={spread_scattering!r} with cone_spread="
                             f"{cone_spread!r}; accepted: 'single', or 'multiple' with the "
                             "cone spread on")
-    light = surface_light("overcast")
+    if light not in STUDY_LIGHTS:
+        raise AquaspecError(f"study light {light!r}; accepted: {', '.join(STUDY_LIGHTS)}")
+    light = (surface_light(light, sun_elevation_deg=sun_elevation_deg,
+                           sun_azimuth_deg=sun_azimuth_deg) if light == "sun-sky"
+             else surface_light(light))
+    lkey = light_key(light)      # {} without a sun: older keys stay valid
     g = float(g) if phase == "hg" else 0.0
     backscatter = float(backscatter)
     check_phase(phase, g, backscatter)
@@ -293,7 +315,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
         kd_key = cache_key(kind="kd", water=wname, source=source, **pkey, spp=kd_spp,
                            medium=MEDIUM_SPECTRA,
                            bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
-                           depths=list(KD_DEPTHS_M), data=data)
+                           depths=list(KD_DEPTHS_M), data=data, **lkey)
         kd_res, hit = _cached(cache_dir, kd_key, lambda: measure_kd(
             water, light, depths_m=KD_DEPTHS_M, spp=kd_spp, phase=phase, g=g,
             backscatter=backscatter))
@@ -331,7 +353,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                             water=wname, source=source,
                             depth=depth, size=list(size), spp=spp, **pkey,
                             bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
-                            data=data, geometry=geometry,
+                            data=data, geometry=geometry, **lkey,
                             # (The level view's keys predate the views.)
                             **({} if view == "level" else
                                {"camera": [cam.position.tolist(), cam.forward.tolist()]}))
@@ -426,6 +448,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                        "cone_spread": bool(cone_spread),
                        "spread_scattering": spread_scattering,
                        "ambient_shadow": bool(ambient_shadow), "view": view,
+                       "light": light.describe(),
                        "seabed": None if seabed_below_m is None else
                        {"below_camera_m": float(seabed_below_m),
                         "albedo": float(seabed_albedo)}}}
