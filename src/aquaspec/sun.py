@@ -514,16 +514,143 @@ class SunInputs:
         return float(self.to_sun[1])
 
 
+#: Froxels: columns of ``FROXEL_TILE`` x ``FROXEL_TILE`` pixels, ``FROXEL_SLICES`` slices deep.
+FROXEL_TILE = 8
+FROXEL_SLICES = 64
+
+
+def column_directions(camera, tile: int = FROXEL_TILE) -> np.ndarray:
+    """Unit rays through the centres of the froxel columns' tiles, (ch, cw, 3):
+    column ``(b, a)`` covers pixels ``tile a ... tile a + tile - 1`` (and rows
+    alike); its ray goes through pixel coordinates ``(tile a + tile/2, tile b + tile/2)``."""
+    cw, ch = -(-camera.width // tile), -(-camera.height // tile)
+    px = tile * np.arange(cw) + tile / 2.0
+    py = tile * np.arange(ch) + tile / 2.0
+    x = ((px - camera.cx) / camera.fx)[None, :, None]
+    y = ((py - camera.cy) / camera.fy)[:, None, None]
+    d = camera.right * x - camera.true_up * y + camera.forward
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def reference_phase(log_phase) -> np.ndarray:
+    """``ln`` of the bands' mean phase function on the table's grid (K,): the
+    froxels store the single scattering divided by it at their column's
+    angle, and each pixel multiplies it back at its own angle, so the sharp
+    forward peak follows the pixel while only the bands' ratios to the mean
+    (which change slowly with angle) come from the column."""
+    return np.log(np.mean(np.exp(np.asarray(log_phase, dtype=float)), axis=0))
+
+
+def froxel_grid(camera, sun: SunInputs, visibility=None, *, tile: int = FROXEL_TILE,
+                slices: int = FROXEL_SLICES, tail: float = TAIL) -> dict:
+    """The beam's single scattering integrated front to back along each froxel column.
+
+    Column rays ``v`` (:func:`column_directions`); slice boundaries
+    ``t_k = L (k / K)^2``, ``k = 0 ... K``, with ``L`` the column's march
+    length (:func:`march_length` of an open-water ray); ``V`` at each slice's
+    middle (``visibility(points)`` -> (...), or 1). Per band, with the
+    phase function divided by the bands' mean at the column's angle:
+
+        cum_k = sum_{m <= k} b beam0 exp(-c_sun d_o / mu0) p / p_ref
+                V_m int_{t_{m-1}}^{t_m} exp(-k_band t) dt
+
+    Returns ``{"length": (ch, cw), "cum": (ch, cw, K + 1, n)}`` (``cum[..., 0, :] = 0``).
+    """
+    from .shading import camera_depth
+    d_o = camera_depth(camera)
+    dirs = column_directions(camera, tile)
+    mu0 = sun.mu0
+    v_y = dirs[..., 1]
+    length = march_length(sun.c_sun, sun.c_view, np.full(v_y.shape, d_o), v_y,
+                          np.full(v_y.shape, np.inf), mu0, tail)
+    frac = (np.arange(slices + 1) / slices) ** 2
+    t = length[..., None] * frac                                        # (ch, cw, K+1)
+    t_a, t_b = t[..., :-1], t[..., 1:]
+    dt = t_b - t_a
+    if visibility is None:
+        vis = np.ones(t_a.shape)
+    else:
+        vis = visibility(camera.position + dirs[..., None, :] * (0.5 * (t_a + t_b))[..., None])
+    k = np.asarray(sun.c_view) - np.asarray(sun.c_sun) * v_y[..., None] / mu0   # (ch, cw, n)
+    kk = k[..., None, :]
+    x = kk * dt[..., None]
+    small = np.abs(x) < 1e-8
+    ratio = np.where(small, 1.0, -np.expm1(-x) / np.where(small, 1.0, x))
+    seg = np.exp(-kk * t_a[..., None]) * dt[..., None] * ratio            # (ch, cw, K, n)
+    cos = dirs @ sun.to_sun
+    p = phase_from_table(sun.log_phase, cos)                             # (ch, cw, n)
+    ref = _ref_phase_at(sun.log_phase, cos)
+    start = (np.asarray(sun.b) * np.asarray(sun.beam0) * np.exp(-np.asarray(sun.c_sun) * d_o / mu0)
+             * p / ref[..., None])
+    inc = start[..., None, :] * vis[..., None] * seg
+    cum = np.concatenate([np.zeros(inc.shape[:2] + (1, inc.shape[-1])),
+                          np.cumsum(inc, axis=2)], axis=2)
+    return {"length": length, "cum": cum}
+
+
+def _ref_phase_at(log_phase, cos_theta):
+    """The bands' mean phase function (:func:`reference_phase`) at ``cos_theta`` (...)."""
+    return phase_from_table(reference_phase(log_phase)[None, :], cos_theta)[..., 0]
+
+
+def froxel_lookup(grid: dict, camera, s, *, tile: int = FROXEL_TILE) -> np.ndarray:
+    """Each pixel's single scattering from the froxels, (H, W, n) before the
+    pixel's own phase factor: bilinear between the four nearest columns, each
+    read at ``min(S, L)`` linearly between slice boundaries (uniform in
+    ``sqrt(t / L)``). ``s`` (H, W): the pixel's ray length (inf: open water)."""
+    length, cum = grid["length"], grid["cum"]
+    ch, cw = length.shape
+    slices = cum.shape[2] - 1
+    hgt, wid = camera.height, camera.width
+
+    def axis(n_px, n_col):
+        u = (np.arange(n_px) + 0.5 - tile / 2.0) / tile
+        a0 = np.clip(np.floor(u), 0, n_col - 1).astype(np.int64)
+        a1 = np.minimum(a0 + 1, n_col - 1)
+        f = np.clip(u - a0, 0.0, 1.0)
+        return a0, a1, f
+
+    a0, a1, fu = axis(wid, cw)
+    b0, b1, fv = axis(hgt, ch)
+    s = np.asarray(s, dtype=float)
+    out = np.zeros((hgt, wid, cum.shape[-1]))
+    for bi, wv in ((b0, 1.0 - fv), (b1, fv)):
+        for ai, wu in ((a0, 1.0 - fu), (a1, fu)):
+            ll = length[bi[:, None], ai[None, :]]
+            empty = ll <= 0                  # a camera at the surface, looking up
+            ll = np.where(empty, 1.0, ll)
+            tc = np.minimum(s, ll)
+            x = np.where(empty, 0.0, np.sqrt(tc / ll) * slices)
+            k0 = np.minimum(np.floor(x), slices - 1).astype(np.int64)
+            f = (x - k0)[..., None]
+            bb, aa = np.broadcast_arrays(bi[:, None], ai[None, :])
+            lo, hi = cum[bb, aa, k0], cum[bb, aa, k0 + 1]                # (H, W, n)
+            out += (wv[:, None] * wu[None, :])[..., None] * ((1.0 - f) * lo + f * hi)
+    return out
+
+
+#: How :func:`sun_radiance` integrates the single scattering.
+SS_METHODS = ("froxel", "march")
+
+
 def sun_radiance(gbuffer, sun: SunInputs, *, rho_of_hits, height_map=None,
-                 spec: ShadowMapSpec | None = None, tail: float = TAIL) -> np.ndarray:
+                 spec: ShadowMapSpec | None = None, tail: float = TAIL,
+                 method: str = "froxel") -> np.ndarray:
     """The sun's band radiance per pixel, (H, W, n): the lit surfaces' light
     carried to the camera plus the beam's single scattering along the ray.
 
     ``rho_of_hits(mask)`` returns the band reflectance (P, n) of the pixels in
     ``mask`` (H, W). Without a map (``height_map`` None) nothing is shadowed.
-    The twin of ``shaders/sun.wgsl``.
+    ``method="froxel"`` (the renderer's; twin of ``shaders/sun_froxel.wgsl``
+    and ``shaders/sun.wgsl``) reads the single scattering from
+    :func:`froxel_grid`; ``"march"`` integrates each pixel's own ray in
+    ``sun.n_steps`` steps (:func:`single_scattering_marched`), the reference
+    the froxels are measured against.
     """
     from .shading import _reached, camera_depth
+    if method not in SS_METHODS:
+        raise AquaspecError(f"single-scattering method {method!r}; accepted: "
+                            f"{', '.join(SS_METHODS)}")
     cam = gbuffer.camera
     d_o = camera_depth(cam)
     dirs = cam.ray_directions().astype(float)
@@ -535,23 +662,27 @@ def sun_radiance(gbuffer, sun: SunInputs, *, rho_of_hits, height_map=None,
     n = sun.b.size
     shadowed = height_map is not None and spec is not None
 
-    def visibility_along(t_mid, sel):
-        if not shadowed:
-            return np.ones_like(t_mid)
-        pts = cam.position + dirs[sel][:, None, :] * t_mid[..., None]
-        return map_visibility(height_map, spec, pts)
+    def vis_points(points):
+        return map_visibility(height_map, spec, points) if shadowed \
+            else np.ones(np.shape(points)[:-1])
 
-    out = np.zeros(s.shape + (n,))
-    phase = phase_from_table(sun.log_phase, dirs @ sun.to_sun)          # (H, W, n)
-    rows = max(1, 200_000 // max(1, cam.width * sun.n_steps))
-    for r0 in range(0, cam.height, rows):
-        sel = np.zeros(s.shape, bool)
-        sel[r0:r0 + rows] = True
-        out[sel] = single_scattering_marched(
-            b=sun.b, phase_value=phase[sel], beam0=sun.beam0, c_sun=sun.c_sun,
-            c_view=sun.c_view, depth_o=np.full(sel.sum(), d_o), v_y=v_y[sel], s=s[sel],
-            mu0=mu0, visibility=lambda t, sel=sel: visibility_along(t, sel),
-            n_steps=sun.n_steps, tail=tail)
+    if method == "froxel":
+        grid = froxel_grid(cam, sun, vis_points, tail=tail)
+        out = froxel_lookup(grid, cam, s) * _ref_phase_at(sun.log_phase,
+                                                          dirs @ sun.to_sun)[..., None]
+    else:
+        out = np.zeros(s.shape + (n,))
+        phase = phase_from_table(sun.log_phase, dirs @ sun.to_sun)      # (H, W, n)
+        rows = max(1, 200_000 // max(1, cam.width * sun.n_steps))
+        for r0 in range(0, cam.height, rows):
+            sel = np.zeros(s.shape, bool)
+            sel[r0:r0 + rows] = True
+            out[sel] = single_scattering_marched(
+                b=sun.b, phase_value=phase[sel], beam0=sun.beam0, c_sun=sun.c_sun,
+                c_view=sun.c_view, depth_o=np.full(sel.sum(), d_o), v_y=v_y[sel], s=s[sel],
+                mu0=mu0, n_steps=sun.n_steps, tail=tail,
+                visibility=lambda t, sel=sel: vis_points(
+                    cam.position + dirs[sel][:, None, :] * t[..., None]))
     if np.any(hit):
         pos = cam.position + dirs[hit] * s[hit, None]
         normal = gbuffer.normal[hit].astype(float)

@@ -7,17 +7,22 @@ Two passes (maths in :mod:`aquaspec.sun`, NumPy twin
   rasterised depth-only along the refracted beam (``shaders/sun_shadow.wgsl``,
   :meth:`aquaspec.sun.ShadowMapSpec.clip_matrix`) into a ``depth32float``
   texture of :data:`aquaspec.sun.DEFAULT_MAP_SIZE` texels a side;
-- the sun's radiance (``shaders/sun.wgsl``): per pixel the beam's single
-  scattering along the ray (``n_steps`` equal steps against the map) and the
-  sun-lit surface's light, per band, into camera RGB added to the shading
-  pass's linear image (its ``rgb_buffer``), so :meth:`read_rgb` of that pass
-  returns the whole image.
+- the froxels (``shaders/sun.wgsl``, ``build_froxels``): the beam's single
+  scattering integrated front to back along each column of
+  :data:`aquaspec.sun.FROXEL_TILE` x ``FROXEL_TILE`` pixels, over
+  :data:`aquaspec.sun.FROXEL_SLICES` slices, in camera RGB;
+- the sun's radiance (``main``): per pixel the sun-lit surface's light and
+  the single scattering read from the froxels at the pixel's distance, added
+  in camera RGB to the shading pass's linear image (its ``rgb_buffer``), so
+  :meth:`read_rgb` of that pass returns the whole image.
 
 Bindings of sun.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
 surface and sigmoid textures (:mod:`aquaspec.gpu.deferred`); 3 material band
 reflectances (M * n f32); 4 two vec4 per band; 5 ``ln p`` per band
 (:func:`aquaspec.sun.phase_table`); 6 the shadow map; 7 the image (vec4 per
-pixel, read and written).
+pixel, read and written); 8 the froxels (vec4 per column and slice
+boundary); 9 ``ln`` of the bands' mean phase function
+(:func:`aquaspec.sun.reference_phase`).
 """
 
 from __future__ import annotations
@@ -25,8 +30,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import AquaspecError
-from ..sun import (BIAS_TEXELS, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, NORMAL_OFFSET_TEXELS,
-                   TAIL, ShadowMapSpec, SunInputs, shadow_map_spec)
+from ..sun import (BIAS_TEXELS, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, FROXEL_SLICES,
+                   FROXEL_TILE, NORMAL_OFFSET_TEXELS, TAIL, ShadowMapSpec, SunInputs,
+                   reference_phase, shadow_map_spec)
 from .buffers import create_storage_buffer, create_uniform_buffer, upload_buffer
 from .deferred import CAMERA_FIELDS, camera_fields
 from .layout import UniformLayout
@@ -38,7 +44,7 @@ PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
     ("e2", "vec3<f32>"), ("v0", "f32"),
     ("width", "u32"), ("height", "u32"), ("shadowed", "u32"), ("map_size", "u32"),
     ("texel", "f32"), ("h_min", "f32"), ("h_max", "f32"), ("bias", "f32"),
-    ("normal_offset", "f32"), ("neg_log_tail", "f32"),
+    ("normal_offset", "f32"), ("neg_log_tail", "f32"), ("cols_x", "u32"), ("cols_y", "u32"),
 ])
 CLIP_LAYOUT = UniformLayout("ShadowClip", [("clip", "mat4x4<f32>")])
 WORKGROUP = (8, 8)
@@ -52,29 +58,32 @@ class SunPass:
     ----------
     device : wgpu.GPUDevice
     width, height, n_bands : int
-    n_steps : int
-        Steps of the march along each camera ray (a compile-time constant).
     map_size : int
         Shadow-map side in texels.
     """
 
     def __init__(self, device, width: int, height: int, n_bands: int, *,
-                 n_steps: int | None = None, map_size: int = DEFAULT_MAP_SIZE):
+                 map_size: int = DEFAULT_MAP_SIZE):
         import wgpu
-        from ..sun import DEFAULT_STEPS, PHASE_TABLE_SIZE
+        from ..sun import PHASE_TABLE_SIZE
         self.device = device
         self.width, self.height, self.n_bands = int(width), int(height), int(n_bands)
-        self.n_steps = int(DEFAULT_STEPS if n_steps is None else n_steps)
-        if not 1 <= self.n_steps <= 256:
-            raise AquaspecError(f"sun march steps {n_steps!r}; accepted: 1 ... 256")
         self.map_size = int(map_size)
         self.phase_size = PHASE_TABLE_SIZE
+        self.cols = (-(-self.width // FROXEL_TILE), -(-self.height // FROXEL_TILE))
         src = load_wgsl("sun.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
                         params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
-                        n_steps=self.n_steps, phase_size=self.phase_size)
+                        tile=FROXEL_TILE, slices=FROXEL_SLICES, phase_size=self.phase_size)
         module = device.create_shader_module(label="sun.wgsl", code=src)
         self._pipeline = device.create_compute_pipeline(
             label="sun", layout="auto", compute={"module": module, "entry_point": "main"})
+        self._build = device.create_compute_pipeline(
+            label="sun froxels", layout="auto",
+            compute={"module": module, "entry_point": "build_froxels"})
+        self._froxels = create_storage_buffer(
+            device, 16 * self.cols[0] * self.cols[1] * (FROXEL_SLICES + 1), label="sun froxels")
+        self._ref_phase = create_storage_buffer(device, 4 * self.phase_size,
+                                                label="sun mean phase")
         self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="sun params")
         self._clip = create_uniform_buffer(device, CLIP_LAYOUT, label="sun shadow clip")
         self._bands = create_storage_buffer(device, 32 * self.n_bands, label="sun bands")
@@ -115,6 +124,8 @@ class SunPass:
         bands[:, 1, 3] = sigmoid_centers_t
         upload_buffer(self.device, self._bands, bands)
         upload_buffer(self.device, self._phase, np.asarray(sun.log_phase, np.float32))
+        upload_buffer(self.device, self._ref_phase,
+                      reference_phase(sun.log_phase).astype(np.float32))
         mb = np.asarray(material_bands if material_bands is not None else np.zeros((0, n)),
                         np.float32).reshape(-1)
         if mb.nbytes > self._materials.size or mb.size == 0:
@@ -200,26 +211,34 @@ class SunPass:
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
             **camera_fields(camera), to_sun=self._inputs.to_sun, mu0=self._inputs.mu0,
             width=self.width, height=self.height, shadowed=int(self.shadowed),
-            neg_log_tail=-np.log(TAIL), **geo))
+            neg_log_tail=-np.log(TAIL), cols_x=self.cols[0], cols_y=self.cols[1], **geo))
         key = (id(gbuffer_textures["surface"]), id(gbuffer_textures["sigmoid"]),
                id(rgb_buffer), id(self._materials))
         if key != self._bind_key:
+            def buf(binding, buffer):
+                return {"binding": binding, "resource": {"buffer": buffer, "offset": 0,
+                                                         "size": buffer.size}}
+            params = {"binding": 0, "resource": {"buffer": self._params, "offset": 0,
+                                                 "size": PARAMS_LAYOUT.size}}
             self._group = self.device.create_bind_group(
                 layout=self._pipeline.get_bind_group_layout(0), entries=[
-                    {"binding": 0, "resource": {"buffer": self._params, "offset": 0,
-                                                "size": PARAMS_LAYOUT.size}},
+                    params,
                     {"binding": 1, "resource": gbuffer_textures["surface"].create_view()},
                     {"binding": 2, "resource": gbuffer_textures["sigmoid"].create_view()},
-                    {"binding": 3, "resource": {"buffer": self._materials, "offset": 0,
-                                                "size": self._materials.size}},
-                    {"binding": 4, "resource": {"buffer": self._bands, "offset": 0,
-                                                "size": self._bands.size}},
-                    {"binding": 5, "resource": {"buffer": self._phase, "offset": 0,
-                                                "size": self._phase.size}},
+                    buf(3, self._materials), buf(4, self._bands),
                     {"binding": 6, "resource": self._map_view},
-                    {"binding": 7, "resource": {"buffer": rgb_buffer, "offset": 0,
-                                                "size": rgb_buffer.size}}])
+                    buf(7, rgb_buffer), buf(8, self._froxels), buf(9, self._ref_phase)])
+            self._build_group = self.device.create_bind_group(
+                layout=self._build.get_bind_group_layout(0), entries=[
+                    params, buf(4, self._bands), buf(5, self._phase),
+                    {"binding": 6, "resource": self._map_view},
+                    buf(8, self._froxels), buf(9, self._ref_phase)])
             self._bind_key = key
+        cp = encoder.begin_compute_pass()
+        cp.set_pipeline(self._build)
+        cp.set_bind_group(0, self._build_group)
+        cp.dispatch_workgroups(-(-self.cols[0] * self.cols[1] // 64))
+        cp.end()
         cp = encoder.begin_compute_pass()
         cp.set_pipeline(self._pipeline)
         cp.set_bind_group(0, self._group)

@@ -1,8 +1,16 @@
-// The direct sun (aquaspec/sun.py, NumPy twin: aquaspec.sun.sun_radiance):
-// per pixel, the beam's single scattering along the camera ray, marched in
-// N_STEPS equal steps against the sun's shadow map, plus the light of a
-// sun-lit surface carried to the camera; added in camera RGB to the shading
-// pass's linear image (rgb_out).
+// The direct sun (aquaspec/sun.py, NumPy twin: aquaspec.sun.sun_radiance,
+// method "froxel"), two entry points:
+// - build_froxels: one invocation per froxel column (TILE x TILE pixels):
+//   the beam's single scattering integrated front to back along the
+//   column's ray over SLICES slices (boundaries t_k = L (k / SLICES)^2),
+//   the shadow map read at each slice's middle, summed over the bands in
+//   camera RGB with the phase function divided by the bands' mean at the
+//   column's angle (aquaspec.sun.froxel_grid);
+// - main: per pixel, the light of a sun-lit surface carried to the camera
+//   plus the single scattering read from the froxels at the pixel's own
+//   distance (bilinear between columns, linear between slices) times the
+//   mean phase function at the pixel's own angle (froxel_lookup); added in
+//   camera RGB to the shading pass's linear image (rgb_out).
 //
 // The shadow map (aquaspec/gpu/sun_pass.py) is a depth texture rasterised
 // orthographically along the beam: depth z = (h_max - h) / (h_max - h_min)
@@ -13,13 +21,16 @@
 // Layout of `bands`, two vec4 per band i:
 //   [2i]     c_view, c_sun / mu0, b * beam0, beam0 / pi
 //   [2i + 1] w_r, w_g, w_b, t (normalised band centre for sigmoid materials)
-// `log_phase[i * PHASE_SIZE + k]`: ln p of band i at theta_k = pi (k / (PHASE_SIZE - 1))^2.
+// `log_phase[i * PHASE_SIZE + k]`: ln p of band i at theta_k = pi (k / (PHASE_SIZE - 1))^2;
+// `ref_phase[k]`: ln of the bands' mean p on the same grid.
+// `froxels[column * (SLICES + 1) + k]`: (cumulative RGB at t_k, the column's L).
 // `material_bands[m * N_BANDS + i]`: band reflectance of material m.
 
 {{ params_struct }}
 
 const N_BANDS: u32 = {{ n_bands }}u;
-const N_STEPS: u32 = {{ n_steps }}u;
+const TILE: u32 = {{ tile }}u;
+const SLICES: u32 = {{ slices }}u;
 const PHASE_SIZE: u32 = {{ phase_size }}u;
 const PER_PIXEL: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
@@ -32,6 +43,8 @@ const PI: f32 = 3.14159265358979;
 @group(0) @binding(5) var<storage, read> log_phase: array<f32>;
 @group(0) @binding(6) var shadow_map: texture_depth_2d;
 @group(0) @binding(7) var<storage, read_write> rgb_out: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read_write> froxels: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> ref_phase: array<f32>;
 
 // aquaspec.gpu.deferred.oct_decode, then n_y kept exact (unpack_surface).
 fn decode_normal(word: vec4<u32>) -> vec3<f32> {
@@ -90,6 +103,92 @@ fn reflectance(material: u32, sig: vec3<f32>, i: u32, t: f32) -> f32 {
     return material_bands[material * N_BANDS + i];
 }
 
+// Camera.ray_directions through pixel coordinates (px, py).
+fn ray_through(px: f32, py: f32) -> vec3<f32> {
+    let xc = (px - prm.cx) / prm.fx;
+    let yc = (py - prm.cy) / prm.fy;
+    return normalize(prm.right * xc - prm.up * yc + prm.forward);
+}
+
+// Where a phase table is read for cos theta: entry k0 and the fraction to k0 + 1.
+struct PhaseAt {
+    k0: u32,
+    f: f32,
+}
+
+fn phase_at(cos_theta: f32) -> PhaseAt {
+    let xp = sqrt(acos(clamp(cos_theta, -1.0, 1.0)) / PI) * f32(PHASE_SIZE - 1u);
+    let k0 = min(u32(floor(xp)), PHASE_SIZE - 2u);
+    return PhaseAt(k0, xp - f32(k0));
+}
+
+fn ref_phase_value(at: PhaseAt) -> f32 {
+    return exp(mix(ref_phase[at.k0], ref_phase[at.k0 + 1u], at.f));
+}
+
+@compute @workgroup_size(64)
+fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let column = gid.x;
+    if (column >= prm.cols_x * prm.cols_y) {
+        return;
+    }
+    let cx = column % prm.cols_x;
+    let cy = column / prm.cols_x;
+    let half = 0.5 * f32(TILE);
+    let v = ray_through(f32(TILE * cx) + half, f32(TILE * cy) + half);
+    let d_o = -prm.position.y;
+    let inf = bitcast<f32>(0x7f800000u);
+    // The column's length: the water surface (up rays) or where the slowest
+    // band's integrand has fallen below the tail (aquaspec.sun.march_length).
+    var k_min = inf;
+    for (var i = 0u; i < N_BANDS; i = i + 1u) {
+        let q0 = bands[2u * i];
+        k_min = min(k_min, q0.x - q0.y * v.y);
+    }
+    let to_surface = select(inf, d_o / v.y, v.y > 0.0);
+    let t_tail = select(inf, prm.neg_log_tail / k_min, k_min > 0.0);
+    var length = min(to_surface, t_tail);
+    length = select(0.0, length, length < inf);
+
+    let at = phase_at(dot(v, prm.to_sun));
+    let p_ref = ref_phase_value(at);
+    let base = column * (SLICES + 1u);
+    froxels[base] = vec4<f32>(0.0, 0.0, 0.0, length);
+    var acc = vec3<f32>(0.0);
+    for (var k = 1u; k <= SLICES; k = k + 1u) {
+        let ta = length * pow(f32(k - 1u) / f32(SLICES), 2.0);
+        let tb = length * pow(f32(k) / f32(SLICES), 2.0);
+        let dt = tb - ta;
+        let vis = visibility(prm.position + v * (0.5 * (ta + tb)));
+        if (vis > 0.0) {
+            for (var i = 0u; i < N_BANDS; i = i + 1u) {
+                let q0 = bands[2u * i];
+                let q1 = bands[2u * i + 1u];
+                let kk = q0.x - q0.y * v.y;
+                let row = i * PHASE_SIZE + at.k0;
+                let p = exp(mix(log_phase[row], log_phase[row + 1u], at.f));
+                // start exp(-c_sun d_o / mu0) and the slice's exp(-k t_a) in one exponent
+                let seg = exp(-q0.y * d_o - kk * ta) * dt * exp_ratio(kk * dt);
+                acc = acc + (vis * q0.z * p / p_ref * seg) * q1.xyz;
+            }
+        }
+        froxels[base + k] = vec4<f32>(acc, length);
+    }
+}
+
+// The single scattering of column (cx, cy) at distance t (before the pixel's phase).
+fn froxel_at(cx: u32, cy: u32, t: f32) -> vec3<f32> {
+    let base = (cy * prm.cols_x + cx) * (SLICES + 1u);
+    let length = froxels[base].w;
+    if (length <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let x = sqrt(min(t, length) / length) * f32(SLICES);
+    let k0 = min(u32(floor(x)), SLICES - 1u);
+    let f = x - f32(k0);
+    return mix(froxels[base + k0].xyz, froxels[base + k0 + 1u].xyz, f);
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let col = gid.x;
@@ -99,88 +198,44 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let word = textureLoad(gb_surface, vec2<i32>(i32(col), i32(row)), 0);
     let s_raw = bitcast<f32>(word.x);
-    // Camera.ray_directions through the pixel centre.
-    let xc = (f32(col) + 0.5 - prm.cx) / prm.fx;
-    let yc = (f32(row) + 0.5 - prm.cy) / prm.fy;
-    let v = normalize(prm.right * xc - prm.up * yc + prm.forward);
+    let v = ray_through(f32(col) + 0.5, f32(row) + 0.5);
     let d_o = -prm.position.y;
     let inf = bitcast<f32>(0x7f800000u);
     let to_surface = select(inf, d_o / v.y, v.y > 0.0);
     let hit = s_raw >= 0.0 && s_raw <= to_surface;
-    let s = select(to_surface, s_raw, hit);
+    let s = select(inf, s_raw, hit);
 
-    // Where the march stops: the ray's end, or where the slowest band's
-    // unshadowed integrand has fallen below the tail.
-    var k_min = inf;
-    for (var i = 0u; i < N_BANDS; i = i + 1u) {
-        let q0 = bands[2u * i];
-        k_min = min(k_min, q0.x - q0.y * v.y);
-    }
-    let t_tail = select(inf, prm.neg_log_tail / k_min, k_min > 0.0);
-    var length = min(s, t_tail);
-    length = select(0.0, length, length < inf);
-    let dt = length / f32(N_STEPS);
+    // The single scattering: the four nearest columns, bilinearly.
+    let u = (vec2<f32>(f32(col), f32(row)) + 0.5 - 0.5 * f32(TILE)) / f32(TILE);
+    let last = vec2<f32>(f32(prm.cols_x - 1u), f32(prm.cols_y - 1u));
+    let a0 = clamp(floor(u), vec2<f32>(0.0), last);
+    let a1 = min(a0 + 1.0, last);
+    let fu = clamp(u - a0, vec2<f32>(0.0), vec2<f32>(1.0));
+    let i0 = vec2<u32>(a0);
+    let i1 = vec2<u32>(a1);
+    let ss = mix(mix(froxel_at(i0.x, i0.y, s), froxel_at(i1.x, i0.y, s), fu.x),
+                 mix(froxel_at(i0.x, i1.y, s), froxel_at(i1.x, i1.y, s), fu.x), fu.y);
+    var acc = ss * ref_phase_value(phase_at(dot(v, prm.to_sun)));
 
-    var vis: array<f32, N_STEPS>;
-    var all_lit = true;
-    for (var j = 0u; j < N_STEPS; j = j + 1u) {
-        let vj = visibility(prm.position + v * ((f32(j) + 0.5) * dt));
-        vis[j] = vj;
-        all_lit = all_lit && vj >= 1.0;
-    }
-
-    let cos_theta = clamp(dot(v, prm.to_sun), -1.0, 1.0);
-    let xp = sqrt(acos(cos_theta) / PI) * f32(PHASE_SIZE - 1u);
-    let k0 = min(u32(floor(xp)), PHASE_SIZE - 2u);
-    let fp = xp - f32(k0);
-
-    var pos = vec3<f32>(0.0);
-    var cos_n = 0.0;
-    var v_s = 0.0;
-    var depth_s = 0.0;
-    var sig = vec3<f32>(0.0);
     if (hit) {
-        pos = prm.position + v * s;
+        let pos = prm.position + v * s;
         let n = decode_normal(word);
-        cos_n = max(dot(n, prm.to_sun), 0.0);
-        depth_s = -pos.y;
+        let cos_n = max(dot(n, prm.to_sun), 0.0);
         if (cos_n > 0.0) {
-            v_s = visibility(pos + n * prm.normal_offset);
-        }
-        if (word.w == PER_PIXEL) {
-            sig = textureLoad(gb_sigmoid, vec2<i32>(i32(col), i32(row)), 0).xyz;
-        }
-    }
-
-    var acc = vec3<f32>(0.0);
-    for (var i = 0u; i < N_BANDS; i = i + 1u) {
-        let q0 = bands[2u * i];
-        let q1 = bands[2u * i + 1u];
-        let k = q0.x - q0.y * v.y;
-        let x = k * dt;
-        let g = exp(-x);
-        // int_0^dt exp(-k u) du
-        let w0 = dt * exp_ratio(x);
-        var sum = 0.0;
-        if (all_lit) {
-            // sum_j g^j = (1 - g^N) / (1 - g)
-            sum = f32(N_STEPS) * exp_ratio(x * f32(N_STEPS)) / exp_ratio(x);
-        } else {
-            var e = 1.0;
-            for (var j = 0u; j < N_STEPS; j = j + 1u) {
-                sum = sum + vis[j] * e;
-                e = e * g;
+            let lit = cos_n * visibility(pos + n * prm.normal_offset);
+            var sig = vec3<f32>(0.0);
+            if (word.w == PER_PIXEL) {
+                sig = textureLoad(gb_sigmoid, vec2<i32>(i32(col), i32(row)), 0).xyz;
+            }
+            let depth_s = -pos.y;
+            for (var i = 0u; i < N_BANDS; i = i + 1u) {
+                let q0 = bands[2u * i];
+                let q1 = bands[2u * i + 1u];
+                let rho = reflectance(word.w, sig, i, q1.w);
+                let l = rho * q0.w * exp(-q0.y * depth_s - q0.x * s) * lit;
+                acc = acc + l * q1.xyz;
             }
         }
-        let start = exp(-q0.y * d_o);
-        let base = i * PHASE_SIZE + k0;
-        let phase = exp(mix(log_phase[base], log_phase[base + 1u], fp));
-        var l = q0.z * phase * start * w0 * sum;
-        if (hit) {
-            let rho = reflectance(word.w, sig, i, q1.w);
-            l = l + rho * q0.w * exp(-q0.y * depth_s) * cos_n * v_s * exp(-q0.x * s);
-        }
-        acc = acc + l * q1.xyz;
     }
     let idx = row * prm.width + col;
     rgb_out[idx] = rgb_out[idx] + vec4<f32>(acc, 0.0);
