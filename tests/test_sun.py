@@ -331,3 +331,23 @@ def test_froxels_against_each_pixels_own_march():
     assert abs(frox.sum() / march.sum() - 1.0) < 0.01
     with pytest.raises(AquaspecError, match="froxel"):
         S.sun_radiance(gb, sun, method="exact", **black)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "gpu"])
+def test_layers_carry_the_sun(backend, request):
+    """D = I - B is t J with the sun's beam in J (a sensor without negative
+    lobes); the sun's single scattering is all in the backscatter."""
+    if backend == "gpu":
+        request.getfixturevalue("device")
+    kw = dict(ms_model="seeds", sensor="nikon-5100-npl", sun_azimuth_deg=150.0, layers=True)
+    res = _render(backend, **kw)
+    lay = res.layers
+    hit = lay["range_m"] > 0
+    assert np.allclose(res.linear_rgb, lay["direct"] + lay["backscatter"], atol=1e-6)
+    tj = lay["transmission"] * lay["surface"]
+    assert np.abs(lay["direct"] - tj)[hit].mean() < 1e-5 * np.abs(lay["direct"][hit]).mean()
+    light = surface_light("sun-sky", sun_elevation_deg=50.0, sun_azimuth_deg=150.0)
+    sky = _render(backend, **{**kw, "light": light.without_sun()}).layers
+    # Sun-lit surfaces: brighter J; open water: the beam's scattering in B.
+    assert np.mean(lay["surface"][hit][:, 1] > sky["surface"][hit][:, 1] * 1.05) > 0.5
+    assert np.all(lay["backscatter"][~hit][:, 1] > sky["backscatter"][~hit][:, 1])

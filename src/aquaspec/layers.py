@@ -20,7 +20,8 @@ formation model (CVPR 2018), ``I = D + B``:
   camera, at the surface, with no water in between: camera RGB of
   ``rho E(d, n) / pi`` with the model's irradiance at the surface's depth
   and orientation (:func:`aquaspec.model.ambient_irradiance`, or the light
-  field's :func:`aquaspec.lightfield.surface_radiance`).
+  field's :func:`aquaspec.lightfield.surface_radiance`), plus with a sun
+  its beam on the surface, shadows included (:func:`aquaspec.sun.surface_irradiance`).
 - ``albedo``: camera RGB of ``rho E0 / pi``, the surface under the light
   just below the water surface (``E0``): the colour cast the water gives
   the light on its way down is taken out too (what colour restoration
@@ -84,11 +85,13 @@ def black_gbuffer(gbuffer: GBuffer) -> GBuffer:
 
 def surface_layers(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_bands,
                    sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
-                   lightfield: dict | None = None) -> dict:
+                   lightfield: dict | None = None, sun=None, sun_visibility=None) -> dict:
     """``surface``, ``albedo``, ``transmission`` (H, W, 3) and ``range_m`` (H, W),
     float64, from the G-buffer and the medium (the keywords of
     :func:`aquaspec.shading.shade_gbuffer`; ``lightfield``: its tables, for
-    the light-field model's irradiance and beam; None: the seeds' model).
+    the light-field model's irradiance and beam; None: the seeds' model;
+    ``sun``: :class:`aquaspec.sun.SunInputs` with ``sun_visibility`` (H, W),
+    the share of the beam each surface gets, :func:`aquaspec.sun.surface_visibility`).
     See the module docstring for the definitions."""
     from .shading import _hit_reflectance, _reached, camera_depth, check_medium
     a, b, kd, e0, w, mb, t = check_medium(a, b, kd, e0, response_weights, material_bands,
@@ -122,6 +125,12 @@ def surface_layers(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material
         else:
             from .lightfield import surface_radiance
             l_surf = surface_radiance(lightfield, rho, depth, n_y[p], e0)
+        if sun is not None:
+            from .sun import surface_irradiance
+            vis = 1.0 if sun_visibility is None else sun_visibility.reshape(-1)[p]
+            normal = gbuffer.normal.reshape(-1, 3)[p].astype(float)
+            l_surf = l_surf + model.lambertian_radiance(rho, surface_irradiance(
+                sun.beam0, sun.c_sun, depth, normal, sun.to_sun, vis))
         out["surface"][p] = model.radiance_to_rgb(l_surf, w)
         out["albedo"][p] = model.radiance_to_rgb(model.lambertian_radiance(rho, e0), w)
         # (|w|: a channel with negative lobes keeps t within the bands' T.)
@@ -139,7 +148,7 @@ def surface_layers(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material
 
 
 def image_layers(linear_rgb, backscatter_rgb, gbuffer: GBuffer, medium: dict,
-                 lightfield: dict | None = None) -> dict:
+                 lightfield: dict | None = None, sun=None, sun_visibility=None) -> dict:
     """Every layer (:data:`LAYER_NAMES`) of an image ``linear_rgb`` whose
     G-buffer was ``gbuffer``, given ``backscatter_rgb``, the image of
     :func:`black_gbuffer` rendered the same way; ``medium`` as for
@@ -154,7 +163,8 @@ def image_layers(linear_rgb, backscatter_rgb, gbuffer: GBuffer, medium: dict,
         if not np.all(np.isfinite(arr)):
             raise AquaspecError(f"the {name} is not finite")
     layers = {"backscatter": back, "direct": linear - back}
-    layers.update(surface_layers(gbuffer, **medium, lightfield=lightfield))
+    layers.update(surface_layers(gbuffer, **medium, lightfield=lightfield, sun=sun,
+                                 sun_visibility=sun_visibility))
     return {k: layers[k] for k in LAYER_NAMES}
 
 

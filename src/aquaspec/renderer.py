@@ -526,6 +526,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         setup = dataclasses.replace(setup, seabed=bed)
     n = setup.bands.n
     radiance = None
+    sun_shadow = None
     if backend == "gpu":
         say(f"shading {camera.width}x{camera.height} pixels x {n} bands on the GPU"
             + (" (the scene's shadow in the light field in NumPy)" if ambient_shadow else ""))
@@ -554,7 +555,6 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
             gbuffer = raycast_gbuffer(scene, camera)
         say(f"shading {camera.width}x{camera.height} pixels x {n} bands in NumPy"
             + (" with the scene's shadow in the light field" if ambient_shadow else ""))
-        sun_shadow = None
         if light_obj.sun is not None and rgbd is None:
             from .sun import numpy_shadow_map
             say(f"the sun's shadow map, {map_size}x{map_size} texels (NumPy)")
@@ -585,8 +585,17 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
             back = shade_gbuffer(black, **setup.medium(black.materials),
                                  lightfield=setup.lightfield_tables(), progress=say,
                                  sun=setup.sun_inputs(), sun_shadow=sun_shadow)["camera_rgb"]
+        sun_vis = None
+        if light_obj.sun is not None:
+            from .sun import surface_visibility
+            if backend == "gpu":
+                sun_vis = (surface_visibility(gbuffer, r.sun.read_shadow_map(), r.sun.spec)
+                           if r.sun is not None and r.sun.shadowed else None)
+            elif sun_shadow is not None:
+                sun_vis = surface_visibility(gbuffer, *sun_shadow)
         layer_set = image_layers(linear, back, gbuffer, setup.medium(gbuffer.materials),
-                                 setup.lightfield_tables())
+                                 setup.lightfield_tables(), sun=setup.sun_inputs(),
+                                 sun_visibility=sun_vis)
     reference = None
     if white_balance == "white-patch":
         # The diver's custom white balance: a grey card held 1 m in front of

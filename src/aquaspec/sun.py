@@ -695,6 +695,19 @@ def sun_radiance(gbuffer, sun: SunInputs, *, rho_of_hits, height_map=None,
     return out
 
 
+def surface_visibility(gbuffer, height_map=None, spec: ShadowMapSpec | None = None):
+    """The share of the beam each visible surface gets, (H, W) (1 without a map;
+    looked up as :func:`sun_radiance` does, off the surface along its normal)."""
+    out = np.ones(gbuffer.distance.shape)
+    if height_map is None or spec is None:
+        return out
+    hit = gbuffer.hit
+    pos = gbuffer.positions()[hit]
+    out[hit] = map_visibility(height_map, spec, pos + gbuffer.normal[hit].astype(float)
+                              * (NORMAL_OFFSET_TEXELS * spec.texel))
+    return out
+
+
 def numpy_shadow_map(scene, camera, to_sun, *, size: int = DEFAULT_MAP_SIZE,
                      radius_m: float = DEFAULT_MAP_RADIUS_M):
     """``(height_map, spec)`` of a scene for :func:`sun_radiance`, or None
