@@ -149,7 +149,8 @@ def _cached(cache_dir, key, compute):
 
 
 def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=None,
-              cone_spread=False, seabed=None, spread_scattering="single", ambient_shadow=False):
+              cone_spread=False, seabed=None, spread_scattering="single", ambient_shadow=False,
+              sun_shadow=None):
     from ..renderer import SpectralSetup
     from ..sensors import get_sensor
     from ..shading import shade_gbuffer
@@ -163,7 +164,8 @@ def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_
                           ambient_shadow=ambient_shadow and ms_model == "lightfield")
     out = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
                         lightfield=setup.lightfield_tables(),
-                        shadow_rays=_shadow_rays(n) if setup.ambient_shadow else None)
+                        shadow_rays=_shadow_rays(n) if setup.ambient_shadow else None,
+                        sun=setup.sun_inputs(), sun_shadow=sun_shadow)
     return out["radiance"]
 
 
@@ -335,6 +337,10 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                                      seabed_below_m=seabed_below_m,
                                      seabed_albedo=seabed_albedo, view=view)
             gb = raycast_gbuffer(scene, cam)
+            sun_shadow = None
+            if light.sun is not None:
+                from ..sun import numpy_shadow_map
+                sun_shadow = numpy_shadow_map(scene, cam, light.sun.to_sun)
             m = masks(gb)
             going_down = cam.ray_directions()[..., 1] <= 0
             region_masks = {"image": None, "patches": m["patches"].any(axis=0),
@@ -375,7 +381,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         methods[(name, mode)] = ("bands", n, _spectral(
                             gb, waters_by_mode[mode], light, n, ms, phase_lf,
                             phase_params, forward_cone_deg, cone_spread, scene.seabed,
-                            spread_scattering, ambient_shadow))
+                            spread_scattering, ambient_shadow, sun_shadow))
                         numpy_seconds[name] = time.perf_counter() - t0
                         if ms == "lightfield" and scene.seabed is not None and n != 3:
                             # What leaving the seabed out of the light field costs.
@@ -383,7 +389,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                                 gb, waters_by_mode[mode], light, n, ms, phase_lf,
                                 phase_params, forward_cone_deg, cone_spread,
                                 spread_scattering=spread_scattering,
-                                ambient_shadow=ambient_shadow))
+                                ambient_shadow=ambient_shadow, sun_shadow=sun_shadow))
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             for mode in kd_modes:       # the image-formation model's B_inf and J use Kd
                 methods[("ifm", mode)] = ("baseline", "ifm", None)
