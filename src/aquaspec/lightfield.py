@@ -3,7 +3,8 @@
 The seeds' multiple-scattering term lights the water by the downwelling
 irradiance scattered isotropically. This module solves the plane-parallel
 radiative transfer equation (RTE) instead, for a horizontally uniform
-(overcast) sky, and gives everything the renderer needs from it: the
+(overcast) sky and, optionally, a direct sun's refracted beam, and gives
+everything the renderer needs from it: the
 radiance ``L(d, mu)`` at any depth and direction, the irradiance on a
 surface of any orientation ``E(d, n_y)``, the in-scattering source
 ``j(d, v_y)`` and its integral along a camera ray.
@@ -48,6 +49,37 @@ light leaves through the surface (no internal reflection). Bottom: infinitely
 deep (decaying modes only) or a Lambertian seabed of albedo ``rho`` at depth
 ``H``.
 
+*The sun* (``solve_lightfield(sun_mu0=, sun_beam=)``): a collimated beam of
+normal irradiance ``F0`` just below the surface, travelling down at zenith
+cosine ``mu0``. In the scaled problem the delta-M forward peak stays in the
+beam, so its normal irradiance at depth d is ``F0 exp(-c* d/mu0)``. The beam
+is the radiance ``F0 delta(w - w0)`` seen looking *up* at ``+mu0``; its
+first scattering is the source ``b* pbar*(mu, mu0) F0 exp(-c* d/mu0)`` of
+the diffuse radiance seen looking along ``mu``, with
+``2 pi pbar*(mu, mu0) = 1/2 sum_l (2l + 1) chi*_l P_l(mu) P_l(mu0)`` (the
+azimuthal average, i.e. the m = 0 Fourier term). Its particular solution is
+``X(mu_i) exp(-c* d/mu0)`` with ``(c* (1 - mu_i/mu0) - b* Q) X = b* F0
+pbar*(mu_i, mu0)``, computed by expansion on the 2N modes (see
+``_sun_particular``); where ``c*/mu0`` comes within
+:data:`SUN_RESONANCE_GAP` of a ``kappa_m`` that band's ``mu0`` is moved to
+that distance. It becomes one more decaying "mode" (``kappa = c*/mu0``,
+``phi = X``, amplitude 1), so every evaluation below is unchanged; its source
+off the nodes also carries the beam's own first-scattering term. Boundary
+conditions for the diffuse field: at the top the sun adds no diffuse light
+looking up (the sky's top radiance stays as it is); a Lambertian seabed
+reflects ``rho/pi (E_d,diffuse(H) + mu0 F0 exp(-c* H/mu0))`` (the beam
+reflects too). All the field's quantities (radiance, irradiance, source,
+``L_MS``) are then the diffuse field: the sky's plus all orders of
+scattering of the beam. The unscattered beam itself (on surfaces, shadowed)
+and its first scattering towards the camera, with the full phase function
+and its azimuth, are the renderer's (:mod:`aquaspec.sun`): ``L_MS`` is the
+in-scattering of the diffuse field only (the beam's ``b* pbar*`` term is
+subtracted in closed form). Left out by the m = 0 averaging: the azimuthal
+structure of the sun's diffuse light (brighter towards the sun's azimuth
+near the surface); irradiances on horizontal planes and the scalar
+irradiance are exact in it, radiances, tilted irradiances and the
+in-scattering are their azimuthal means.
+
 *Any direction* (source-function integration): the DO nodes give ``L`` at
 ``2N`` cosines; at any other ``v`` the source
 ``j*(d, v) = b* sum_j Q*(v, mu_j) L(d, mu_j)`` is a sum of the same modes, and
@@ -64,7 +96,8 @@ with ``I*(S) = int_0^S exp(-c* t) j*(d(t), v) dt`` (:meth:`LightField.l_ms`).
 *Tables for the GPU* (:func:`lightfield_tables`): per band, over depth
 (uniform in ``sqrt(d)``) and direction cosine (uniform in ``v_y``), the
 prefactor ``F(d, v_y) = R(d, v_y) / [b E0/(4 pi) ms_path_integral(c, kappa_1,
-d, v_y, inf)]`` with ``R = L_MS(S = inf)``, and ``E(d, n_y)/E0``. Because the
+d, v_y, inf)]`` with ``R = L_MS(S = inf)``, and ``E(d, n_y)/E0`` (with a sun: per
+unit total ``E0 = E_sky + mu0 F0``, diffuse field only). Because the
 part of a ray beyond its hit point is the same ray continued, the exact
 identity ``L_MS(d_o, v, S) = R(d_o, v) - exp(-c S) R(d_S, v)`` (``d_S`` the
 depth of the hit) needs only the S = inf table; :func:`lightfield_pixel_radiance`
@@ -99,10 +132,15 @@ from numpy.polynomial.legendre import leggauss
 
 from . import model
 from .errors import AquaspecError
-from .phase import band_moments, redistribution_matrix
+from .phase import band_moments, legendre_table, redistribution_matrix
 
 #: Surface boundary conditions (the radiance looking up just below y = 0).
 SURFACES = ("null", "refracted")
+
+#: Resonance guard of the sun's particular solution: when ``c*/mu0`` lies
+#: within this relative distance of a mode's ``kappa_m``, that band's ``mu0``
+#: is moved so that it lies exactly this far away (see :func:`solve_lightfield`).
+SUN_RESONANCE_GAP = 1e-6
 
 #: Single-scattering albedo cap: the conservative mode (kappa = 0) of a = 0 is
 #: replaced by kappa ~ 5e-4 c (eigh resolves it), so every mode decays.
@@ -144,6 +182,16 @@ class LightField:
     (n, 2N, N) the decaying modes at the nodes ``mu`` (2N: N looking up, then
     the same cosines negated), ``amp_dec``/``amp_grow`` (n, N) mode
     amplitudes for ``E0 = e0``.
+
+    With a sun (``has_sun``) the sun's particular solution is one more,
+    last, decaying "mode": ``kappa[:, N] = c*/mu0`` (not in ascending order:
+    ``kappa[:, 0]`` stays ``kappa_1``), ``phi[:, :, N] = X`` (not normalised),
+    ``amp_dec[:, N] = 1``, ``amp_grow[:, N] = 0``; ``sun_mu0`` (n,) is the
+    beam's zenith cosine per band (the given one, or moved by at most
+    :data:`SUN_RESONANCE_GAP` off a resonance) and ``sun_beam`` (n,) its
+    normal irradiance ``F0`` just below the surface. Every method then
+    gives the *diffuse* field (sky + all orders of scattering of the beam);
+    the unscattered beam is :meth:`beam_irradiance`.
     """
 
     a: np.ndarray
@@ -164,6 +212,8 @@ class LightField:
     seabed_depth_m: float
     seabed_albedo: np.ndarray
     surface: str
+    sun_mu0: np.ndarray | None = None
+    sun_beam: np.ndarray | None = None
 
     @property
     def c(self):
@@ -181,6 +231,37 @@ class LightField:
     @property
     def has_seabed(self) -> bool:
         return np.isfinite(self.seabed_depth_m)
+
+    @property
+    def has_sun(self) -> bool:
+        return self.sun_mu0 is not None
+
+    def beam_irradiance(self, depth_m):
+        """The unscattered beam's normal irradiance ``F0 exp(-c* d / mu0)``; (n_bands, ...).
+
+        Zero without a sun. Its horizontal irradiance is ``mu0`` times this;
+        its scalar irradiance is this.
+        """
+        d = np.asarray(depth_m, dtype=float)
+        if not self.has_sun:
+            return np.zeros((self.a.size,) + d.shape)
+        ex = (-self.c_star / self.sun_mu0).reshape((-1,) + (1,) * d.ndim)
+        return self.sun_beam.reshape((-1,) + (1,) * d.ndim) * np.exp(ex * d)
+
+    def _beam_source(self, v):
+        """``b* F0 pbar*(v, mu0)`` per unit ``exp(-c* d/mu0)``: the beam's first
+        scattering into the radiance seen looking along ``v`` (n, R), ``v`` 1-D.
+
+        The beam is the radiance ``F0 delta(w - w0)`` seen looking *up* at
+        ``+mu0``; ``2 pi pbar*(v, mu0) = 1/2 sum_l (2l + 1) chi*_l P_l(v) P_l(mu0)``
+        (:func:`aquaspec.phase.redistribution_matrix` with weight 1).
+        """
+        lmax = self.chi_star.shape[1] - 1
+        coef = self.chi_star * (2.0 * np.arange(lmax + 1) + 1.0) * 0.5     # (n, L)
+        p_v = legendre_table(lmax, v)                                       # (L, R)
+        p_0 = legendre_table(lmax, self.sun_mu0)                            # (L, n)
+        two_pi_p = (coef * p_0.T) @ p_v                                     # (n, R)
+        return (self.b_star * self.sun_beam / (2.0 * np.pi))[:, None] * two_pi_p
 
     # ---- radiance at the quadrature nodes -------------------------------
     def _phi_grow(self):
@@ -242,14 +323,21 @@ class LightField:
         return -np.sum(de, axis=-1) / np.sum(e, axis=-1)
 
     # ---- any direction ----------------------------------------------------
-    def _mode_sources(self, v_y):
-        """``psi_dec, psi_grow``: (n_bands, R, N), b* Q*(v, nodes) phi."""
+    def _mode_sources(self, v_y, beam: bool = True):
+        """``psi_dec, psi_grow``: (n_bands, R, modes), b* Q*(v, nodes) phi.
+
+        With a sun and ``beam``, the particular solution's column also holds
+        the beam's first scattering (same ``exp(-c* d/mu0)``): then the
+        sources are those of the diffuse radiance's transport equation.
+        """
         v = np.atleast_1d(np.asarray(v_y, dtype=float)).ravel()
         q = redistribution_matrix(self.chi_star, v, self.mu, self.w)   # (n, R, 2N)
         bs = self.b_star[:, None, None]
         psi_d = bs * (q @ self.phi)
         psi_g = bs * (q @ self._phi_grow()) if self.has_seabed \
             else np.zeros_like(psi_d)
+        if self.has_sun and beam:
+            psi_d[:, :, -1] += self._beam_source(v)
         return psi_d, psi_g
 
     def _boundary(self, depth_o, v_y):
@@ -264,6 +352,8 @@ class LightField:
         top = np.where(v_y > 0, self._top(v_y), 0.0)
         if self.has_seabed:
             e_bed = self.e_d(self.seabed_depth_m)[:, None]
+            if self.has_sun:     # the beam reflects too
+                e_bed = e_bed + (self.sun_mu0 * self.beam_irradiance(self.seabed_depth_m))[:, None]
             top = np.where(down, self.seabed_albedo[:, None] * e_bed / np.pi, top)
         return s_b, top
 
@@ -306,14 +396,18 @@ class LightField:
             np.isfinite(s_b), s_b, 0.0)), 0.0)
         return (out + att * l_b).reshape((cs.size,) + shape)
 
-    def source(self, depth_m, v_y):
+    def source(self, depth_m, v_y, beam: bool = False):
         """In-scattering ``j(d, v) = b int p(w . v) L(d, w) dw``; (n_bands, ...).
 
         ``j* + f b L(d, v)``: the delta-M truncated part on the nodes plus the
         forward peak, which scatters the radiance seen along ``v`` itself.
+        ``L`` is the diffuse field: the sun's beam is not in it (the renderer
+        scatters the beam once itself); ``beam=True`` adds the beam's first
+        scattering in the model's form, ``b* pbar*(v, mu0) F0 exp(-c* d/mu0)``
+        (azimuthally averaged, delta-M truncated phase function).
         """
         shape, d, v, _ = self._rays(depth_m, v_y, 0.0)
-        psi_d, psi_g = self._mode_sources(v)
+        psi_d, psi_g = self._mode_sources(v, beam=beam)
         k = self.kappa[:, None, :]
         j = np.sum(self.amp_dec[:, None, :] * psi_d * np.exp(-k * d[None, :, None]), axis=-1)
         if self.has_seabed:
@@ -343,6 +437,9 @@ class LightField:
         """Exact ``L_MS = int_0^S exp(-c t) j(d_o - t v_y, v) dt``; (n_bands, ...).
 
         Rays are cut at the water surface (up) and at the seabed (down).
+        ``j`` is :meth:`source` (the diffuse field's in-scattering): with a
+        sun, the beam's own first scattering towards the camera is left to
+        the renderer (computed here with the beam and subtracted in closed form).
         """
         shape, d, v, s = self._rays(depth_o, v_y, s)
         s_b, l_b = self._boundary(d, v)
@@ -361,7 +458,13 @@ class LightField:
         fb = (self.f * self.b)[:, None]
         fin_s = np.isfinite(s_eff)
         keep = np.where(fin_s, np.exp(-fb * np.where(fin_s, s_eff, 0.0)), 0.0)
-        return (keep * i_s + (1.0 - keep) * l_full).reshape((nb,) + shape)
+        out = keep * i_s + (1.0 - keep) * l_full
+        if self.has_sun:
+            # The beam's first scattering, int_0^S exp(-c t) j*_beam(d(t), v) dt.
+            out = out - self._beam_source(v) * model.ms_path_integral(
+                self.c[:, None], (self.c_star / self.sun_mu0)[:, None], d[None, :],
+                v[None, :], s_eff)
+        return out.reshape((nb,) + shape)
 
 
 def _top_radiance(e0, mu_up, w_up, surface, n_water):
@@ -379,7 +482,7 @@ def _top_radiance(e0, mu_up, w_up, surface, n_water):
 def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
                      n_streams: int = 32, seabed_depth_m=None, seabed_albedo=0.0,
                      surface: str = "null", n_water: float = model.N_WATER,
-                     **phase_params) -> LightField:
+                     sun_mu0=None, sun_beam=0.0, **phase_params) -> LightField:
     """Solve the RTE by discrete ordinates for every band at once.
 
     Parameters
@@ -399,6 +502,21 @@ def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
         scalar); None: infinitely deep water.
     surface : {"null", "refracted"}
         Top boundary (see the module docstring).
+    sun_mu0 : float or None
+        A direct sun: the zenith cosine of the refracted beam under water,
+        ``0 < mu0 <= 1`` (through a flat surface ``mu0 >= 0.66``). None: no
+        sun (the solution is then exactly the sky's).
+    sun_beam : float or array_like (n,)
+        The beam's irradiance on a plane normal to it just below the
+        surface, ``F0`` (same units as ``e0``; its horizontal irradiance is
+        ``mu0 F0``). The field returned is then the diffuse field of the sky
+        (``e0``) plus that of the sun (all orders of scattering of the beam,
+        azimuthally averaged); the unscattered beam,
+        ``F0 exp(-c* d / mu0)`` with ``c* = LightField.c_star``, is not in
+        it (:meth:`LightField.beam_irradiance`). If ``c*/mu0`` comes within
+        :data:`SUN_RESONANCE_GAP` (relative) of a mode's ``kappa_m`` in a
+        band, that band's ``mu0`` is moved to exactly that distance
+        (``LightField.sun_mu0`` holds the value used).
     """
     a_arr = np.atleast_1d(np.asarray(a, dtype=float))
     nb = a_arr.size
@@ -422,6 +540,14 @@ def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
         raise AquaspecError(f"seabed_albedo={seabed_albedo!r}; accepted: 0 ... 1")
     if surface not in SURFACES:
         raise AquaspecError(f"unknown surface {surface!r}; known: {', '.join(SURFACES)}")
+    if sun_mu0 is not None:
+        mu0 = float(sun_mu0)
+        if not 0.0 < mu0 <= 1.0:
+            raise AquaspecError(f"sun_mu0={sun_mu0!r}; accepted: None (no sun) or a zenith "
+                                "cosine 0 < mu0 <= 1 of the beam under water")
+        beam = _band("sun_beam", sun_beam, nb)
+    elif np.any(np.asarray(sun_beam, dtype=float) != 0):
+        raise AquaspecError("sun_beam needs sun_mu0 (the beam's zenith cosine under water)")
 
     n = int(n_streams)
     x, wg = leggauss(n)
@@ -475,11 +601,89 @@ def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
     else:
         amp_dec = np.linalg.solve(phi_up, l_top[..., None])[..., 0]
         amp_grow = np.zeros_like(amp_dec)
+    sun = {}
+    if sun_mu0 is not None:
+        sun = _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w,
+                              phi, l_top, depth_h, albedo, amp_dec, amp_grow)
+        kappa, phi, amp_dec, amp_grow = (sun.pop(k) for k in ("kappa", "phi", "amp_dec",
+                                                               "amp_grow"))
     return LightField(a=a_arr, b=b_arr, e0=e0_arr, f=f, b_star=b_star, c_star=c_star,
                       chi_star=chi_star, mu=mu, w=w,
                       kappa=kappa, phi=phi, amp_dec=amp_dec, amp_grow=amp_grow,
                       top_radiance=top, window_cos=window, seabed_depth_m=depth_h,
-                      seabed_albedo=albedo, surface=surface)
+                      seabed_albedo=albedo, surface=surface, **sun)
+
+
+def _resonance_free_mu0(mu0, c_star, kappa):
+    """Per band ``mu0``, moved where ``c*/mu0`` is within :data:`SUN_RESONANCE_GAP`
+    (relative) of a ``kappa_m``, to exactly that distance (staying <= 1)."""
+    rate = c_star / mu0                                               # (n,)
+    m = np.argmin(np.abs(kappa - rate[:, None]), axis=1)
+    k_near = kappa[np.arange(kappa.shape[0]), m]
+    close = np.abs(rate - k_near) < SUN_RESONANCE_GAP * rate
+    if not np.any(close):
+        return np.full(c_star.shape, mu0)
+    gap = SUN_RESONANCE_GAP * k_near
+    # Move away on the side where c*/mu0 already is; above kappa_m if mu0 would pass 1.
+    target = np.where(rate >= k_near, k_near + gap, k_near - gap)
+    target = np.where(c_star / target > 1.0, k_near + gap, target)
+    return np.where(close, c_star / target, mu0)
+
+
+def _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w, phi, l_top,
+                    depth_h, albedo, amp_dec, amp_grow):
+    """The sun's particular solution appended as one more decaying mode, and the
+    homogeneous amplitudes corrected for it (see the module docstring)."""
+    nb, n = kappa.shape
+    mu0_b = _resonance_free_mu0(mu0, c_star, kappa)                  # (n,)
+    # Beam source per unit exp(-c* d/mu0): b* F0 pbar*(mu_i, mu0) at the nodes.
+    lmax = chi_star.shape[1] - 1
+    coef = chi_star * (2.0 * np.arange(lmax + 1) + 1.0) * 0.5
+    two_pi_p = np.einsum("bl,lb,li->bi", coef, legendre_table(lmax, mu0_b),
+                         legendre_table(lmax, mu))                    # (n, 2N)
+    rhs = (b_star * beam / (2.0 * np.pi))[:, None] * two_pi_p
+    # mu_i (-r) X_i = -c* X_i + b* sum_j Q_ij X_j + rhs_i with r = c*/mu0, i.e.
+    # (M - r D) X = rhs, M = c* - b* Q, D = diag(mu). The modes are M phi_k =
+    # ev_k D phi_k (ev = +-kappa: decaying, and growing = flipped), and W M, W D
+    # are symmetric (W = diag(w)), so phi_j^T W D phi_k = 0 for j != k and
+    #     X = sum_k phi_k (phi_k^T W rhs) / ((ev_k - r) phi_k^T W D phi_k).
+    # Expanding on the *computed* modes (rather than solving (M - r D) X = rhs)
+    # keeps a near-resonant term exactly along its mode, so that the
+    # homogeneous amplitudes cancel it without the modes' own ~1e-9 residual
+    # being amplified by 1/(kappa_m - r).
+    rate = c_star / mu0_b
+    modes = np.concatenate([phi, np.concatenate([phi[:, n:], phi[:, :n]], axis=1)], axis=2)
+    ev = np.concatenate([kappa, -kappa], axis=1)                     # (n, 2N)
+    norm = np.einsum("i,bik,bik->bk", w * mu, modes, modes)
+    proj = np.einsum("i,bik,bi->bk", w, modes, rhs)
+    x = np.einsum("bik,bk->bi", modes, proj / ((ev - rate[:, None]) * norm))   # (n, 2N)
+    x_up, x_lo = x[:, :n], x[:, n:]
+    phi_up, phi_lo = phi[:, :n], phi[:, n:]
+    # The homogeneous part answers the boundary values the particular one leaves:
+    # top: diffuse looking up = sky's l_top; seabed: Lambertian under the
+    # diffuse E_d and the beam's mu0 F0 exp(-c* H/mu0).
+    if np.isfinite(depth_h):
+        decay = np.exp(-kappa * depth_h)[:, None, :]
+        refl = 2.0 * albedo[:, None, None] * (w[:n] * mu[:n])[None, None, :]
+        top_rows = np.concatenate([phi_up, phi_lo * decay], axis=2)
+        bot_rows = np.concatenate([(phi_lo - refl @ phi_up) * decay, phi_up - refl @ phi_lo],
+                                  axis=2)
+        system_bc = np.concatenate([top_rows, bot_rows], axis=1)
+        at_bed = np.exp(-rate * depth_h)[:, None]
+        bed = at_bed * ((albedo * mu0_b * beam / np.pi)[:, None]
+                        - (x_lo - (refl @ x_up[..., None])[..., 0]))
+        rhs_bc = np.concatenate([l_top - x_up, bed], axis=1)
+        amps = np.linalg.solve(system_bc, rhs_bc[..., None])[..., 0]
+        amp_dec, amp_grow = amps[:, :n], amps[:, n:]
+    else:
+        amp_dec = np.linalg.solve(phi_up, (l_top - x_up)[..., None])[..., 0]
+        amp_grow = np.zeros_like(amp_dec)
+    one = np.ones((nb, 1))
+    return {"kappa": np.concatenate([kappa, rate[:, None]], axis=1),
+            "phi": np.concatenate([phi, x[..., None]], axis=2),
+            "amp_dec": np.concatenate([amp_dec, one], axis=1),
+            "amp_grow": np.concatenate([amp_grow, 0.0 * one], axis=1),
+            "sun_mu0": mu0_b, "sun_beam": beam}
 
 
 # ---- tables for the GPU ------------------------------------------------------
@@ -518,7 +722,7 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
                       n_streams: int = 32, surface: str = "null",
                       forward_cone_deg: float = 0.0, cone_spread: bool = False,
                       spread_scattering: str = "single", ambient_shadow: bool = False,
-                      **phase_params) -> dict:
+                      sun_mu0=None, sun_fraction=None, **phase_params) -> dict:
     """Per-band tables of the light field for the renderer (float32).
 
     Computed once per machine for each set of arguments and kept in
@@ -558,6 +762,20 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         (:mod:`aquaspec.shadow`, integrated in NumPy): ``"radiance_per_e0"``,
         ``"shadow_*"`` (:func:`aquaspec.shadow.shadow_tables`);
         :func:`aquaspec.shading.shade_gbuffer` then subtracts the shadow.
+        With a sun, ``"radiance_per_e0"`` is the diffuse radiance of sky and
+        sun together (the beam's own shadow is the renderer's).
+    sun_mu0, sun_fraction : float, array_like (n,)
+        A direct sun: the zenith cosine of the refracted beam under water
+        (:func:`solve_lightfield`) and, per band, the sun's share
+        ``mu0 F0 / E0`` (0 ... 1) of the total downwelling irradiance just
+        below the surface ``E0 = E_sky + mu0 F0``. Both or neither. Every
+        ``*_per_e0`` table stays per unit *total* ``E0`` and holds the
+        diffuse field of sky and sun (``"sky_radiance_per_e0"`` then only the
+        sky's part, ``(1 - sun_fraction)`` of the sky-only value); the
+        unscattered beam (``sun_fraction E0 / mu0 exp(-c* d/mu0)``, ``c*`` =
+        ``"beam_extinction"``) and its first scattering towards the camera
+        are left to the renderer, so ``ms_log_prefactor`` holds the
+        in-scattering of the diffuse field only.
 
     Returns
     -------
@@ -570,13 +788,22 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
         up just below the surface, seen for ``v_y > window_cos``;
         ``"window_cos"`` (1,); ``"seabed"`` (2,) = (depth m or inf, unused);
         ``"seabed_albedo"`` (n,); ``"depth_m"`` (n_depth,) and ``"cosine"``
-        (n_mu,): the axes; ``"max_depth_m"`` (1,); ``"forward_cone_deg"`` (1,).
+        (n_mu,): the axes; ``"max_depth_m"`` (1,); ``"forward_cone_deg"`` (1,);
+        ``"beam_extinction"`` (n,): the delta-M ``c* = c - f b`` (1/m) that
+        attenuates the sun's beam, ``F(d) = F0 exp(-c* d / mu0)``, consistently
+        with the diffuse field (in every case, with or without a sun);
+        ``"sun_mu0"`` (1,): ``sun_mu0``, NaN without a sun; ``"sun_fraction"``
+        (n,): ``sun_fraction``, zeros without a sun.
     """
+    if sun_fraction is not None:
+        sun_fraction = np.atleast_1d(np.asarray(sun_fraction, dtype=float))
+    if sun_mu0 is not None:
+        sun_mu0 = float(sun_mu0)
     args = dict(phase=phase, seabed_depth_m=seabed_depth_m, seabed_albedo=seabed_albedo,
                 n_depth=n_depth, n_mu=n_mu, max_depth_m=max_depth_m, n_streams=n_streams,
                 surface=surface, forward_cone_deg=forward_cone_deg, cone_spread=cone_spread,
                 spread_scattering=spread_scattering, ambient_shadow=ambient_shadow,
-                **phase_params)
+                sun_mu0=sun_mu0, sun_fraction=sun_fraction, **phase_params)
     key = _tables_key(band_water, args)
     if key is None:
         return _lightfield_tables(band_water, **args)
@@ -610,7 +837,8 @@ def _tables_key(band_water, args: dict) -> str | None:
 
 def _lightfield_tables(band_water, *, phase, seabed_depth_m, seabed_albedo, n_depth, n_mu,
                        max_depth_m, n_streams, surface, forward_cone_deg, cone_spread,
-                       spread_scattering, ambient_shadow, **phase_params) -> dict:
+                       spread_scattering, ambient_shadow, sun_mu0=None, sun_fraction=None,
+                       **phase_params) -> dict:
     """:func:`lightfield_tables` computed."""
     if spread_scattering not in ("single", "multiple"):
         raise AquaspecError(f"spread_scattering={spread_scattering!r}; accepted: 'single' "
@@ -626,9 +854,26 @@ def _lightfield_tables(band_water, *, phase, seabed_depth_m, seabed_albedo, n_de
     for name, val in (("n_depth", n_depth), ("n_mu", n_mu)):
         if not (isinstance(val, (int, np.integer)) and val >= 2):
             raise AquaspecError(f"{name}={val!r}; accepted: an integer >= 2")
-    lf = solve_lightfield(a, b, phase=phase, wavelength_nm=wl, e0=1.0, n_streams=n_streams,
-                          seabed_depth_m=seabed_depth_m, seabed_albedo=seabed_albedo,
-                          surface=surface, **phase_params)
+    if (sun_mu0 is None) != (sun_fraction is None):
+        raise AquaspecError("sun_mu0 and sun_fraction go together: give both (a sun) or "
+                            f"neither; got sun_mu0={sun_mu0!r}, sun_fraction={sun_fraction!r}")
+    if sun_mu0 is None:
+        lf = solve_lightfield(a, b, phase=phase, wavelength_nm=wl, e0=1.0, n_streams=n_streams,
+                              seabed_depth_m=seabed_depth_m, seabed_albedo=seabed_albedo,
+                              surface=surface, **phase_params)
+        share = np.zeros(a.size)
+    else:
+        share = np.broadcast_to(np.asarray(sun_fraction, dtype=float), a.shape).astype(float)
+        if not np.all((share >= 0) & (share <= 1)):
+            raise AquaspecError(f"sun_fraction={sun_fraction!r}; accepted: the sun's share of "
+                                "E0 per band, 0 ... 1")
+        if not 0.0 < float(sun_mu0) <= 1.0:
+            raise AquaspecError(f"sun_mu0={sun_mu0!r}; accepted: 0 < mu0 <= 1")
+        # Per unit total E0: the sky brings 1 - share, the beam mu0 F0 = share.
+        lf = solve_lightfield(a, b, phase=phase, wavelength_nm=wl, e0=1.0 - share,
+                              n_streams=n_streams, seabed_depth_m=seabed_depth_m,
+                              seabed_albedo=seabed_albedo, surface=surface,
+                              sun_mu0=sun_mu0, sun_beam=share / float(sun_mu0), **phase_params)
     d_max = lf.seabed_depth_m if lf.has_seabed else float(max_depth_m)
     if not (np.isfinite(d_max) and d_max > 0):
         raise AquaspecError(f"max_depth_m={max_depth_m!r}; accepted: a finite depth > 0 m")
@@ -686,6 +931,9 @@ def _lightfield_tables(band_water, *, phase, seabed_depth_m, seabed_albedo, n_de
         "depth_m": depth.astype(f32),
         "cosine": cos.astype(f32),
         "max_depth_m": np.array([d_max], f32),
+        "beam_extinction": lf.c_star.astype(f32),
+        "sun_mu0": np.array([np.nan if sun_mu0 is None else float(sun_mu0)], f32),
+        "sun_fraction": share.astype(f32),
     }
 
 
