@@ -36,6 +36,7 @@ from ..sun import (BIAS_TEXELS, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, FROXEL_S
 from .buffers import create_storage_buffer, create_uniform_buffer, upload_buffer
 from .deferred import CAMERA_FIELDS, camera_fields
 from .layout import UniformLayout
+from .materials import UNIFORM_VEC4
 from .shaders import load_wgsl
 
 PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
@@ -71,25 +72,22 @@ class SunPass:
         self.map_size = int(map_size)
         self.phase_size = PHASE_TABLE_SIZE
         self.cols = (-(-self.width // FROXEL_TILE), -(-self.height // FROXEL_TILE))
-        src = load_wgsl("sun.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
-                        params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
-                        tile=FROXEL_TILE, slices=FROXEL_SLICES, phase_size=self.phase_size)
-        module = device.create_shader_module(label="sun.wgsl", code=src)
-        self._pipeline = device.create_compute_pipeline(
-            label="sun", layout="auto", compute={"module": module, "entry_point": "main"})
-        self._build = device.create_compute_pipeline(
-            label="sun froxels", layout="auto",
-            compute={"module": module, "entry_point": "build_froxels"})
+        self._pipelines = {}
+        self._use_pipelines(True)
         self._froxels = create_storage_buffer(
             device, 16 * self.cols[0] * self.cols[1] * (FROXEL_SLICES + 1), label="sun froxels")
         self._ref_phase = create_storage_buffer(device, 4 * self.phase_size,
                                                 label="sun mean phase")
         self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="sun params")
         self._clip = create_uniform_buffer(device, CLIP_LAYOUT, label="sun shadow clip")
-        self._bands = create_storage_buffer(device, 32 * self.n_bands, label="sun bands")
+        self._bands = device.create_buffer(
+            label="sun bands", size=32 * self.n_bands,
+            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
         self._phase = create_storage_buffer(device, 4 * self.n_bands * self.phase_size,
                                             label="sun phase")
-        self._materials = create_storage_buffer(device, 16, label="sun materials")
+        self._materials = device.create_buffer(
+            label="sun materials (uniform)", size=UNIFORM_VEC4 * 16,
+            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
         self._map = device.create_texture(
             label="sun shadow map", size=(self.map_size, self.map_size, 1), format=DEPTH_FORMAT,
             usage=wgpu.TextureUsage.RENDER_ATTACHMENT | wgpu.TextureUsage.TEXTURE_BINDING
@@ -106,10 +104,34 @@ class SunPass:
         self.shadowed = False
         self._inputs = None
 
+    def _use_pipelines(self, materials_in_uniform: bool) -> None:
+        """Compile (once) and select the pipelines for where the materials are."""
+        key = bool(materials_in_uniform)
+        if key not in self._pipelines:
+            binding = ("@group(0) @binding(3) var<uniform> material_bands: "
+                       f"array<vec4<f32>, {UNIFORM_VEC4}>;") if key else \
+                "@group(0) @binding(3) var<storage, read> material_bands: array<f32>;"
+            src = load_wgsl("sun.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
+                            params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
+                            tile=FROXEL_TILE, slices=FROXEL_SLICES, phase_size=self.phase_size,
+                            band_vec4=2 * self.n_bands, material_binding=binding,
+                            material_read="material_bands[k / 4u][k % 4u]" if key
+                            else "material_bands[k]")
+            module = self.device.create_shader_module(label="sun.wgsl", code=src)
+            self._pipelines[key] = (
+                self.device.create_compute_pipeline(
+                    label="sun", layout="auto", compute={"module": module, "entry_point": "main"}),
+                self.device.create_compute_pipeline(
+                    label="sun froxels", layout="auto",
+                    compute={"module": module, "entry_point": "build_froxels"}))
+        self._pipeline, self._build = self._pipelines[key]
+        self._bind_key = None
+
     # ---- per-band inputs --------------------------------------------------------
     def set_inputs(self, sun: SunInputs, *, response_weights, material_bands,
                    sigmoid_centers_t) -> None:
         """Upload the per-band constants, the phase table and the materials."""
+        import wgpu
         n = self.n_bands
         w = np.asarray(response_weights, dtype=float)
         if sun.b.size != n or w.shape != (n, 3):
@@ -128,12 +150,18 @@ class SunPass:
                       reference_phase(sun.log_phase).astype(np.float32))
         mb = np.asarray(material_bands if material_bands is not None else np.zeros((0, n)),
                         np.float32).reshape(-1)
-        if mb.nbytes > self._materials.size or mb.size == 0:
-            self._materials = create_storage_buffer(
-                self.device, mb if mb.size else np.zeros(4, np.float32), label="sun materials")
-            self._bind_key = None
-        else:
+        mb = np.concatenate([mb, np.zeros(-mb.size % 4 or (4 if mb.size == 0 else 0),
+                                          np.float32)])
+        in_uniform = mb.size <= 4 * UNIFORM_VEC4
+        if in_uniform:
+            if self._materials.usage & wgpu.BufferUsage.STORAGE:
+                self._materials = self.device.create_buffer(
+                    label="sun materials (uniform)", size=UNIFORM_VEC4 * 16,
+                    usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
             upload_buffer(self.device, self._materials, mb)
+        else:
+            self._materials = create_storage_buffer(self.device, mb, label="sun materials")
+        self._use_pipelines(in_uniform)
         self._inputs = sun
 
     # ---- the shadow map ---------------------------------------------------------

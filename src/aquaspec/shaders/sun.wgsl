@@ -24,7 +24,9 @@
 // `log_phase[i * PHASE_SIZE + k]`: ln p of band i at theta_k = pi (k / (PHASE_SIZE - 1))^2;
 // `ref_phase[k]`: ln of the bands' mean p on the same grid.
 // `froxels[column * (SLICES + 1) + k]`: (cumulative RGB at t_k, the column's L).
-// `material_bands[m * N_BANDS + i]`: band reflectance of material m.
+// Band reflectance of material m, band i at flat index m * N_BANDS + i: in a
+// uniform array of vec4 when it fits in 64 KiB (MATERIALS_IN_UNIFORM; storage
+// reads per band were most of the pass's time on lavapipe), else in storage.
 
 {{ params_struct }}
 
@@ -38,8 +40,8 @@ const PI: f32 = 3.14159265358979;
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
-@group(0) @binding(3) var<storage, read> material_bands: array<f32>;
-@group(0) @binding(4) var<storage, read> bands: array<vec4<f32>>;
+{{ material_binding }}
+@group(0) @binding(4) var<uniform> bands: array<vec4<f32>, {{ band_vec4 }}>;
 @group(0) @binding(5) var<storage, read> log_phase: array<f32>;
 @group(0) @binding(6) var shadow_map: texture_depth_2d;
 @group(0) @binding(7) var<storage, read_write> rgb_out: array<vec4<f32>>;
@@ -100,7 +102,8 @@ fn reflectance(material: u32, sig: vec3<f32>, i: u32, t: f32) -> f32 {
         let x = clamp((sig.x * t + sig.y) * t + sig.z, -1e4, 1e4);
         return 0.5 + 0.5 * x * inverseSqrt(1.0 + x * x);
     }
-    return material_bands[material * N_BANDS + i];
+    let k = material * N_BANDS + i;
+    return {{ material_read }};
 }
 
 // Camera.ray_directions through pixel coordinates (px, py).
@@ -152,6 +155,17 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
 
     let at = phase_at(dot(v, prm.to_sun));
     let p_ref = ref_phase_value(at);
+    // Per band: the column's constant factor b beam0 (p / p_ref) exp(-c_sun d_o / mu0)
+    // and the exponent's rate k along the column.
+    var start: array<f32, N_BANDS>;
+    var rate: array<f32, N_BANDS>;
+    for (var i = 0u; i < N_BANDS; i = i + 1u) {
+        let q0 = bands[2u * i];
+        let row = i * PHASE_SIZE + at.k0;
+        let p = exp(mix(log_phase[row], log_phase[row + 1u], at.f));
+        start[i] = q0.z * p / p_ref * exp(-q0.y * d_o);
+        rate[i] = q0.x - q0.y * v.y;
+    }
     let base = column * (SLICES + 1u);
     froxels[base] = vec4<f32>(0.0, 0.0, 0.0, length);
     var acc = vec3<f32>(0.0);
@@ -162,14 +176,9 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
         let vis = visibility(prm.position + v * (0.5 * (ta + tb)));
         if (vis > 0.0) {
             for (var i = 0u; i < N_BANDS; i = i + 1u) {
-                let q0 = bands[2u * i];
-                let q1 = bands[2u * i + 1u];
-                let kk = q0.x - q0.y * v.y;
-                let row = i * PHASE_SIZE + at.k0;
-                let p = exp(mix(log_phase[row], log_phase[row + 1u], at.f));
-                // start exp(-c_sun d_o / mu0) and the slice's exp(-k t_a) in one exponent
-                let seg = exp(-q0.y * d_o - kk * ta) * dt * exp_ratio(kk * dt);
-                acc = acc + (vis * q0.z * p / p_ref * seg) * q1.xyz;
+                let kk = rate[i];
+                let seg = exp(-kk * ta) * dt * exp_ratio(kk * dt);
+                acc = acc + (vis * start[i] * seg) * bands[2u * i + 1u].xyz;
             }
         }
         froxels[base + k] = vec4<f32>(acc, length);
