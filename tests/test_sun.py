@@ -351,3 +351,11 @@ def test_layers_carry_the_sun(backend, request):
     # Sun-lit surfaces: brighter J; open water: the beam's scattering in B.
     assert np.mean(lay["surface"][hit][:, 1] > sky["surface"][hit][:, 1] * 1.05) > 0.5
     assert np.all(lay["backscatter"][~hit][:, 1] > sky["backscatter"][~hit][:, 1])
+
+
+def test_sidecar_names_the_sun_rendering():
+    res = _render("numpy", ms_model="seeds")
+    assert res.params["sun_rendering"]["shadow_map_texels"] == 256
+    assert "froxels" in res.params["sun_rendering"]["single_scattering"]
+    overcast = _render("numpy", ms_model="seeds", light="overcast")
+    assert "sun_rendering" not in overcast.params

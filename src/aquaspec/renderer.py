@@ -621,6 +621,14 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         "display": info,
         "render_seconds": time.perf_counter() - t0,
     }
+    if light_obj.sun is not None:
+        from .sun import DEFAULT_MAP_RADIUS_M, FROXEL_SLICES, FROXEL_TILE
+        params["sun_rendering"] = {
+            "shadow_map_texels": map_size if rgbd is None else None,
+            "shadow_radius_m": DEFAULT_MAP_RADIUS_M if rgbd is None else None,
+            "single_scattering": f"froxels of {FROXEL_TILE}x{FROXEL_TILE} pixels, "
+                                 f"{FROXEL_SLICES} slices",
+            "beam_extinction": "c* (delta-M) with the light field, c with the seeds' model"}
     if layer_set is not None:
         from .layers import LAYER_NAMES
         params["layers"] = {"names": list(LAYER_NAMES), "definitions": "aquaspec.layers: "
