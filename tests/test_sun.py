@@ -359,3 +359,34 @@ def test_sidecar_names_the_sun_rendering():
     assert "froxels" in res.params["sun_rendering"]["single_scattering"]
     overcast = _render("numpy", ms_model="seeds", light="overcast")
     assert "sun_rendering" not in overcast.params
+
+
+def test_gpu_shadow_map_with_several_mesh_modes(device):
+    """Meshes of different vertex layouts (a material, vertex colours) draw
+    into one shadow map through pipelines that share their bind group."""
+    from aquaspec.gpu.raster import RasterPass
+    from aquaspec.gpu.sun_pass import SunPass
+    scene = _plate_scene()
+    v = np.array([[2.0, -2.0, -6.0], [5.0, -2.0, -6.0], [5.0, -2.0, -2.0], [2.0, -2.0, -2.0]])
+    scene.add(Mesh.flat(v, np.array([[0, 1, 2], [0, 2, 3]]), name="coloured",
+                        vertex_rgb=np.full((4, 3), 0.5)))
+    cam = Camera.look_at([0.0, -3.0, 0.0], [0.0, -3.0, -1.0], width=32, height=18)
+    to_sun = S.refracted_to_sun(50.0, 120.0)
+    sp = SunPass(device, 32, 18, 3, map_size=256)
+    sp.set_inputs(S.SunInputs(beam0=np.ones(3), c_sun=np.ones(3), c_view=np.ones(3),
+                              b=np.ones(3), to_sun=to_sun,
+                              log_phase=np.zeros((3, S.PHASE_TABLE_SIZE))),
+                  response_weights=np.ones((3, 3)), material_bands=np.ones((1, 3)),
+                  sigmoid_centers_t=np.zeros(3))
+    enc = device.create_command_encoder()
+    spec = sp.encode_shadow_map(enc, RasterPass(device), scene, cam)
+    device.queue.submit([enc.finish()])
+    gpu, ref = sp.read_shadow_map(), S.shadow_map_numpy(scene, spec)
+    both = np.isfinite(gpu) & np.isfinite(ref)
+    assert np.mean(np.isfinite(gpu) != np.isfinite(ref)) < 2e-3
+    assert np.mean(np.abs(gpu[both] - ref[both]) < 1e-3) > 0.995
+    # The coloured plate is in both maps (its height there, not the seabed's).
+    x, y, h = spec.texel_coords(np.array([3.5, -2.0, -4.0]))
+    i, j = int(round(y)), int(round(x))
+    assert np.isclose(gpu[i, j], ref[i, j], atol=1e-3)
+    assert abs(gpu[i, j] - h) < 2 * spec.texel

@@ -40,7 +40,7 @@ from .materials import UNIFORM_VEC4
 from .shaders import load_wgsl
 
 PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
-    ("to_sun", "vec3<f32>"), ("mu0", "f32"),
+    ("to_sun", "vec3<f32>"),
     ("e1", "vec3<f32>"), ("u0", "f32"),
     ("e2", "vec3<f32>"), ("v0", "f32"),
     ("width", "u32"), ("height", "u32"), ("shadowed", "u32"), ("map_size", "u32"),
@@ -97,7 +97,16 @@ class SunPass:
         self._shadow_module = device.create_shader_module(label="sun_shadow.wgsl",
                                                           code=shadow_src)
         self._shadow_pipelines = {}
-        self._clip_group = None
+        # One layout for every vertex stride's pipeline (an "auto" layout is
+        # its own pipeline's only: a scene with several mesh modes needs one
+        # bind group that all of them accept).
+        clip_layout = device.create_bind_group_layout(entries=[
+            {"binding": 0, "visibility": wgpu.ShaderStage.VERTEX,
+             "buffer": {"type": wgpu.BufferBindingType.uniform}}])
+        self._shadow_layout = device.create_pipeline_layout(bind_group_layouts=[clip_layout])
+        self._clip_group = device.create_bind_group(layout=clip_layout, entries=[
+            {"binding": 0, "resource": {"buffer": self._clip, "offset": 0,
+                                        "size": CLIP_LAYOUT.size}}])
         self._bind_key = None
         self._group = None
         self.spec: ShadowMapSpec | None = None
@@ -169,7 +178,7 @@ class SunPass:
         import wgpu
         if stride not in self._shadow_pipelines:
             self._shadow_pipelines[stride] = self.device.create_render_pipeline(
-                label="sun shadow map", layout="auto",
+                label="sun shadow map", layout=self._shadow_layout,
                 vertex={"module": self._shadow_module, "entry_point": "vs_main", "buffers": [{
                     "array_stride": stride, "step_mode": wgpu.VertexStepMode.vertex,
                     "attributes": [{"format": wgpu.VertexFormat.float32x3, "offset": 0,
@@ -204,11 +213,6 @@ class SunPass:
                                       "depth_store_op": wgpu.StoreOp.store})
         for d in raster.draws(scene):
             pipe = self._shadow_pipeline(VERTEX_STRIDE[d.mode])
-            if self._clip_group is None:
-                self._clip_group = self.device.create_bind_group(
-                    layout=pipe.get_bind_group_layout(0),
-                    entries=[{"binding": 0, "resource": {"buffer": self._clip, "offset": 0,
-                                                         "size": CLIP_LAYOUT.size}}])
             rp.set_pipeline(pipe)
             rp.set_bind_group(0, self._clip_group)
             rp.set_vertex_buffer(0, d.vertex)
@@ -237,7 +241,7 @@ class SunPass:
             e1=(1.0, 0.0, 0.0), u0=0.0, e2=(0.0, 0.0, 1.0), v0=0.0, map_size=self.map_size,
             texel=1.0, h_min=0.0, h_max=1.0, bias=0.0, normal_offset=0.0)
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
-            **camera_fields(camera), to_sun=self._inputs.to_sun, mu0=self._inputs.mu0,
+            **camera_fields(camera), to_sun=self._inputs.to_sun,
             width=self.width, height=self.height, shadowed=int(self.shadowed),
             neg_log_tail=-np.log(TAIL), cols_x=self.cols[0], cols_y=self.cols[1], **geo))
         key = (id(gbuffer_textures["surface"]), id(gbuffer_textures["sigmoid"]),

@@ -28,6 +28,8 @@
 // uniform array of vec4 when it fits in 64 KiB (MATERIALS_IN_UNIFORM; storage
 // reads per band were most of the pass's time on lavapipe), else in storage.
 
+#include "common.wgsl"
+
 {{ params_struct }}
 
 const N_BANDS: u32 = {{ n_bands }}u;
@@ -35,7 +37,6 @@ const TILE: u32 = {{ tile }}u;
 const SLICES: u32 = {{ slices }}u;
 const PHASE_SIZE: u32 = {{ phase_size }}u;
 const PER_PIXEL: u32 = 0xffffffffu;
-const PI: f32 = 3.14159265358979;
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
@@ -99,8 +100,7 @@ fn exp_ratio(y: f32) -> f32 {
 
 fn reflectance(material: u32, sig: vec3<f32>, i: u32, t: f32) -> f32 {
     if (material == PER_PIXEL) {
-        let x = clamp((sig.x * t + sig.y) * t + sig.z, -1e4, 1e4);
-        return 0.5 + 0.5 * x * inverseSqrt(1.0 + x * x);
+        return sigmoid_reflectance(vec4<f32>(sig.x), vec4<f32>(sig.y), vec4<f32>(sig.z), t).x;
     }
     let k = material * N_BANDS + i;
     return {{ material_read }};
@@ -140,7 +140,7 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
     let half = 0.5 * f32(TILE);
     let v = ray_through(f32(TILE * cx) + half, f32(TILE * cy) + half);
     let d_o = -prm.position.y;
-    let inf = bitcast<f32>(0x7f800000u);
+    let inf = f32_inf();
     // The column's length: the water surface (up rays) or where the slowest
     // band's integrand has fallen below the tail (aquaspec.sun.march_length).
     var k_min = inf;
@@ -209,7 +209,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let s_raw = bitcast<f32>(word.x);
     let v = ray_through(f32(col) + 0.5, f32(row) + 0.5);
     let d_o = -prm.position.y;
-    let inf = bitcast<f32>(0x7f800000u);
+    let inf = f32_inf();
     let to_surface = select(inf, d_o / v.y, v.y > 0.0);
     let hit = s_raw >= 0.0 && s_raw <= to_surface;
     let s = select(inf, s_raw, hit);
