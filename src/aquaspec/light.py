@@ -62,6 +62,24 @@ class SurfaceLight:
             return np.zeros(bands.n)
         return self.sun.mu0 * self.sun.beam_on(bands)
 
+    def sun_horizontal_values(self) -> np.ndarray:
+        """The sun's share of ``E0``, ``mu0 * beam_normal``, on :attr:`wavelength_nm`
+        (0 without a sun, and outside the sun's spectrum)."""
+        wl = np.asarray(self.wavelength_nm, dtype=float)
+        if self.sun is None:
+            return np.zeros_like(wl)
+        sun = self.sun
+        if sun.wavelength_nm.shape == wl.shape and np.array_equal(sun.wavelength_nm, wl):
+            beam = sun.beam_normal
+        else:
+            beam = np.interp(wl, sun.wavelength_nm, sun.beam_normal, left=0.0, right=0.0)
+        return sun.mu0 * beam
+
+    def sky_values(self) -> np.ndarray:
+        """The diffuse sky's share of ``E0`` on :attr:`wavelength_nm` (clipped at 0)."""
+        return np.maximum(np.asarray(self.values, dtype=float) - self.sun_horizontal_values(),
+                          0.0)
+
     def sky_on(self, bands: Bands) -> np.ndarray:
         """The diffuse sky's share of ``E0`` per band."""
         return np.maximum(self.on_bands(bands) - self.sun_horizontal_on(bands), 0.0)

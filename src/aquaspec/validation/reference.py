@@ -259,26 +259,12 @@ def _check_range(water, light, bands):
                                 f"samples {bands.lo_nm:g}-{bands.hi_nm:g} nm")
 
 
-def sun_horizontal(light: SurfaceLight) -> np.ndarray:
-    """The sun's horizontal irradiance just below the surface, ``mu0 * beam_normal``,
-    on the light's own wavelength grid (0 without a sun, and outside the
-    sun's spectrum)."""
-    wl = np.asarray(light.wavelength_nm, dtype=float)
-    if light.sun is None:
-        return np.zeros_like(wl)
-    sun = light.sun
-    if sun.wavelength_nm.shape == wl.shape and np.array_equal(sun.wavelength_nm, wl):
-        beam = sun.beam_normal
-    else:
-        beam = np.interp(wl, sun.wavelength_nm, sun.beam_normal, left=0.0, right=0.0)
-    return sun.mu0 * beam
-
-
 def sky_irradiance(light: SurfaceLight) -> np.ndarray:
     """The diffuse sky's downwelling irradiance just below the surface, on the
-    light's wavelength grid: ``E0`` minus the sun's share, clipped at 0
-    (without a sun, ``E0``). The reference's sky radiance is this over pi."""
-    return np.maximum(np.asarray(light.values, dtype=float) - sun_horizontal(light), 0.0)
+    light's wavelength grid (:meth:`aquaspec.light.SurfaceLight.sky_values`:
+    ``E0`` minus the sun's share, clipped at 0). The reference's sky radiance
+    is this over pi."""
+    return light.sky_values()
 
 
 def sun_emitter(light: SurfaceLight) -> dict | None:
