@@ -587,6 +587,13 @@ def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
     top, inside, window = _top_radiance(e0_arr, mu_up, w_up, surface, n_water)
     l_top = top[:, None] * inside
     phi_up, phi_lo = phi[:, :n], phi[:, n:]
+    # The sun's particular solution X exp(-c* d/mu0) leaves the homogeneous
+    # part to answer what it does not meet at the boundaries.
+    top_rhs, bed_rhs, sun = l_top, None, {}
+    if sun_mu0 is not None:
+        x, mu0_b, rate = _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w,
+                                         phi)
+        top_rhs = l_top - x[:, :n]
     if np.isfinite(depth_h):
         decay = np.exp(-kappa * depth_h)[:, None, :]
         refl = 2.0 * albedo[:, None, None] * (w_up * mu_up)[None, None, :]
@@ -595,18 +602,27 @@ def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
         bot_rows = np.concatenate([(phi_lo - refl @ phi_up) * decay, phi_up - refl @ phi_lo],
                                   axis=2)
         system = np.concatenate([top_rows, bot_rows], axis=1)
-        rhs = np.concatenate([l_top, np.zeros_like(l_top)], axis=1)
+        if sun_mu0 is None:
+            bed_rhs = np.zeros_like(l_top)
+        else:
+            # Lambertian under the diffuse E_d and the beam's mu0 F0 exp(-c* H/mu0).
+            bed_rhs = np.exp(-rate * depth_h)[:, None] * (
+                (albedo * mu0_b * beam / np.pi)[:, None]
+                - (x[:, n:] - (refl @ x[:, :n, None])[..., 0]))
+        rhs = np.concatenate([top_rhs, bed_rhs], axis=1)
         amps = np.linalg.solve(system, rhs[..., None])[..., 0]
         amp_dec, amp_grow = amps[:, :n], amps[:, n:]
     else:
-        amp_dec = np.linalg.solve(phi_up, l_top[..., None])[..., 0]
+        amp_dec = np.linalg.solve(phi_up, top_rhs[..., None])[..., 0]
         amp_grow = np.zeros_like(amp_dec)
-    sun = {}
     if sun_mu0 is not None:
-        sun = _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w,
-                              phi, l_top, depth_h, albedo, amp_dec, amp_grow)
-        kappa, phi, amp_dec, amp_grow = (sun.pop(k) for k in ("kappa", "phi", "amp_dec",
-                                                               "amp_grow"))
+        # X appended as one more decaying mode (kappa = c*/mu0, amplitude 1).
+        one = np.ones((nb, 1))
+        kappa = np.concatenate([kappa, rate[:, None]], axis=1)
+        phi = np.concatenate([phi, x[..., None]], axis=2)
+        amp_dec = np.concatenate([amp_dec, one], axis=1)
+        amp_grow = np.concatenate([amp_grow, 0.0 * one], axis=1)
+        sun = {"sun_mu0": mu0_b, "sun_beam": beam}
     return LightField(a=a_arr, b=b_arr, e0=e0_arr, f=f, b_star=b_star, c_star=c_star,
                       chi_star=chi_star, mu=mu, w=w,
                       kappa=kappa, phi=phi, amp_dec=amp_dec, amp_grow=amp_grow,
@@ -630,11 +646,11 @@ def _resonance_free_mu0(mu0, c_star, kappa):
     return np.where(close, c_star / target, mu0)
 
 
-def _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w, phi, l_top,
-                    depth_h, albedo, amp_dec, amp_grow):
-    """The sun's particular solution appended as one more decaying mode, and the
-    homogeneous amplitudes corrected for it (see the module docstring)."""
-    nb, n = kappa.shape
+def _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w, phi):
+    """The sun's particular solution at the nodes, ``X`` (n_bands, 2N), per unit
+    ``exp(-c* d / mu0)``; also the ``mu0`` used per band (moved off
+    resonances) and the rate ``c*/mu0`` (see the module docstring)."""
+    n = kappa.shape[1]
     mu0_b = _resonance_free_mu0(mu0, c_star, kappa)                  # (n,)
     # Beam source per unit exp(-c* d/mu0): b* F0 pbar*(mu_i, mu0) at the nodes.
     lmax = chi_star.shape[1] - 1
@@ -657,33 +673,7 @@ def _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w, phi, l_to
     norm = np.einsum("i,bik,bik->bk", w * mu, modes, modes)
     proj = np.einsum("i,bik,bi->bk", w, modes, rhs)
     x = np.einsum("bik,bk->bi", modes, proj / ((ev - rate[:, None]) * norm))   # (n, 2N)
-    x_up, x_lo = x[:, :n], x[:, n:]
-    phi_up, phi_lo = phi[:, :n], phi[:, n:]
-    # The homogeneous part answers the boundary values the particular one leaves:
-    # top: diffuse looking up = sky's l_top; seabed: Lambertian under the
-    # diffuse E_d and the beam's mu0 F0 exp(-c* H/mu0).
-    if np.isfinite(depth_h):
-        decay = np.exp(-kappa * depth_h)[:, None, :]
-        refl = 2.0 * albedo[:, None, None] * (w[:n] * mu[:n])[None, None, :]
-        top_rows = np.concatenate([phi_up, phi_lo * decay], axis=2)
-        bot_rows = np.concatenate([(phi_lo - refl @ phi_up) * decay, phi_up - refl @ phi_lo],
-                                  axis=2)
-        system_bc = np.concatenate([top_rows, bot_rows], axis=1)
-        at_bed = np.exp(-rate * depth_h)[:, None]
-        bed = at_bed * ((albedo * mu0_b * beam / np.pi)[:, None]
-                        - (x_lo - (refl @ x_up[..., None])[..., 0]))
-        rhs_bc = np.concatenate([l_top - x_up, bed], axis=1)
-        amps = np.linalg.solve(system_bc, rhs_bc[..., None])[..., 0]
-        amp_dec, amp_grow = amps[:, :n], amps[:, n:]
-    else:
-        amp_dec = np.linalg.solve(phi_up, (l_top - x_up)[..., None])[..., 0]
-        amp_grow = np.zeros_like(amp_dec)
-    one = np.ones((nb, 1))
-    return {"kappa": np.concatenate([kappa, rate[:, None]], axis=1),
-            "phi": np.concatenate([phi, x[..., None]], axis=2),
-            "amp_dec": np.concatenate([amp_dec, one], axis=1),
-            "amp_grow": np.concatenate([amp_grow, 0.0 * one], axis=1),
-            "sun_mu0": mu0_b, "sun_beam": beam}
+    return x, mu0_b, rate
 
 
 # ---- tables for the GPU ------------------------------------------------------
