@@ -100,8 +100,8 @@ def air_to_sun(elevation_deg, azimuth_deg) -> np.ndarray:
 def refracted_to_sun(elevation_deg, azimuth_deg, n_water: float = model.N_WATER) -> np.ndarray:
     """Unit vector towards the sun under a flat surface (Snell)."""
     air = air_to_sun(elevation_deg, azimuth_deg)
-    sin_w = np.hypot(air[0], air[2]) / n_water
-    h = np.hypot(air[0], air[2])
+    h = np.hypot(air[0], air[2])                 # sine of the zenith angle in air
+    sin_w = h / n_water
     horiz = air[[0, 2]] / h if h > 0 else np.zeros(2)
     mu0 = np.sqrt(1.0 - sin_w ** 2)
     return np.array([sin_w * horiz[0], mu0, sin_w * horiz[1]])
