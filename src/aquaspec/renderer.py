@@ -65,10 +65,16 @@ class SpectralSetup:
     #: The light field's lower boundary (:class:`aquaspec.lightfield.Seabed`);
     #: None: deep water. The seeds' model has none.
     seabed: object = None
+    #: A wind-roughened surface (:class:`aquaspec.caustics.Waves`) focusing the
+    #: sun's beam into caustics; None: a flat surface. Needs a sun.
+    waves: object = None
 
     def __post_init__(self):
         object.__setattr__(self, "cone_spread",
                            model.cone_spread_for(self.ms_model, self.cone_spread))
+        if self.waves is not None and self.light.sun is None:
+            raise AquaspecError("waves focus the sun's beam into caustics: they need a light "
+                                "with a sun (light 'sun-sky')")
         if self.ambient_shadow and self.ms_model != "lightfield":
             raise AquaspecError(f"ambient_shadow is part of the light-field model; ms_model="
                                 f"{self.ms_model!r}; accepted: 'lightfield'")
@@ -132,11 +138,16 @@ class SpectralSetup:
                 from .lightfield import _beam_extinction
                 c_sun = np.asarray(tables["beam_extinction"], dtype=float)
                 c_view = _beam_extinction(tables, a, b)
+            caustics = None
+            if self.waves is not None:
+                from .caustics import cached_caustic_map
+                caustics = cached_caustic_map(self.waves, sun.elevation_deg, sun.azimuth_deg,
+                                              n_water=sun.n_water)
             cached = SunInputs(beam0=sun.beam_on(self.bands), c_sun=c_sun, c_view=c_view, b=b,
                                log_phase=phase_table(self.phase, b=b,
                                                      wavelength_nm=self.bands.centers_nm,
                                                      **dict(self.phase_params)),
-                               to_sun=sun.to_sun)
+                               to_sun=sun.to_sun, caustics=caustics)
             object.__setattr__(self, "_sun", cached)
         return cached
 
@@ -163,7 +174,9 @@ class SpectralSetup:
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),
                 "light": self.light.describe(), "bands": self.bands.describe(),
                 "ms_model": self.ms_model, **model_params,
-                "sensor_outside_range": self.outside}
+                "sensor_outside_range": self.outside,
+                **({} if self.waves is None else {"caustics": self.sun_inputs().caustics
+                                                  .describe()})}
 
 
 class Renderer:
@@ -365,11 +378,24 @@ def _scene_for(mesh, depth_m, width, height, albedo):
     return scene, scene.camera
 
 
+def _waves(waves):
+    """``render(waves=)``: None, a :class:`aquaspec.caustics.Waves` or a wind speed."""
+    if waves is None:
+        return None
+    from .caustics import Waves
+    if isinstance(waves, Waves):
+        return waves
+    if isinstance(waves, (int, float)) and not isinstance(waves, bool):
+        return Waves(float(waves))
+    raise AquaspecError(f"waves={waves!r}; accepted: None, a wind speed in m/s or an "
+                        "aquaspec.caustics.Waves")
+
+
 def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            sensor="human", camspec=None, bands: int = 16, wavelength_range=(400.0, 700.0),
            size=(1280, 720), scene=None, camera: Camera | None = None, mesh=None, albedo=None,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
-           sun_azimuth_deg=None, sun_shadow_map: int | None = None,
+           sun_azimuth_deg=None, sun_shadow_map: int | None = None, waves=None,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
@@ -413,6 +439,10 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         :data:`aquaspec.sun.DEFAULT_MAP_RADIUS_M` of the camera. RGB-D
         images cast no sun shadows (they have no geometry behind the
         visible surfaces).
+    waves : aquaspec.caustics.Waves or float, optional
+        A wind sea on the surface (a wind speed in m/s stands for
+        ``Waves(wind_speed)``): the sun's beam is focused into caustics on the
+        surfaces and in the water (:mod:`aquaspec.caustics`). Needs a sun.
     ambient : str
         Ambient irradiance model of the seeds' model
         (:data:`aquaspec.model.AMBIENT_MODELS`).
@@ -482,7 +512,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     setup = SpectralSetup(water_obj, sensor_obj, light_obj, Bands(bands, *wavelength_range),
                           ambient, outside, check_ms_model(ms_model), phase,
                           forward_cone_deg=forward_cone_deg, cone_spread=cone_spread,
-                          spread_scattering=spread_scattering, ambient_shadow=ambient_shadow)
+                          spread_scattering=spread_scattering, ambient_shadow=ambient_shadow,
+                          waves=_waves(waves))
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
 
@@ -588,11 +619,15 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         sun_vis = None
         if light_obj.sun is not None:
             from .sun import surface_visibility
+            caustics = setup.sun_inputs().caustics
             if backend == "gpu":
-                sun_vis = (surface_visibility(gbuffer, r.sun.read_shadow_map(), r.sun.spec)
-                           if r.sun is not None and r.sun.shadowed else None)
-            elif sun_shadow is not None:
-                sun_vis = surface_visibility(gbuffer, *sun_shadow)
+                shadowed = r.sun is not None and r.sun.shadowed
+                sun_vis = surface_visibility(
+                    gbuffer, r.sun.read_shadow_map() if shadowed else None,
+                    r.sun.spec if shadowed else None, caustics=caustics)
+            else:
+                sun_vis = surface_visibility(gbuffer, *(sun_shadow or (None, None)),
+                                             caustics=caustics)
         layer_set = image_layers(linear, back, gbuffer, setup.medium(gbuffer.materials),
                                  setup.lightfield_tables(), sun=setup.sun_inputs(),
                                  sun_visibility=sun_vis)

@@ -498,7 +498,8 @@ class SunInputs:
     ``beam0`` (n,): normal irradiance just below the surface; ``c_sun`` (n,)
     the beam's extinction; ``c_view`` (n,) the extinction on the way to the
     camera; ``b`` (n,); ``log_phase`` (n, K): :func:`phase_table`;
-    ``to_sun`` (3,); ``n_steps``: steps of the march.
+    ``to_sun`` (3,); ``n_steps``: steps of the march; ``caustics``: a
+    :class:`aquaspec.caustics.CausticMap` modulating the beam (None: a flat surface).
     """
 
     beam0: np.ndarray
@@ -508,6 +509,7 @@ class SunInputs:
     log_phase: np.ndarray
     to_sun: np.ndarray
     n_steps: int = DEFAULT_STEPS
+    caustics: object = None
 
     @property
     def mu0(self) -> float:
@@ -517,6 +519,35 @@ class SunInputs:
 #: Froxels: columns of ``FROXEL_TILE`` x ``FROXEL_TILE`` pixels, ``FROXEL_SLICES`` slices deep.
 FROXEL_TILE = 8
 FROXEL_SLICES = 64
+#: Caustic reads per froxel slice, spread evenly along it.
+CAUSTIC_SUBSAMPLES = 4
+
+
+def caustic_foot_speed(v, to_sun) -> np.ndarray:
+    """How fast a ray ``x(t) = o + t v`` (..., 3) moves in caustic foot
+    coordinates (:func:`aquaspec.caustics.foot`), m per m along the ray."""
+    v = np.asarray(v, dtype=float)
+    s = np.asarray(to_sun, dtype=float)
+    dx = v[..., 0] - v[..., 1] / s[1] * s[0]
+    dz = v[..., 2] - v[..., 1] / s[1] * s[2]
+    return np.hypot(dx, dz)
+
+
+def froxel_caustics(camera, caustics, dirs, t_a, t_b, *, tile: int = FROXEL_TILE,
+                    n_sub: int = CAUSTIC_SUBSAMPLES) -> np.ndarray:
+    """The mean caustic factor over each froxel slice [t_a, t_b] of the rays
+    ``dirs`` (..., 3): :data:`CAUSTIC_SUBSAMPLES` reads at the middles of equal
+    parts, each averaged over the larger of the column's width
+    (``tile t / fx``) and its part's length in foot coordinates."""
+    from . import caustics as cst
+    speed = caustic_foot_speed(dirs, caustics.to_sun)[..., None]
+    dt = t_b - t_a
+    out = np.zeros(np.shape(t_a))
+    for j in range(n_sub):
+        t = t_a + (j + 0.5) / n_sub * dt
+        fp = np.maximum(tile * t / camera.fx, speed * dt / n_sub)
+        out += cst.sample(caustics, camera.position + dirs[..., None, :] * t[..., None], fp)
+    return out / n_sub
 
 
 def column_directions(camera, tile: int = FROXEL_TILE) -> np.ndarray:
@@ -571,6 +602,8 @@ def froxel_grid(camera, sun: SunInputs, visibility=None, *, tile: int = FROXEL_T
         vis = np.ones(t_a.shape)
     else:
         vis = visibility(camera.position + dirs[..., None, :] * (0.5 * (t_a + t_b))[..., None])
+    if sun.caustics is not None:
+        vis = vis * froxel_caustics(camera, sun.caustics, dirs, t_a, t_b, tile=tile)
     k = np.asarray(sun.c_view) - np.asarray(sun.c_sun) * v_y[..., None] / mu0   # (ch, cw, n)
     kk = k[..., None, :]
     x = kk * dt[..., None]
@@ -666,6 +699,14 @@ def sun_radiance(gbuffer, sun: SunInputs, *, rho_of_hits, height_map=None,
         return map_visibility(height_map, spec, points) if shadowed \
             else np.ones(np.shape(points)[:-1])
 
+    def march_light(points, t):
+        # The march's reference reads the caustics at each step's own pixel footprint.
+        out = vis_points(points)
+        if sun.caustics is not None:
+            from . import caustics as cst
+            out = out * cst.sample(sun.caustics, points, np.abs(t) / cam.fx)
+        return out
+
     if method == "froxel":
         grid = froxel_grid(cam, sun, vis_points, tail=tail)
         out = froxel_lookup(grid, cam, s) * _ref_phase_at(sun.log_phase,
@@ -681,8 +722,8 @@ def sun_radiance(gbuffer, sun: SunInputs, *, rho_of_hits, height_map=None,
                 b=sun.b, phase_value=phase[sel], beam0=sun.beam0, c_sun=sun.c_sun,
                 c_view=sun.c_view, depth_o=np.full(sel.sum(), d_o), v_y=v_y[sel], s=s[sel],
                 mu0=mu0, n_steps=sun.n_steps, tail=tail,
-                visibility=lambda t, sel=sel: vis_points(
-                    cam.position + dirs[sel][:, None, :] * t[..., None]))
+                visibility=lambda t, sel=sel: march_light(
+                    cam.position + dirs[sel][:, None, :] * t[..., None], t))
     if np.any(hit):
         pos = cam.position + dirs[hit] * s[hit, None]
         normal = gbuffer.normal[hit].astype(float)
@@ -690,21 +731,36 @@ def sun_radiance(gbuffer, sun: SunInputs, *, rho_of_hits, height_map=None,
         if shadowed:
             vis = map_visibility(height_map, spec,
                                  pos + normal * (NORMAL_OFFSET_TEXELS * spec.texel))
+        vis = vis * surface_caustics(sun.caustics, cam, pos, s[hit])
         e = surface_irradiance(sun.beam0, sun.c_sun, -pos[:, 1], normal, sun.to_sun, vis)
         out[hit] += rho_of_hits(hit) / np.pi * e * np.exp(-sun.c_view * s[hit, None])
     return out
 
 
-def surface_visibility(gbuffer, height_map=None, spec: ShadowMapSpec | None = None):
-    """The share of the beam each visible surface gets, (H, W) (1 without a map;
-    looked up as :func:`sun_radiance` does, off the surface along its normal)."""
+def surface_caustics(caustics, camera, pos, s):
+    """The caustic factor at surface points ``pos`` (P, 3) seen at distances
+    ``s`` (P,), each averaged over its pixel's footprint ``s / fx`` (1 without caustics)."""
+    if caustics is None:
+        return 1.0
+    from . import caustics as cst
+    return cst.sample(caustics, pos, np.asarray(s, dtype=float) / camera.fx)
+
+
+def surface_visibility(gbuffer, height_map=None, spec: ShadowMapSpec | None = None,
+                       caustics=None):
+    """The share of the beam each visible surface gets, (H, W): the shadow
+    map's visibility (1 without a map; looked up as :func:`sun_radiance` does,
+    off the surface along its normal) times the caustic factor."""
     out = np.ones(gbuffer.distance.shape)
-    if height_map is None or spec is None:
-        return out
     hit = gbuffer.hit
+    if (height_map is None or spec is None) and caustics is None:
+        return out
     pos = gbuffer.positions()[hit]
-    out[hit] = map_visibility(height_map, spec, pos + gbuffer.normal[hit].astype(float)
-                              * (NORMAL_OFFSET_TEXELS * spec.texel))
+    if height_map is not None and spec is not None:
+        out[hit] = map_visibility(height_map, spec, pos + gbuffer.normal[hit].astype(float)
+                                  * (NORMAL_OFFSET_TEXELS * spec.texel))
+    out[hit] = out[hit] * surface_caustics(caustics, gbuffer.camera, pos,
+                                           gbuffer.distance[hit])
     return out
 
 
