@@ -22,7 +22,10 @@ reflectances (M * n f32); 4 two vec4 per band; 5 ``ln p`` per band
 (:func:`aquaspec.sun.phase_table`); 6 the shadow map; 7 the image (vec4 per
 pixel, read and written); 8 the froxels (vec4 per column and slice
 boundary); 9 ``ln`` of the bands' mean phase function
-(:func:`aquaspec.sun.reference_phase`).
+(:func:`aquaspec.sun.reference_phase`); 10 the caustic factor's slices
+(:class:`aquaspec.caustics.CausticMap`, an ``r16float`` 2-D array with its mip
+levels; a 1 x 1 x 2 stand-in without caustics) and 11 its repeating
+trilinear sampler.
 """
 
 from __future__ import annotations
@@ -30,9 +33,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import AquaspecError
-from ..sun import (BIAS_TEXELS, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, FROXEL_SLICES,
-                   FROXEL_TILE, NORMAL_OFFSET_TEXELS, TAIL, ShadowMapSpec, SunInputs,
-                   reference_phase, shadow_map_spec)
+from ..sun import (BIAS_TEXELS, CAUSTIC_SUBSAMPLES, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE,
+                   FROXEL_SLICES, FROXEL_TILE, NORMAL_OFFSET_TEXELS, TAIL, ShadowMapSpec,
+                   SunInputs, reference_phase, shadow_map_spec)
 from .buffers import create_storage_buffer, create_uniform_buffer, upload_buffer
 from .deferred import CAMERA_FIELDS, camera_fields
 from .layout import UniformLayout
@@ -46,7 +49,10 @@ PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("shadowed", "u32"), ("map_size", "u32"),
     ("texel", "f32"), ("h_min", "f32"), ("h_max", "f32"), ("bias", "f32"),
     ("normal_offset", "f32"), ("neg_log_tail", "f32"), ("cols_x", "u32"), ("cols_y", "u32"),
+    ("caustic", "u32"), ("c_slices", "u32"), ("c_tile", "f32"), ("c_max_depth", "f32"),
+    ("c_texel", "f32"), ("c_levels", "f32"),
 ])
+CAUSTIC_FORMAT = "r16float"
 CLIP_LAYOUT = UniformLayout("ShadowClip", [("clip", "mat4x4<f32>")])
 WORKGROUP = (8, 8)
 DEPTH_FORMAT = "depth32float"
@@ -107,6 +113,13 @@ class SunPass:
         self._clip_group = device.create_bind_group(layout=clip_layout, entries=[
             {"binding": 0, "resource": {"buffer": self._clip, "offset": 0,
                                         "size": CLIP_LAYOUT.size}}])
+        self._caustic_sampler = device.create_sampler(
+            address_mode_u=wgpu.AddressMode.repeat, address_mode_v=wgpu.AddressMode.repeat,
+            mag_filter=wgpu.FilterMode.linear, min_filter=wgpu.FilterMode.linear,
+            mipmap_filter=wgpu.MipmapFilterMode.linear)
+        self._caustic_map = None
+        self._caustic_tex = self._caustic_texture(
+            [np.ones((2, 1, 1), np.float32)])
         self._bind_key = None
         self._group = None
         self.spec: ShadowMapSpec | None = None
@@ -123,6 +136,7 @@ class SunPass:
             src = load_wgsl("sun.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
                             params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
                             tile=FROXEL_TILE, slices=FROXEL_SLICES, phase_size=self.phase_size,
+                            caustic_sub=CAUSTIC_SUBSAMPLES,
                             band_vec4=2 * self.n_bands, material_binding=binding,
                             material_read="material_bands[k / 4u][k % 4u]" if key
                             else "material_bands[k]")
@@ -134,6 +148,33 @@ class SunPass:
                     label="sun froxels", layout="auto",
                     compute={"module": module, "entry_point": "build_froxels"}))
         self._pipeline, self._build = self._pipelines[key]
+        self._bind_key = None
+
+    def _caustic_texture(self, levels):
+        """An r16float 2-D array texture holding ``levels`` (K, n_m, n_m) as its mips."""
+        import wgpu
+        k, n = levels[0].shape[0], levels[0].shape[-1]
+        tex = self.device.create_texture(
+            label="sun caustics", size=(n, n, k), format=CAUSTIC_FORMAT,
+            mip_level_count=len(levels), dimension="2d",
+            usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST)
+        for m, lv in enumerate(levels):
+            nm = lv.shape[-1]
+            self.device.queue.write_texture(
+                {"texture": tex, "mip_level": m, "origin": (0, 0, 0)},
+                np.ascontiguousarray(lv, np.float16),
+                {"offset": 0, "bytes_per_row": 2 * nm, "rows_per_image": nm}, (nm, nm, k))
+        return tex, tex.create_view(dimension="2d-array")
+
+    def _use_caustics(self, cmap) -> None:
+        """Upload the caustic map (once per map; None: the 1 x 1 stand-in)."""
+        if cmap is self._caustic_map:
+            return
+        if cmap is None:
+            self._caustic_tex = self._caustic_texture([np.ones((2, 1, 1), np.float32)])
+        else:
+            self._caustic_tex = self._caustic_texture(list(cmap.levels))
+        self._caustic_map = cmap
         self._bind_key = None
 
     # ---- per-band inputs --------------------------------------------------------
@@ -171,6 +212,7 @@ class SunPass:
         else:
             self._materials = create_storage_buffer(self.device, mb, label="sun materials")
         self._use_pipelines(in_uniform)
+        self._use_caustics(sun.caustics)
         self._inputs = sun
 
     # ---- the shadow map ---------------------------------------------------------
@@ -240,8 +282,13 @@ class SunPass:
                    normal_offset=NORMAL_OFFSET_TEXELS * spec.texel) if self.shadowed else dict(
             e1=(1.0, 0.0, 0.0), u0=0.0, e2=(0.0, 0.0, 1.0), v0=0.0, map_size=self.map_size,
             texel=1.0, h_min=0.0, h_max=1.0, bias=0.0, normal_offset=0.0)
+        cmap = self._caustic_map
+        caustic = dict(caustic=0, c_slices=2, c_tile=1.0, c_max_depth=1.0, c_texel=1.0,
+                       c_levels=1.0) if cmap is None else dict(
+            caustic=1, c_slices=cmap.depths.size, c_tile=cmap.waves.tile_m,
+            c_max_depth=cmap.max_depth, c_texel=cmap.texel, c_levels=float(len(cmap.levels)))
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
-            **camera_fields(camera), to_sun=self._inputs.to_sun,
+            **camera_fields(camera), to_sun=self._inputs.to_sun, **caustic,
             width=self.width, height=self.height, shadowed=int(self.shadowed),
             neg_log_tail=-np.log(TAIL), cols_x=self.cols[0], cols_y=self.cols[1], **geo))
         key = (id(gbuffer_textures["surface"]), id(gbuffer_textures["sigmoid"]),
@@ -252,6 +299,8 @@ class SunPass:
                                                          "size": buffer.size}}
             params = {"binding": 0, "resource": {"buffer": self._params, "offset": 0,
                                                  "size": PARAMS_LAYOUT.size}}
+            caustic_entries = [{"binding": 10, "resource": self._caustic_tex[1]},
+                               {"binding": 11, "resource": self._caustic_sampler}]
             self._group = self.device.create_bind_group(
                 layout=self._pipeline.get_bind_group_layout(0), entries=[
                     params,
@@ -259,12 +308,13 @@ class SunPass:
                     {"binding": 2, "resource": gbuffer_textures["sigmoid"].create_view()},
                     buf(3, self._materials), buf(4, self._bands),
                     {"binding": 6, "resource": self._map_view},
-                    buf(7, rgb_buffer), buf(8, self._froxels), buf(9, self._ref_phase)])
+                    buf(7, rgb_buffer), buf(8, self._froxels), buf(9, self._ref_phase),
+                    *caustic_entries])
             self._build_group = self.device.create_bind_group(
                 layout=self._build.get_bind_group_layout(0), entries=[
                     params, buf(4, self._bands), buf(5, self._phase),
                     {"binding": 6, "resource": self._map_view},
-                    buf(8, self._froxels), buf(9, self._ref_phase)])
+                    buf(8, self._froxels), buf(9, self._ref_phase), *caustic_entries])
             self._bind_key = key
         cp = encoder.begin_compute_pass()
         cp.set_pipeline(self._build)

@@ -24,6 +24,12 @@
 // `log_phase[i * PHASE_SIZE + k]`: ln p of band i at theta_k = pi (k / (PHASE_SIZE - 1))^2;
 // `ref_phase[k]`: ln of the bands' mean p on the same grid.
 // `froxels[column * (SLICES + 1) + k]`: (cumulative RGB at t_k, the column's L).
+// Caustics (aquaspec.caustics, NumPy twin aquaspec.caustics.sample): the
+// beam's factor per depth slice (array layer) in foot coordinates, a mip
+// pyramid of r16float read through a repeating trilinear sampler; layers
+// at d_k = D (k / (K - 1))^2, linear between them in sqrt(d / D). Surfaces
+// read it over their pixel's footprint s / fx; each froxel slice is the
+// mean of CAUSTIC_SUB reads along it (aquaspec.sun.froxel_caustics).
 // Band reflectance of material m, band i at flat index m * N_BANDS + i: in a
 // uniform array of vec4 when it fits in 64 KiB (MATERIALS_IN_UNIFORM; storage
 // reads per band were most of the pass's time on lavapipe), else in storage.
@@ -37,6 +43,7 @@ const TILE: u32 = {{ tile }}u;
 const SLICES: u32 = {{ slices }}u;
 const PHASE_SIZE: u32 = {{ phase_size }}u;
 const PER_PIXEL: u32 = 0xffffffffu;
+const CAUSTIC_SUB: u32 = {{ caustic_sub }}u;
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
@@ -48,6 +55,8 @@ const PER_PIXEL: u32 = 0xffffffffu;
 @group(0) @binding(7) var<storage, read_write> rgb_out: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> froxels: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> ref_phase: array<f32>;
+@group(0) @binding(10) var caustic_tex: texture_2d_array<f32>;
+@group(0) @binding(11) var caustic_sampler: sampler;
 
 // aquaspec.gpu.deferred.oct_decode, then n_y kept exact (unpack_surface).
 fn decode_normal(word: vec4<u32>) -> vec3<f32> {
@@ -91,6 +100,37 @@ fn visibility(p: vec3<f32>) -> f32 {
         }
     }
     return v;
+}
+
+// The caustic factor at p averaged over about `footprint` metres (1 without caustics).
+fn caustic(p: vec3<f32>, footprint: f32) -> f32 {
+    if (prm.caustic == 0u) {
+        return 1.0;
+    }
+    let d = -p.y;
+    let u = vec2<f32>(p.x + d / prm.to_sun.y * prm.to_sun.x,
+                      p.z + d / prm.to_sun.y * prm.to_sun.z) / prm.c_tile;
+    let dc = clamp(d, 0.0, prm.c_max_depth);
+    let x = sqrt(dc / prm.c_max_depth) * f32(prm.c_slices - 1u);
+    let k0 = min(u32(floor(x)), prm.c_slices - 2u);
+    let fk = x - f32(k0);
+    let lod = clamp(log2(max(footprint / prm.c_texel, 1.0)), 0.0, prm.c_levels - 1.0);
+    let a = textureSampleLevel(caustic_tex, caustic_sampler, u, k0, lod).x;
+    let b = textureSampleLevel(caustic_tex, caustic_sampler, u, k0 + 1u, lod).x;
+    return mix(a, b, fk);
+}
+
+// The mean caustic factor over the slice [ta, tb] of the ray o + t v
+// (`speed`: how fast the ray moves in foot coordinates).
+fn froxel_caustic(v: vec3<f32>, ta: f32, tb: f32, speed: f32) -> f32 {
+    let dt = tb - ta;
+    var acc = 0.0;
+    for (var j = 0u; j < CAUSTIC_SUB; j = j + 1u) {
+        let t = ta + (f32(j) + 0.5) / f32(CAUSTIC_SUB) * dt;
+        let fp = max(f32(TILE) * t / prm.fx, speed * dt / f32(CAUSTIC_SUB));
+        acc = acc + caustic(prm.position + v * t, fp);
+    }
+    return acc / f32(CAUSTIC_SUB);
 }
 
 // (1 - exp(-y)) / y, accurate near y = 0 (1 there).
@@ -166,6 +206,8 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
         start[i] = q0.z * p / p_ref * exp(-q0.y * d_o);
         rate[i] = q0.x - q0.y * v.y;
     }
+    let drift = v.xz - v.y / prm.to_sun.y * prm.to_sun.xz;
+    let speed = sqrt(dot(drift, drift));
     let base = column * (SLICES + 1u);
     froxels[base] = vec4<f32>(0.0, 0.0, 0.0, length);
     var acc = vec3<f32>(0.0);
@@ -173,7 +215,10 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
         let ta = length * pow(f32(k - 1u) / f32(SLICES), 2.0);
         let tb = length * pow(f32(k) / f32(SLICES), 2.0);
         let dt = tb - ta;
-        let vis = visibility(prm.position + v * (0.5 * (ta + tb)));
+        var vis = visibility(prm.position + v * (0.5 * (ta + tb)));
+        if (vis > 0.0 && prm.caustic != 0u) {
+            vis = vis * froxel_caustic(v, ta, tb, speed);
+        }
         if (vis > 0.0) {
             for (var i = 0u; i < N_BANDS; i = i + 1u) {
                 let kk = rate[i];
@@ -231,7 +276,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let n = decode_normal(word);
         let cos_n = max(dot(n, prm.to_sun), 0.0);
         if (cos_n > 0.0) {
-            let lit = cos_n * visibility(pos + n * prm.normal_offset);
+            let lit = cos_n * visibility(pos + n * prm.normal_offset) * caustic(pos, s / prm.fx);
             var sig = vec3<f32>(0.0);
             if (word.w == PER_PIXEL) {
                 sig = textureLoad(gb_sigmoid, vec2<i32>(i32(col), i32(row)), 0).xyz;
