@@ -311,6 +311,49 @@ class CausticMap:
                 "texel_m": self.texel, "mean_facet_weight": self.mean_weight, **self.info}
 
 
+def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
+                   n_water: float = model.N_WATER, sun_radius_deg: float = SUN_RADIUS_DEG,
+                   progress=None):
+    """The caustic factor (K, n, n) at ``depths`` (K,) under a periodic surface
+    sampled on (M, M) points (height ``h`` and slopes, :func:`surface`'s
+    layout), with the sun towards ``air_to_sun`` (unit, in air); and the
+    facets' mean weight ``w``. See the module docstring."""
+    air = np.asarray(air_to_sun, dtype=float)
+    horiz_air = np.hypot(air[0], air[2])
+    sin_w = horiz_air / n_water
+    mu0 = float(np.sqrt(1.0 - sin_w ** 2))
+    dir_h = air[[0, 2]] / horiz_air if horiz_air > 1e-12 else np.array([1.0, 0.0])
+    s_xz = sin_w * dir_h                                   # towards the sun under water
+    m = h.shape[0]
+    norm = np.stack([-hx, np.ones_like(h), -hz], axis=-1)
+    norm /= np.linalg.norm(norm, axis=-1, keepdims=True)
+    t, cos_i = refract(np.broadcast_to(-air, norm.shape), norm, n_water)
+    w = facet_weights(cos_i, norm[..., 1], air[1], n_water).reshape(-1)
+    mean_w = float(np.sum(w) / (m * m))
+    lit = w > 0
+    x0 = np.stack(np.meshgrid(np.arange(m), np.arange(m)), axis=-1).reshape(-1, 2) \
+        * (tile_m / m)
+    ty = np.abs(t[..., 1]).reshape(-1)
+    slope = t[..., [0, 2]].reshape(-1, 2) / ty[:, None]
+    flat = -s_xz / mu0
+    hh = h.reshape(-1)
+    x0, slope, hh, w = x0[lit], slope[lit], hh[lit], w[lit]
+    alpha = np.radians(sun_radius_deg)
+    a_perp = alpha / n_water
+    a_par = alpha * air[1] / (n_water * mu0)
+    per_photon = (n * n) / float(m * m)
+    depths = np.asarray(depths, dtype=float)
+    out = np.empty((depths.size, n, n), np.float32)
+    for k, d in enumerate(depths):
+        u = x0 + d * (slope - flat) + hh[:, None] * slope
+        c = splat(u, w * per_photon, n, tile_m)
+        c = disc_blur(c, (d * a_par / mu0 ** 2, d * a_perp / mu0), dir_h, tile_m)
+        out[k] = np.maximum(c, 0.0)
+        if progress is not None:
+            progress(k + 1, depths.size)
+    return out, mean_w
+
+
 def slice_depths(max_depth_m: float, slices: int) -> np.ndarray:
     return float(max_depth_m) * (np.arange(slices) / (slices - 1.0)) ** 2
 
@@ -329,39 +372,13 @@ def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
         raise AquaspecError(f"caustic slices {slices!r}; accepted: 2 or more")
     if not (np.isfinite(max_depth_m) and max_depth_m > 0):
         raise AquaspecError(f"caustic depth range {max_depth_m!r} m; accepted: > 0")
-    n = waves.grid
     air = air_to_sun(elevation_deg, azimuth_deg)
     s = refracted_to_sun(elevation_deg, azimuth_deg, n_water)
-    mu0 = float(s[1])
     h, hx, hz = surface(waves, oversample)
-    m = h.shape[0]
-    norm = np.stack([-hx, np.ones_like(h), -hz], axis=-1)
-    norm /= np.linalg.norm(norm, axis=-1, keepdims=True)
-    t, cos_i = refract(np.broadcast_to(-air, norm.shape), norm, n_water)
-    w = facet_weights(cos_i, norm[..., 1], air[1], n_water).reshape(-1)
-    lit = w > 0
-    x0 = np.stack(np.meshgrid(np.arange(m), np.arange(m)), axis=-1).reshape(-1, 2) \
-        * (waves.tile_m / m)
-    ty = np.abs(t[..., 1]).reshape(-1)
-    slope = t[..., [0, 2]].reshape(-1, 2) / ty[:, None]
-    flat = -s[[0, 2]] / mu0
-    hh = h.reshape(-1)
-    x0, slope, hh, w = x0[lit], slope[lit], hh[lit], w[lit]
     depths = slice_depths(max_depth_m, int(slices))
-    alpha = np.radians(sun_radius_deg)
-    horiz = np.hypot(s[0], s[2])
-    along = s[[0, 2]] / horiz if horiz > 1e-12 else np.array([1.0, 0.0])
-    a_perp = alpha / n_water
-    a_par = alpha * air[1] / (n_water * mu0)
-    per_photon = (n * n) / float(m * m)
-    out = np.empty((depths.size, n, n), np.float32)
-    for k, d in enumerate(depths):
-        u = x0 + d * (slope - flat) + hh[:, None] * slope
-        c = splat(u, w * per_photon, n, waves.tile_m)
-        c = disc_blur(c, (d * a_par / mu0 ** 2, d * a_perp / mu0), along, waves.tile_m)
-        out[k] = np.maximum(c, 0.0)
-        if progress is not None:
-            progress(k + 1, depths.size)
+    out, mean_w = caustic_slices(h, hx, hz, waves.tile_m, waves.grid, air, depths,
+                                 n_water=n_water, sun_radius_deg=sun_radius_deg,
+                                 progress=progress)
     levels = [out]
     while levels[-1].shape[-1] > 1:
         a = levels[-1]
@@ -370,7 +387,7 @@ def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
     # Kept at the GPU texture's half precision, so both sides read the same numbers.
     levels = [np.asarray(lv, np.float16).astype(np.float32) for lv in levels]
     return CausticMap(waves=waves, to_sun=s, depths=depths, levels=tuple(levels),
-                      mean_weight=float(np.sum(w) / (m * m)),
+                      mean_weight=mean_w,
                       info={"sun_elevation_deg": elevation_deg, "sun_azimuth_deg": azimuth_deg,
                             "oversample": int(oversample), "sun_radius_deg": sun_radius_deg})
 

@@ -516,6 +516,11 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
                           waves=_waves(waves))
     medium_check = setup.medium([])  # fail early on ranges before any geometry work
     del medium_check
+    if setup.waves is not None:
+        wv = setup.waves
+        say(f"caustics of a {wv.wind_speed:g} m/s sea ({wv.tile_m:g} m tile, "
+            f"{wv.grid}x{wv.grid} samples) under the sun")
+        setup.sun_inputs()
 
     gbuffer = None
     source_desc = {}

@@ -58,6 +58,16 @@ def register(sub):
     p.add_argument("--sun-shadow-map", type=int, default=None, metavar="TEXELS",
                    help="--light sun-sky: side of the sun's shadow map (default 2048; shadows "
                         "are resolved within 40 m of the camera)")
+    p.add_argument("--wind", type=float, default=None, metavar="M_S",
+                   help="--light sun-sky: a wind sea on the surface (wind speed in m/s at "
+                        "19.5 m, Pierson-Moskowitz spectrum) whose waves focus the sun into "
+                        "caustics on surfaces and in the water (default: a flat surface)")
+    p.add_argument("--wind-azimuth", type=float, default=0.0, metavar="DEG",
+                   help="--wind: the way the waves run, compass as --sun-azimuth (default 0)")
+    p.add_argument("--wave-time", type=float, default=0.0, metavar="S",
+                   help="--wind: the instant, seconds (the waves move; default 0)")
+    p.add_argument("--wave-seed", type=int, default=0, metavar="N",
+                   help="--wind: seed of the sea's random phases (default 0)")
     p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
                    help="gpu (WGSL through wgpu) or numpy (the slow reference)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")
@@ -114,6 +124,20 @@ def run(args):
     seabed = _seabed(args.seabed)
     if albedo and not args.mesh:
         raise AquaspecError("--albedo is only used with --mesh")
+    waves = None
+    if args.wind is not None:
+        from ..caustics import Waves
+        if args.light != "sun-sky":
+            raise AquaspecError(f"--wind focuses the sun into caustics: it needs --light "
+                                f"sun-sky, not {args.light!r}")
+        waves = Waves(args.wind, wind_azimuth_deg=args.wind_azimuth, time_s=args.wave_time,
+                      seed=args.wave_seed)
+    else:
+        for opt, val, default in (("--wind-azimuth", args.wind_azimuth, 0.0),
+                                  ("--wave-time", args.wave_time, 0.0),
+                                  ("--wave-seed", args.wave_seed, 0)):
+            if val != default:
+                raise AquaspecError(f"{opt} describes the waves: it needs --wind M_S")
 
     def progress(msg):
         print(f"aquaspec render: {msg}", file=sys.stderr, flush=True)
@@ -123,7 +147,7 @@ def run(args):
                  size=size, mesh=args.mesh, albedo=albedo, rgbd=rgbd, light=args.light,
                  irradiance_w_m2=args.irradiance, sun_elevation_deg=args.sun_elevation,
                  sun_azimuth_deg=args.sun_azimuth, sun_shadow_map=args.sun_shadow_map,
-                 ambient=args.ambient, outside="zero" if args.outside_zero else "error",
+                 waves=waves, ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                  ms_model=args.ms_model, phase=args.phase,
                  forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
                  spread_scattering=args.spread_scattering, ambient_shadow=args.ambient_shadow,

@@ -1,0 +1,251 @@
+"""Caustics (aquaspec.caustics): the sea, the photon map, its lookup, and the
+sun's terms with it (NumPy, GPU, CLI)."""
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from aquaspec import caustics as cst
+from aquaspec.errors import AquaspecError
+from aquaspec.model import N_WATER
+from aquaspec.sun import air_to_sun
+
+
+# ---- the sea ------------------------------------------------------------------------
+
+def test_pm_spectrum_integrates_to_its_closed_form_variance():
+    # int_0^inf alpha / (2 k^3) exp(-beta g^2 / (k^2 U^4)) dk = alpha U^4 / (4 beta g^2)
+    for u in (2.0, 7.0):
+        num, _ = quad(lambda k: cst.pm_spectrum(k, u), 1e-4, np.inf, limit=400)
+        exact = cst.PM_ALPHA * u ** 4 / (4 * cst.PM_BETA * cst.GRAVITY ** 2)
+        assert num == pytest.approx(exact, rel=1e-6)
+
+
+def test_spreading_keeps_the_omnidirectional_spectrum():
+    # On a ring of wavenumbers the directional spectrum integrates (k dtheta) back to S(k).
+    waves = cst.Waves(5.0, wind_azimuth_deg=30.0, tile_m=200.0, grid=1024)
+    f, kx, kz = cst.directional_spectrum(waves)
+    k = np.hypot(kx, kz)
+    dk = 2 * np.pi / waves.tile_m
+    ring = (k > 0.8) & (k < 1.2)
+    total = f[ring].sum() * dk * dk
+    s_int, _ = quad(lambda q: cst.pm_spectrum(q, 5.0), 0.8, 1.2)
+    assert total == pytest.approx(s_int, rel=0.02)
+    # The waves run downwind: nothing travels against the wind.
+    wx, wz = np.sin(np.radians(30.0)), -np.cos(np.radians(30.0))
+    assert np.all(f[(kx * wx + kz * wz) < 0] == 0)
+
+
+def test_sea_statistics_follow_the_spectrum():
+    waves = [cst.Waves(4.0, seed=s, tile_m=8.0, grid=256) for s in range(4)]
+    slope_var = cst.resolved_slope_variance(waves[0])
+    f, kx, kz = cst.directional_spectrum(waves[0])
+    dk2 = (2 * np.pi / 8.0) ** 2
+    on = f > 0
+    ratio = []
+    for w in waves:
+        amp = cst._amplitudes(w)
+        h, hx, hz = cst.surface(w)
+        # Parseval: each mode adds |A|^2 / 2 to the height's variance, k^2 |A|^2 / 2 to the slopes'.
+        assert h.var() == pytest.approx(np.sum(np.abs(amp) ** 2) / 2, rel=1e-6)
+        assert np.mean(hx ** 2 + hz ** 2) == pytest.approx(
+            np.sum((kx ** 2 + kz ** 2) * np.abs(amp) ** 2) / 2, rel=1e-4)   # (Nyquist rows)
+        ratio.append(np.abs(amp[on]) ** 2 / (2 * f[on] * dk2))
+    # E|A|^2 = 2 F dk^2 over some 10^5 modes
+    assert np.mean(ratio) == pytest.approx(1.0, abs=0.01)
+    # Cox & Munk's measured slope variance, the plausibility check of the default tile.
+    assert 0.7 < slope_var / cst.cox_munk_slope_variance(4.0) < 1.3
+
+
+def test_oversampled_surface_is_the_same_surface():
+    w = cst.Waves(3.0, grid=64, seed=3)
+    h1, hx1, _ = cst.surface(w, 1)
+    h4, hx4, _ = cst.surface(w, 4)
+    np.testing.assert_allclose(h4[::4, ::4], h1, atol=1e-12)
+    np.testing.assert_allclose(hx4[::4, ::4], hx1, atol=1e-10)
+
+
+def test_waves_move_with_time():
+    a = cst.surface(cst.Waves(3.0, grid=64, time_s=0.0))[0]
+    b = cst.surface(cst.Waves(3.0, grid=64, time_s=0.7))[0]
+    assert np.abs(a - b).max() > 0.1 * np.abs(a).max()
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"wind_speed": 0.0}, "wind speed 0.0"),
+    ({"wind_speed": float("nan")}, "wind speed nan"),
+    ({"wind_speed": 3.0, "grid": 300}, "power of two"),
+    ({"wind_speed": 3.0, "tile_m": -1.0}, "wave tile"),
+    ({"wind_speed": 3.0, "seed": -2}, "wave seed"),
+    ({"wind_speed": 3.0, "time_s": float("inf")}, "wave time"),
+])
+def test_bad_waves_are_refused(kwargs, message):
+    with pytest.raises(AquaspecError, match=message):
+        cst.Waves(**kwargs)
+
+
+# ---- refraction and the photon map --------------------------------------------------
+
+def test_refraction_obeys_snell():
+    rng = np.random.default_rng(1)
+    n = rng.normal(size=(200, 3)) * [0.2, 1.0, 0.2]
+    n[:, 1] = np.abs(n[:, 1]) + 0.5
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    d = np.broadcast_to(-air_to_sun(50.0, 20.0), n.shape)
+    t, cos_i = cst.refract(d, n)
+    ok = cos_i > 0
+    sin_i = np.sqrt(1 - cos_i[ok] ** 2)
+    cos_t = -np.sum(t[ok] * n[ok], axis=1)
+    np.testing.assert_allclose(np.linalg.norm(t[ok], axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.sqrt(1 - cos_t ** 2) * N_WATER, sin_i, atol=1e-12)
+    # t lies in the plane of d and n
+    np.testing.assert_allclose(np.einsum("ij,ij->i", np.cross(d[ok], n[ok]), t[ok]), 0,
+                               atol=1e-12)
+
+
+def test_splat_conserves_weight_and_a_regular_lattice_is_uniform():
+    m, n, tile = 64, 16, 2.0
+    jj, ii = np.meshgrid(np.arange(m), np.arange(m))
+    u = np.stack([jj, ii], axis=-1).reshape(-1, 2) * (tile / m) + [3 * tile, -7 * tile]
+    out = cst.splat(u, np.full(m * m, (n / m) ** 2), n, tile)
+    np.testing.assert_allclose(out, 1.0, atol=1e-12)
+    rng = np.random.default_rng(0)
+    w = rng.random(500)
+    out = cst.splat(rng.normal(size=(500, 2)) * 5, w, n, tile)
+    assert out.sum() == pytest.approx(w.sum(), rel=1e-12)
+
+
+def _sinusoid(amp, wavelength, tile, m, n_y=8):
+    """A single wave along x on an (n_y, m) grid (the map accepts any periodic surface)."""
+    x = np.arange(m) * tile / m
+    k = 2 * np.pi / wavelength
+    h = np.broadcast_to(amp * np.sin(k * x), (m, m)).copy()
+    hx = np.broadcast_to(amp * k * np.cos(k * x), (m, m)).copy()
+    return h, hx, np.zeros_like(h), x, k
+
+
+def test_photon_map_matches_the_jacobian_of_a_sinusoid():
+    """Before the first focus each point at depth d is lit from one facet:
+    C(u) = w(x0) / (du/dx0). The map (texel-wide tent) against that, sampled densely."""
+    tile, m, n = 2.0, 1024, 128
+    amp, lam = 0.01, 1.0
+    h, hx, hz, x, k = _sinusoid(amp, lam, tile, m)
+    air = air_to_sun(70.0, 90.0)          # sun towards +x: the plane of the wave
+    d = 2.0
+    out, _ = cst.caustic_slices(h, hx, hz, tile, n, air, [d], sun_radius_deg=0.0)
+    # Analytic, on a fine x0 grid: refract, land, take the derivative.
+    x0 = np.linspace(0, tile, 200001)
+    slope = amp * k * np.cos(k * x0)
+    hh = amp * np.sin(k * x0)
+    nrm = np.stack([-slope, np.ones_like(x0), np.zeros_like(x0)], -1)
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    t, cos_i = cst.refract(np.broadcast_to(-air, nrm.shape), nrm)
+    w = cst.facet_weights(cos_i, nrm[:, 1], air[1])
+    sx = t[:, 0] / np.abs(t[:, 1])
+    s_flat = cst.refract(-air[None], np.array([[0.0, 1.0, 0.0]]))[0][0]
+    u = x0 + d * (sx - s_flat[0] / abs(s_flat[1])) + hh * sx
+    dudx = np.gradient(u, x0)
+    assert dudx.min() > 0.2                  # one facet per point: before the focus
+    c = w / dudx
+    # The tent average over each texel of the analytic C(u) (u mod tile).
+    centres = (np.arange(n) + 0.5) * tile / n
+    um = np.mod(u, tile)
+    texel = tile / n
+    expect = np.empty(n)
+    for j, uc in enumerate(centres):
+        dist = np.abs((um - uc + tile / 2) % tile - tile / 2)
+        tent = np.clip(1 - dist / texel, 0, None)
+        expect[j] = np.sum(tent * c * dudx) / np.sum(tent * dudx)
+    got = out[0].mean(axis=0)
+    assert np.std(got) > 0.1                  # a real pattern
+    np.testing.assert_allclose(got, expect, rtol=0.01, atol=0.01)
+
+
+def test_a_sinusoid_focuses_at_its_paraxial_depth():
+    """Overhead sun, h = A sin(kx): a ray refracted at slope s turns by
+    (1 - 1/n) s, so the crests focus at d_f = 1 / ((1 - 1/n) A k^2)."""
+    tile, m, n = 1.0, 2048, 256
+    amp, lam = 0.002, 0.5
+    h, hx, hz, _, k = _sinusoid(amp, lam, tile, m)
+    d_f = 1 / ((1 - 1 / N_WATER) * amp * k * k)
+    depths = np.linspace(0.3, 2.0, 69) * d_f
+    out, _ = cst.caustic_slices(h, hx, hz, tile, n, air_to_sun(90.0, 0.0), depths,
+                                sun_radius_deg=0.0)
+    brightest = out.max(axis=(1, 2))
+    peak = depths[np.argmax(brightest)]
+    # The crests' rays meet in a cusp at d_f; beyond it two fold lines part,
+    # and a texel's mean is highest just past the cusp.
+    assert d_f * 0.98 <= peak <= d_f * 1.15
+    assert brightest.max() > 8.0
+    assert brightest[depths < 0.6 * d_f].max() < 0.3 * brightest.max()
+
+
+def test_map_keeps_the_mean_and_the_sun_disc_blurs():
+    waves = cst.Waves(3.0, grid=64, tile_m=2.0)
+    sharp = cst.caustic_map(waves, 50.0, 0.0, slices=6, max_depth_m=20.0, sun_radius_deg=0.0)
+    soft = cst.caustic_map(waves, 50.0, 0.0, slices=6, max_depth_m=20.0)
+    for cm in (sharp, soft):
+        means = cm.levels[0].mean(axis=(1, 2))
+        np.testing.assert_allclose(means, cm.mean_weight, rtol=2e-3)
+        for lv in cm.levels[1:]:
+            np.testing.assert_allclose(lv.mean(axis=(1, 2)), means, rtol=2e-3)
+        assert abs(cm.mean_weight - 1) < 0.01
+    # The disc's blur grows with depth: the deepest slice loses contrast, the first does not.
+    assert soft.levels[0][-1].std() < 0.9 * sharp.levels[0][-1].std()
+    np.testing.assert_allclose(soft.levels[0][0], sharp.levels[0][0], atol=1e-6)
+
+
+def test_disc_blur_is_an_ellipse_along_the_beam():
+    n, tile = 256, 4.0
+    img = np.zeros((n, n))
+    img[n // 2, n // 2] = 1.0
+    along = np.array([np.cos(0.5), np.sin(0.5)])
+    out = cst.disc_blur(img, (0.4, 0.2), along, tile)
+    assert out.sum() == pytest.approx(1.0, rel=1e-9)
+    c = (np.arange(n) - n // 2) * tile / n
+    xx, zz = np.meshgrid(c, c)
+    pa = xx * along[0] + zz * along[1]
+    pc = -xx * along[1] + zz * along[0]
+    # Inside the ellipse the response is flat; well outside it is (nearly) zero.
+    r = np.hypot(pa / 0.4, pc / 0.2)
+    inside, outside = out[r < 0.7], out[r > 1.3]
+    assert inside.std() < 0.15 * inside.mean()
+    assert np.abs(outside).max() < 0.2 * inside.mean()
+    assert inside.sum() * 0 + inside.mean() == pytest.approx(
+        1.0 / (np.pi * 0.4 * 0.2 / (tile / n) ** 2), rel=0.1)
+
+
+# ---- the lookup ---------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def cmap():
+    return cst.caustic_map(cst.Waves(3.0, grid=64, tile_m=2.0), 60.0, 150.0, slices=8,
+                           max_depth_m=10.0)
+
+
+def test_sample_reads_texels_slices_and_tiles(cmap):
+    lv = cmap.levels[0]
+    n = lv.shape[-1]
+    s = cmap.to_sun
+    k, i, j = 3, 5, 17
+    d = cmap.depths[k]
+    u = ((np.array([j, i]) + 0.5) * cmap.texel)
+    # a point at depth d whose foot is u
+    p = np.array([u[0] - d / s[1] * s[0], -d, u[1] - d / s[1] * s[2]])
+    assert cst.sample(cmap, p) == pytest.approx(lv[k, i, j], rel=1e-6)
+    shifted = p + [cmap.waves.tile_m * 3, 0, -cmap.waves.tile_m]
+    assert cst.sample(cmap, shifted) == pytest.approx(lv[k, i, j], rel=1e-6)
+    # linear in sqrt(d / D) between slices
+    d_mid = cmap.max_depth * ((k + 0.25) / (cmap.depths.size - 1)) ** 2
+    q = np.array([u[0] - d_mid / s[1] * s[0], -d_mid, u[1] - d_mid / s[1] * s[2]])
+    assert cst.sample(cmap, q) == pytest.approx(0.75 * lv[k, i, j] + 0.25 * lv[k + 1, i, j],
+                                                rel=1e-6)
+    # a footprint of the whole tile reads the mean
+    assert cst.sample(cmap, p, footprint_m=10 * cmap.waves.tile_m) == pytest.approx(
+        lv[k].mean(), rel=2e-3)
+    # a footprint of two texels reads level 1
+    lv1 = cmap.levels[1]
+    u1 = (np.array([4, 6]) + 0.5) * cmap.texel * 2
+    p1 = np.array([u1[0] - d / s[1] * s[0], -d, u1[1] - d / s[1] * s[2]])
+    assert cst.sample(cmap, p1, 2 * cmap.texel) == pytest.approx(lv1[k, 6, 4], rel=1e-6)
+    assert n == 64
