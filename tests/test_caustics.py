@@ -249,3 +249,136 @@ def test_sample_reads_texels_slices_and_tiles(cmap):
     p1 = np.array([u1[0] - d / s[1] * s[0], -d, u1[1] - d / s[1] * s[2]])
     assert cst.sample(cmap, p1, 2 * cmap.texel) == pytest.approx(lv1[k, 6, 4], rel=1e-6)
     assert n == 64
+
+
+# ---- the sun's terms with caustics --------------------------------------------------
+
+def test_surface_term_is_modulated_by_the_sampled_factor(cmap):
+    """No scattering (b = 0): a plate's sun term with caustics over the one
+    without is the caustic factor read at each pixel's footprint."""
+    from aquaspec import sun as S
+    from aquaspec.camera import Camera
+    from aquaspec.gpu.raster import raycast_gbuffer
+    from aquaspec.reflectance import Reflectance
+    from aquaspec.scene import Scene
+    from tests.test_sun import _plate
+    scene = Scene()
+    scene.add_material(Reflectance.constant(0.4))
+    scene.add(_plate(-5.0, -50, 50, -50, 50))
+    cam = Camera.look_at([0.0, -2.0, 0.0], [0.0, -5.0, 0.0], width=24, height=24,
+                         fov_y_deg=60.0, up=(0.0, 0.0, -1.0))
+    gb = raycast_gbuffer(scene, cam)
+    to_sun = cmap.to_sun
+    base = S.SunInputs(beam0=np.array([2.0, 1.0]), c_sun=np.array([0.1, 0.3]),
+                       c_view=np.array([0.1, 0.3]), b=np.zeros(2), to_sun=to_sun,
+                       log_phase=np.log(np.full((2, S.PHASE_TABLE_SIZE), 1 / (4 * np.pi))))
+    import dataclasses
+    rho = dict(rho_of_hits=lambda m: np.full((m.sum(), 2), 0.4))
+    flat = S.sun_radiance(gb, base, **rho)
+    wavy = S.sun_radiance(gb, dataclasses.replace(base, caustics=cmap), **rho)
+    hit = gb.hit
+    expect = cst.sample(cmap, gb.positions()[hit], gb.distance[hit] / cam.fx)
+    np.testing.assert_allclose(wavy[hit] / flat[hit], expect[:, None] * [1, 1], rtol=1e-9)
+    assert expect.std() > 0.1
+
+
+def _setup(wind, **kw):
+    from aquaspec.bands import Bands
+    from aquaspec.light import surface_light
+    from aquaspec.renderer import SpectralSetup
+    from aquaspec.sensors import get_sensor
+    from aquaspec.water import get_water
+    light = surface_light("sun-sky", sun_elevation_deg=50.0, sun_azimuth_deg=30.0)
+    return SpectralSetup(get_water("IB"), get_sensor("human"), light, Bands(6),
+                         waves=None if wind is None else cst.Waves(wind, **kw), ms_model="seeds")
+
+
+def test_froxels_with_caustics_against_a_fine_march():
+    """The veil's caustics: froxels (4 footprint-filtered reads per slice)
+    against each pixel's own ray in 400 steps, built-in scene at 3 m. The
+    froxels are 8 pixels wide, so their pattern is the column's mean."""
+    import dataclasses
+    from aquaspec import sun as S
+    from aquaspec.gpu.raster import raycast_gbuffer
+    from aquaspec.scene.builtin import builtin_scene
+    scene, cam = builtin_scene(3.0, width=160, height=90)
+    setup = _setup(3.0)
+    gb = raycast_gbuffer(scene, cam)
+    sun = setup.sun_inputs()
+    hmap, spec = S.numpy_shadow_map(scene, cam, sun.to_sun, size=512)
+    black = dict(rho_of_hits=lambda m: np.zeros((m.sum(), 6)), height_map=hmap, spec=spec)
+    frox = S.sun_radiance(gb, sun, **black)
+    march = S.sun_radiance(gb, dataclasses.replace(sun, n_steps=400), method="march", **black)
+    flat = S.sun_radiance(gb, dataclasses.replace(sun, caustics=None), **black)
+    rel = np.abs(frox / march - 1.0)
+    assert np.median(rel) < 0.05
+    assert np.percentile(rel, 99) < 0.2
+    assert abs(frox.sum() / march.sum() - 1.0) < 0.01
+    # ... and the froxels follow the pattern the caustics put in the veil.
+    gm, gf = (march / flat - 1.0).ravel(), (frox / flat - 1.0).ravel()
+    assert np.median(np.abs(gm)) > 0.03
+    assert np.corrcoef(gm, gf)[0, 1] > 0.7, np.corrcoef(gm, gf)[0, 1]   # measured 0.83
+
+
+def _render(backend, **kw):
+    from aquaspec.renderer import render
+    base = dict(water="IB", depth_m=3.0, size=(96, 54), bands=6, light="sun-sky",
+                sun_elevation_deg=50.0, sun_azimuth_deg=30.0, sun_shadow_map=256,
+                exposure=0.0, waves=cst.Waves(3.0, grid=128))
+    return render(backend=backend, **{**base, **kw})
+
+
+@pytest.mark.parametrize("ms_model", ["seeds", "lightfield"])
+def test_gpu_caustics_match_numpy(device, ms_model):
+    g = _render("gpu", ms_model=ms_model).linear_rgb
+    n = _render("numpy", ms_model=ms_model).linear_rgb
+    flat = _render("numpy", ms_model=ms_model, waves=None).linear_rgb
+    scale = np.abs(n).max()
+    err = np.abs(g - n).max(axis=-1) / scale
+    assert np.percentile(err, 99) < 2e-4, np.percentile(err, [50, 99, 100])
+    assert err.max() < 2e-3
+    assert np.abs(n - flat).max() / scale > 0.05          # the caustics are there
+
+
+@pytest.mark.parametrize("backend", ["numpy", "gpu"])
+def test_layers_carry_the_caustics(backend, request):
+    """D = t J still holds with the caustic factor in J."""
+    if backend == "gpu":
+        request.getfixturevalue("device")
+    res = _render(backend, ms_model="seeds", sensor="nikon-5100-npl", layers=True)
+    lay = res.layers
+    hit = lay["range_m"] > 0
+    tj = lay["transmission"] * lay["surface"]
+    assert np.abs(lay["direct"] - tj)[hit].mean() < 1e-5 * np.abs(lay["direct"][hit]).mean()
+    flat = _render(backend, ms_model="seeds", sensor="nikon-5100-npl", layers=True,
+                   waves=None).layers
+    ratio = lay["surface"][hit][:, 1] / flat["surface"][hit][:, 1]
+    assert ratio.std() > 0.05
+
+
+def test_render_records_the_waves_and_refuses_them_without_a_sun():
+    res = _render("numpy", ms_model="seeds", size=(32, 18))
+    c = res.params["caustics"]
+    assert c["wind_speed_m_s"] == 3.0 and c["grid"] == 128 and c["slices"] == 32
+    assert abs(c["mean_facet_weight"] - 1) < 0.01
+    with pytest.raises(AquaspecError, match="sun-sky"):
+        _render("numpy", light="overcast", size=(32, 18))
+    with pytest.raises(AquaspecError, match="waves="):
+        _render("numpy", waves="calm", size=(32, 18))
+
+
+def test_cli_wind(tmp_path, capsys):
+    import json
+    from aquaspec.cli import main
+    out = tmp_path / "c.png"
+    base = ["render", "--size", "48x27", "--bands", "4", "--backend", "numpy", "-o", str(out)]
+    assert main([*base, "--light", "sun-sky", "--wind", "2.5", "--wave-time", "1.5",
+                 "--wind-azimuth", "45"]) == 0
+    meta = json.loads((tmp_path / "c.png.json").read_text())
+    assert meta["caustics"]["time_s"] == 1.5 and meta["caustics"]["wind_azimuth_deg"] == 45.0
+    assert main([*base, "--wind", "2.5"]) == 2
+    assert "needs --light sun-sky" in capsys.readouterr().err
+    assert main([*base, "--light", "sun-sky", "--wave-seed", "4"]) == 2
+    assert "needs --wind" in capsys.readouterr().err
+    assert main([*base, "--light", "sun-sky", "--wind", "99"]) == 2
+    assert "wind speed 99.0" in capsys.readouterr().err
