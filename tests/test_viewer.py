@@ -126,3 +126,28 @@ def test_exposure_alone_reuses_the_linear_image():
     assert v.update(exposure=1.0).astype(float).mean() > dark
     v.update(depth_m=8.0)
     assert v.linear is not lin
+
+
+def test_sun_and_wind_controls():
+    """The sun's sliders add the beam (an overcast sky at elevation 0), the
+    wind's adds its caustics; bad values are named."""
+    import matplotlib.pyplot as plt
+    fig = plt.figure()
+    v = Viewer(64, 36, water="IB", depth_m=3.0, bands=4, ms_model="seeds").attach(fig)
+    overcast = v.linear.copy()
+    assert "overcast" in v.title()
+    v.controls["sun_elevation"].set_val(60.0)
+    assert "sun 60/150 deg" in v.title()
+    sunny = v.linear.copy()
+    assert not np.allclose(sunny, overcast)
+    v.controls["wind"].set_val(3.0)
+    assert "wind 3 m/s" in v.title()
+    assert np.abs(v.linear - sunny).max() > 0.02 * np.abs(sunny).max()
+    assert np.all(np.isfinite(v.linear))
+    v.controls["sun_elevation"].set_val(0.0)
+    np.testing.assert_allclose(v.linear, overcast, rtol=1e-6, atol=1e-9)
+    plt.close(fig)
+    with pytest.raises(AquaspecError, match="wind 40"):
+        Viewer(32, 18).update(wind=40.0)
+    with pytest.raises(AquaspecError, match="sun elevation -5"):
+        Viewer(32, 18, sun_elevation_deg=-5.0)

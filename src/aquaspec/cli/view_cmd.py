@@ -8,8 +8,8 @@ import argparse
 def register(sub):
     p = sub.add_parser("view", help="interactive window with live controls",
                        description="Open a window showing the built-in scene, with sliders for "
-                                   "depth, bands and exposure and choices of water, sensor and "
-                                   "multiple-scattering model. "
+                                   "depth, bands, exposure, the sun and the wind (caustics) and "
+                                   "choices of water, sensor and multiple-scattering model. "
                                    "Needs a display and a matplotlib GUI backend.")
     p.add_argument("--water", default="IB")
     p.add_argument("--depth", type=float, default=5.0)
@@ -23,6 +23,12 @@ def register(sub):
                         "(default: on)")
     from .common import add_spread_scattering_option
     add_spread_scattering_option(p)
+    p.add_argument("--sun-elevation", type=float, default=0.0, metavar="DEG",
+                   help="start with the sun at DEG (0 = an overcast sky; default 0)")
+    p.add_argument("--sun-azimuth", type=float, default=150.0, metavar="DEG",
+                   help="the sun's compass angle, as for render (default 150)")
+    p.add_argument("--wind", type=float, default=0.0, metavar="M_S",
+                   help="start with a wind sea's caustics (0 = a flat surface; default 0)")
     p.add_argument("--camspec", metavar="PATH")
     p.add_argument("--size", default="640x360", metavar="WxH")
     p.set_defaults(func=run, command="view")
@@ -34,5 +40,7 @@ def run(args):
     w, h = parse_size(args.size)
     run_viewer(width=w, height=h, water=args.water, depth_m=args.depth, bands=args.bands,
                sensor=args.sensor, ms_model=args.ms_model, cone_spread=args.cone_spread,
-               camspec=args.camspec, spread_scattering=args.spread_scattering)
+               camspec=args.camspec, spread_scattering=args.spread_scattering,
+               sun_elevation_deg=args.sun_elevation, sun_azimuth_deg=args.sun_azimuth,
+               wind=args.wind)
     return 0
