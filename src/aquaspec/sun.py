@@ -56,6 +56,11 @@ seeds' model it is ``c``.
   step's exponential integrated exactly (:func:`march_weights`); the GPU pass
   does the same with ``V`` read from a shadow map.
 
+Under a wind-roughened surface (``SunInputs.caustics``, :mod:`aquaspec.caustics`)
+``V`` is multiplied by the caustic factor ``C(x)`` (mean about 1): on
+surfaces read over the pixel's footprint, in the froxels as the mean of
+:data:`CAUSTIC_SUBSAMPLES` reads along each slice (:func:`froxel_caustics`).
+
 The multiple scattering of the sun's light is not here: it is part of the
 ambient term (the light field's diffuse field, or the seeds' Kd model).
 """
