@@ -7,7 +7,6 @@ from aquaspec import model
 from aquaspec.bands import Bands
 from aquaspec.camera import Camera
 from aquaspec.errors import AquaspecError
-from aquaspec.gbuffer import GBuffer
 from aquaspec.light import surface_light
 from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.reflectance import Reflectance
@@ -281,19 +280,25 @@ def test_gpu_sun_matches_numpy(device, ms_model, az):
     assert err.max() < 2e-3
 
 
-def test_gpu_shadow_map_matches_numpy(device):
-    from aquaspec.gpu.raster import RasterPass
+def _shadow_pass(device, width, height, to_sun, map_size):
+    """A three-band sun pass with unit inputs, ready to draw a shadow map."""
     from aquaspec.gpu.sun_pass import SunPass
-    from aquaspec.scene.builtin import builtin_scene
-    scene, cam = builtin_scene(4.0, width=64, height=36)
-    to_sun = S.refracted_to_sun(45.0, 60.0)
-    dev = device
-    sp = SunPass(dev, 64, 36, 3, map_size=512)
+    sp = SunPass(device, width, height, 3, map_size=map_size)
     sp.set_inputs(S.SunInputs(beam0=np.ones(3), c_sun=np.ones(3), c_view=np.ones(3),
                               b=np.ones(3), to_sun=to_sun,
                               log_phase=np.zeros((3, S.PHASE_TABLE_SIZE))),
                   response_weights=np.ones((3, 3)), material_bands=np.ones((1, 3)),
                   sigmoid_centers_t=np.zeros(3))
+    return sp
+
+
+def test_gpu_shadow_map_matches_numpy(device):
+    from aquaspec.gpu.raster import RasterPass
+    from aquaspec.scene.builtin import builtin_scene
+    scene, cam = builtin_scene(4.0, width=64, height=36)
+    to_sun = S.refracted_to_sun(45.0, 60.0)
+    dev = device
+    sp = _shadow_pass(dev, 64, 36, to_sun, 512)
     enc = dev.create_command_encoder()
     spec = sp.encode_shadow_map(enc, RasterPass(dev), scene, cam)
     dev.queue.submit([enc.finish()])
@@ -365,19 +370,13 @@ def test_gpu_shadow_map_with_several_mesh_modes(device):
     """Meshes of different vertex layouts (a material, vertex colours) draw
     into one shadow map through pipelines that share their bind group."""
     from aquaspec.gpu.raster import RasterPass
-    from aquaspec.gpu.sun_pass import SunPass
     scene = _plate_scene()
     v = np.array([[2.0, -2.0, -6.0], [5.0, -2.0, -6.0], [5.0, -2.0, -2.0], [2.0, -2.0, -2.0]])
     scene.add(Mesh.flat(v, np.array([[0, 1, 2], [0, 2, 3]]), name="coloured",
                         vertex_rgb=np.full((4, 3), 0.5)))
     cam = Camera.look_at([0.0, -3.0, 0.0], [0.0, -3.0, -1.0], width=32, height=18)
     to_sun = S.refracted_to_sun(50.0, 120.0)
-    sp = SunPass(device, 32, 18, 3, map_size=256)
-    sp.set_inputs(S.SunInputs(beam0=np.ones(3), c_sun=np.ones(3), c_view=np.ones(3),
-                              b=np.ones(3), to_sun=to_sun,
-                              log_phase=np.zeros((3, S.PHASE_TABLE_SIZE))),
-                  response_weights=np.ones((3, 3)), material_bands=np.ones((1, 3)),
-                  sigmoid_centers_t=np.zeros(3))
+    sp = _shadow_pass(device, 32, 18, to_sun, 256)
     enc = device.create_command_encoder()
     spec = sp.encode_shadow_map(enc, RasterPass(device), scene, cam)
     device.queue.submit([enc.finish()])

@@ -247,17 +247,23 @@ def facet_weights(cos_i, normal_y, cos_z, n_water: float = model.N_WATER):
     return np.where(cos_i > 0, ci * fresnel_transmittance(ci, n_water) / (normal_y * flat), 0.0)
 
 
-def splat(u, weights, n: int, tile_m: float) -> np.ndarray:
-    """Bilinear periodic splat of points ``u`` (P, 2) (x, z) onto ``n x n``
+def _periodic_cell(u, n: int, tile_m: float):
+    """The four texels around foot points ``u`` (..., 2) on ``n x n`` periodic
     texels of a tile (texel ``[i, j]`` centred at ``((j + 1/2), (i + 1/2)) L / n``):
-    the summed weights per texel."""
-    x = np.asarray(u[:, 0]) / tile_m * n - 0.5
-    z = np.asarray(u[:, 1]) / tile_m * n - 0.5
+    ``(i0, i1, j0, j1, fz, fx)``, rows along z and columns along x."""
+    x = np.asarray(u[..., 0]) / tile_m * n - 0.5
+    z = np.asarray(u[..., 1]) / tile_m * n - 0.5
     j0, i0 = np.floor(x), np.floor(z)
     fx, fz = x - j0, z - i0
     j0 = j0.astype(np.int64) % n
     i0 = i0.astype(np.int64) % n
-    j1, i1 = (j0 + 1) % n, (i0 + 1) % n
+    return i0, (i0 + 1) % n, j0, (j0 + 1) % n, fz, fx
+
+
+def splat(u, weights, n: int, tile_m: float) -> np.ndarray:
+    """Bilinear periodic splat of points ``u`` (P, 2) (x, z) onto ``n x n``
+    texels of a tile (:func:`_periodic_cell`): the summed weights per texel."""
+    i0, i1, j0, j1, fz, fx = _periodic_cell(u, n, tile_m)
     out = np.zeros(n * n)
     for ii, wz in ((i0, 1.0 - fz), (i1, fz)):
         for jj, wx in ((j0, 1.0 - fx), (j1, fx)):
@@ -319,11 +325,10 @@ def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
     layout), with the sun towards ``air_to_sun`` (unit, in air); and the
     facets' mean weight ``w``. See the module docstring."""
     air = np.asarray(air_to_sun, dtype=float)
-    horiz_air = np.hypot(air[0], air[2])
-    sin_w = horiz_air / n_water
-    mu0 = float(np.sqrt(1.0 - sin_w ** 2))
-    dir_h = air[[0, 2]] / horiz_air if horiz_air > 1e-12 else np.array([1.0, 0.0])
-    s_xz = sin_w * dir_h                                   # towards the sun under water
+    s = -refract(-air, np.array([0.0, 1.0, 0.0]), n_water)[0]   # towards the sun under water
+    mu0 = float(s[1])
+    horiz = np.hypot(s[0], s[2])
+    dir_h = s[[0, 2]] / horiz if horiz > 1e-12 else np.array([1.0, 0.0])
     m = h.shape[0]
     norm = np.stack([-hx, np.ones_like(h), -hz], axis=-1)
     norm /= np.linalg.norm(norm, axis=-1, keepdims=True)
@@ -335,7 +340,7 @@ def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
         * (tile_m / m)
     ty = np.abs(t[..., 1]).reshape(-1)
     slope = t[..., [0, 2]].reshape(-1, 2) / ty[:, None]
-    flat = -s_xz / mu0
+    flat = -s[[0, 2]] / mu0
     hh = h.reshape(-1)
     x0, slope, hh, w = x0[lit], slope[lit], hh[lit], w[lit]
     alpha = np.radians(sun_radius_deg)
@@ -358,6 +363,34 @@ def slice_depths(max_depth_m: float, slices: int) -> np.ndarray:
     return float(max_depth_m) * (np.arange(slices) / (slices - 1.0)) ** 2
 
 
+def _check_map_args(elevation_deg, azimuth_deg, slices, max_depth_m):
+    from .sun import check_azimuth, check_elevation
+    if int(slices) < 2:
+        raise AquaspecError(f"caustic slices {slices!r}; accepted: 2 or more")
+    if not (np.isfinite(max_depth_m) and max_depth_m > 0):
+        raise AquaspecError(f"caustic depth range {max_depth_m!r} m; accepted: > 0")
+    return check_elevation(elevation_deg), check_azimuth(azimuth_deg)
+
+
+def _assemble(waves, elevation_deg, azimuth_deg, level0, mean_weight, *, n_water,
+              oversample, slices, max_depth_m, sun_radius_deg) -> CausticMap:
+    """A :class:`CausticMap` from its slices: level 0 and the mips made from
+    it, all kept at the GPU texture's half precision (both sides read the
+    same numbers)."""
+    from .sun import refracted_to_sun
+    levels = [np.asarray(level0, np.float16).astype(np.float32)]
+    while levels[-1].shape[-1] > 1:
+        a = levels[-1]
+        levels.append(np.asarray(0.25 * (a[:, 0::2, 0::2] + a[:, 1::2, 0::2]
+                                         + a[:, 0::2, 1::2] + a[:, 1::2, 1::2]),
+                                 np.float16).astype(np.float32))
+    return CausticMap(waves=waves, to_sun=refracted_to_sun(elevation_deg, azimuth_deg, n_water),
+                      depths=slice_depths(max_depth_m, int(slices)), levels=tuple(levels),
+                      mean_weight=float(mean_weight),
+                      info={"sun_elevation_deg": elevation_deg, "sun_azimuth_deg": azimuth_deg,
+                            "oversample": int(oversample), "sun_radius_deg": sun_radius_deg})
+
+
 def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
                 n_water: float = model.N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
                 slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
@@ -366,30 +399,17 @@ def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
 
     ``progress(done, total)`` is called after each slice.
     """
-    from .sun import air_to_sun, check_azimuth, check_elevation, refracted_to_sun
-    elevation_deg, azimuth_deg = check_elevation(elevation_deg), check_azimuth(azimuth_deg)
-    if int(slices) < 2:
-        raise AquaspecError(f"caustic slices {slices!r}; accepted: 2 or more")
-    if not (np.isfinite(max_depth_m) and max_depth_m > 0):
-        raise AquaspecError(f"caustic depth range {max_depth_m!r} m; accepted: > 0")
-    air = air_to_sun(elevation_deg, azimuth_deg)
-    s = refracted_to_sun(elevation_deg, azimuth_deg, n_water)
+    from .sun import air_to_sun
+    elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
+                                                 max_depth_m)
     h, hx, hz = surface(waves, oversample)
-    depths = slice_depths(max_depth_m, int(slices))
-    out, mean_w = caustic_slices(h, hx, hz, waves.tile_m, waves.grid, air, depths,
-                                 n_water=n_water, sun_radius_deg=sun_radius_deg,
-                                 progress=progress)
-    levels = [out]
-    while levels[-1].shape[-1] > 1:
-        a = levels[-1]
-        levels.append(0.25 * (a[:, 0::2, 0::2] + a[:, 1::2, 0::2] + a[:, 0::2, 1::2]
-                              + a[:, 1::2, 1::2]))
-    # Kept at the GPU texture's half precision, so both sides read the same numbers.
-    levels = [np.asarray(lv, np.float16).astype(np.float32) for lv in levels]
-    return CausticMap(waves=waves, to_sun=s, depths=depths, levels=tuple(levels),
-                      mean_weight=mean_w,
-                      info={"sun_elevation_deg": elevation_deg, "sun_azimuth_deg": azimuth_deg,
-                            "oversample": int(oversample), "sun_radius_deg": sun_radius_deg})
+    out, mean_w = caustic_slices(h, hx, hz, waves.tile_m, waves.grid,
+                                 air_to_sun(elevation_deg, azimuth_deg),
+                                 slice_depths(max_depth_m, int(slices)), n_water=n_water,
+                                 sun_radius_deg=sun_radius_deg, progress=progress)
+    return _assemble(waves, elevation_deg, azimuth_deg, out, mean_w, n_water=n_water,
+                     oversample=oversample, slices=slices, max_depth_m=max_depth_m,
+                     sun_radius_deg=sun_radius_deg)
 
 
 def foot(points, to_sun) -> np.ndarray:
@@ -403,17 +423,13 @@ def foot(points, to_sun) -> np.ndarray:
 
 def _bilinear_wrap(level, k, u, tile_m):
     """Bilinear periodic read of slice ``k`` (...) of one level at foot ``u`` (..., 2)."""
-    n = level.shape[-1]
-    x = u[..., 0] / tile_m * n - 0.5
-    z = u[..., 1] / tile_m * n - 0.5
-    j0, i0 = np.floor(x), np.floor(z)
-    fx, fz = x - j0, z - i0
-    j0 = j0.astype(np.int64) % n
-    i0 = i0.astype(np.int64) % n
-    j1, i1 = (j0 + 1) % n, (i0 + 1) % n
-    lv = level.astype(float)
-    return ((1 - fz) * ((1 - fx) * lv[k, i0, j0] + fx * lv[k, i0, j1])
-            + fz * ((1 - fx) * lv[k, i1, j0] + fx * lv[k, i1, j1]))
+    i0, i1, j0, j1, fz, fx = _periodic_cell(u, level.shape[-1], tile_m)
+
+    def at(i, j):
+        return level[k, i, j].astype(float)
+
+    return ((1 - fz) * ((1 - fx) * at(i0, j0) + fx * at(i0, j1))
+            + fz * ((1 - fx) * at(i1, j0) + fx * at(i1, j1)))
 
 
 def lod_of(footprint_m, texel_m, n_levels):
@@ -454,13 +470,36 @@ _CACHE: dict = {}
 _CACHE_SIZE = 4
 
 
-def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, **kwargs):
-    """:func:`caustic_map`, remembered for the last few (waves, sun) in this process."""
-    key = (waves, float(elevation_deg), float(azimuth_deg), tuple(sorted(kwargs.items())))
+def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
+                       n_water: float = model.N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
+                       slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
+                       sun_radius_deg: float = SUN_RADIUS_DEG) -> CausticMap:
+    """:func:`caustic_map`, remembered for the last few (waves, sun) in this
+    process and its slices kept in the cache directory (:mod:`aquaspec.cache`)."""
+    import sys
+
+    from . import light, sun
+    from .cache import cached_arrays, code_key, digest
+    elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
+                                                 max_depth_m)
+    kw = dict(n_water=float(n_water), oversample=int(oversample), slices=int(slices),
+              max_depth_m=float(max_depth_m), sun_radius_deg=float(sun_radius_deg))
+    key = (waves, elevation_deg, azimuth_deg, tuple(sorted(kw.items())))
     hit = _CACHE.get(key)
-    if hit is None:
-        hit = caustic_map(waves, elevation_deg, azimuth_deg, **kwargs)
-        if len(_CACHE) >= _CACHE_SIZE:
-            _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = hit
+    if hit is not None:
+        return hit
+    code = code_key(sys.modules[__name__], light, sun)
+    if code is None:
+        hit = caustic_map(waves, elevation_deg, azimuth_deg, **kw)
+    else:
+        def compute():
+            cm = caustic_map(waves, elevation_deg, azimuth_deg, **kw)
+            return {"level0": cm.levels[0].astype(np.float16),
+                    "mean_weight": np.array(cm.mean_weight)}
+        data = cached_arrays("caustics", digest(code, repr(key)), compute)
+        hit = _assemble(waves, elevation_deg, azimuth_deg, data["level0"],
+                        float(data["mean_weight"]), **kw)
+    if len(_CACHE) >= _CACHE_SIZE:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[key] = hit
     return hit

@@ -53,6 +53,8 @@ PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
     ("c_texel", "f32"), ("c_levels", "f32"),
 ])
 CAUSTIC_FORMAT = "r16float"
+#: Bound in place of the caustics when there are none (two 1 x 1 slices of 1).
+NO_CAUSTICS = (np.ones((2, 1, 1), np.float32),)
 CLIP_LAYOUT = UniformLayout("ShadowClip", [("clip", "mat4x4<f32>")])
 WORKGROUP = (8, 8)
 DEPTH_FORMAT = "depth32float"
@@ -118,8 +120,7 @@ class SunPass:
             mag_filter=wgpu.FilterMode.linear, min_filter=wgpu.FilterMode.linear,
             mipmap_filter=wgpu.MipmapFilterMode.linear)
         self._caustic_map = None
-        self._caustic_tex = self._caustic_texture(
-            [np.ones((2, 1, 1), np.float32)])
+        self._caustic_tex = self._caustic_texture(NO_CAUSTICS)
         self._bind_key = None
         self._group = None
         self.spec: ShadowMapSpec | None = None
@@ -170,10 +171,7 @@ class SunPass:
         """Upload the caustic map (once per map; None: the 1 x 1 stand-in)."""
         if cmap is self._caustic_map:
             return
-        if cmap is None:
-            self._caustic_tex = self._caustic_texture([np.ones((2, 1, 1), np.float32)])
-        else:
-            self._caustic_tex = self._caustic_texture(list(cmap.levels))
+        self._caustic_tex = self._caustic_texture(NO_CAUSTICS if cmap is None else cmap.levels)
         self._caustic_map = cmap
         self._bind_key = None
 
