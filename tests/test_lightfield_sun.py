@@ -308,3 +308,19 @@ def test_tables_ambient_shadow_with_sun(ib4):
     depth, cos = t["depth_m"].astype(float), t["cosine"].astype(float)
     np.testing.assert_allclose(t["radiance_per_e0"], lf.radiance(depth[:, None], cos[None, :]),
                                rtol=1e-5, atol=1e-9)
+
+
+def test_open_water_sees_the_sun_lit_seabed(ib4):
+    """A down ray ending just above the tables' own seabed sees it lit by the
+    diffuse field and by the beam, as the solution's boundary does."""
+    from aquaspec.lightfield import lightfield_pixel_radiance
+    share = np.array([0.2, 0.5, 0.6, 0.9])
+    tables = lightfield_tables(ib4, sun_mu0=0.8, sun_fraction=share, **TABLE_KW)
+    lf = solve_lightfield(ib4.a, ib4.b, phase="petzold", wavelength_nm=ib4.bands.centers_nm,
+                          n_streams=16, seabed_depth_m=12.0, seabed_albedo=0.3,
+                          e0=1 - share, sun_mu0=0.8, sun_beam=share / 0.8)
+    d = 12.0 - 0.01
+    got = lightfield_pixel_radiance(tables, a=ib4.a, b=ib4.b, e0=np.ones(4),
+                                    depth_o=np.array([[d]]), v_y=np.array([[-1.0]]),
+                                    s=np.array([[np.inf]]))[0]
+    np.testing.assert_allclose(got, lf.radiance(d, -1.0).ravel(), rtol=0.02)

@@ -1209,10 +1209,15 @@ def lightfield_pixel_radiance(tables, *, a, b, e0, depth_o, v_y, s, rho=None,
     d_max = float(tables["max_depth_m"][0])
     bed = float(tables["seabed_depth_m"][0])
     s_eff = _cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
-    # The seabed's own radiance (Lambertian under the downwelling light).
+    # The seabed's own radiance (Lambertian under the downwelling light: the
+    # diffuse field's and, with a sun, the beam's, as LightField._boundary).
     l_bed = 0.0
     if np.isfinite(bed):
         e_bed = bilinear(tables["irradiance_per_e0"], bed, 1.0, d_max)
+        mu0 = float(tables["sun_mu0"][0]) if "sun_mu0" in tables else np.nan
+        if np.isfinite(mu0):
+            e_bed = e_bed + np.asarray(tables["sun_fraction"], dtype=float) * np.exp(
+                -np.asarray(tables["beam_extinction"], dtype=float) * bed / mu0)
         l_bed = np.asarray(tables["seabed_albedo"], dtype=float) * e_bed * e0 / np.pi
     if rho is None:
         sky = np.where(v > float(tables["window_cos"][0]),
