@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import types
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +39,12 @@ def test_computed_once_then_read(monkeypatch, tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["thing-k1.npz"]
     cache.cached_arrays("thing", "k2", compute)
     assert len(calls) == 2
+    # No key (code that cannot be read, cache.code_digest): computed each time, never kept.
+    cache.cached_arrays("thing", None, compute)
+    cache.cached_arrays("thing", None, compute)
+    assert len(calls) == 4 and len(list(tmp_path.iterdir())) == 2
+    assert cache.code_digest([types.ModuleType("made_up")], 1) is None
+    assert cache.code_digest([cache], 1) != cache.code_digest([cache], 2)
 
 
 def test_an_unwritable_cache_only_costs_the_computation(monkeypatch, tmp_path):

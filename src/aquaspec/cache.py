@@ -70,10 +70,11 @@ def save_arrays(path: Path, data: dict, *, compressed: bool = False) -> bool:
         return False
 
 
-def cached_arrays(name: str, key: str, compute) -> dict:
-    """``compute()`` (a dict of arrays), kept in ``<cache>/<name>-<key>.npz``."""
+def cached_arrays(name: str, key: str | None, compute) -> dict:
+    """``compute()`` (a dict of arrays), kept in ``<cache>/<name>-<key>.npz``
+    (``key`` None, e.g. from :func:`code_digest`: computed and not kept)."""
     directory = cache_dir()
-    if directory is None:
+    if directory is None or key is None:
         return compute()
     path = directory / f"{name}-{key}.npz"
     found = load_arrays(path)
@@ -92,6 +93,13 @@ def package_version(distribution: str) -> str:
         return version(distribution)
     except PackageNotFoundError:
         return "unknown"
+
+
+def code_digest(modules, *parts) -> str | None:
+    """A cache key of ``parts`` and of the code of ``modules`` (:func:`code_key`);
+    None when that code cannot be read (then nothing should be cached)."""
+    code = code_key(*modules)
+    return None if code is None else digest(code, *parts)
 
 
 def code_key(*modules) -> str | None:

@@ -479,7 +479,7 @@ def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *
     import sys
 
     from . import light, sun
-    from .cache import cached_arrays, code_key, digest
+    from .cache import cached_arrays, code_digest
     elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
                                                  max_depth_m)
     kw = dict(n_water=float(n_water), oversample=int(oversample), slices=int(slices),
@@ -488,17 +488,15 @@ def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *
     hit = _CACHE.get(key)
     if hit is not None:
         return hit
-    code = code_key(sys.modules[__name__], light, sun)
-    if code is None:
-        hit = caustic_map(waves, elevation_deg, azimuth_deg, **kw)
-    else:
-        def compute():
-            cm = caustic_map(waves, elevation_deg, azimuth_deg, **kw)
-            return {"level0": cm.levels[0].astype(np.float16),
-                    "mean_weight": np.array(cm.mean_weight)}
-        data = cached_arrays("caustics", digest(code, repr(key)), compute)
-        hit = _assemble(waves, elevation_deg, azimuth_deg, data["level0"],
-                        float(data["mean_weight"]), **kw)
+    def compute():
+        cm = caustic_map(waves, elevation_deg, azimuth_deg, **kw)
+        return {"level0": cm.levels[0].astype(np.float16),
+                "mean_weight": np.array(cm.mean_weight)}
+
+    data = cached_arrays("caustics", code_digest([sys.modules[__name__], light, sun],
+                                                 repr(key)), compute)
+    hit = _assemble(waves, elevation_deg, azimuth_deg, data["level0"],
+                    float(data["mean_weight"]), **kw)
     if len(_CACHE) >= _CACHE_SIZE:
         _CACHE.pop(next(iter(_CACHE)))
     _CACHE[key] = hit

@@ -319,13 +319,10 @@ def multiple_scattering_cdf(offsets_rad, cdf, lam: float, *, samples: int = MULT
 def _multiple_cdf(off_bytes, f1_bytes, lam, samples, seed):
     import sys
 
-    from .cache import cached_arrays, code_key, digest
+    from .cache import cached_arrays, code_digest
     # (The key holds the code that computes it: a changed module is not
     # answered from an old file; without its source, no file.)
-    code = code_key(sys.modules[__name__])
-    if code is None:
-        return _multiple_cdf_monte_carlo(off_bytes, f1_bytes, lam, samples, seed)
-    key = digest(off_bytes, f1_bytes, lam, samples, seed, code)
+    key = code_digest([sys.modules[__name__]], off_bytes, f1_bytes, lam, samples, seed)
     return cached_arrays("spread-cdf", key, lambda: {"cdf": _multiple_cdf_monte_carlo(
         off_bytes, f1_bytes, lam, samples, seed)})["cdf"]
 

@@ -794,11 +794,8 @@ def lightfield_tables(band_water, *, phase="petzold", seabed_depth_m=None,
                 surface=surface, forward_cone_deg=forward_cone_deg, cone_spread=cone_spread,
                 spread_scattering=spread_scattering, ambient_shadow=ambient_shadow,
                 sun_mu0=sun_mu0, sun_fraction=sun_fraction, **phase_params)
-    key = _tables_key(band_water, args)
-    if key is None:
-        return _lightfield_tables(band_water, **args)
     from .cache import cached_arrays
-    return cached_arrays("lightfield-tables", key,
+    return cached_arrays("lightfield-tables", _tables_key(band_water, args),
                          lambda: _lightfield_tables(band_water, **args))
 
 

@@ -158,12 +158,9 @@ def choose_irradiance_factors(tables) -> dict:
     module's code and constants."""
     import sys
 
-    from .cache import cached_arrays, code_key, digest
-    code = code_key(sys.modules[__name__])
-    if code is None:
-        return _choose_irradiance_factors(tables)
-    key = digest(code, *(np.asarray(tables[k], dtype=float).tobytes()
-                         for k in ("irradiance_per_e0", "depth_m")))
+    from .cache import cached_arrays, code_digest
+    key = code_digest([sys.modules[__name__]], *(np.asarray(tables[k], dtype=float).tobytes()
+                                                 for k in ("irradiance_per_e0", "depth_m")))
     fac = cached_arrays("irradiance-factors", key, lambda: {
         k: np.asarray(v) for k, v in _choose_irradiance_factors(tables).items()})
     return {"coef": fac["coef"], "basis": fac["basis"],

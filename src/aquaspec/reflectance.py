@@ -264,13 +264,10 @@ def sigmoid_table() -> np.ndarray:
     computed once per machine (a few seconds) and kept in aquaspec's cache."""
     import sys
 
-    from .cache import cached_arrays, code_key, digest
+    from .cache import cached_arrays, code_digest
     n = SIGMOID_TABLE_SIZE
-    code = code_key(sys.modules[__name__])
-    if code is None:
-        return _build_sigmoid_table(n)
     M, basis, _ = _fit_system()
-    key = digest(code, M.tobytes(), basis.tobytes())
+    key = code_digest([sys.modules[__name__]], M.tobytes(), basis.tobytes())
     table = cached_arrays("sigmoid-table", key, lambda: {"table": _build_sigmoid_table(n)})
     table = np.asarray(table["table"], dtype=float)
     if table.shape != (3, n, n, n, 3) or not np.all(np.isfinite(table)):
