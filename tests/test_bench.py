@@ -7,7 +7,6 @@ import pytest
 
 from aquaspec.bench import format_table, run_bench
 from aquaspec.cli import main
-from aquaspec.errors import AquaspecError
 
 pytestmark = pytest.mark.gpu
 

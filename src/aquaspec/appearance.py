@@ -19,10 +19,9 @@ from .water import Water
 GREY_CARD_REFLECTANCE = 0.18
 
 
-def check_depth(depth_m, name="depth"):
-    """Validate a depth below the surface (or, ``name="distance"``, a distance
-    from the camera) in metres (>= 0, finite)."""
-    what = "below the surface" if name == "depth" else "from the camera"
+def check_depth(depth_m, name="depth", what="below the surface"):
+    """Validate a depth below the surface (or another length, ``name`` metres
+    ``what``) in metres (>= 0, finite)."""
     try:
         d = float(depth_m)
     except (TypeError, ValueError):
@@ -42,7 +41,7 @@ def check_ms_model(name):
 
 
 def check_distance(distance_m):
-    d = check_depth(distance_m, "distance")
+    d = check_depth(distance_m, "distance", "from the camera")
     if d <= 0:
         raise AquaspecError(f"distance {distance_m!r} m must be > 0")
     return d

@@ -193,17 +193,26 @@ def _checked(layers) -> dict:
     return out
 
 
+def check_layers_path(path):
+    """The layers' output path (a ``Path``), refused before any work if its
+    suffix is not one of :data:`LAYER_SUFFIXES`, its directory cannot be
+    written, or it is an EXR without the OpenEXR module."""
+    from .output import _openexr, check_writable
+    p = check_writable(path, suffixes=LAYER_SUFFIXES)
+    if p.suffix.lower() == ".exr" and _openexr() is None:
+        raise AquaspecError(f"writing {str(p)!r} needs the OpenEXR module (pip install "
+                            "openexr); or give a .npz path")
+    return p
+
+
 def plan_layers(path, layers, metadata: dict):
     """``(final_path, writer)`` of :func:`write_layers` for a staged, atomic write
     (:func:`aquaspec.output.save_image` writes it with the other files);
     ``metadata`` is serialised when the file is written."""
-    from .output import _dumps, _openexr, check_writable, exr_writer
-    p = check_writable(path, suffixes=LAYER_SUFFIXES)
+    from .output import _dumps, exr_writer
+    p = check_layers_path(path)
     arrays = _checked(layers)
     if p.suffix.lower() == ".exr":
-        if _openexr() is None:
-            raise AquaspecError(f"writing {str(p)!r} needs the OpenEXR module (pip install "
-                                "openexr); or give a .npz path")
         channels = {f"{k}.{c}": np.ascontiguousarray(arrays[k][..., i])
                     for k in COLOUR_LAYERS for i, c in enumerate("RGB")}
         channels["range_m"] = arrays["range_m"]

@@ -69,11 +69,8 @@ class SurfaceLight:
         if self.sun is None:
             return np.zeros_like(wl)
         sun = self.sun
-        if sun.wavelength_nm.shape == wl.shape and np.array_equal(sun.wavelength_nm, wl):
-            beam = sun.beam_normal
-        else:
-            beam = np.interp(wl, sun.wavelength_nm, sun.beam_normal, left=0.0, right=0.0)
-        return sun.mu0 * beam
+        # (On the sun's own grid np.interp returns its values exactly.)
+        return sun.mu0 * np.interp(wl, sun.wavelength_nm, sun.beam_normal, left=0.0, right=0.0)
 
     def sky_values(self) -> np.ndarray:
         """The diffuse sky's share of ``E0`` on :attr:`wavelength_nm` (clipped at 0)."""

@@ -256,12 +256,7 @@ class LightField:
         ``+mu0``; ``2 pi pbar*(v, mu0) = 1/2 sum_l (2l + 1) chi*_l P_l(v) P_l(mu0)``
         (:func:`aquaspec.phase.redistribution_matrix` with weight 1).
         """
-        lmax = self.chi_star.shape[1] - 1
-        coef = self.chi_star * (2.0 * np.arange(lmax + 1) + 1.0) * 0.5     # (n, L)
-        p_v = legendre_table(lmax, v)                                       # (L, R)
-        p_0 = legendre_table(lmax, self.sun_mu0)                            # (L, n)
-        two_pi_p = (coef * p_0.T) @ p_v                                     # (n, R)
-        return (self.b_star * self.sun_beam / (2.0 * np.pi))[:, None] * two_pi_p
+        return _beam_scattering(self.chi_star, self.b_star, self.sun_beam, self.sun_mu0, v)
 
     # ---- radiance at the quadrature nodes -------------------------------
     def _phi_grow(self):
@@ -646,6 +641,17 @@ def _resonance_free_mu0(mu0, c_star, kappa):
     return np.where(close, c_star / target, mu0)
 
 
+def _beam_scattering(chi_star, b_star, beam, mu0_b, v):
+    """``b* F0 pbar*(v, mu0)`` per unit ``exp(-c* d/mu0)`` (n, R), ``v`` (R,),
+    ``mu0_b`` (n,): the beam's first scattering into the radiance seen looking
+    along ``v``, with ``2 pi pbar* = 1/2 sum_l (2l + 1) chi*_l P_l(v) P_l(mu0)``."""
+    lmax = chi_star.shape[1] - 1
+    coef = chi_star * (2.0 * np.arange(lmax + 1) + 1.0) * 0.5                # (n, L)
+    two_pi_p = np.einsum("bl,lb,li->bi", coef, legendre_table(lmax, mu0_b),
+                         legendre_table(lmax, v))                            # (n, R)
+    return (b_star * beam / (2.0 * np.pi))[:, None] * two_pi_p
+
+
 def _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w, phi):
     """The sun's particular solution at the nodes, ``X`` (n_bands, 2N), per unit
     ``exp(-c* d / mu0)``; also the ``mu0`` used per band (moved off
@@ -653,11 +659,7 @@ def _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w, phi):
     n = kappa.shape[1]
     mu0_b = _resonance_free_mu0(mu0, c_star, kappa)                  # (n,)
     # Beam source per unit exp(-c* d/mu0): b* F0 pbar*(mu_i, mu0) at the nodes.
-    lmax = chi_star.shape[1] - 1
-    coef = chi_star * (2.0 * np.arange(lmax + 1) + 1.0) * 0.5
-    two_pi_p = np.einsum("bl,lb,li->bi", coef, legendre_table(lmax, mu0_b),
-                         legendre_table(lmax, mu))                    # (n, 2N)
-    rhs = (b_star * beam / (2.0 * np.pi))[:, None] * two_pi_p
+    rhs = _beam_scattering(chi_star, b_star, beam, mu0_b, mu)          # (n, 2N)
     # mu_i (-r) X_i = -c* X_i + b* sum_j Q_ij X_j + rhs_i with r = c*/mu0, i.e.
     # (M - r D) X = rhs, M = c* - b* Q, D = diag(mu). The modes are M phi_k =
     # ev_k D phi_k (ev = +-kappa: decaying, and growing = flipped), and W M, W D

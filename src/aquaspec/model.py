@@ -107,7 +107,7 @@ def ms_path_integral(c, kd, depth_o, v_y, s):
     neg = x < 0
     if np.any(neg):
         shape = finite_part.shape
-        finite_part = np.array(finite_part, copy=True)
+        finite_part = np.asarray(finite_part)    # (a writable array also for 0-d input)
         finite_part[neg] = np.broadcast_to(s_f, shape)[neg] * np.exp(
             np.broadcast_to(base, shape)[neg] + _log_psi(-np.broadcast_to(x, shape)[neg]))
     k_pos = np.where(k > 0, k, 1.0)

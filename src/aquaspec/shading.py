@@ -34,7 +34,7 @@ from . import model
 from .errors import AquaspecError
 from .gbuffer import PER_PIXEL, GBuffer
 # The Jakob-Hanika sigmoid at normalised wavelengths (reflectance.py holds it).
-from .reflectance import SIGMOID_X_MAX, sigmoid_at as sigmoid_reflectance  # noqa: F401
+from .reflectance import sigmoid_at as sigmoid_reflectance
 
 #: Upper bound on float64 elements of one row chunk per band array.
 _CHUNK_ELEMENTS = 1 << 20

@@ -26,7 +26,7 @@ from .appearance import check_ms_model
 from .bands import Bands
 from .display import to_display
 from .errors import AquaspecError
-from .light import surface_light
+from .light import DEFAULT_SUN_AZIMUTH_DEG, surface_light
 from .model import DEFAULT_MS_MODEL, MS_MODELS
 from .renderer import Renderer, SpectralSetup
 from .scene.builtin import builtin_scene
@@ -57,7 +57,7 @@ class Viewer:
     def __init__(self, width=640, height=360, *, water="IB", depth_m=5.0, bands=8,
                  sensor="human", exposure="auto", ms_model=DEFAULT_MS_MODEL, cone_spread=None,
                  camspec=None, spread_scattering="single", sun_elevation_deg=0.0,
-                 sun_azimuth_deg=150.0, wind=0.0):
+                 sun_azimuth_deg=DEFAULT_SUN_AZIMUTH_DEG, wind=0.0):
         self.width, self.height = width, height
         self.camspec = camspec
         self.state = {"water": water, "depth_m": float(depth_m), "bands": int(bands),

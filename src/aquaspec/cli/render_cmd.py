@@ -99,12 +99,8 @@ def run(args):
     if args.linear:
         check_writable(args.linear, suffixes=LINEAR_SUFFIXES)
     if args.layers:
-        from ..layers import LAYER_SUFFIXES
-        from ..output import _openexr
-        lay = check_writable(args.layers, suffixes=LAYER_SUFFIXES)
-        if lay.suffix.lower() == ".exr" and _openexr() is None:
-            raise AquaspecError(f"--layers {args.layers!r} needs the OpenEXR module (pip "
-                                "install openexr); or give a .npz path")
+        from ..layers import check_layers_path
+        check_layers_path(args.layers)
     size = parse_size(args.size)
     exposure = args.exposure
     if exposure != "auto":

@@ -25,8 +25,10 @@ def register(sub):
     add_spread_scattering_option(p)
     p.add_argument("--sun-elevation", type=float, default=0.0, metavar="DEG",
                    help="start with the sun at DEG (0 = an overcast sky; default 0)")
-    p.add_argument("--sun-azimuth", type=float, default=150.0, metavar="DEG",
-                   help="the sun's compass angle, as for render (default 150)")
+    from ..light import DEFAULT_SUN_AZIMUTH_DEG
+    p.add_argument("--sun-azimuth", type=float, default=DEFAULT_SUN_AZIMUTH_DEG, metavar="DEG",
+                   help="the sun's compass angle, as for render (default "
+                        f"{DEFAULT_SUN_AZIMUTH_DEG:g})")
     p.add_argument("--wind", type=float, default=0.0, metavar="M_S",
                    help="start with a wind sea's caustics (0 = a flat surface; default 0)")
     p.add_argument("--camspec", metavar="PATH")

@@ -254,7 +254,10 @@ class LightfieldPass:
         lp = np.asarray(tables["ms_log_prefactor"])
         if lp.shape[0] != n:
             raise AquaspecError(f"tables have {lp.shape[0]} bands; the medium has {n}")
-        factors = lfc.choose_irradiance_factors(tables)
+        # (The factors depend on the tables alone: the same tables object,
+        # kept alive by self._medium, keeps them.)
+        factors = (self.factors if self._medium is not None and self._medium[0] is tables
+                   else lfc.choose_irradiance_factors(tables))
         f = np.asarray(tables.get("forward_fraction", np.zeros(n)), dtype=float)
         # The band coefficients lightfield_compiled.kept_projection reads, and
         # their projection of f b (made once per medium).

@@ -55,8 +55,10 @@ DEPTH_FORMAT = "depth32float"
 #: fragment entry points (and pipeline), :data:`_ENTRY`.
 MODE_MATERIAL, MODE_TEXTURE, MODE_VERTEX = 0, 1, 2
 _ENTRY = {MODE_MATERIAL: "material", MODE_TEXTURE: "texture", MODE_VERTEX: "vertex"}
+#: 4-byte words of each mode's attribute after position and normal.
+_EXTRA_WORDS = {MODE_MATERIAL: 1, MODE_TEXTURE: 2, MODE_VERTEX: 3}
 #: Bytes per vertex of each mode: position, normal, then the mode's attribute.
-VERTEX_STRIDE = {MODE_MATERIAL: 28, MODE_TEXTURE: 32, MODE_VERTEX: 36}
+VERTEX_STRIDE = {m: 4 * (6 + k) for m, k in _EXTRA_WORDS.items()}
 
 
 def _mode(mesh: Mesh) -> int:
@@ -75,8 +77,7 @@ def _vertex_data(mesh: Mesh) -> np.ndarray:
     coefficients (3 f32).
     """
     mode = _mode(mesh)
-    extra = {MODE_MATERIAL: 1, MODE_TEXTURE: 2, MODE_VERTEX: 3}[mode]
-    data = np.zeros((len(mesh.vertices), 6 + extra), dtype=np.float32)
+    data = np.zeros((len(mesh.vertices), 6 + _EXTRA_WORDS[mode]), dtype=np.float32)
     data[:, 0:3] = mesh.vertices
     data[:, 3:6] = mesh.normals
     if mode == MODE_MATERIAL:
@@ -200,8 +201,8 @@ class RasterPass:
             return self._pipelines[key]
         module = self._module
         f32x3, f32x2 = wgpu.VertexFormat.float32x3, wgpu.VertexFormat.float32x2
-        extra = {MODE_MATERIAL: (wgpu.VertexFormat.uint32, 4),
-                 MODE_TEXTURE: (f32x2, 8), MODE_VERTEX: (f32x3, 12)}[mode]
+        extra = {MODE_MATERIAL: wgpu.VertexFormat.uint32, MODE_TEXTURE: f32x2,
+                 MODE_VERTEX: f32x3}[mode]
         name = _ENTRY[mode]
         fragment = f"fs_{name}2" if per_pixel and mode == MODE_MATERIAL else f"fs_{name}"
         targets = [{"format": wgpu.TextureFormat.rgba32uint}]
@@ -216,7 +217,7 @@ class RasterPass:
                 "attributes": [
                     {"format": f32x3, "offset": 0, "shader_location": 0},
                     {"format": f32x3, "offset": 12, "shader_location": 1},
-                    {"format": extra[0], "offset": 24, "shader_location": 2}]}]},
+                    {"format": extra, "offset": 24, "shader_location": 2}]}]},
             primitive={"topology": wgpu.PrimitiveTopology.triangle_list,
                        "cull_mode": wgpu.CullMode.none},
             depth_stencil={"format": DEPTH_FORMAT,

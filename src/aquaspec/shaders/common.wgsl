@@ -13,7 +13,7 @@
 
 const PI: f32 = 3.14159265358979;
 const FOUR_PI: f32 = 12.5663706143592;
-// aquaspec.shading.SIGMOID_X_MAX.
+// aquaspec.reflectance.SIGMOID_X_MAX.
 const SIGMOID_X_MAX: f32 = 1.0e6;
 
 // +infinity, for the same (impossible for valid input) case where NumPy
