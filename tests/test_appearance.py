@@ -155,3 +155,137 @@ class TestMsModels:
         with pytest.raises(AquaspecError, match="unknown multiple-scattering model 'magic'"):
             water_colour(load_water("IB"), get_sensor("human"), Bands(8), depth_m=5,
                          distance_m=3, ms_model="magic")
+
+
+def _sun_setup(ms_model, elevation, azimuth, n=8, water="IB"):
+    from aquaspec.light import surface_light
+    from aquaspec.renderer import SpectralSetup
+    return SpectralSetup(load_water(water), get_sensor("human"),
+                         surface_light("sun-sky", sun_elevation_deg=elevation,
+                                       sun_azimuth_deg=azimuth), Bands(n),
+                         ms_model=ms_model, cone_spread=False,
+                         forward_cone_deg=15.0 if ms_model == "lightfield" else None)
+
+
+def _view(elevation_deg):
+    r = np.radians(elevation_deg)
+    return np.array([0.0, np.sin(r), -np.cos(r)])
+
+
+def _rendered_pixel(setup, depth, view, distance):
+    """The NumPy renderer's camera RGB of one ray along ``view`` (a 1x1 camera
+    with a narrow pixel) ending on an 18 % grey card facing it, or in open water."""
+    from aquaspec.appearance import GREY_CARD_REFLECTANCE
+    from aquaspec.camera import Camera
+    from aquaspec.gbuffer import GBuffer
+    from aquaspec.shading import shade_gbuffer
+    cam = Camera((0.0, -depth, 0.0), view, (0.0, 1.0, 0.0), 1, 1, 1000.0, 1000.0, 0.5, 0.5)
+    gb = GBuffer(cam, [[distance]], [[-view]], [[0]], [[(0.0, 0.0, 0.0)]], materials=["grey"])
+    medium = {**setup.medium([]),
+              "material_bands": np.full((1, setup.bands.n), GREY_CARD_REFLECTANCE)}
+    return shade_gbuffer(gb, **medium, lightfield=setup.lightfield_tables(),
+                         sun=setup.sun_inputs())["camera_rgb"][0, 0]
+
+
+class TestSun:
+    """With --light sun-sky the colour is what the renderer makes of the sun."""
+
+    @pytest.mark.parametrize("ms_model", ["lightfield", "seeds"])
+    @pytest.mark.parametrize("elevation, azimuth, view", [
+        (20, 180, 0), (60, 0, 0), (45, 150, -30), (70, 30, 40)])
+    def test_the_renderers_pixel(self, ms_model, elevation, azimuth, view):
+        from aquaspec.appearance import colour_of_setup
+        setup = _sun_setup(ms_model, elevation, azimuth)
+        v = _view(view)
+        res = colour_of_setup(setup, depth_m=6.0, distance_m=2.5, view=v)
+        for key, dist in (("water_rgb", np.inf), ("grey_card_rgb", 2.5)):
+            got = np.array(res[key])
+            want = _rendered_pixel(setup, 6.0, v, dist)
+            # (The renderer integrates the beam's scattering in froxel
+            # slices; here it is closed form: measured within 0.3 %.)
+            np.testing.assert_allclose(got, want, atol=3e-3 * np.abs(want).max())
+        assert res["sun_part"]["water_rgb"][2] > 0
+
+    def test_sun_parts_in_closed_form(self):
+        """Horizontal view, sun behind the camera: the water's share is
+        b p(theta) E_b(d) / c, the card's adds rho/pi E_b(d) sin(theta_w) e^{-cS}."""
+        from aquaspec.appearance import GREY_CARD_REFLECTANCE, colour_of_setup
+        from aquaspec.model import radiance_to_rgb
+        from aquaspec.sun import phase_from_table
+        setup = _sun_setup("lightfield", 35, 180)
+        sun = setup.sun_inputs()
+        d, s = 4.0, 2.0
+        res = colour_of_setup(setup, depth_m=d, distance_m=s)
+        e_b = sun.beam0 * np.exp(-sun.c_sun * d / sun.mu0)
+        p = phase_from_table(sun.log_phase, -sun.to_sun[2])      # view -z
+        scatter = sun.b * p * e_b / sun.c_view
+        w = setup.sensor.band_weights(setup.bands)
+        np.testing.assert_allclose(res["sun_part"]["water_rgb"], radiance_to_rgb(scatter, w),
+                                   rtol=1e-9)
+        sin_w = np.sqrt(1.0 - sun.mu0 ** 2)
+        assert sun.to_sun[2] == pytest.approx(sin_w)           # towards the card's normal +z
+        card = (scatter * -np.expm1(-sun.c_view * s)
+                + GREY_CARD_REFLECTANCE / np.pi * e_b * sin_w * np.exp(-sun.c_view * s))
+        np.testing.assert_allclose(res["sun_part"]["grey_card_rgb"], radiance_to_rgb(card, w),
+                                   rtol=1e-9)
+
+    def test_sun_ahead_lights_the_water_not_the_card(self):
+        from aquaspec.appearance import colour_of_setup
+        ahead = colour_of_setup(_sun_setup("lightfield", 50, 0), depth_m=5.0, distance_m=3.0)
+        behind = colour_of_setup(_sun_setup("lightfield", 50, 180), depth_m=5.0, distance_m=3.0)
+        # Petzold: scattering through 61 degrees (sun ahead) beats 119 (behind) ...
+        assert ahead["sun_part"]["water_rgb"][2] > 1.8 * behind["sun_part"]["water_rgb"][2]
+        # ... and the card's back is to it: only the water in front scatters.
+        assert behind["sun_part"]["grey_card_rgb"][1] > 5 * ahead["sun_part"]["grey_card_rgb"][1]
+
+    def test_without_the_sun_no_beam(self):
+        from aquaspec.light import surface_light
+        w, s = load_water("IB"), get_sensor("human")
+        light = surface_light("sun-sky", sun_elevation_deg=40)
+        diffuse = water_colour(w, s, Bands(8), depth_m=5, distance_m=3, light=light.without_sun())
+        beam = water_colour(w, s, Bands(8), depth_m=5, distance_m=3, light=light)
+        assert "sun_part" not in diffuse and "sun_part" in beam
+        # The same E0 lights both; a beam from 40 degrees scatters less into a
+        # horizontal view than a diffuse sky does.
+        assert beam["light"]["sun"]["elevation_deg"] == 40
+        assert beam["water_rgb"][2] < diffuse["water_rgb"][2]
+
+    def test_cli(self, capsys):
+        assert main(["colour", "--water", "IB", "--depth", "5", "--light", "sun-sky",
+                     "--sun-azimuth", "180", "--view-elevation", "-30", "--bands", "8"]) == 0
+        out = capsys.readouterr().out
+        assert "view -30 deg" in out and "of which the sun's beam" in out
+        assert main(["colour", "--water", "IB", "--depth", "5", "--view-elevation", "-30",
+                     "--json", "--bands", "8"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        assert doc["view_elevation_deg"] == pytest.approx(-30)
+        assert doc["grey_card_depth_m"] == pytest.approx(5 + 3 * 0.5)
+
+    @pytest.mark.parametrize("argv, match", [
+        (["--view-elevation", "95"], "view elevation 95.0 degrees is not accepted; give -90"),
+        (["--depth", "1", "--view-elevation", "60"], "would be above the water surface"),
+    ])
+    def test_cli_errors(self, capsys, argv, match):
+        base = ["colour", "--water", "IB", "--bands", "8"]
+        assert main(base + (argv if "--depth" in argv else ["--depth", "5", *argv])) == 2
+        assert match in capsys.readouterr().err
+
+
+class TestWhiteCard:
+    def test_along_the_view_or_level_near_the_surface(self):
+        from aquaspec.camera import Camera
+        from aquaspec.renderer import WHITE_CARD_DISTANCE_M, white_card
+        down = Camera((0, -5, 0), (0, -1, -1), (0, 1, 0), 8, 8, 8.0, 8.0, 4.0, 4.0)
+        card = white_card(down)
+        assert card["depth_m"] == 5 and card["distance_m"] == WHITE_CARD_DISTANCE_M
+        np.testing.assert_allclose(card["view"], np.array([0, -1, -1]) / np.sqrt(2))
+        up = Camera((0, -0.5, 0), (1, 2, 0), (0, 0, 1), 8, 8, 8.0, 8.0, 4.0, 4.0)
+        np.testing.assert_allclose(white_card(up)["view"], [1, 0, 0])
+
+    def test_unbalanceable_card_fails_before_shading(self):
+        from aquaspec.renderer import render
+        # The human sensor's linear sRGB of a card in blue water has red < 0.
+        with pytest.raises(AquaspecError, match=r"grey card 1 m ahead has camera RGB -.*"
+                                                r"sensor 'human'.*'nikon-5100-npl'"):
+            render(water="IB", depth_m=5.0, size=(32, 18), bands=8,
+                   white_balance="white-patch", backend="numpy")

@@ -33,6 +33,8 @@ def test_forced_unknown():
 
 def test_no_adapter_names_the_package(monkeypatch):
     import wgpu
+    import wgpu.backends.auto  # noqa: F401  (wgpu.gpu is the backend's, not the stand-in
+    #                                         that replaces itself on first use)
     monkeypatch.setattr(wgpu.gpu, "enumerate_adapters_sync", lambda: [])
     device.get_device.cache_clear()
     try:

@@ -269,6 +269,32 @@ def test_numpy_render_adds_the_sun_and_records_it():
     assert with_sun.params["light"]["sun"]["azimuth_deg"] == 30.0
 
 
+def test_white_patch_card_is_lit_by_the_sun(device):
+    """The diver's grey card 1 m along the view gets the beam and the beam's
+    scattering, as the renderer's own pixels do; its colour is made neutral."""
+    from aquaspec.appearance import colour_of_setup
+    from aquaspec.bands import Bands
+    from aquaspec.renderer import SpectralSetup, white_card
+    from aquaspec.scene.builtin import builtin_scene
+    from aquaspec.sensors import get_sensor
+    from aquaspec.water import get_water
+    res = _render("gpu", sensor="nikon-5100-npl", sun_azimuth_deg=180.0,
+                  white_balance="white-patch")
+    card = res.params["white_card"]
+    scene, cam = builtin_scene(4.0, width=96, height=54)
+    np.testing.assert_allclose(card["view_direction"], cam.forward)
+    ref = np.array(card["camera_rgb"])
+    gains = np.array(res.params["display"]["white_balance_gains"])
+    np.testing.assert_allclose(gains * ref, (gains * ref).mean(), rtol=1e-9)
+    light = surface_light("sun-sky", sun_elevation_deg=50.0, sun_azimuth_deg=180.0)
+    setup = SpectralSetup(get_water("IB"), get_sensor("nikon-5100-npl"), light, Bands(6),
+                          seabed=scene.seabed)
+    beam = colour_of_setup(setup, **white_card(cam))
+    np.testing.assert_allclose(ref, beam["grey_card_rgb"], rtol=1e-9)
+    # The sun behind the diver lights the card: more than a third of its light.
+    assert np.all(np.array(beam["sun_part"]["grey_card_rgb"]) > ref / 3)
+
+
 @pytest.mark.parametrize("ms_model,az", [("seeds", 30.0), ("seeds", 200.0),
                                          ("lightfield", 120.0)])
 def test_gpu_sun_matches_numpy(device, ms_model, az):

@@ -32,6 +32,23 @@ BACKENDS = ("gpu", "numpy")
 WHITE_CARD_DISTANCE_M = 1.0
 
 
+def white_card(camera: Camera) -> dict:
+    """Where ``white_balance="white-patch"``'s grey card is: the diver's custom
+    white balance, a card held :data:`WHITE_CARD_DISTANCE_M` in front of the
+    camera along its view, facing it (keyword arguments of
+    :func:`aquaspec.appearance.colour_of_setup`). Where that would be above
+    the water (a camera near the surface looking up) the card is held level
+    with the camera instead, in the view's compass direction."""
+    from .shading import camera_depth
+    depth = camera_depth(camera)
+    view = np.asarray(camera.forward, dtype=float)
+    if depth - WHITE_CARD_DISTANCE_M * view[1] < 0:
+        flat = np.array([view[0], 0.0, view[2]])
+        norm = np.linalg.norm(flat)
+        view = flat / norm if norm > 1e-6 else np.array([0.0, 0.0, -1.0])
+    return {"depth_m": depth, "distance_m": WHITE_CARD_DISTANCE_M, "view": view}
+
+
 @dataclass(frozen=True)
 class SpectralSetup:
     """Everything per band the shading needs: water, light, sensor on ``bands``."""
@@ -473,8 +490,9 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     exposure : "auto" or float EV; white_balance, tonemap : str
         Display settings (:func:`aquaspec.display.to_display`).
         ``white_balance="white-patch"`` neutralises an 18 % grey card held
-        1 m in front of the camera at its depth (a diver's custom white
-        balance); ``"grey-world"`` equalises the image's channel means.
+        1 m in front of the camera, facing it (a diver's custom white
+        balance; :func:`white_card`), lit as the scene is, sun included;
+        ``"grey-world"`` equalises the image's channel means.
     colour_matrix : "auto", None or (3, 3)
         Camera RGB -> linear sRGB for display: ``"auto"`` fits one on the
         ColorChecker under D65 (:meth:`aquaspec.sensors.Sensor.srgb_matrix`;
@@ -560,6 +578,22 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
                                 f"camera at {d_cam:g} m; accepted: a seabed deeper than "
                                 "the camera, or seabed=None")
         setup = dataclasses.replace(setup, seabed=bed)
+    reference = white_card_info = None
+    if white_balance == "white-patch":
+        # Before any shading: a card the balance cannot use fails now.
+        from .appearance import colour_of_setup
+        card = white_card(camera)
+        reference = colour_of_setup(setup, **card)["grey_card_rgb"]
+        white_card_info = {"distance_m": card["distance_m"],
+                           "view_direction": card["view"].tolist(), "camera_rgb": reference}
+        if min(reference) <= 0:
+            raise AquaspecError(
+                f"white_balance='white-patch': the grey card 1 m ahead has camera RGB "
+                f"{', '.join(f'{x:.3g}' for x in reference)} for sensor "
+                f"{setup.sensor.name!r}; a channel <= 0 cannot be balanced (the human "
+                "sensor's linear sRGB goes negative for water colours outside sRGB); "
+                "accepted: a camera sensor (e.g. 'nikon-5100-npl'), or white_balance "
+                "'grey-world' or 'none'")
     n = setup.bands.n
     radiance = None
     sun_shadow = None
@@ -636,15 +670,6 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         layer_set = image_layers(linear, back, gbuffer, setup.medium(gbuffer.materials),
                                  setup.lightfield_tables(), sun=setup.sun_inputs(),
                                  sun_visibility=sun_vis)
-    reference = None
-    if white_balance == "white-patch":
-        # The diver's custom white balance: a grey card held 1 m in front of
-        # the camera at its depth, facing it.
-        from .appearance import water_colour
-        reference = water_colour(water_obj, sensor_obj, setup.bands, depth_m=depth,
-                                 distance_m=WHITE_CARD_DISTANCE_M, light=light_obj,
-                                 ambient=ambient, outside=outside, ms_model=ms_model,
-                                 phase=phase, forward_cone_deg=setup.cone_deg)["grey_card_rgb"]
     if isinstance(colour_matrix, str):
         if colour_matrix != "auto":
             raise AquaspecError(f"colour_matrix {colour_matrix!r} is not accepted; use 'auto', "
@@ -661,6 +686,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         "display": info,
         "render_seconds": time.perf_counter() - t0,
     }
+    if white_card_info is not None:
+        params["white_card"] = white_card_info
     if light_obj.sun is not None:
         from .sun import DEFAULT_MAP_RADIUS_M, FROXEL_SLICES, FROXEL_TILE
         params["sun_rendering"] = {
