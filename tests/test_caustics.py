@@ -382,3 +382,77 @@ def test_cli_wind(tmp_path, capsys):
     assert "needs --wind" in capsys.readouterr().err
     assert main([*base, "--light", "sun-sky", "--wind", "99"]) == 2
     assert "wind speed 99.0" in capsys.readouterr().err
+
+
+# ---- the waves the tile leaves out ---------------------------------------------------
+
+@pytest.mark.parametrize("wind, k_lo, k_hi", [(7.0, 0.3, 20.0), (2.0, 0.05, 300.0),
+                                              (12.0, 0.01, 0.8)])
+def test_pm_slope_variance_is_the_integral(wind, k_lo, k_hi):
+    from scipy.integrate import quad
+    num = quad(lambda k: k * k * cst.pm_spectrum(k, wind), k_lo, k_hi, limit=400,
+               points=[np.sqrt(cst.PM_BETA) * cst.GRAVITY / wind ** 2])[0]
+    assert cst.pm_slope_variance(k_lo, k_hi, wind) == pytest.approx(num, rel=1e-7)
+
+
+def test_unresolved_variance_completes_cox_munk():
+    for wind in (1.0, 2.0, 3.0):
+        # The default tile holds all of Cox & Munk's variance up to 3 m/s.
+        assert cst.unresolved_slope_variance(cst.Waves(wind)) == 0.0
+    for wind in (5.0, 10.0):
+        w = cst.Waves(wind)
+        long = cst.long_wave_slope_variance(w)
+        assert long == pytest.approx(cst.pm_slope_variance(1e-9, 2 * np.pi / w.tile_m, wind),
+                                     rel=1e-9)
+        total = cst.resolved_slope_variance(w) + long + cst.unresolved_slope_variance(w)
+        assert total == pytest.approx(cst.cox_munk_slope_variance(wind), rel=1e-12)
+        assert cst.unresolved_slope_variance(w) > 0.1 * cst.cox_munk_slope_variance(wind)
+    doc = cst.Waves(10.0).describe()
+    assert doc["unresolved_slope_variance"] > 0 and doc["longer_than_tile_slope_variance"] > 0
+
+
+def test_run_jacobian_closed_forms():
+    n = 1.33
+    np.testing.assert_allclose(cst.run_jacobian([0.0, 1.0, 0.0], n), (1 - 1 / n) * np.eye(2),
+                               rtol=1e-6)
+    # Sun at azimuth 0 (towards -z), elevation 40: in the plane of incidence
+    # the run tan(theta_t) changes by sec^2(theta_t) (1 - cos_i / (n cos_t))
+    # per radian of tilt; across it the matrix has no cross terms.
+    air = air_to_sun(40.0, 0.0)
+    jac = cst.run_jacobian(air, n)
+    cos_i = air[1]
+    sin_t = np.sqrt(1 - cos_i ** 2) / n
+    cos_t = np.sqrt(1 - sin_t ** 2)
+    assert abs(jac[1, 1]) == pytest.approx((1 - cos_i / (n * cos_t)) / cos_t ** 2, rel=1e-5)
+    assert abs(jac[0, 1]) < 1e-6 and abs(jac[1, 0]) < 1e-6
+    assert 0 < jac[0, 0] < jac[1, 1]
+
+
+def test_gaussian_blur_has_the_covariance():
+    n, tile = 256, 8.0
+    img = np.zeros((n, n))
+    img[n // 2, n // 2] = 1.0
+    cov = np.array([[0.09, 0.03], [0.03, 0.04]])
+    out = cst.disc_blur(img, (0.0, 0.0), np.array([1.0, 0.0]), tile, cov=cov)
+    assert out.sum() == pytest.approx(1.0, rel=1e-9)
+    c = (np.arange(n) - n // 2) * tile / n
+    xx, zz = np.meshgrid(c, c)
+    got = np.array([[np.sum(out * xx * xx), np.sum(out * xx * zz)],
+                    [np.sum(out * xx * zz), np.sum(out * zz * zz)]])
+    np.testing.assert_allclose(got, cov, atol=1e-6)
+
+
+def test_strong_wind_blurs_deep_caustics():
+    waves = cst.Waves(10.0, grid=64, tile_m=2.0)
+    assert cst.unresolved_slope_variance(waves) > 0.01
+    kw = dict(slices=4, max_depth_m=9.0, sun_radius_deg=0.0)
+    sharp = cst.caustic_map(waves, 60.0, 20.0, unresolved_slopes=False, **kw)
+    soft = cst.caustic_map(waves, 60.0, 20.0, **kw)
+    assert soft.info["unresolved_slope_blur"] and not sharp.info["unresolved_slope_blur"]
+    np.testing.assert_allclose(soft.levels[0].mean(axis=(1, 2)),
+                               sharp.levels[0].mean(axis=(1, 2)), rtol=2e-3)
+    # Unchanged at the surface, less contrast below (the blur grows with depth).
+    np.testing.assert_allclose(soft.levels[0][0], sharp.levels[0][0], atol=1e-6)
+    assert soft.levels[0][1].std() < 0.8 * sharp.levels[0][1].std()
+    calm = cst.Waves(2.0, grid=64, tile_m=2.0)
+    assert cst.unresolved_slope_variance(calm) == 0.0

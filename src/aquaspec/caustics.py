@@ -58,6 +58,24 @@ semi-diameter) blurs the pattern at depth ``d`` by an ellipse of radii
 each slice is convolved with that uniform ellipse (in Fourier space,
 ``2 J1(q) / q``).
 
+Waves shorter than the tile's samples (down to capillaries) are not in the
+tile, yet they tilt the facets further: each ray leaves the surface in a
+slightly random direction, which blurs the pattern. Their slope variance is
+what Cox & Munk measured beyond what the tile holds and beyond the waves
+longer than the tile (Pierson-Moskowitz's share below ``2 pi / L``, closed
+form with the exponential integral ``E1``),
+
+    sigma_u^2 = max(0, sigma_CM^2 - sigma_tile^2 - sigma_long^2)
+
+(:func:`unresolved_slope_variance`; zero for the default tile up to about
+3 m/s, where the tile holds all Cox & Munk's variance). Taken as isotropic
+(``sigma_u^2 / 2`` per axis) and small, a facet slope ``g`` moves the ray's
+landing point at depth ``d`` by ``d J g``, ``J`` the derivative of the
+refracted ray's horizontal run per unit depth with respect to the slope at
+the flat surface (:func:`run_jacobian`; ``(1 - 1/n_w) I`` for a sun at the
+zenith). Each slice is convolved with the Gaussian of covariance
+``d^2 sigma_u^2 / 2 J J^T``.
+
 Only the unscattered beam is modulated: what the water scatters is part of
 the single-scattering integral (which reads the factor along each ray) and
 of the diffuse light (whose mean over the tile the flat surface's already
@@ -153,7 +171,9 @@ class Waves:
                 "time_s": self.time_s, "seed": self.seed, "tile_m": self.tile_m,
                 "grid": self.grid,
                 "resolved_slope_variance": resolved_slope_variance(self),
-                "cox_munk_slope_variance": cox_munk_slope_variance(self.wind_speed)}
+                "cox_munk_slope_variance": cox_munk_slope_variance(self.wind_speed),
+                "longer_than_tile_slope_variance": long_wave_slope_variance(self),
+                "unresolved_slope_variance": unresolved_slope_variance(self)}
 
 
 def pm_spectrum(k, wind_speed):
@@ -168,6 +188,55 @@ def pm_spectrum(k, wind_speed):
 def cox_munk_slope_variance(wind_speed) -> float:
     """Cox & Munk's (1954) total slope variance of a clean sea surface."""
     return 0.003 + 5.12e-3 * float(wind_speed)
+
+
+def pm_slope_variance(k_lo, k_hi, wind_speed) -> float:
+    """The Pierson-Moskowitz sea's slope variance from wavenumbers ``k_lo`` to
+    ``k_hi`` (rad/m; ``k_hi`` may be inf for the lower part of a range; the
+    integral of ``k^2 S(k)``, which has no upper bound over all k):
+    ``alpha / 4 (E1(c / k_hi^2) - E1(c / k_lo^2))``, ``c = beta g^2 / U^4``."""
+    from scipy.special import exp1
+    c = PM_BETA * GRAVITY ** 2 / float(wind_speed) ** 4
+    lo, hi = float(k_lo), float(k_hi)
+    if not (0.0 < lo <= hi):
+        raise AquaspecError(f"wavenumbers {k_lo!r}..{k_hi!r} rad/m; accepted: 0 < k_lo <= k_hi")
+    upper = exp1(c / hi ** 2) if np.isfinite(hi) else np.inf
+    return float(PM_ALPHA / 4.0 * (upper - exp1(c / lo ** 2)))
+
+
+def long_wave_slope_variance(waves) -> float:
+    """Slope variance of the Pierson-Moskowitz waves longer than the tile
+    (``k < 2 pi / L``), closed form: ``alpha / 4 E1(c L^2 / (4 pi^2))``."""
+    from scipy.special import exp1
+    c = PM_BETA * GRAVITY ** 2 / waves.wind_speed ** 4
+    k_min = 2.0 * np.pi / waves.tile_m
+    return float(PM_ALPHA / 4.0 * exp1(c / k_min ** 2))
+
+
+def unresolved_slope_variance(waves) -> float:
+    """Cox & Munk's slope variance that neither the tile nor the waves longer
+    than it carry: the short waves' (see the module docstring), >= 0."""
+    return max(0.0, cox_munk_slope_variance(waves.wind_speed) - resolved_slope_variance(waves)
+               - long_wave_slope_variance(waves))
+
+
+def run_jacobian(air_to_sun, n_water: float = model.N_WATER, step: float = 1e-6) -> np.ndarray:
+    """``J`` (2, 2): how the refracted beam's horizontal run per unit depth,
+    ``t_xz / |t_y|``, changes with the facet slope ``(h_x, h_z)`` at the flat
+    surface (central differences of :func:`refract`); rows x, z of the run,
+    columns the slope's x, z."""
+    air = np.asarray(air_to_sun, dtype=float)
+    out = np.empty((2, 2))
+    for col in range(2):
+        runs = []
+        for sign in (1.0, -1.0):
+            slope = np.zeros(2)
+            slope[col] = sign * step
+            normal = np.array([-slope[0], 1.0, -slope[1]])
+            t, _ = refract(-air, normal / np.linalg.norm(normal), n_water)
+            runs.append(t[[0, 2]] / abs(t[1]))
+        out[:, col] = (runs[0] - runs[1]) / (2.0 * step)
+    return out
 
 
 def _wavenumbers(n: int, tile_m: float):
@@ -271,20 +340,40 @@ def splat(u, weights, n: int, tile_m: float) -> np.ndarray:
     return out.reshape(n, n)
 
 
-def disc_blur(slice_, radii, along, tile_m: float) -> np.ndarray:
-    """Convolve a periodic slice (n, n) with a uniform ellipse: radii
-    ``(r_along, r_across)`` m, ``along`` the unit (x, z) of its first axis."""
-    n = slice_.shape[0]
+def _disc_transfer(n: int, radii, along, tile_m: float) -> np.ndarray:
+    """Fourier transfer (n, n) of a uniform ellipse: radii ``(r_along,
+    r_across)`` m, ``along`` the unit (x, z) of its first axis."""
+    from scipy.special import j1
     r_par, r_perp = radii
-    if r_par <= 0 and r_perp <= 0:
-        return slice_
     kx, kz = _wavenumbers(n, tile_m)
     k_par = kx * along[0] + kz * along[1]
     k_perp = -kx * along[1] + kz * along[0]
     q = np.hypot(k_par * r_par, k_perp * r_perp)
-    from scipy.special import j1
     qs = np.where(q > 1e-8, q, 1.0)
-    tf = np.where(q > 1e-8, 2.0 * j1(qs) / qs, 1.0)
+    return np.where(q > 1e-8, 2.0 * j1(qs) / qs, 1.0)
+
+
+def _gaussian_transfer(n: int, cov, tile_m: float) -> np.ndarray:
+    """Fourier transfer (n, n) of a Gaussian of covariance ``cov`` (2, 2), m^2,
+    axes (x, z): ``exp(-k^T cov k / 2)``."""
+    kx, kz = _wavenumbers(n, tile_m)
+    return np.exp(-0.5 * (cov[0, 0] * kx * kx + 2.0 * cov[0, 1] * kx * kz
+                          + cov[1, 1] * kz * kz))
+
+
+def disc_blur(slice_, radii, along, tile_m: float, cov=None) -> np.ndarray:
+    """Convolve a periodic slice (n, n) with a uniform ellipse (radii
+    ``(r_along, r_across)`` m, ``along`` the unit (x, z) of its first axis)
+    and, with ``cov`` (2, 2) m^2, a Gaussian of that covariance (axes x, z)."""
+    n = slice_.shape[0]
+    tf = None
+    if radii[0] > 0 or radii[1] > 0:
+        tf = _disc_transfer(n, radii, along, tile_m)
+    if cov is not None and np.any(np.asarray(cov) != 0):
+        g = _gaussian_transfer(n, np.asarray(cov, dtype=float), tile_m)
+        tf = g if tf is None else tf * g
+    if tf is None:
+        return slice_
     return np.fft.ifft2(np.fft.fft2(slice_) * tf).real
 
 
@@ -319,11 +408,13 @@ class CausticMap:
 
 def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
                    n_water: float = model.N_WATER, sun_radius_deg: float = SUN_RADIUS_DEG,
-                   progress=None):
+                   unresolved_variance: float = 0.0, progress=None):
     """The caustic factor (K, n, n) at ``depths`` (K,) under a periodic surface
     sampled on (M, M) points (height ``h`` and slopes, :func:`surface`'s
     layout), with the sun towards ``air_to_sun`` (unit, in air); and the
-    facets' mean weight ``w``. See the module docstring."""
+    facets' mean weight ``w``. ``unresolved_variance``: the slope variance of
+    waves the samples do not hold (:func:`unresolved_slope_variance`), a
+    Gaussian blur. See the module docstring."""
     air = np.asarray(air_to_sun, dtype=float)
     s = -refract(-air, np.array([0.0, 1.0, 0.0]), n_water)[0]   # towards the sun under water
     mu0 = float(s[1])
@@ -347,12 +438,15 @@ def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
     a_perp = alpha / n_water
     a_par = alpha * air[1] / (n_water * mu0)
     per_photon = (n * n) / float(m * m)
+    jac = run_jacobian(air, n_water)
+    spread = 0.5 * float(unresolved_variance) * (jac @ jac.T)     # per unit depth^2
     depths = np.asarray(depths, dtype=float)
     out = np.empty((depths.size, n, n), np.float32)
     for k, d in enumerate(depths):
         u = x0 + d * (slope - flat) + hh[:, None] * slope
         c = splat(u, w * per_photon, n, tile_m)
-        c = disc_blur(c, (d * a_par / mu0 ** 2, d * a_perp / mu0), dir_h, tile_m)
+        c = disc_blur(c, (d * a_par / mu0 ** 2, d * a_perp / mu0), dir_h, tile_m,
+                      cov=d * d * spread)
         out[k] = np.maximum(c, 0.0)
         if progress is not None:
             progress(k + 1, depths.size)
@@ -373,7 +467,8 @@ def _check_map_args(elevation_deg, azimuth_deg, slices, max_depth_m):
 
 
 def _assemble(waves, elevation_deg, azimuth_deg, level0, mean_weight, *, n_water,
-              oversample, slices, max_depth_m, sun_radius_deg) -> CausticMap:
+              oversample, slices, max_depth_m, sun_radius_deg,
+              unresolved_slopes) -> CausticMap:
     """A :class:`CausticMap` from its slices: level 0 and the mips made from
     it, all kept at the GPU texture's half precision (both sides read the
     same numbers)."""
@@ -388,16 +483,20 @@ def _assemble(waves, elevation_deg, azimuth_deg, level0, mean_weight, *, n_water
                       depths=slice_depths(max_depth_m, int(slices)), levels=tuple(levels),
                       mean_weight=float(mean_weight),
                       info={"sun_elevation_deg": elevation_deg, "sun_azimuth_deg": azimuth_deg,
-                            "oversample": int(oversample), "sun_radius_deg": sun_radius_deg})
+                            "oversample": int(oversample), "sun_radius_deg": sun_radius_deg,
+                            "unresolved_slope_blur": bool(unresolved_slopes)})
 
 
 def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
                 n_water: float = model.N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
                 slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
-                sun_radius_deg: float = SUN_RADIUS_DEG, progress=None) -> CausticMap:
+                sun_radius_deg: float = SUN_RADIUS_DEG, unresolved_slopes: bool = True,
+                progress=None) -> CausticMap:
     """The caustics of ``waves`` under the sun at ``elevation_deg``/``azimuth_deg`` (in air).
 
-    ``progress(done, total)`` is called after each slice.
+    ``unresolved_slopes``: blur by the short waves the tile leaves out
+    (:func:`unresolved_slope_variance`). ``progress(done, total)`` is called
+    after each slice.
     """
     from .sun import air_to_sun
     elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
@@ -406,10 +505,12 @@ def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
     out, mean_w = caustic_slices(h, hx, hz, waves.tile_m, waves.grid,
                                  air_to_sun(elevation_deg, azimuth_deg),
                                  slice_depths(max_depth_m, int(slices)), n_water=n_water,
-                                 sun_radius_deg=sun_radius_deg, progress=progress)
+                                 sun_radius_deg=sun_radius_deg,
+                                 unresolved_variance=unresolved_slope_variance(waves)
+                                 if unresolved_slopes else 0.0, progress=progress)
     return _assemble(waves, elevation_deg, azimuth_deg, out, mean_w, n_water=n_water,
                      oversample=oversample, slices=slices, max_depth_m=max_depth_m,
-                     sun_radius_deg=sun_radius_deg)
+                     sun_radius_deg=sun_radius_deg, unresolved_slopes=unresolved_slopes)
 
 
 def foot(points, to_sun) -> np.ndarray:
@@ -473,7 +574,8 @@ _CACHE_SIZE = 4
 def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
                        n_water: float = model.N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
                        slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
-                       sun_radius_deg: float = SUN_RADIUS_DEG) -> CausticMap:
+                       sun_radius_deg: float = SUN_RADIUS_DEG,
+                       unresolved_slopes: bool = True) -> CausticMap:
     """:func:`caustic_map`, remembered for the last few (waves, sun) in this
     process and its slices kept in the cache directory (:mod:`aquaspec.cache`)."""
     import sys
@@ -483,7 +585,8 @@ def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *
     elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
                                                  max_depth_m)
     kw = dict(n_water=float(n_water), oversample=int(oversample), slices=int(slices),
-              max_depth_m=float(max_depth_m), sun_radius_deg=float(sun_radius_deg))
+              max_depth_m=float(max_depth_m), sun_radius_deg=float(sun_radius_deg),
+              unresolved_slopes=bool(unresolved_slopes))
     key = (waves, elevation_deg, azimuth_deg, tuple(sorted(kw.items())))
     hit = _CACHE.get(key)
     if hit is not None:
