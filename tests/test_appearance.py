@@ -282,10 +282,31 @@ class TestWhiteCard:
         up = Camera((0, -0.5, 0), (1, 2, 0), (0, 0, 1), 8, 8, 8.0, 8.0, 4.0, 4.0)
         np.testing.assert_allclose(white_card(up)["view"], [1, 0, 0])
 
-    def test_unbalanceable_card_fails_before_shading(self):
+    def test_unbalanceable_card_fails_before_shading(self, monkeypatch):
+        import aquaspec.shading
         from aquaspec.renderer import render
-        # The human sensor's linear sRGB of a card in blue water has red < 0.
+        from aquaspec.sensors import Sensor
+        wl = np.linspace(380.0, 720.0, 35)
+        # A CSV-like sensor whose red lobe is negative everywhere.
+        odd = Sensor("odd", wl, np.stack([-np.ones_like(wl), np.ones_like(wl),
+                                          np.ones_like(wl)]))
+        monkeypatch.setattr(aquaspec.shading, "shade_gbuffer",
+                            lambda *a, **k: pytest.fail("shaded before the check"))
         with pytest.raises(AquaspecError, match=r"grey card 1 m ahead has camera RGB -.*"
-                                                r"sensor 'human'.*'nikon-5100-npl'"):
-            render(water="IB", depth_m=5.0, size=(32, 18), bands=8,
+                                                r"sensor 'odd'.*'grey-world'"):
+            render(water="IB", depth_m=5.0, size=(32, 18), bands=8, sensor=odd,
                    white_balance="white-patch", backend="numpy")
+
+    def test_human_white_patch_adapts_the_cones(self):
+        """Blue water's card has a negative linear-sRGB red: the eye's von Kries
+        adaptation still balances it (a camera's per-channel gains could not)."""
+        from aquaspec.renderer import render
+        res = render(water="IB", depth_m=5.0, size=(32, 18), bands=8,
+                     white_balance="white-patch", backend="numpy")
+        ref = np.array(res.params["white_card"]["camera_rgb"])
+        assert ref[0] < 0
+        disp = res.params["display"]
+        assert disp["white_balance_space"].startswith("cones")
+        np.testing.assert_allclose(disp["white_balance_gains"], 1.0)
+        m = np.array(disp["matrix"])
+        np.testing.assert_allclose(m @ ref, ref.mean(), rtol=1e-9)

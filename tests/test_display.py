@@ -336,3 +336,46 @@ class TestDisplaySettings:
         # White-patch keeps the reference's channel mean, so the level stays 0.1.
         assert s["exposure_ev"] == pytest.approx(math.log2(0.18 / 0.1), rel=1e-12)
         assert "auto_key" in s and s["exposure_mode"] == "auto"
+
+
+class TestVonKries:
+    @classmethod
+    def cones(cls):
+        from aquaspec.sensors import get_sensor
+        return get_sensor("human").cone_matrix()
+
+    def test_reference_becomes_neutral(self):
+        ref = np.array([-0.05, 0.57, 0.88])           # blue water: red outside sRGB
+        m = display.von_kries(ref, self.cones())
+        np.testing.assert_allclose(m @ ref, np.full(3, ref.mean()), rtol=1e-12)
+
+    def test_grey_reference_changes_nothing(self):
+        np.testing.assert_allclose(display.von_kries([0.3, 0.3, 0.3], self.cones()),
+                                   np.eye(3), atol=1e-12)
+
+    def test_is_diagonal_in_the_cones(self):
+        cones = self.cones()
+        m = display.von_kries([0.2, 0.5, 0.9], cones)
+        d = cones @ m @ np.linalg.inv(cones)
+        np.testing.assert_allclose(d - np.diag(np.diag(d)), 0.0, atol=1e-12)
+
+    def test_bad_reference(self):
+        with pytest.raises(AquaspecError, match="cone responses"):
+            display.von_kries([-1.0, -1.0, 0.1], self.cones())
+        with pytest.raises(AquaspecError, match="three finite"):
+            display.von_kries([np.nan, 1.0, 1.0], self.cones())
+
+    def test_to_display_with_cones(self):
+        ref = np.array([0.1, 0.5, 0.9])
+        img = np.broadcast_to(ref, (4, 4, 3)).copy()
+        colour = np.diag([1.0, 1.1, 0.9])
+        out, info = display.to_display(img, white_balance="white-patch", reference_rgb=ref,
+                                       matrix=colour, cone_matrix=self.cones(),
+                                       exposure=0.0, tonemap="none")
+        adapt = np.array(info["adaptation_matrix"])
+        np.testing.assert_allclose(info["matrix"], colour @ adapt, rtol=1e-12)
+        assert info["white_balance_gains"] == [1.0, 1.0, 1.0]
+        # Without the colour matrix the reference's pixels come out grey.
+        out, _ = display.to_display(img, white_balance="white-patch", reference_rgb=ref,
+                                    cone_matrix=self.cones(), exposure=0.0, tonemap="none")
+        assert np.ptp(out[0, 0].astype(int)) <= 1

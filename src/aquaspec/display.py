@@ -260,6 +260,34 @@ def white_balance_gains(rgb, method="none", *, reference_rgb=None) -> np.ndarray
     return fn(_as_rgb(rgb), reference_rgb)
 
 
+def von_kries(reference_rgb, cone_matrix) -> np.ndarray:
+    """Chromatic adaptation to a neutral reference, as a 3x3 matrix on RGB.
+
+    The human eye's counterpart of a camera's white-patch gains (von Kries
+    1902; CIECAM02's CAT02, CIE 159:2004): each cone response
+    ``cone_matrix @ rgb`` is scaled so that the reference's becomes white's
+    (``cone_matrix @ (1, 1, 1)``), and the result is scaled to the
+    reference's channel mean. Unlike per-channel gains it accepts an RGB
+    reference with a negative channel (a colour outside sRGB) as long as
+    its cone responses are positive.
+    """
+    ref = np.asarray(reference_rgb, dtype=np.float64)
+    cone = np.asarray(cone_matrix, dtype=np.float64)
+    if ref.shape != (3,) or not np.all(np.isfinite(ref)):
+        raise AquaspecError(f"white-patch reference_rgb {reference_rgb!r} is not accepted; "
+                            "accepted: three finite RGB values")
+    if cone.shape != (3, 3) or not np.all(np.isfinite(cone)):
+        raise AquaspecError(f"cone matrix of shape {cone.shape} is not accepted; accepted: "
+                            "a finite 3x3 matrix from RGB to cone responses")
+    lms = cone @ ref
+    if np.any(lms <= 0.0) or ref.mean() <= 0.0:
+        raise AquaspecError(f"white-patch reference_rgb {reference_rgb!r} has cone "
+                            f"responses {lms.tolist()}; accepted: a reference whose cone "
+                            "responses and channel mean are positive")
+    white = cone @ np.ones(3)
+    return ref.mean() * np.linalg.solve(cone, (white / lms)[:, None] * cone)
+
+
 def white_balance(rgb, method="none", *, reference_rgb=None) -> np.ndarray:
     """``rgb`` times :func:`white_balance_gains` (same shape, float64)."""
     rgb = _as_rgb(rgb)
@@ -285,12 +313,16 @@ def apply_matrix(rgb, matrix=None) -> np.ndarray:
     rgb = _as_rgb(rgb)
     if matrix is None:
         return rgb
+    return rgb @ _check_matrix(matrix).T
+
+
+def _check_matrix(matrix) -> np.ndarray:
     m = np.asarray(matrix, dtype=np.float64)
     if m.shape != (3, 3) or not np.all(np.isfinite(m)):
         raise AquaspecError(f"colour matrix of shape {m.shape} is not accepted; accepted: "
                             "a finite 3x3 matrix mapping camera RGB (columns) to "
                             "linear sRGB (rows), or None for the identity")
-    return rgb @ m.T
+    return m
 
 
 # ---------------------------------------------------------------------------
@@ -400,7 +432,8 @@ def quantize(encoded, bit_depth=8) -> np.ndarray:
 # ---------------------------------------------------------------------------
 
 def display_settings(rgb, *, exposure="auto", white_balance="none", reference_rgb=None,
-                     matrix=None, key=DEFAULT_KEY, percentile=DEFAULT_PERCENTILE) -> dict:
+                     matrix=None, key=DEFAULT_KEY, percentile=DEFAULT_PERCENTILE,
+                     cone_matrix=None) -> dict:
     """Resolve the image-dependent settings of :func:`to_display`.
 
     Computes the white-balance gains and the exposure (automatic exposure is
@@ -414,8 +447,11 @@ def display_settings(rgb, *, exposure="auto", white_balance="none", reference_rg
     dict
         JSON-ready: ``exposure_mode``, ``exposure_ev``, ``exposure_scale``,
         ``white_balance``, ``white_balance_gains`` (3 floats),
-        ``reference_rgb``, ``matrix`` (3x3 list or None) and, for automatic
-        exposure, ``auto_key`` and ``auto_percentile``.
+        ``reference_rgb``, ``matrix`` (3x3 list or None: the matrix applied
+        after the gains) and, for automatic exposure, ``auto_key`` and
+        ``auto_percentile``. With ``cone_matrix`` and ``"white-patch"`` the
+        balance is :func:`von_kries`: gains 1, ``adaptation_matrix`` the
+        adaptation and ``matrix`` the colour matrix times it.
     """
     rgb = _as_rgb(rgb)
     auto = isinstance(exposure, str)
@@ -424,7 +460,15 @@ def display_settings(rgb, *, exposure="auto", white_balance="none", reference_rg
                             f"or a number of stops (EV) in [-{EV_LIMIT:g}, {EV_LIMIT:g}]")
     manual_ev = None if auto else _check_ev(exposure)
     rgb = np.maximum(rgb, 0.0)
-    gains = white_balance_gains(rgb, white_balance, reference_rgb=reference_rgb)
+    adaptation = None
+    if cone_matrix is not None and white_balance == "white-patch":
+        if reference_rgb is None:
+            white_balance_gains(rgb, white_balance)       # its error names what is missing
+        adaptation = von_kries(reference_rgb, cone_matrix)
+        gains = np.ones(3)
+        matrix = adaptation if matrix is None else _check_matrix(matrix) @ adaptation
+    else:
+        gains = white_balance_gains(rgb, white_balance, reference_rgb=reference_rgb)
     x = apply_matrix(rgb * gains, matrix)
     ev = auto_exposure(x, key, percentile) if auto else manual_ev
     settings = {
@@ -436,6 +480,9 @@ def display_settings(rgb, *, exposure="auto", white_balance="none", reference_rg
         "reference_rgb": None if reference_rgb is None else [float(v) for v in reference_rgb],
         "matrix": None if matrix is None else np.asarray(matrix, float).tolist(),
     }
+    if adaptation is not None:
+        settings["white_balance_space"] = "cones (von Kries, CAT02)"
+        settings["adaptation_matrix"] = adaptation.tolist()
     if auto:
         settings["auto_key"] = float(key)
         settings["auto_percentile"] = float(percentile)
@@ -444,7 +491,7 @@ def display_settings(rgb, *, exposure="auto", white_balance="none", reference_rg
 
 def to_display(rgb, *, exposure="auto", white_balance="none", reference_rgb=None,
                tonemap="filmic", matrix=None, key=DEFAULT_KEY,
-               percentile=DEFAULT_PERCENTILE, bit_depth=8):
+               percentile=DEFAULT_PERCENTILE, bit_depth=8, cone_matrix=None):
     """Linear camera RGB (H, W, 3) to an sRGB-encoded integer image.
 
     Parameters
@@ -469,6 +516,11 @@ def to_display(rgb, *, exposure="auto", white_balance="none", reference_rgb=None
         Automatic exposure settings.
     bit_depth : int
         8 (uint8) or 16 (uint16).
+    cone_matrix : (3, 3) array_like, optional
+        RGB -> cone responses where the RGB is colorimetric
+        (:meth:`aquaspec.sensors.Sensor.cone_matrix`): ``"white-patch"`` is
+        then an eye's chromatic adaptation (:func:`von_kries`) instead of
+        per-channel gains.
 
     Returns
     -------
@@ -490,10 +542,10 @@ def to_display(rgb, *, exposure="auto", white_balance="none", reference_rgb=None
         raise AquaspecError(f"bit depth {bit_depth!r} is not accepted; accepted: 8, 16")
     info = display_settings(rgb, exposure=exposure, white_balance=white_balance,
                             reference_rgb=reference_rgb, matrix=matrix, key=key,
-                            percentile=percentile)
+                            percentile=percentile, cone_matrix=cone_matrix)
 
     n_negative = int(np.count_nonzero(rgb < 0.0))
-    x = apply_matrix(np.maximum(rgb, 0.0) * info["white_balance_gains"], matrix)
+    x = apply_matrix(np.maximum(rgb, 0.0) * info["white_balance_gains"], info["matrix"])
     with np.errstate(over="ignore"):   # overflow is reported just below
         x = x * info["exposure_scale"]
     check_finite(x, f"image after exposure EV {info['exposure_ev']:g}")

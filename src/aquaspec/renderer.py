@@ -586,14 +586,14 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         reference = colour_of_setup(setup, **card)["grey_card_rgb"]
         white_card_info = {"distance_m": card["distance_m"],
                            "view_direction": card["view"].tolist(), "camera_rgb": reference}
-        if min(reference) <= 0:
+        cones = setup.sensor.cone_matrix()
+        if (min(reference) <= 0 if cones is None
+                else np.any(cones @ np.asarray(reference) <= 0)):
             raise AquaspecError(
                 f"white_balance='white-patch': the grey card 1 m ahead has camera RGB "
                 f"{', '.join(f'{x:.3g}' for x in reference)} for sensor "
-                f"{setup.sensor.name!r}; a channel <= 0 cannot be balanced (the human "
-                "sensor's linear sRGB goes negative for water colours outside sRGB); "
-                "accepted: a camera sensor (e.g. 'nikon-5100-npl'), or white_balance "
-                "'grey-world' or 'none'")
+                f"{setup.sensor.name!r}; a channel <= 0 cannot be balanced; accepted: "
+                "white_balance 'grey-world' or 'none', or a shallower scene")
     n = setup.bands.n
     radiance = None
     sun_shadow = None
@@ -676,7 +676,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
                                 "None or a 3x3 matrix")
         colour_matrix = sensor_obj.srgb_matrix()
     display, info = to_display(linear, exposure=exposure, white_balance=white_balance,
-                               reference_rgb=reference, tonemap=tonemap, matrix=colour_matrix)
+                               reference_rgb=reference, tonemap=tonemap, matrix=colour_matrix,
+                               cone_matrix=sensor_obj.cone_matrix())
     params = {
         **setup.describe(),
         "depth_m": depth,

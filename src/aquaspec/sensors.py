@@ -39,6 +39,13 @@ XYZ_TO_SRGB = np.array([[3.2406, -1.5372, -0.4986],
                         [-0.9689, 1.8758, 0.0415],
                         [0.0557, -0.2040, 1.0570]])
 
+#: XYZ to the sharpened cone responses of CAT02, CIECAM02's chromatic
+#: adaptation transform (CIE 159:2004; Moroney et al. 2002, "The CIECAM02
+#: color appearance model", IS&T/SID CIC 10).
+XYZ_TO_CAT02 = np.array([[0.7328, 0.4296, -0.1624],
+                         [-0.7036, 1.6975, 0.0061],
+                         [0.0030, 0.0136, 0.9834]])
+
 
 @dataclass(frozen=True)
 class Sensor:
@@ -111,6 +118,15 @@ class Sensor:
         if self.name == "human":
             return np.eye(3)
         return _fit_srgb_matrix(self)
+
+    def cone_matrix(self) -> np.ndarray | None:
+        """3x3 matrix from this sensor's RGB to cone responses (CAT02) where
+        its RGB is colorimetric (the human sensor's linear sRGB), else None:
+        a camera's white balance scales its own channels, an eye's adaptation
+        its cones' (:func:`aquaspec.display.von_kries`)."""
+        if self.name == "human":
+            return XYZ_TO_CAT02 @ np.linalg.inv(XYZ_TO_SRGB)
+        return None
 
 
 def _fit_srgb_matrix(sensor: Sensor) -> np.ndarray:
