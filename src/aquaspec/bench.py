@@ -22,7 +22,20 @@ too. Reported:
   floor);
 - with ``compare_seeds`` (``--ms-model lightfield --compare-seeds``), the
   seeds' frame on the same G-buffer, timed in the same run beside the
-  light-field frame, and their ratio (the cost of the better model).
+  light-field frame, and their ratio (the cost of the better model; with a
+  sun, both frames without it: the sun's passes are the same work for both);
+- with a sun (``light="sun-sky"``, :mod:`aquaspec.gpu.sun_pass`), its three
+  passes each (the shadow map, the froxels of its single scattering, the
+  per-pixel pass adding its light to the linear image). The sun is added
+  after the shading, so its frame cannot fuse the display: it is geometry +
+  shading + shadow map + froxels + per-pixel sun + display. Its ratio to the
+  frame without the sun (geometry + fused shading and display) is measured
+  on the same G-buffer in the same run, and with ``waves`` (caustics) the
+  ratio of the sun with caustics to the sun over a flat surface (a second
+  sun pass without caustics, timed beside it). The NumPy reference then
+  shades the sun too (its NumPy shadow map included): 1.6 times its time
+  without the sun at 1280x720, 2.7 times with caustics (measured here),
+  seconds per size, so it is kept and stays comparable with the GPU frame.
 
 The machine may be shared and noisy: compare ratios from one run, not
 absolute times across runs.
@@ -30,6 +43,7 @@ absolute times across runs.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -62,6 +76,90 @@ class _Fused:
         self.shading.encode(encoder, timestamp_writes, display=True)
 
 
+class _Dropped:
+    """A pass that records nothing (see :class:`_OnePass`)."""
+
+    def __getattr__(self, name):
+        return lambda *args, **kwargs: None
+
+
+class _OnePass:
+    """A command encoder that records only the ``keep``-th pass begun on it.
+
+    The other render or compute passes are dropped, and the kept one carries
+    ``timestamp_writes``: one pass of a method that records several together
+    (:meth:`aquaspec.gpu.sun_pass.SunPass.encode`: the froxels, then the
+    per-pixel pass) is timed through the method itself, with its uniform
+    uploads and bind groups, as the renderer runs it.
+    """
+
+    def __init__(self, encoder, keep: int, timestamp_writes=None):
+        self.encoder, self.keep, self.timestamp_writes = encoder, keep, timestamp_writes
+        self.begun = 0
+
+    def _begin(self, kind, kwargs):
+        i, self.begun = self.begun, self.begun + 1
+        if i != self.keep:
+            return _Dropped()
+        if self.timestamp_writes is not None:
+            kwargs = {**kwargs, "timestamp_writes": self.timestamp_writes}
+        return getattr(self.encoder, kind)(**kwargs)
+
+    def begin_render_pass(self, **kwargs):
+        return self._begin("begin_render_pass", kwargs)
+
+    def begin_compute_pass(self, **kwargs):
+        return self._begin("begin_compute_pass", kwargs)
+
+    def __getattr__(self, name):
+        return getattr(self.encoder, name)
+
+
+class _Sun:
+    """The sun's passes (a :class:`~aquaspec.gpu.sun_pass.SunPass` with its inputs
+    set) on the renderer's G-buffer, adding the sun's light into ``rgb_buffer``.
+
+    :meth:`encode` records all of them (a frame); :meth:`part` is one of them
+    as a timed pass: ``"shadow_map"``, ``"froxels"`` or ``"pixels"``.
+    """
+
+    #: Part -> (the method recording it, its index among the passes that method begins).
+    PARTS = {"shadow_map": ("_shadow_map", 0), "froxels": ("_light", 0), "pixels": ("_light", 1)}
+
+    def __init__(self, renderer, sun, scene, camera, rgb_buffer):
+        self.r, self.sun, self.scene, self.camera, self.rgb = (renderer, sun, scene, camera,
+                                                              rgb_buffer)
+
+    def _shadow_map(self, encoder):
+        self.sun.encode_shadow_map(encoder, self.r.raster, self.scene, self.camera)
+
+    def _light(self, encoder):
+        self.sun.encode(encoder, self.camera, self.r.deferred.gbuffer_textures, self.rgb)
+
+    def encode(self, encoder):
+        self._shadow_map(encoder)
+        self._light(encoder)
+
+    def part(self, name: str):
+        method, index = self.PARTS[name]
+        return _SunPart(getattr(self, method), index, name)
+
+
+class _SunPart:
+    """One pass of the sun's (see :class:`_Sun`), as one timed pass."""
+
+    def __init__(self, record, index: int, name: str):
+        self.record, self.index, self.name = record, index, name
+
+    def encode(self, encoder, timestamp_writes=None):
+        rec = _OnePass(encoder, self.index, timestamp_writes)
+        self.record(rec)
+        if rec.begun <= self.index:
+            raise AquaspecError(f"the sun pass recorded {rec.begun} pass(es) where bench "
+                                f"times its {self.name} as pass {self.index + 1}; "
+                                "aquaspec.bench._Sun.PARTS needs updating")
+
+
 def _frame_wall_ms(renderer, passes, frames, warmup):
     """Median wall-clock time of a whole frame submitted at once (submit + wait)."""
     dev = renderer.deferred.device
@@ -82,18 +180,48 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
               water="IB", depth_m: float = 5.0, sensor="human", numpy_reference: bool = True,
               ms_model: str | None = None, phase: str = "petzold", compare_seeds: bool = False,
               cone_spread: bool | None = None, spread_scattering: str = "single",
-              progress=None) -> dict:
-    """Run the cost study; returns a JSON-ready dict (see the module docstring)."""
+              light: str = "overcast", sun_elevation_deg: float = 60.0,
+              sun_azimuth_deg: float | None = None, sun_shadow_map: int | None = None,
+              waves=None, progress=None) -> dict:
+    """Run the cost study; returns a JSON-ready dict (see the module docstring).
+
+    Parameters
+    ----------
+    light : {"overcast", "d65", "sun-sky"}
+        The light at the surface (:func:`aquaspec.light.surface_light`).
+        ``sun-sky`` has a sun at ``sun_elevation_deg`` (1-90) and
+        ``sun_azimuth_deg`` (default
+        :data:`aquaspec.light.DEFAULT_SUN_AZIMUTH_DEG`), whose passes are
+        timed too, and the frame with the sun is compared with the frame
+        without it.
+    sun_shadow_map : int, optional
+        Side of the sun's shadow map in texels (16 to 8192; default
+        :data:`aquaspec.sun.DEFAULT_MAP_SIZE`).
+    waves : aquaspec.caustics.Waves or float, optional
+        A wind sea (or its wind speed in m/s) focusing the sun into caustics;
+        needs ``light="sun-sky"``. The sun over a flat surface is timed
+        beside it.
+
+    The other parameters: the number of ``frames`` timed after ``warmup``,
+    the scene's ``water``, ``depth_m`` and ``sensor``, and the model
+    (``ms_model``, ``phase``, ``cone_spread``, ``spread_scattering``) as
+    :func:`aquaspec.renderer.render` takes them; ``numpy_reference`` and
+    ``compare_seeds`` as in the module docstring; ``progress`` is called
+    with a line per measurement.
+    """
     from .display import display_settings, to_display
     from .gpu.buffers import time_passes
     from .gpu.copy_pass import CopyPass
     from .gpu.device import adapter_info
     from .gpu.display_pass import DisplayPass
-    from .light import surface_light
-    from .renderer import Renderer, SpectralSetup
+    from .gpu.sun_pass import SunPass
+    from .light import DEFAULT_SUN_AZIMUTH_DEG, surface_light
+    from .renderer import Renderer, SpectralSetup, _waves
     from .scene.builtin import builtin_scene
     from .sensors import get_sensor
     from .shading import shade_gbuffer
+    from .sun import (DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, FROXEL_SLICES, FROXEL_TILE,
+                      numpy_shadow_map, shadow_map_spec)
     from .water import get_water
 
     say = progress or (lambda m: None)
@@ -107,7 +235,23 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
     if compare_seeds and ms_model == "seeds":
         raise AquaspecError("compare_seeds times the seeds' frame beside another model's: it "
                             "needs ms_model='lightfield'")
-    w_obj, s_obj, light = get_water(water), get_sensor(sensor), surface_light("overcast")
+    light_obj = surface_light(light, sun_elevation_deg=sun_elevation_deg,
+                              sun_azimuth_deg=DEFAULT_SUN_AZIMUTH_DEG if sun_azimuth_deg is None
+                              else sun_azimuth_deg)
+    sun = light_obj.sun
+    waves = _waves(waves)
+    if waves is not None and sun is None:
+        raise AquaspecError(f"waves focus the sun's beam into caustics: they need "
+                            f"light='sun-sky', not {light!r}")
+    map_size = DEFAULT_MAP_SIZE if sun_shadow_map is None else sun_shadow_map
+    if sun is not None:
+        # Checks the size before any GPU work (the spec itself is made per frame).
+        shadow_map_spec(np.array([[-1.0] * 3, [1.0] * 3]), np.zeros(3), sun.to_sun,
+                        size=map_size)
+    if waves is not None:
+        say(f"caustics of a {waves.wind_speed:g} m/s sea ({waves.tile_m:g} m tile, "
+            f"{waves.grid}x{waves.grid} samples) under the sun")
+    w_obj, s_obj = get_water(water), get_sensor(sensor)
     # lavapipe runs a command buffer when it is submitted and its timestamps
     # do not bracket the work of each pass (seen here: 0.1 ms for a deferred
     # pass whose submit-and-wait takes 30 ms), so software adapters are timed
@@ -118,9 +262,11 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
     for width, height in sizes:
         scene, camera = builtin_scene(depth_m, width=width, height=height)
         for n in bands:
-            setup = SpectralSetup(w_obj, s_obj, light, Bands(n), ms_model=ms_model, phase=phase,
-                                  cone_spread=cone_spread, spread_scattering=spread_scattering)
+            setup = SpectralSetup(w_obj, s_obj, light_obj, Bands(n), ms_model=ms_model,
+                                  phase=phase, cone_spread=cone_spread,
+                                  spread_scattering=spread_scattering, waves=waves)
             r = Renderer(width, height, n)
+            r.sun_map_size = map_size
             geometry = _Geometry(r, scene, camera)
             r.set_spectral(setup, scene.materials)
             rgb = r.render_scene(scene, camera, setup)
@@ -141,12 +287,28 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
             if compare_seeds:
                 # The seeds' shading of the same G-buffer, with the same display
                 # settings, in the same timing run.
-                seeds = SpectralSetup(w_obj, s_obj, light, Bands(n))
+                seeds = SpectralSetup(w_obj, s_obj, light_obj, Bands(n))
                 r.deferred.set_medium(**seeds.medium(scene.materials))
                 r.deferred.set_display(exposure_ev=settings["exposure_ev"],
                                        white_balance_gains=settings["white_balance_gains"],
                                        matrix=settings["matrix"], tonemap=settings["tonemap"])
                 passes["shade_display_seeds"] = _Fused(r.deferred)
+            if sun is not None:
+                # render_scene made r.sun with setup's inputs; it adds the sun
+                # into the linear image of the (unfused) shading pass.
+                sun_frame = _Sun(r, r.sun, scene, camera, shading.rgb_buffer)
+                passes.update({f"sun_{k}": sun_frame.part(k) for k in _Sun.PARTS})
+                if waves is not None:
+                    # The same sun over a flat surface, on the same G-buffer.
+                    flat = SunPass(r.deferred.device, width, height, n, map_size=map_size)
+                    flat_setup = dataclasses.replace(setup, waves=None)
+                    medium = flat_setup.medium(scene.materials)
+                    flat.set_inputs(flat_setup.sun_inputs(),
+                                    response_weights=medium["response_weights"],
+                                    material_bands=medium["material_bands"],
+                                    sigmoid_centers_t=medium["sigmoid_centers_t"])
+                    flat_frame = _Sun(r, flat, scene, camera, shading.rgb_buffer)
+                    passes.update({f"flat_sun_{k}": flat_frame.part(k) for k in _Sun.PARTS})
             times = time_passes(passes, method=timing, frames=frames, warmup=warmup,
                                 device=r.deferred.device)
             unfused = times.ms["geometry"] + times.ms["deferred"] + times.ms["display"]
@@ -157,32 +319,69 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                 times.ms["shade_display"] = times.ms["deferred"] + times.ms["display"]
                 frame = unfused
                 wall = _frame_wall_ms(r, [geometry, shading, disp], frames, warmup)
+            extra = {}
+            if sun is not None:
+                # The sun's frame: its passes between the shading and the display.
+                no_sun = frame
+                sun_ms = sum(times.ms[f"sun_{k}"] for k in _Sun.PARTS)
+                frame = unfused + sun_ms
+                extra = {"sun_ms": sun_ms, "no_sun_frame_ms": no_sun,
+                         "sun_over_no_sun": frame / no_sun, "no_sun_frame_wall_ms": wall}
+                wall = _frame_wall_ms(r, [geometry, shading, sun_frame, disp], frames, warmup)
+                if waves is not None:
+                    flat_ms = sum(times.ms[f"flat_sun_{k}"] for k in _Sun.PARTS)
+                    extra.update({"flat_sun_ms": flat_ms, "flat_sun_frame_ms": unfused + flat_ms,
+                                  "caustics_over_flat_sun": frame / (unfused + flat_ms)})
             row = {"width": width, "height": height, "bands": n, **{f"{k}_ms": v for k, v in
                    times.ms.items()}, "frame_ms": frame, "fps": 1e3 / frame,
-                   "frame_wall_ms": wall, "frame_unfused_ms": unfused, "timing": times.method}
+                   "frame_wall_ms": wall, "frame_unfused_ms": unfused, **extra,
+                   "timing": times.method}
             if compare_seeds:
+                # With a sun, the models' frames without it (the sun's passes
+                # are the same work for both).
                 row["seeds_frame_ms"] = times.ms["geometry"] + times.ms["shade_display_seeds"]
-                row["over_seeds"] = frame / row["seeds_frame_ms"]
+                row["over_seeds"] = row.get("no_sun_frame_ms", frame) / row["seeds_frame_ms"]
                 say(f"{width}x{height} n={n:3d}: seeds' frame {row['seeds_frame_ms']:7.2f} ms in "
-                    f"the same run: {ms_model} / seeds = {row['over_seeds']:.3f}")
+                    f"the same run: {ms_model} / seeds = {row['over_seeds']:.3f}"
+                    + ("" if sun is None else " (both without the sun)"))
             rows.append(row)
-            say(f"{width}x{height} n={n:3d}: frame {frame:7.2f} ms ({1e3 / frame:6.1f} fps) "
-                f"= geometry {times.ms['geometry']:.2f} + shade+display "
-                f"{times.ms['shade_display']:.2f} | separate passes: deferred "
-                f"{times.ms['deferred']:.2f} display {times.ms['display']:.2f} copy "
-                f"{times.ms['copy']:.2f} | frame submitted at once {wall:.2f} ms")
+            if sun is None:
+                say(f"{width}x{height} n={n:3d}: frame {frame:7.2f} ms ({1e3 / frame:6.1f} fps) "
+                    f"= geometry {times.ms['geometry']:.2f} + shade+display "
+                    f"{times.ms['shade_display']:.2f} | separate passes: deferred "
+                    f"{times.ms['deferred']:.2f} display {times.ms['display']:.2f} copy "
+                    f"{times.ms['copy']:.2f} | frame submitted at once {wall:.2f} ms")
+            else:
+                say(f"{width}x{height} n={n:3d}: frame {frame:7.2f} ms ({1e3 / frame:6.1f} fps) "
+                    f"= geometry {times.ms['geometry']:.2f} + deferred "
+                    f"{times.ms['deferred']:.2f} + sun {row['sun_ms']:.2f} (shadow map "
+                    f"{times.ms['sun_shadow_map']:.2f}, froxels {times.ms['sun_froxels']:.2f}, "
+                    f"per pixel {times.ms['sun_pixels']:.2f}) + display "
+                    f"{times.ms['display']:.2f} | without the sun {row['no_sun_frame_ms']:.2f} "
+                    f"ms: sun / no sun = {row['sun_over_no_sun']:.3f}"
+                    + ("" if waves is None else
+                       f" | flat sun {row['flat_sun_ms']:.2f} ms: caustics / flat sun = "
+                       f"{row['caustics_over_flat_sun']:.3f}")
+                    + f" | frame submitted at once {wall:.2f} ms")
             if numpy_reference and n == 8:
                 gb = r.raster.render(scene, camera)
                 t0 = time.perf_counter()
+                # With a sun, as the GPU frame: its shadow map and its light
+                # (the caustic map is made once per setup, before).
+                sun_shadow = (None if sun is None else
+                              numpy_shadow_map(scene, camera, sun.to_sun, size=map_size))
                 lin = shade_gbuffer(gb, **setup.medium(gb.materials),
-                                    lightfield=setup.lightfield_tables())["camera_rgb"]
+                                    lightfield=setup.lightfield_tables(),
+                                    sun=setup.sun_inputs(), sun_shadow=sun_shadow)["camera_rgb"]
                 to_display(lin, **{"exposure": display_settings(lin)["exposure_ev"]})
                 numpy_ms = (time.perf_counter() - t0) * 1e3
                 numpy_rows.append({"width": width, "height": height, "bands": n,
                                    "numpy_ms": numpy_ms, "gpu_frame_ms": frame,
-                                   "numpy_over_gpu": numpy_ms / frame})
+                                   "numpy_over_gpu": numpy_ms / frame,
+                                   **({} if sun is None else {"with_sun": True})})
                 say(f"{width}x{height} n=8: NumPy reference {numpy_ms:.0f} ms = "
-                    f"{numpy_ms / frame:.1f} x our frame")
+                    f"{numpy_ms / frame:.1f} x our frame"
+                    + ("" if sun is None else " (both with the sun)"))
     fits, ratios = [], []
     for width, height in sizes:
         sel = [x for x in rows if (x["width"], x["height"]) == (width, height)]
@@ -203,6 +402,9 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
             entry["deferred_over_copy_n8"] = by_n[8]["deferred_ms"] / by_n[8]["copy_ms"]
             if "over_seeds" in by_n[8]:
                 entry[f"{ms_model}_over_seeds_n8"] = by_n[8]["over_seeds"]
+            for k in ("sun_over_no_sun", "caustics_over_flat_sun"):
+                if k in by_n[8]:
+                    entry[f"{k}_n8"] = by_n[8][k]
         for x in numpy_rows:
             if (x["width"], x["height"]) == (width, height):
                 entry["numpy_over_gpu_n8"] = x["numpy_over_gpu"]
@@ -212,20 +414,65 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                                         "spread_scattering": spread_scattering}
                                      if ms_model != "seeds" else {}),
             "water": w_obj.describe(), "sensor": s_obj.describe(), "depth_m": depth_m,
+            "light": light_obj.describe(),
+            **({} if sun is None else {"sun_rendering": {
+                "shadow_map_texels": map_size, "shadow_radius_m": DEFAULT_MAP_RADIUS_M,
+                "single_scattering": f"froxels of {FROXEL_TILE}x{FROXEL_TILE} pixels, "
+                                     f"{FROXEL_SLICES} slices",
+                "caustics": None if waves is None else setup.sun_inputs().caustics.describe()}}),
             "rows": rows, "numpy_reference": numpy_rows, "fits": fits, "ratios": ratios}
 
 
+def _light_line(result: dict) -> str | None:
+    """The header's line on the light; None for the default (overcast), whose
+    header is the one bench always printed."""
+    light = result.get("light") or {"name": "overcast"}
+    if light["name"] == "overcast" and "sun" not in light:
+        return None
+    line = f"light: {light['name']}"
+    sun, rendering = light.get("sun"), result.get("sun_rendering") or {}
+    if sun is not None:
+        line += (f", sun at {sun['elevation_deg']:g} deg elevation, azimuth "
+                 f"{sun['azimuth_deg']:g} deg; shadow map {rendering.get('shadow_map_texels')} "
+                 "texels")
+        caustics = rendering.get("caustics")
+        line += ("; flat surface" if caustics is None else
+                 f"; caustics of a {caustics['wind_speed_m_s']:g} m/s sea")
+        if result.get("numpy_reference"):
+            line += "; the NumPy reference shades the sun too"
+    return line
+
+
 def format_table(result: dict) -> str:
+    """The results as printed by ``aquaspec bench``: a header, a row per size
+    and band count (ms), the fits and the ratios."""
+    sun = any("sun_ms" in x for x in result["rows"])
     lines = [f"adapter: {result['adapter'].get('device')} ({result['adapter'].get('adapter_type')}),"
-             f" median of {result['frames']} frames after {result['warmup']} warm-up",
-             "frame = geometry + shade+display (the display transform fused into the shading "
-             "pass); deferred and display: the same work as two passes; wall: the frame "
-             "submitted at once",
-             f"{'size':>10s} {'n':>4s} {'geometry':>9s} {'shade+disp':>10s} {'frame':>8s} "
-             f"{'fps':>6s} {'wall':>7s} | {'deferred':>8s} {'display':>8s} {'copy':>6s}  (ms)"]
+             f" median of {result['frames']} frames after {result['warmup']} warm-up"]
+    light = _light_line(result)
+    if light is not None:
+        lines.append(light)
+    if sun:
+        lines += ["frame = geometry + deferred + sun + display: the sun's passes (shadow map, "
+                  "froxels, per pixel) add its light to the linear image, so the display "
+                  "cannot be fused; no sun: geometry + shade+display (fused), the same "
+                  "G-buffer in the same run; wall: the frame submitted at once"]
+    else:
+        lines += ["frame = geometry + shade+display (the display transform fused into the "
+                  "shading pass); deferred and display: the same work as two passes; wall: "
+                  "the frame submitted at once"]
+    lines.append(f"{'size':>10s} {'n':>4s} {'geometry':>9s} {'shade+disp':>10s} {'frame':>8s} "
+                 f"{'fps':>6s} {'wall':>7s} | {'deferred':>8s} {'display':>8s} {'copy':>6s}  "
+                 "(ms)")
     compare = any("over_seeds" in x for x in result["rows"])
+    flat = any("flat_sun_ms" in x for x in result["rows"])
     if compare:
         lines[-1] += f" | {'seeds':>7s} {'ratio':>6s}"
+    if sun:
+        lines[-1] += (f" | {'shadow':>7s} {'froxels':>7s} {'sun/px':>7s} {'no sun':>7s} "
+                      f"{'ratio':>6s}")
+    if flat:
+        lines[-1] += f" | {'flat sun':>8s} {'caustics':>8s}"
     for x in result["rows"]:
         line = (f"{x['width']:>5d}x{x['height']:<4d} {x['bands']:>4d} {x['geometry_ms']:9.2f} "
                 f"{x['shade_display_ms']:10.2f} {x['frame_ms']:8.2f} {x['fps']:6.1f} "
@@ -233,7 +480,20 @@ def format_table(result: dict) -> str:
                 f"{x['display_ms']:8.2f} {x['copy_ms']:6.2f}")
         if compare:
             line += f" | {x['seeds_frame_ms']:7.2f} {x['over_seeds']:6.3f}"
+        if sun:
+            line += (f" | {x['sun_shadow_map_ms']:7.2f} {x['sun_froxels_ms']:7.2f} "
+                     f"{x['sun_pixels_ms']:7.2f} {x['no_sun_frame_ms']:7.2f} "
+                     f"{x['sun_over_no_sun']:6.3f}")
+        if flat:
+            line += f" | {x['flat_sun_ms']:8.2f} {x['caustics_over_flat_sun']:8.3f}"
         lines.append(line)
+    if sun:
+        lines.append("shade+disp: without the sun; shadow, froxels, sun/px: the sun's passes; "
+                     "ratio: frame / frame without the sun"
+                     + ("; seeds: the seeds' frame without the sun, its ratio the models' "
+                        "frames without the sun" if compare else "")
+                     + ("; flat sun: the sun's three passes without caustics, caustics: frame "
+                        "/ frame with the flat sun" if flat else ""))
     for f in result["fits"]:
         lines.append(f"fit {f['width']}x{f['height']}: t(n) = {f['t0_ms']:.2f} ms + n * "
                      f"{f['t1_ms_per_band']:.3f} ms (deferred alone: {f['deferred_t0_ms']:.2f} + "

@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+from ..light import DEFAULT_SUN_AZIMUTH_DEG, LIGHTS
 from ..model import DEFAULT_MS_MODEL, MS_MODELS
 from .common import add_spread_scattering_option
 
@@ -16,7 +17,11 @@ def register(sub):
         "bench", help="cost study: frame time per pass vs number of bands, and ratios",
         description="Time every GPU pass of the built-in scene for several image sizes and band "
                     "counts, fit t(n) = t0 + n t1, and report ratios measured in the same run "
-                    "(NumPy reference / GPU, n=8 / n=3, deferred / memory-floor copy).")
+                    "(NumPy reference / GPU, n=8 / n=3, deferred / memory-floor copy; with "
+                    "--light sun-sky the sun's passes and sun / no sun, with --wind "
+                    "caustics / flat sun).",
+        epilog="example: aquaspec bench --light sun-sky --wind 3 --sizes 1280x720 --bands 8,16 "
+               "--no-numpy")
     p.add_argument("--sizes", default="1280x720,1920x1080", metavar="WxH,...")
     p.add_argument("--bands", default="3,8,16,32,64", metavar="N,...")
     p.add_argument("--frames", type=int, default=20, help="timed frames per point (default 20)")
@@ -33,7 +38,24 @@ def register(sub):
     p.add_argument("--compare-seeds", action="store_true",
                    help="with --ms-model lightfield: also time the seeds' frame on the same "
                         "G-buffer in the same run and report lightfield / seeds")
-    p.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference ratio")
+    p.add_argument("--light", default="overcast", choices=LIGHTS,
+                   help="light at the surface (default overcast). sun-sky adds the sun's passes "
+                        "(shadow map, froxels, per pixel) to the frame, timed each, and reports "
+                        "the frame with the sun / without it, measured in the same run")
+    p.add_argument("--sun-elevation", type=float, default=60.0, metavar="DEG",
+                   help="sun elevation for --light sun-sky (default 60)")
+    p.add_argument("--sun-azimuth", type=float, default=DEFAULT_SUN_AZIMUTH_DEG, metavar="DEG",
+                   help="sun compass angle for --light sun-sky, from -z (the built-in camera's "
+                        "view: 0 = sun ahead, 180 = behind) towards +x (default "
+                        f"{DEFAULT_SUN_AZIMUTH_DEG:g})")
+    p.add_argument("--sun-shadow-map", type=int, default=None, metavar="TEXELS",
+                   help="--light sun-sky: side of the sun's shadow map (default 2048)")
+    p.add_argument("--wind", type=float, default=None, metavar="M_S",
+                   help="--light sun-sky: a wind sea (wind speed in m/s at 19.5 m) focusing "
+                        "the sun into caustics; the sun over a flat surface is timed beside it "
+                        "and caustics / flat sun reported")
+    p.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference ratio "
+                   "(with a sun the reference shades it too: seconds per size)")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
     p.add_argument("--plot", metavar="OUT.png", help="plot t(n)")
     p.set_defaults(func=run, command="bench")
@@ -53,11 +75,20 @@ def run(args):
         bands = [int(b) for b in args.bands.split(",") if b]
     except ValueError:
         raise AquaspecError(f"--bands {args.bands!r} must be comma-separated integers") from None
+    waves = None
+    if args.wind is not None:
+        from ..caustics import Waves
+        if args.light != "sun-sky":
+            raise AquaspecError(f"--wind focuses the sun into caustics: it needs --light "
+                                f"sun-sky, not {args.light!r}")
+        waves = Waves(args.wind)
     result = run_bench(sizes=sizes, bands=bands, frames=args.frames, warmup=args.warmup,
                        water=args.water, depth_m=args.depth, numpy_reference=not args.no_numpy,
                        ms_model=args.ms_model, phase=args.phase, compare_seeds=args.compare_seeds,
                        cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
-                       progress=lambda m: print(m, file=sys.stderr, flush=True))
+                       light=args.light, sun_elevation_deg=args.sun_elevation,
+                       sun_azimuth_deg=args.sun_azimuth, sun_shadow_map=args.sun_shadow_map,
+                       waves=waves, progress=lambda m: print(m, file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:
         text = json.dumps(result, indent=2)
