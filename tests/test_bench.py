@@ -107,12 +107,16 @@ def test_bad_input(argv, match, capsys, tmp_path, monkeypatch):
 SUN_ROW_PASSES = ("sun_shadow_map_ms", "sun_froxels_ms", "sun_pixels_ms")
 
 
-def test_cli_sun_passes_and_ratio(tmp_path, capsys):
+def _small_sun_bench(tmp_path, *argv):
+    """A 64x36, 3-band sun bench through the CLI; its JSON."""
     out = tmp_path / "sun.json"
-    assert main(["bench", "--light", "sun-sky", "--sun-elevation", "45", "--sun-azimuth", "30",
-                 "--sizes", "64x36", "--bands", "3", "--frames", "2", "--warmup", "1",
-                 "--no-numpy", "--json", str(out)]) == 0
-    doc = json.loads(out.read_text())
+    assert main(["bench", "--light", "sun-sky", *argv, "--sizes", "64x36", "--bands", "3",
+                 "--frames", "2", "--warmup", "1", "--no-numpy", "--json", str(out)]) == 0
+    return json.loads(out.read_text())
+
+
+def test_cli_sun_passes_and_ratio(tmp_path, capsys):
+    doc = _small_sun_bench(tmp_path, "--sun-elevation", "45", "--sun-azimuth", "30")
     assert doc["light"]["name"] == "sun-sky"
     assert doc["light"]["sun"]["elevation_deg"] == 45 and doc["light"]["sun"]["azimuth_deg"] == 30
     assert doc["sun_rendering"]["shadow_map_texels"] == 2048
@@ -135,11 +139,7 @@ def test_cli_sun_passes_and_ratio(tmp_path, capsys):
 
 
 def test_cli_wind_adds_the_caustics_ratio(tmp_path, capsys):
-    out = tmp_path / "wind.json"
-    assert main(["bench", "--light", "sun-sky", "--wind", "3", "--sun-shadow-map", "512",
-                 "--sizes", "64x36", "--bands", "3", "--frames", "2", "--warmup", "1",
-                 "--no-numpy", "--json", str(out)]) == 0
-    doc = json.loads(out.read_text())
+    doc = _small_sun_bench(tmp_path, "--wind", "3", "--sun-shadow-map", "512")
     assert doc["sun_rendering"]["shadow_map_texels"] == 512
     assert doc["sun_rendering"]["caustics"]["wind_speed_m_s"] == 3
     x = doc["rows"][0]

@@ -192,25 +192,23 @@ def cox_munk_slope_variance(wind_speed) -> float:
 
 def pm_slope_variance(k_lo, k_hi, wind_speed) -> float:
     """The Pierson-Moskowitz sea's slope variance from wavenumbers ``k_lo`` to
-    ``k_hi`` (rad/m; ``k_hi`` may be inf for the lower part of a range; the
-    integral of ``k^2 S(k)``, which has no upper bound over all k):
+    ``k_hi`` (rad/m; ``k_lo`` may be 0, ``k_hi`` not inf: the integral of
+    ``k^2 S(k)`` has no upper bound over all k):
     ``alpha / 4 (E1(c / k_hi^2) - E1(c / k_lo^2))``, ``c = beta g^2 / U^4``."""
     from scipy.special import exp1
     c = PM_BETA * GRAVITY ** 2 / float(wind_speed) ** 4
     lo, hi = float(k_lo), float(k_hi)
-    if not (0.0 < lo <= hi):
-        raise AquaspecError(f"wavenumbers {k_lo!r}..{k_hi!r} rad/m; accepted: 0 < k_lo <= k_hi")
-    upper = exp1(c / hi ** 2) if np.isfinite(hi) else np.inf
-    return float(PM_ALPHA / 4.0 * (upper - exp1(c / lo ** 2)))
+    if not (0.0 <= lo <= hi < np.inf):
+        raise AquaspecError(f"wavenumbers {k_lo!r}..{k_hi!r} rad/m; accepted: "
+                            "0 <= k_lo <= k_hi, finite")
+    lower = exp1(c / lo ** 2) if lo > 0 else 0.0
+    return float(PM_ALPHA / 4.0 * (exp1(c / hi ** 2) - lower))
 
 
 def long_wave_slope_variance(waves) -> float:
     """Slope variance of the Pierson-Moskowitz waves longer than the tile
-    (``k < 2 pi / L``), closed form: ``alpha / 4 E1(c L^2 / (4 pi^2))``."""
-    from scipy.special import exp1
-    c = PM_BETA * GRAVITY ** 2 / waves.wind_speed ** 4
-    k_min = 2.0 * np.pi / waves.tile_m
-    return float(PM_ALPHA / 4.0 * exp1(c / k_min ** 2))
+    (``k < 2 pi / L``)."""
+    return pm_slope_variance(0.0, 2.0 * np.pi / waves.tile_m, waves.wind_speed)
 
 
 def unresolved_slope_variance(waves) -> float:

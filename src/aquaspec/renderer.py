@@ -582,18 +582,20 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     if white_balance == "white-patch":
         # Before any shading: a card the balance cannot use fails now.
         from .appearance import colour_of_setup
+        from .display import display_settings
         card = white_card(camera)
         reference = colour_of_setup(setup, **card)["grey_card_rgb"]
         white_card_info = {"distance_m": card["distance_m"],
                            "view_direction": card["view"].tolist(), "camera_rgb": reference}
-        cones = setup.sensor.cone_matrix()
-        if (min(reference) <= 0 if cones is None
-                else np.any(cones @ np.asarray(reference) <= 0)):
+        try:
+            display_settings(np.ones((1, 1, 3)), white_balance="white-patch",
+                             reference_rgb=reference, cone_matrix=setup.sensor.cone_matrix())
+        except AquaspecError as exc:
             raise AquaspecError(
                 f"white_balance='white-patch': the grey card 1 m ahead has camera RGB "
                 f"{', '.join(f'{x:.3g}' for x in reference)} for sensor "
-                f"{setup.sensor.name!r}; a channel <= 0 cannot be balanced; accepted: "
-                "white_balance 'grey-world' or 'none', or a shallower scene")
+                f"{setup.sensor.name!r}, which cannot be balanced ({exc}); accepted: "
+                "white_balance 'grey-world' or 'none', or a shallower scene") from None
     n = setup.bands.n
     radiance = None
     sun_shadow = None

@@ -7,9 +7,9 @@ import json
 import sys
 from pathlib import Path
 
-from ..light import DEFAULT_SUN_AZIMUTH_DEG, LIGHTS
 from ..model import DEFAULT_MS_MODEL, MS_MODELS
-from .common import add_spread_scattering_option
+from .common import (add_spread_scattering_option, add_sun_options, add_sun_rendering_options,
+                     waves_from)
 
 
 def register(sub):
@@ -38,22 +38,14 @@ def register(sub):
     p.add_argument("--compare-seeds", action="store_true",
                    help="with --ms-model lightfield: also time the seeds' frame on the same "
                         "G-buffer in the same run and report lightfield / seeds")
-    p.add_argument("--light", default="overcast", choices=LIGHTS,
-                   help="light at the surface (default overcast). sun-sky adds the sun's passes "
-                        "(shadow map, froxels, per pixel) to the frame, timed each, and reports "
-                        "the frame with the sun / without it, measured in the same run")
-    p.add_argument("--sun-elevation", type=float, default=60.0, metavar="DEG",
-                   help="sun elevation for --light sun-sky (default 60)")
-    p.add_argument("--sun-azimuth", type=float, default=DEFAULT_SUN_AZIMUTH_DEG, metavar="DEG",
-                   help="sun compass angle for --light sun-sky, from -z (the built-in camera's "
-                        "view: 0 = sun ahead, 180 = behind) towards +x (default "
-                        f"{DEFAULT_SUN_AZIMUTH_DEG:g})")
-    p.add_argument("--sun-shadow-map", type=int, default=None, metavar="TEXELS",
-                   help="--light sun-sky: side of the sun's shadow map (default 2048)")
-    p.add_argument("--wind", type=float, default=None, metavar="M_S",
-                   help="--light sun-sky: a wind sea (wind speed in m/s at 19.5 m) focusing "
-                        "the sun into caustics; the sun over a flat surface is timed beside it "
-                        "and caustics / flat sun reported")
+    add_sun_options(p, light_help="light at the surface (default overcast). sun-sky adds the "
+                                  "sun's passes (shadow map, froxels, per pixel) to the frame, "
+                                  "timed each, and reports the frame with the sun / without "
+                                  "it, measured in the same run")
+    add_sun_rendering_options(
+        p, wind_help="--light sun-sky: a wind sea (wind speed in m/s at 19.5 m) focusing the "
+                     "sun into caustics; the sun over a flat surface is timed beside it and "
+                     "caustics / flat sun reported")
     p.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference ratio "
                    "(with a sun the reference shades it too: seconds per size)")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
@@ -75,13 +67,7 @@ def run(args):
         bands = [int(b) for b in args.bands.split(",") if b]
     except ValueError:
         raise AquaspecError(f"--bands {args.bands!r} must be comma-separated integers") from None
-    waves = None
-    if args.wind is not None:
-        from ..caustics import Waves
-        if args.light != "sun-sky":
-            raise AquaspecError(f"--wind focuses the sun into caustics: it needs --light "
-                                f"sun-sky, not {args.light!r}")
-        waves = Waves(args.wind)
+    waves = waves_from(args)
     result = run_bench(sizes=sizes, bands=bands, frames=args.frames, warmup=args.warmup,
                        water=args.water, depth_m=args.depth, numpy_reference=not args.no_numpy,
                        ms_model=args.ms_model, phase=args.phase, compare_seeds=args.compare_seeds,

@@ -35,17 +35,54 @@ def add_band_options(p, default=16):
                    help="wavelength range in nm (default 400-700)")
 
 
-def add_light_options(p):
-    p.add_argument("--light", default="overcast", choices=LIGHTS,
-                   help="light at the surface (default overcast: equal energy)")
-    p.add_argument("--irradiance", type=float, default=None, metavar="W_M2",
-                   help="total surface irradiance over 400-700 nm, W/m^2 (default 100)")
+def add_sun_options(p, light_help="light at the surface (default overcast: equal energy)"):
+    """--light and where its sun stands."""
+    p.add_argument("--light", default="overcast", choices=LIGHTS, help=light_help)
     p.add_argument("--sun-elevation", type=float, default=60.0, metavar="DEG",
                    help="sun elevation for --light sun-sky (default 60)")
     p.add_argument("--sun-azimuth", type=float, default=DEFAULT_SUN_AZIMUTH_DEG, metavar="DEG",
                    help="sun compass angle for --light sun-sky, from -z (the built-in camera's "
                         "view: 0 = sun ahead, 180 = behind) towards +x (default "
                         f"{DEFAULT_SUN_AZIMUTH_DEG:g})")
+
+
+def add_sun_rendering_options(p, wind_help):
+    """How the renderer draws the sun: its shadow map and the waves' caustics
+    (read back with :func:`waves_from`)."""
+    p.add_argument("--sun-shadow-map", type=int, default=None, metavar="TEXELS",
+                   help="--light sun-sky: side of the sun's shadow map (default 2048; shadows "
+                        "are resolved within 40 m of the camera)")
+    p.add_argument("--wind", type=float, default=None, metavar="M_S", help=wind_help)
+    p.add_argument("--wind-azimuth", type=float, default=0.0, metavar="DEG",
+                   help="--wind: the way the waves run, compass as --sun-azimuth (default 0)")
+    p.add_argument("--wave-time", type=float, default=0.0, metavar="S",
+                   help="--wind: the instant, seconds (the waves move; default 0)")
+    p.add_argument("--wave-seed", type=int, default=0, metavar="N",
+                   help="--wind: seed of the sea's random phases (default 0)")
+
+
+def waves_from(args):
+    """The :class:`aquaspec.caustics.Waves` of :func:`add_sun_rendering_options`, or None."""
+    from ..errors import AquaspecError
+    if args.wind is None:
+        for opt, val, default in (("--wind-azimuth", args.wind_azimuth, 0.0),
+                                  ("--wave-time", args.wave_time, 0.0),
+                                  ("--wave-seed", args.wave_seed, 0)):
+            if val != default:
+                raise AquaspecError(f"{opt} describes the waves: it needs --wind M_S")
+        return None
+    from ..caustics import Waves
+    if args.light != "sun-sky":
+        raise AquaspecError(f"--wind focuses the sun into caustics: it needs --light "
+                            f"sun-sky, not {args.light!r}")
+    return Waves(args.wind, wind_azimuth_deg=args.wind_azimuth, time_s=args.wave_time,
+                 seed=args.wave_seed)
+
+
+def add_light_options(p):
+    add_sun_options(p)
+    p.add_argument("--irradiance", type=float, default=None, metavar="W_M2",
+                   help="total surface irradiance over 400-700 nm, W/m^2 (default 100)")
     p.add_argument("--ambient", default=DEFAULT_AMBIENT, choices=list(AMBIENT_MODELS),
                    help=f"seeds model: how surface irradiance depends on the normal (default "
                         f"{DEFAULT_AMBIENT})")

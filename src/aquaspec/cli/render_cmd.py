@@ -6,8 +6,8 @@ import argparse
 import sys
 
 from .common import (add_band_options, add_light_options, add_sensor_options,
-                     add_spread_scattering_option, add_water_options, parse_depth_albedo,
-                     parse_range)
+                     add_spread_scattering_option, add_sun_rendering_options, add_water_options,
+                     parse_depth_albedo, parse_range, waves_from)
 
 
 def register(sub):
@@ -55,19 +55,10 @@ def register(sub):
                    help="the light field's lower boundary: the scene's (default; the "
                         "built-in scene's sand), none (deep water), or a flat Lambertian "
                         "seabed DEPTH m below the surface with a grey ALBEDO (default 0.2)")
-    p.add_argument("--sun-shadow-map", type=int, default=None, metavar="TEXELS",
-                   help="--light sun-sky: side of the sun's shadow map (default 2048; shadows "
-                        "are resolved within 40 m of the camera)")
-    p.add_argument("--wind", type=float, default=None, metavar="M_S",
-                   help="--light sun-sky: a wind sea on the surface (wind speed in m/s at "
-                        "19.5 m, Pierson-Moskowitz spectrum) whose waves focus the sun into "
-                        "caustics on surfaces and in the water (default: a flat surface)")
-    p.add_argument("--wind-azimuth", type=float, default=0.0, metavar="DEG",
-                   help="--wind: the way the waves run, compass as --sun-azimuth (default 0)")
-    p.add_argument("--wave-time", type=float, default=0.0, metavar="S",
-                   help="--wind: the instant, seconds (the waves move; default 0)")
-    p.add_argument("--wave-seed", type=int, default=0, metavar="N",
-                   help="--wind: seed of the sea's random phases (default 0)")
+    add_sun_rendering_options(
+        p, wind_help="--light sun-sky: a wind sea on the surface (wind speed in m/s at 19.5 m, "
+                     "Pierson-Moskowitz spectrum) whose waves focus the sun into caustics on "
+                     "surfaces and in the water (default: a flat surface)")
     p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
                    help="gpu (WGSL through wgpu) or numpy (the slow reference)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")
@@ -120,20 +111,7 @@ def run(args):
     seabed = _seabed(args.seabed)
     if albedo and not args.mesh:
         raise AquaspecError("--albedo is only used with --mesh")
-    waves = None
-    if args.wind is not None:
-        from ..caustics import Waves
-        if args.light != "sun-sky":
-            raise AquaspecError(f"--wind focuses the sun into caustics: it needs --light "
-                                f"sun-sky, not {args.light!r}")
-        waves = Waves(args.wind, wind_azimuth_deg=args.wind_azimuth, time_s=args.wave_time,
-                      seed=args.wave_seed)
-    else:
-        for opt, val, default in (("--wind-azimuth", args.wind_azimuth, 0.0),
-                                  ("--wave-time", args.wave_time, 0.0),
-                                  ("--wave-seed", args.wave_seed, 0)):
-            if val != default:
-                raise AquaspecError(f"{opt} describes the waves: it needs --wind M_S")
+    waves = waves_from(args)
 
     def progress(msg):
         print(f"aquaspec render: {msg}", file=sys.stderr, flush=True)

@@ -86,28 +86,11 @@ CAMERA_CLEARANCE_M = 0.02
 
 
 def require_mitsuba():
-    """Import Mitsuba 3 and choose a variant of :data:`VARIANTS`.
-
-    Returns ``(mi, previous)``, ``previous`` the variant that was set before
-    (``None`` if none), for the caller to restore.
-    """
-    try:
-        import mitsuba as mi
-    except ImportError as exc:
-        raise AquaspecError("the caustics check needs Mitsuba 3, which is not installed: "
-                            "pip install 'aquaspec[validation]'") from exc
-    previous = mi.variant()
-    if previous in VARIANTS:
-        return mi, previous
-    errors = []
-    for v in VARIANTS:
-        try:
-            mi.set_variant(v)
-            return mi, previous
-        except Exception as exc:  # noqa: BLE001 - Mitsuba raises several types
-            errors.append(f"{v}: {exc}")
-    raise AquaspecError("no Mitsuba variant for the caustics check could be loaded ("
-                        + "; ".join(errors) + ")")
+    """Import Mitsuba 3 and choose a variant of :data:`VARIANTS`:
+    ``(mi, previous)``, ``previous`` the variant that was set before (``None``
+    if none), for the caller to restore."""
+    from .reference import mitsuba_variant
+    return mitsuba_variant(VARIANTS, "the caustics check")
 
 
 def heightfield_mesh(mi, h, hx, hz, tile_m, rows, cols, bsdf):

@@ -174,22 +174,31 @@ def phase_key(phase: str, g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSC
 
 def require_mitsuba():
     """Import Mitsuba 3 and choose a spectral variant; clear error if missing."""
+    return mitsuba_variant(VARIANTS, "the validation")[0]
+
+
+def mitsuba_variant(variants, what: str):
+    """Import Mitsuba 3 and choose the first of ``variants`` that loads (the
+    current one if it is among them): ``(mi, previous)``, ``previous`` the
+    variant set before (None if none). Errors say what needed it (``what``)."""
     try:
         import mitsuba as mi
     except ImportError as exc:
-        raise AquaspecError("the validation needs Mitsuba 3, which is not installed: "
+        raise AquaspecError(f"{what} needs Mitsuba 3, which is not installed: "
                             "pip install 'aquaspec[validation]'") from exc
-    if mi.variant() in VARIANTS:
-        return mi
+    previous = mi.variant()
+    if previous in variants:
+        return mi, previous
     errors = []
-    for v in VARIANTS:
+    for v in variants:
         try:
             mi.set_variant(v)
-            return mi
+            return mi, previous
         except Exception as exc:  # noqa: BLE001 - Mitsuba raises several types
             errors.append(f"{v}: {exc}")
-    raise AquaspecError("no spectral Mitsuba variant could be loaded (" + "; ".join(errors)
-                        + "); for llvm_ad_spectral install Debian's libllvm19")
+    raise AquaspecError(f"no Mitsuba variant for {what} could be loaded ("
+                        + "; ".join(errors) + "); for the llvm_ad variants install Debian's "
+                        "libllvm19")
 
 
 def _spectrum(wl, values):
