@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 os.environ.setdefault("XDG_RUNTIME_DIR", tempfile.mkdtemp(prefix="aquaspec-xdg-"))
-# What aquaspec caches per machine (aquaspec.colourdata) goes to a directory of
+# What aquaspec caches per machine (aquaspec.colour.data) goes to a directory of
 # this test run, CLI subprocesses included, not to the user's cache.
 os.environ.setdefault("AQUASPEC_CACHE", tempfile.mkdtemp(prefix="aquaspec-cache-"))
 
@@ -39,7 +39,7 @@ def device():
 def _fused_and_two_pass(shading, width, height, **settings):
     """A shading pass's fused display image and the display pass run on its
     linear output (the pass must have just run without display), same settings."""
-    from aquaspec.gpu.display_pass import DisplayPass
+    from aquaspec.gpu.passes.display import DisplayPass
     two_pass = DisplayPass(width, height, device=shading.device)
     two_pass.use_input(shading.rgb_buffer)
     two_pass.set_settings(**settings)
@@ -60,8 +60,8 @@ def _lightfield_gbuffer(kind, depth):
     """G-buffer of the light-field tests: ``"builtin"`` (the built-in scene at
     96x54) or ``"up"`` (the validation board seen looking up at 40 degrees,
     64x48: the board, open water and Snell's window)."""
-    from aquaspec.camera import Camera
-    from aquaspec.gpu.raster import RasterPass
+    from aquaspec.scene.camera import Camera
+    from aquaspec.gpu.passes.raster import RasterPass
     if kind == "builtin":
         from aquaspec.scene.builtin import builtin_scene
         scene, cam = builtin_scene(depth, width=96, height=54)

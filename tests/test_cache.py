@@ -79,7 +79,7 @@ def test_damaged_files_read_as_missing(tmp_path, content):
 def test_code_key_follows_source_and_constants(monkeypatch):
     import types
 
-    from aquaspec import lightfield_compiled as lfc
+    from aquaspec.transport.lightfield import compiled as lfc
     key = cache.code_key(lfc)
     assert key is not None and key == cache.code_key(lfc)
     monkeypatch.setattr(lfc, "ALS_SWEEPS", lfc.ALS_SWEEPS + 1)
@@ -89,9 +89,9 @@ def test_code_key_follows_source_and_constants(monkeypatch):
 
 
 def test_lightfield_tables_kept(monkeypatch, tmp_path):
-    from aquaspec import lightfield
-    from aquaspec.bands import Bands
-    from aquaspec.water import get_water
+    from aquaspec.transport.lightfield import solve as lightfield
+    from aquaspec.colour.bands import Bands
+    from aquaspec.medium.water import get_water
     monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path))
     water = get_water("II").on_bands(Bands(4))
     kw = dict(phase="hg", g=0.9, n_depth=8, n_mu=9)
@@ -115,10 +115,10 @@ def test_lightfield_tables_kept(monkeypatch, tmp_path):
 
 
 def test_irradiance_factors_kept(monkeypatch, tmp_path):
-    from aquaspec import lightfield
-    from aquaspec import lightfield_compiled as lfc
-    from aquaspec.bands import Bands
-    from aquaspec.water import get_water
+    from aquaspec.transport.lightfield import solve as lightfield
+    from aquaspec.transport.lightfield import compiled as lfc
+    from aquaspec.colour.bands import Bands
+    from aquaspec.medium.water import get_water
     monkeypatch.setenv(cache.CACHE_ENV, "off")
     tables = lightfield.lightfield_tables(get_water("IB").on_bands(Bands(12)), n_depth=16,
                                           n_mu=17)

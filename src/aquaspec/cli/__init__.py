@@ -11,7 +11,7 @@ import importlib
 import sys
 import warnings
 
-from ..errors import AquaspecError, GPUUnavailableError
+from aquaspec.errors import AquaspecError, GPUUnavailableError
 
 COMMANDS = ("list", "spectra", "colour", "render", "view", "bench", "validate")
 

@@ -7,8 +7,8 @@ import json
 import sys
 from pathlib import Path
 
-from ..model import DEFAULT_MS_MODEL, MS_MODELS
-from .common import (add_spread_scattering_option, add_sun_options, add_sun_rendering_options,
+from aquaspec.transport.monzon2022 import DEFAULT_MS_MODEL, MS_MODELS
+from aquaspec.cli.common import (add_spread_scattering_option, add_sun_options, add_sun_rendering_options,
                      waves_from)
 
 
@@ -54,10 +54,10 @@ def register(sub):
 
 
 def run(args):
-    from ..bench import format_table, plot, run_bench
-    from ..errors import AquaspecError
-    from ..output import check_writable, write_file_atomically
-    from ..renderer import parse_size
+    from aquaspec.apps.bench import format_table, plot, run_bench
+    from aquaspec.errors import AquaspecError
+    from aquaspec.io.output import check_writable, write_file_atomically
+    from aquaspec.rendering.renderer import parse_size
     if args.json:
         check_writable(args.json, suffixes=(".json",))
     if args.plot:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from .common import (add_band_options, add_light_options, add_sensor_options,
+from aquaspec.cli.common import (add_band_options, add_light_options, add_sensor_options,
                      add_water_options, bands_from, light_from, sensor_from, water_from)
 
 
@@ -33,8 +33,8 @@ def register(sub):
 
 
 def run(args):
-    from ..appearance import view_from_elevation, water_colour
-    from ..lightfield import forward_cone
+    from aquaspec.rendering.appearance import view_from_elevation, water_colour
+    from aquaspec.transport.lightfield.solve import forward_cone
     res = water_colour(water_from(args), sensor_from(args), bands_from(args),
                        depth_m=args.depth, distance_m=args.distance, light=light_from(args),
                        ambient=args.ambient, outside="zero" if args.outside_zero else "error",

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from ..bands import Bands
-from ..light import DEFAULT_SUN_AZIMUTH_DEG, LIGHTS, surface_light
-from ..model import AMBIENT_MODELS, DEFAULT_AMBIENT, DEFAULT_MS_MODEL, MS_MODELS
-from ..sensors import get_sensor
-from ..water import DEFAULT_SOURCE, SOURCES, get_water
+from aquaspec.colour.bands import Bands
+from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, LIGHTS, surface_light
+from aquaspec.transport.monzon2022 import AMBIENT_MODELS, DEFAULT_AMBIENT, DEFAULT_MS_MODEL, MS_MODELS
+from aquaspec.colour.sensors import get_sensor
+from aquaspec.medium.water import DEFAULT_SOURCE, SOURCES, get_water
 
 
 def add_water_options(p, *, required=True):
@@ -62,8 +62,8 @@ def add_sun_rendering_options(p, wind_help):
 
 
 def waves_from(args):
-    """The :class:`aquaspec.caustics.Waves` of :func:`add_sun_rendering_options`, or None."""
-    from ..errors import AquaspecError
+    """The :class:`aquaspec.light.caustics.Waves` of :func:`add_sun_rendering_options`, or None."""
+    from aquaspec.errors import AquaspecError
     if args.wind is None:
         for opt, val, default in (("--wind-azimuth", args.wind_azimuth, 0.0),
                                   ("--wave-time", args.wave_time, 0.0),
@@ -71,7 +71,7 @@ def waves_from(args):
             if val != default:
                 raise AquaspecError(f"{opt} describes the waves: it needs --wind M_S")
         return None
-    from ..caustics import Waves
+    from aquaspec.light.caustics import Waves
     if args.light != "sun-sky":
         raise AquaspecError(f"--wind focuses the sun into caustics: it needs --light "
                             f"sun-sky, not {args.light!r}")
@@ -106,7 +106,7 @@ def add_spread_scattering_option(p):
 
 
 def parse_range(text):
-    from ..errors import AquaspecError
+    from aquaspec.errors import AquaspecError
     try:
         lo, hi = (float(x) for x in str(text).split("-"))
     except ValueError:
@@ -118,7 +118,7 @@ def parse_depth_albedo(text, flag: str, accepted: str, default_albedo: float = 0
     """``M[,ALBEDO]`` -> ``(M, ALBEDO)``: M > 0 metres, ALBEDO in [0, 1]
     (``default_albedo`` when left out); else an error naming ``flag`` and
     ``accepted``."""
-    from ..errors import AquaspecError
+    from aquaspec.errors import AquaspecError
     try:
         values = [float(x) for x in str(text).split(",")]
     except ValueError:

@@ -13,7 +13,7 @@ def register(sub):
 
 def run(args):
     if args.what == "waters":
-        from ..water import DEFAULT_SOURCE, list_waters
+        from aquaspec.medium.water import DEFAULT_SOURCE, list_waters
         import jerlov
         by_source = {}
         for source, wtype in list_waters():
@@ -24,7 +24,7 @@ def run(args):
             print(f"    {jerlov.get_source(source).citation}")
         print("or your own: --water FILE.csv with columns wavelength_nm,a,b[,Kd]")
     else:
-        from ..sensors import builtin_sensors, load_camspec
+        from aquaspec.colour.sensors import builtin_sensors, load_camspec
         for name, s in builtin_sensors().items():
             print(f"{name:24s} {s.range_nm[0]:g}-{s.range_nm[1]:g} nm  {s.source}")
         if args.camspec:

@@ -5,13 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .common import (add_band_options, add_light_options, add_sensor_options,
+from aquaspec.cli.common import (add_band_options, add_light_options, add_sensor_options,
                      add_spread_scattering_option, add_sun_rendering_options, add_water_options,
                      parse_depth_albedo, parse_range, waves_from)
 
 
 def register(sub):
-    from ..display import TONEMAPS, WHITE_BALANCE_METHODS
+    from aquaspec.colour.display import TONEMAPS, WHITE_BALANCE_METHODS
     p = sub.add_parser(
         "render", help="render an image (PNG + JSON sidecar, optional linear EXR/NPY)",
         description="Render the built-in seabed scene (or your mesh, or an RGB-D photograph) "
@@ -67,12 +67,12 @@ def register(sub):
     p.add_argument("--layers", metavar="OUT.exr|OUT.npz",
                    help="also write the image-formation layers (float32): backscatter, "
                         "direct signal, the surfaces' own light and albedo, transmission, "
-                        "range (aquaspec.layers; ground truth for restoration research)")
+                        "range (aquaspec.rendering.layers; ground truth for restoration research)")
     p.set_defaults(func=run, command="render")
 
 
 def _floats(text, n, what):
-    from ..errors import AquaspecError
+    from aquaspec.errors import AquaspecError
     try:
         vals = tuple(float(x) for x in str(text).split(","))
     except ValueError:
@@ -83,14 +83,14 @@ def _floats(text, n, what):
 
 
 def run(args):
-    from ..errors import AquaspecError
-    from ..output import LINEAR_SUFFIXES, PNG_SUFFIXES, check_writable, save_image
-    from ..renderer import parse_size, render
+    from aquaspec.errors import AquaspecError
+    from aquaspec.io.output import LINEAR_SUFFIXES, PNG_SUFFIXES, check_writable, save_image
+    from aquaspec.rendering.renderer import parse_size, render
     check_writable(args.output, suffixes=PNG_SUFFIXES)
     if args.linear:
         check_writable(args.linear, suffixes=LINEAR_SUFFIXES)
     if args.layers:
-        from ..layers import check_layers_path
+        from aquaspec.rendering.layers import check_layers_path
         check_layers_path(args.layers)
     size = parse_size(args.size)
     exposure = args.exposure
@@ -143,7 +143,7 @@ def run(args):
 
 def _seabed(text):
     """--seabed: "scene", "none" or DEPTH[,ALBEDO] -> what render() takes."""
-    from ..lightfield import Seabed
+    from aquaspec.transport.lightfield.solve import Seabed
     t = str(text).strip().lower()
     if t in ("scene", "none"):
         return "scene" if t == "scene" else None

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .common import add_band_options, add_water_options
+from aquaspec.cli.common import add_band_options, add_water_options
 
 
 def register(sub):
@@ -32,7 +32,7 @@ def plot(path, water, sensor, bands):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from ..output import check_writable, write_file_atomically
+    from aquaspec.io.output import check_writable, write_file_atomically
     check_writable(path, suffixes=(".png",))
     n_ax = 2 if sensor is not None else 1
     fig, axes = plt.subplots(1, n_ax, figsize=(6 * n_ax, 4), squeeze=False)
@@ -66,9 +66,9 @@ def plot(path, water, sensor, bands):
 
 
 def run(args):
-    from ..output import check_writable
-    from ..sensors import get_sensor
-    from .common import bands_from, water_from
+    from aquaspec.io.output import check_writable
+    from aquaspec.colour.sensors import get_sensor
+    from aquaspec.cli.common import bands_from, water_from
     if args.plot:
         check_writable(args.plot, suffixes=(".png",))
     water, bands = water_from(args), bands_from(args)

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-from .common import add_spread_scattering_option
+from aquaspec.cli.common import add_spread_scattering_option
 
 
 def register(sub):
-    from ..light import DEFAULT_SUN_AZIMUTH_DEG
+    from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
     p = sub.add_parser(
         "validate", help="compare with a spectral path tracer (Mitsuba 3) over waters x depths x "
                          "cameras",
@@ -51,7 +51,7 @@ def register(sub):
     add_spread_scattering_option(p)
     p.add_argument("--ambient-shadow", action="store_true",
                    help="light-field model: subtract the scene's first-order shadow in the "
-                        "water's light field (aquaspec.shadow; goes with --spread-scattering "
+                        "water's light field (aquaspec.transport.lightfield.shadow; goes with --spread-scattering "
                         "multiple; NumPy, seconds per scene)")
     p.add_argument("--seabed-below", metavar="M[,ALBEDO]",
                    help="a flat grey Lambertian seabed M metres below the camera (albedo "
@@ -89,14 +89,14 @@ def register(sub):
 
 
 def run(args):
-    from ..errors import AquaspecError
-    from ..light import DEFAULT_SUN_AZIMUTH_DEG
-    from ..model import MS_MODELS
-    from ..sun import check_azimuth, check_elevation
-    from ..renderer import parse_size
-    from ..sensors import builtin_sensors, get_sensor, load_camspec
-    from ..validation.reference import FF_DEFAULT_BACKSCATTER, check_phase, require_mitsuba
-    from ..validation.study import (DEFAULT_SUN_ELEVATION_DEG, default_cache_dir,
+    from aquaspec.errors import AquaspecError
+    from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
+    from aquaspec.transport.monzon2022 import MS_MODELS
+    from aquaspec.light.sun import check_azimuth, check_elevation
+    from aquaspec.rendering.renderer import parse_size
+    from aquaspec.colour.sensors import builtin_sensors, get_sensor, load_camspec
+    from aquaspec.validation.reference import FF_DEFAULT_BACKSCATTER, check_phase, require_mitsuba
+    from aquaspec.validation.study import (DEFAULT_SUN_ELEVATION_DEG, default_cache_dir,
                                     format_attenuation, format_converged, format_summary,
                                     format_timing, run_study, write_results)
     if args.g is not None and args.phase != "hg":
@@ -151,7 +151,7 @@ def run(args):
                     sun_azimuth_deg=sun_azimuth,
                     gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
-    from ..validation.study import REGIONS
+    from aquaspec.validation.study import REGIONS
     for region in REGIONS:
         print(format_summary(res["rows"], region=region))
         print()
@@ -170,8 +170,8 @@ def _output_dir(path, probe_name):
     """Create the output directory and check it is writable, before any work."""
     from pathlib import Path
 
-    from ..errors import AquaspecError
-    from ..output import check_writable
+    from aquaspec.errors import AquaspecError
+    from aquaspec.io.output import check_writable
     out = Path(path)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -186,8 +186,8 @@ def _run_tyler(out):
     import json
     from pathlib import Path
 
-    from ..output import write_file_atomically
-    from ..validation.tyler import format_tyler, plot_tyler, tyler_check
+    from aquaspec.io.output import write_file_atomically
+    from aquaspec.validation.tyler import format_tyler, plot_tyler, tyler_check
     res = tyler_check()
     print(format_tyler(res))
     doc = json.dumps(res, indent=1)
@@ -201,7 +201,7 @@ def _seabed_below(text) -> dict:
     """--seabed-below M[,ALBEDO] -> run_study keywords."""
     if text is None:
         return {}
-    from .common import parse_depth_albedo
+    from aquaspec.cli.common import parse_depth_albedo
     below, albedo = parse_depth_albedo(text, "--seabed-below", "M[,ALBEDO] with M > 0 metres "
                                        "and ALBEDO in [0, 1], e.g. 2 or 2,0.3")
     return {"seabed_below_m": below, "seabed_albedo": albedo}

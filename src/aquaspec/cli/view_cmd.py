@@ -15,17 +15,17 @@ def register(sub):
     p.add_argument("--depth", type=float, default=5.0)
     p.add_argument("--bands", type=int, default=8)
     p.add_argument("--sensor", default="human")
-    from ..model import DEFAULT_MS_MODEL, MS_MODELS
+    from aquaspec.transport.monzon2022 import DEFAULT_MS_MODEL, MS_MODELS
     p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODELS),
                    help=f"multiple-scattering model to start with (default {DEFAULT_MS_MODEL})")
     p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
                    help="start with the light field's forward cone spread over the image "
                         "(default: on)")
-    from .common import add_spread_scattering_option
+    from aquaspec.cli.common import add_spread_scattering_option
     add_spread_scattering_option(p)
     p.add_argument("--sun-elevation", type=float, default=0.0, metavar="DEG",
                    help="start with the sun at DEG (0 = an overcast sky; default 0)")
-    from ..light import DEFAULT_SUN_AZIMUTH_DEG
+    from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
     p.add_argument("--sun-azimuth", type=float, default=DEFAULT_SUN_AZIMUTH_DEG, metavar="DEG",
                    help="the sun's compass angle, as for render (default "
                         f"{DEFAULT_SUN_AZIMUTH_DEG:g})")
@@ -37,8 +37,8 @@ def register(sub):
 
 
 def run(args):
-    from ..renderer import parse_size
-    from ..viewer import run_viewer
+    from aquaspec.rendering.renderer import parse_size
+    from aquaspec.apps.viewer import run_viewer
     w, h = parse_size(args.size)
     run_viewer(width=w, height=h, water=args.water, depth_m=args.depth, bands=args.bands,
                sensor=args.sensor, ms_model=args.ms_model, cone_spread=args.cone_spread,

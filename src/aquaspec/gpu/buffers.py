@@ -22,7 +22,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import AquaspecError
+from aquaspec.errors import AquaspecError
 
 #: Storage buffers are sized in multiples of this many bytes (vec4 alignment).
 BUFFER_ALIGN = 16
@@ -239,8 +239,8 @@ def time_passes(passes: Mapping[str, object], *, frames: int = 20, warmup: int =
     passes : mapping of str to pass
         Each pass has ``encode(encoder, timestamp_writes=None)`` recording its
         compute (or render) pass into a command encoder, as
-        :class:`~aquaspec.gpu.deferred.DeferredPass` and
-        :class:`~aquaspec.gpu.copy_pass.CopyPass` do; it must be ready to run.
+        :class:`~aquaspec.gpu.passes.deferred.DeferredPass` and
+        :class:`~aquaspec.gpu.passes.copy.CopyPass` do; it must be ready to run.
     frames : int
         Timed frames (>= 1); the median over them is reported.
     warmup : int
@@ -266,7 +266,7 @@ def time_passes(passes: Mapping[str, object], *, frames: int = 20, warmup: int =
         raise AquaspecError(f"timing method {method!r} is unknown; accepted: auto, "
                             f"{', '.join(TIMING_METHODS)}")
     if device is None:
-        from .device import get_device
+        from aquaspec.gpu.device import get_device
         _, device = get_device()
     notes = []
     result = None

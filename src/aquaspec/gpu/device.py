@@ -12,8 +12,8 @@ import functools
 import os
 import tempfile
 
-from ..errors import GPUUnavailableError
-from . import ffi_types
+from aquaspec.errors import GPUUnavailableError
+from aquaspec.gpu import ffi_types
 
 ADAPTER_ENV = "AQUASPEC_ADAPTER"
 _DEBIAN_HINT = ("install a Vulkan driver; on Debian/Ubuntu without a GPU: "

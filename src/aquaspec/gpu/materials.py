@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .buffers import create_storage_buffer, upload_buffer
+from aquaspec.gpu.buffers import create_storage_buffer, upload_buffer
 
 #: vec4 entries of the uniform material table (64 KiB).
 UNIFORM_VEC4 = 4096

@@ -20,9 +20,9 @@ import os
 
 import numpy as np
 
-from ..camera import Camera
-from ..errors import AquaspecError
-from .mesh import Mesh, Scene, image_to_linear_rgb, srgb_to_linear
+from aquaspec.scene.camera import Camera
+from aquaspec.errors import AquaspecError
+from aquaspec.scene.mesh import Mesh, Scene, image_to_linear_rgb, srgb_to_linear
 
 #: File suffixes :func:`load_mesh` accepts.
 MESH_FORMATS = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
@@ -32,8 +32,8 @@ DEFAULT_ALBEDO = (0.5, 0.5, 0.5)
 
 
 def rgb_material(rgb, name: str):
-    """A reflectance object for a linear albedo triple (via aquaspec.reflectance)."""
-    from ..reflectance import Reflectance  # imported late: it depends on colour data
+    """A reflectance object for a linear albedo triple (via aquaspec.colour.reflectance)."""
+    from aquaspec.colour.reflectance import Reflectance  # imported late: it depends on colour data
     return Reflectance.from_rgb(tuple(float(c) for c in rgb), name=name)
 
 

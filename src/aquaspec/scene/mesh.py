@@ -15,7 +15,7 @@ interpolates the coefficients.
 ``Scene.materials`` holds reflectance objects. Only a duck type is assumed
 here: an object with a ``name`` and either ``rgb`` (a linear albedo triple
 in [0, 1]) or ``wavelength_nm``/``values`` (a measured spectrum), as
-:class:`aquaspec.reflectance.Reflectance` provides.
+:class:`aquaspec.colour.reflectance.Reflectance` provides.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..camera import Camera
-from ..errors import AquaspecError
+from aquaspec.scene.camera import Camera
+from aquaspec.errors import AquaspecError
 
 
 def srgb_to_linear(c):
@@ -204,7 +204,7 @@ class Mesh:
         """Jakob-Hanika coefficients of every texel, (H, W, 3) float32 (cached)."""
         cached = getattr(self, "_texture_sigmoid", None)
         if cached is None or cached[0] is not self.texture:
-            from ..reflectance import fit_sigmoid_image
+            from aquaspec.colour.reflectance import fit_sigmoid_image
             cached = (self.texture, fit_sigmoid_image(self.texture).astype(np.float32))
             self._texture_sigmoid = cached
         return cached[1]
@@ -213,7 +213,7 @@ class Mesh:
         """Jakob-Hanika coefficients of the vertex colours, (V, 3) float32 (cached)."""
         cached = getattr(self, "_vertex_sigmoid", None)
         if cached is None or cached[0] is not self.vertex_rgb:
-            from ..reflectance import fit_sigmoid_image
+            from aquaspec.colour.reflectance import fit_sigmoid_image
             coeffs = fit_sigmoid_image(self.vertex_rgb[:, None, :])[:, 0, :]
             cached = (self.vertex_rgb, coeffs.astype(np.float32))
             self._vertex_sigmoid = cached
@@ -255,7 +255,7 @@ class Scene:
     camera : Camera, optional
         A default viewpoint (the built-in scene and :func:`place_in_front`
         set one).
-    seabed : aquaspec.lightfield.Seabed, optional
+    seabed : aquaspec.transport.lightfield.solve.Seabed, optional
         The flat seabed the light field takes as its lower boundary (the
         built-in scene sets its terrain's); None: deep water below.
     """

@@ -5,7 +5,7 @@
 // Twin of aquaspec/model.py (float64 NumPy reference) and of
 // aquaspec/shading.py: same formulas and cases, so change them together (the
 // cases are mostly selects here, branches there; per-band factors that do not
-// depend on the pixel come precomputed from aquaspec.gpu.deferred.band_table).
+// depend on the pixel come precomputed from aquaspec.gpu.passes.deferred.band_table).
 // Conventions: metres, y up, water surface y = 0, depth d = -p.y; a, b, c, Kd
 // in 1/m; the camera ray starts at depth depth_o with unit direction v.
 // WGSL has no expm1/log1p: l_ms_seeds_shared uses a series near 0 where
@@ -13,7 +13,7 @@
 
 const PI: f32 = 3.14159265358979;
 const FOUR_PI: f32 = 12.5663706143592;
-// aquaspec.reflectance.SIGMOID_X_MAX.
+// aquaspec.colour.reflectance.SIGMOID_X_MAX.
 const SIGMOID_X_MAX: f32 = 1.0e6;
 
 // +infinity, for the same (impossible for valid input) case where NumPy
@@ -46,7 +46,7 @@ fn transmittance(c: f32, s: vec4<f32>, s_finite: vec4<bool>) -> vec4<f32> {
 // b E0 / (4 pi) int_0^S exp(-c t) exp(-Kd d(t)) dt, d(t) = d_o - t v_y, for S
 // already cut by ray_length, in closed form b E0 / (4 pi) exp(-Kd d_o)
 // (1 - exp(-k S)) / k, k = c - Kd v_y. The factors that do not depend on the
-// pixel come per band from the host (aquaspec.gpu.deferred.band_table,
+// pixel come per band from the host (aquaspec.gpu.passes.deferred.band_table,
 // float64): ms_scale = b E0 / (4 pi) exp(-Kd d_o), be0 = b E0 / (4 pi).
 // It is written with exponentials the caller computes anyway, both =
 // exp(-c S) exp(-Kd d(S)) = exp(-Kd d_o) exp(-k S) (the transmittance and
@@ -71,7 +71,7 @@ fn l_ms_seeds_shared(k: vec4<f32>, s: vec4<f32>, s_finite: vec4<bool>, ms_scale:
     return select(infinite, finite, s_finite);
 }
 
-// model.AMBIENT_MODELS, by id (aquaspec.gpu.deferred.AMBIENT_MODEL_IDS):
+// model.AMBIENT_MODELS, by id (aquaspec.gpu.passes.deferred.AMBIENT_MODEL_IDS):
 // 0 "uniform": g = 1 (thesis Eq. 4.2); 1 "cosine": g = (1 + n_y) / 2.
 fn ambient_factor(model_id: u32, n_y: vec4<f32>) -> vec4<f32> {
     let ny = clamp(n_y, vec4<f32>(-1.0), vec4<f32>(1.0));

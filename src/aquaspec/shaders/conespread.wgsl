@@ -32,7 +32,7 @@
 // for the whole pyramid, 0.60 ms as 10 dispatches; conespread_pass.py).
 // Layouts: aquaspec/gpu/conespread_pass.py.
 //
-// SLOTS > 1 (the multiple-scattering spread, aquaspec.conespread.spread_nodes):
+// SLOTS > 1 (the multiple-scattering spread, aquaspec.transport.lightfield.conespread.spread_nodes):
 // a texel holds K node images of camera RGB, 3 K values in SLOTS vec4
 // (value q = 4 m + j of slot m is node q / 3, channel q % 3); level 0's
 // slot m is texel (x + m width, y) of the cone texture, a level's slot m

@@ -1,7 +1,7 @@
 // The "memory floor" pass for benchmarks: reads every G-buffer input of one
 // pixel and writes one vec4 to the output, with the same bindings and output
 // size as deferred.wgsl but no shading. The deferred pass cannot be faster
-// than this on the same device; aquaspec.gpu.copy_pass.CopyPass runs it.
+// than this on the same device; aquaspec.gpu.passes.copy.CopyPass runs it.
 //
 // Output: (distance, normal.y, sigmoid.z, f32(material)) so a test can check
 // that what was read is what was written.

@@ -47,12 +47,12 @@ const PER_PIXEL_MATERIALS: bool = {{ per_pixel }};
 const PER_PIXEL: u32 = 0xffffffffu;
 
 @group(0) @binding(0) var<uniform> cam: {{ camera_struct_name }};
-// G-buffer: the geometry pass's render targets (aquaspec.gpu.deferred):
+// G-buffer: the geometry pass's render targets (aquaspec.gpu.passes.deferred):
 // surface (S bits, n_y bits, octahedral normal, material index) and sigmoid
 // (c0, c1, c2, unused).
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
-// Three vec4 per band i (aquaspec.gpu.deferred.BAND_FIELDS):
+// Three vec4 per band i (aquaspec.gpu.passes.deferred.BAND_FIELDS):
 //   [3i]     c, kd, t, ms_scale = b E0 / (4 pi) exp(-Kd d_o)
 //   [3i + 1] w_r, w_g, w_b, e0_over_pi = E0 / pi
 //   [3i + 2] be0 = b E0 / (4 pi), base = -Kd d_o, e0_window = E0 n^2 / pi, 0
@@ -66,7 +66,7 @@ const PER_PIXEL: u32 = 0xffffffffu;
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(9) var<uniform> disp: {{ display_struct_name }};
 @group(0) @binding(10) var<storage, read_write> rgba_out: array<u32>;
-// Open-water table (aquaspec.gpu.deferred.open_water_table): camera RGB of a
+// Open-water table (aquaspec.gpu.passes.deferred.open_water_table): camera RGB of a
 // ray that hits nothing, two vec4 per sample of v_y over [-1, 1]: [2j] the
 // scattering term, [2j + 1] the sky through Snell's window (added inside it).
 @group(0) @binding(11) var<storage, read> open_table: array<vec4<f32>>;

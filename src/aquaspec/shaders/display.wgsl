@@ -4,7 +4,7 @@
 // balance gains, the camera -> sRGB matrix and the exposure scale 2^EV are
 // all linear, so the host folds them into one 3x3 matrix (rows m0..m2, xyz);
 // automatic exposure and grey-world gains are measured on the host
-// (display.display_settings). Then: tone map (ids = aquaspec.gpu.display_pass
+// (display.display_settings). Then: tone map (ids = aquaspec.gpu.passes.display
 // TONEMAP_IDS, curves as in display.TONEMAPS), IEC 61966-2-1 sRGB encoding,
 // rounding to 8 bits.
 //
@@ -16,7 +16,7 @@
 {{ display_struct }}
 
 // The tone map id is a compile-time constant (one pipeline per tone map,
-// aquaspec.gpu.display_pass): a switch on the uniform ran every curve for
+// aquaspec.gpu.passes.display): a switch on the uniform ran every curve for
 // every pixel on lavapipe. params.tonemap holds the same id.
 const TONEMAP: u32 = {{ tonemap_id }}u;
 

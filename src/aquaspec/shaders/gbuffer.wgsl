@@ -23,7 +23,7 @@ const PER_PIXEL: u32 = 0xFFFFFFFFu;
 // filterable, so the bilinear filter is done here with textureLoad).
 @group(1) @binding(1) var coeff_tex: texture_2d<f32>;
 
-// Vertex layouts, one per mode (aquaspec.gpu.raster._vertex_data): position,
+// Vertex layouts, one per mode (aquaspec.gpu.passes.raster._vertex_data): position,
 // normal, then the mode's own attribute at location 2. Each mode passes on
 // only what its fragment shader needs: on lavapipe every varying is
 // interpolated for every fragment.
@@ -133,7 +133,7 @@ fn facing_normal(rel: vec3<f32>, normal: vec3<f32>) -> vec3<f32> {
 
 // Octahedral map of a unit vector onto [-1, 1]^2 in the (x, z) plane, the
 // lower hemisphere (y < 0) folded over the diagonals (Meyer et al. 2010);
-// aquaspec.gpu.deferred.oct_decode inverts it.
+// aquaspec.gpu.passes.deferred.oct_decode inverts it.
 fn oct_encode(n: vec3<f32>) -> vec2<f32> {
     let p = n.xz / (abs(n.x) + abs(n.y) + abs(n.z));
     let s = select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));

@@ -1,4 +1,4 @@
-// Coordinates on the light-field tables' axes (aquaspec.lightfield.bilinear,
+// Coordinates on the light-field tables' axes (aquaspec.transport.lightfield.solve.bilinear,
 // table_depths / table_cosines), shared by lightfield.wgsl and
 // watertable.wgsl. Texel k of an axis is at coordinate k.
 

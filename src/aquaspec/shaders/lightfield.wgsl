@@ -57,7 +57,7 @@
 {{ display_struct }}
 
 const N_BANDS: u32 = {{ n_bands }}u;
-// Axes of the irradiance basis U (aquaspec.lightfield.table_depths /
+// Axes of the irradiance basis U (aquaspec.transport.lightfield.solve.table_depths /
 // table_cosines) and its rank (4 or 8: one or two layers).
 const N_DEPTH: u32 = {{ n_depth }}u;
 const N_MU: u32 = {{ n_mu }}u;
@@ -103,7 +103,7 @@ const NODE_ARRAY: u32 = max(NODES, 1u);
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // G-buffer: surface (S bits, n_y bits, octahedral normal, material index)
-// and sigmoid (c0, c1, c2, unused), aquaspec.gpu.deferred.
+// and sigmoid (c0, c1, c2, unused), aquaspec.gpu.passes.deferred.
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
 // BAND_VEC4 vec4 per band i (lightfield_pass.band_table, float64 on the host):
@@ -236,7 +236,7 @@ fn hat(z: vec4<f32>, k: u32) -> vec4<f32> {
     return max(vec4<f32>(0.0), 1.0 - abs(zc - f32(k)));
 }
 
-// z = log3(1 + 2 x) (aquaspec.conespread.lambda_coordinate).
+// z = log3(1 + 2 x) (aquaspec.transport.lightfield.conespread.lambda_coordinate).
 fn lambda_coordinate(x: vec4<f32>) -> vec4<f32> {
     return log(1.0 + 2.0 * x) * (1.0 / log(3.0));
 }

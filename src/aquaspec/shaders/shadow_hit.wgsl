@@ -1,6 +1,6 @@
 // The scene's shadow along camera rays that end on a surface, over directions
-// around each ray: the GPU twin of aquaspec.shadow._Context.hit_rays (float64
-// NumPy), run by aquaspec.gpu.shadow_hit.HitRayPass. Conventions: metres,
+// around each ray: the GPU twin of aquaspec.transport.lightfield.shadow._Context.hit_rays (float64
+// NumPy), run by aquaspec.gpu.passes.shadow_hit.HitRayPass. Conventions: metres,
 // y up, water surface y = 0, depth d = -p.y.
 //
 // One workgroup per receiver (a hit pixel's ray, direction v, length s).

@@ -1,6 +1,6 @@
 // The scene's shadow along open-water camera rays, summed over the source
-// blocks: the GPU twin of aquaspec.shadow._Context._open_ray (float64
-// NumPy), run by aquaspec.gpu.shadow_open.OpenRayPass. Conventions: metres,
+// blocks: the GPU twin of aquaspec.transport.lightfield.shadow._Context._open_ray (float64
+// NumPy), run by aquaspec.gpu.passes.shadow_open.OpenRayPass. Conventions: metres,
 // y up, water surface y = 0, depth d = -p.y.
 //
 // One invocation per (ray, node): the point x = o + t v, t = node * t_step.

@@ -1,11 +1,11 @@
-// The direct sun (aquaspec/sun.py, NumPy twin: aquaspec.sun.sun_radiance,
+// The direct sun (aquaspec/sun.py, NumPy twin: aquaspec.light.sun.sun_radiance,
 // method "froxel"), two entry points:
 // - build_froxels: one invocation per froxel column (TILE x TILE pixels):
 //   the beam's single scattering integrated front to back along the
 //   column's ray over SLICES slices (boundaries t_k = L (k / SLICES)^2),
 //   the shadow map read at each slice's middle, summed over the bands in
 //   camera RGB with the phase function divided by the bands' mean at the
-//   column's angle (aquaspec.sun.froxel_grid);
+//   column's angle (aquaspec.light.sun.froxel_grid);
 // - main: per pixel, the light of a sun-lit surface carried to the camera
 //   plus the single scattering read from the froxels at the pixel's own
 //   distance (bilinear between columns, linear between slices) times the
@@ -16,7 +16,7 @@
 // orthographically along the beam: depth z = (h_max - h) / (h_max - h_min)
 // with h = p . to_sun; a texel left at the clear value 1 has no surface.
 // Four texels are compared and their results weighted bilinearly
-// (percentage-closer filtering), as aquaspec.sun.map_visibility does.
+// (percentage-closer filtering), as aquaspec.light.sun.map_visibility does.
 //
 // Layout of `bands`, two vec4 per band i:
 //   [2i]     c_view, c_sun / mu0, b * beam0, beam0 / pi
@@ -24,12 +24,12 @@
 // `log_phase[i * PHASE_SIZE + k]`: ln p of band i at theta_k = pi (k / (PHASE_SIZE - 1))^2;
 // `ref_phase[k]`: ln of the bands' mean p on the same grid.
 // `froxels[column * (SLICES + 1) + k]`: (cumulative RGB at t_k, the column's L).
-// Caustics (aquaspec.caustics, NumPy twin aquaspec.caustics.sample): the
+// Caustics (aquaspec.light.caustics, NumPy twin aquaspec.light.caustics.sample): the
 // beam's factor per depth slice (array layer) in foot coordinates, a mip
 // pyramid of r16float read through a repeating trilinear sampler; layers
 // at d_k = D (k / (K - 1))^2, linear between them in sqrt(d / D). Surfaces
 // read it over their pixel's footprint s / fx; each froxel slice is the
-// mean of CAUSTIC_SUB reads along it (aquaspec.sun.froxel_caustics).
+// mean of CAUSTIC_SUB reads along it (aquaspec.light.sun.froxel_caustics).
 // Band reflectance of material m, band i at flat index m * N_BANDS + i: in a
 // uniform array of vec4 when it fits in 64 KiB (MATERIALS_IN_UNIFORM; storage
 // reads per band were most of the pass's time on lavapipe), else in storage.
@@ -58,7 +58,7 @@ const CAUSTIC_SUB: u32 = {{ caustic_sub }}u;
 @group(0) @binding(10) var caustic_tex: texture_2d_array<f32>;
 @group(0) @binding(11) var caustic_sampler: sampler;
 
-// aquaspec.gpu.deferred.oct_decode, then n_y kept exact (unpack_surface).
+// aquaspec.gpu.passes.deferred.oct_decode, then n_y kept exact (unpack_surface).
 fn decode_normal(word: vec4<u32>) -> vec3<f32> {
     let p = unpack2x16snorm(word.z);
     let y = 1.0 - abs(p.x) - abs(p.y);
@@ -182,7 +182,7 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
     let d_o = -prm.position.y;
     let inf = f32_inf();
     // The column's length: the water surface (up rays) or where the slowest
-    // band's integrand has fallen below the tail (aquaspec.sun.march_length).
+    // band's integrand has fallen below the tail (aquaspec.light.sun.march_length).
     var k_min = inf;
     for (var i = 0u; i < N_BANDS; i = i + 1u) {
         let q0 = bands[2u * i];

@@ -1,6 +1,6 @@
 // The sun's shadow map (aquaspec/gpu/sun_pass.py): the scene rasterised
 // orthographically along the refracted beam into a depth texture, depth
-// (h_max - h) / (h_max - h_min) with h = p . to_sun (aquaspec.sun.ShadowMapSpec.clip_matrix).
+// (h_max - h) / (h_max - h_min) with h = p . to_sun (aquaspec.light.sun.ShadowMapSpec.clip_matrix).
 // Depth only: no fragment stage.
 
 struct ShadowClip {

@@ -1,7 +1,7 @@
 // The display transform's per-pixel curves (aquaspec/display.py, TONEMAPS and
 // the sRGB encoding), shared by display.wgsl and the fused display of
 // deferred.wgsl. The including file defines TONEMAP (the tone map id,
-// aquaspec.gpu.display_pass.TONEMAP_IDS, a compile-time constant: a switch
+// aquaspec.gpu.passes.display.TONEMAP_IDS, a compile-time constant: a switch
 // on a uniform ran every curve for every pixel on lavapipe).
 
 const EXP_MASK: u32 = 0x7f800000u;

@@ -4,14 +4,14 @@ Under a wavy surface with no medium (clear water: only the geometry of
 refraction and the Fresnel transmittance matter) lit by a directional sun,
 the irradiance on a horizontal plane at depth ``d`` over the irradiance under
 a flat surface is exactly the caustic factor ``C`` that
-:func:`aquaspec.caustics.caustic_slices` computes (module docstring of
-:mod:`aquaspec.caustics`). This module measures that ratio in Mitsuba 3 and
-compares it with aquaspec's map read through :func:`aquaspec.caustics.sample`
+:func:`aquaspec.light.caustics.caustic_slices` computes (module docstring of
+:mod:`aquaspec.light.caustics`). This module measures that ratio in Mitsuba 3 and
+compares it with aquaspec's map read through :func:`aquaspec.light.caustics.sample`
 (foot coordinates, half-precision slices, bilinear periodic lookup).
 
 The Mitsuba scene, one per depth:
 
-- the surface: the tile's height field (:func:`aquaspec.caustics.surface`,
+- the surface: the tile's height field (:func:`aquaspec.light.caustics.surface`,
   ``mesh_oversample`` times refined; by default as fine as aquaspec's
   facets) as a triangle mesh over the part of the periodic sea whose refracted
   light can reach the imaged patch (the tile repeated as needed), with
@@ -70,9 +70,11 @@ import time
 
 import numpy as np
 
-from .. import caustics, model
-from ..errors import AquaspecError
-from ..sun import air_to_sun, refracted_to_sun
+from aquaspec.light import caustics
+
+from aquaspec.transport import monzon2022 as model
+from aquaspec.errors import AquaspecError
+from aquaspec.light.sun import air_to_sun, refracted_to_sun
 
 #: Mitsuba variants tried in order: monochrome is enough (the dielectric's
 #: index is one number) and the LLVM variants are vectorised.
@@ -89,7 +91,7 @@ def require_mitsuba():
     """Import Mitsuba 3 and choose a variant of :data:`VARIANTS`:
     ``(mi, previous)``, ``previous`` the variant that was set before (``None``
     if none), for the caller to restore."""
-    from .reference import mitsuba_variant
+    from aquaspec.validation.reference import mitsuba_variant
     return mitsuba_variant(VARIANTS, "the caustics check")
 
 
@@ -235,7 +237,7 @@ def compare_caustics(waves: caustics.Waves, elevation_deg: float, azimuth_deg: f
         each for the wavy surface, ``spp`` for the flat one); a render traces
         ``spp * view_texels^2`` photons.
     oversample : int
-        aquaspec's facets per texel side (:func:`aquaspec.caustics.surface`).
+        aquaspec's facets per texel side (:func:`aquaspec.light.caustics.surface`).
     mesh_oversample : int, optional
         The Mitsuba mesh's vertices per texel side (default ``oversample``).
     view_texels : int, optional
@@ -265,7 +267,7 @@ def compare_caustics(waves: caustics.Waves, elevation_deg: float, azimuth_deg: f
         ``timing_s``: per depth the seconds of each render;
         ``info``: the set-up.
     """
-    from ..light import fresnel_transmittance
+    from aquaspec.light.sky import fresnel_transmittance
 
     depths = np.atleast_1d(np.asarray(depths, dtype=float))
     if depths.size == 0 or np.any(~np.isfinite(depths)) or np.any(depths <= 0):

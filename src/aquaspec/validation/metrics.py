@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import AquaspecError
+from aquaspec.errors import AquaspecError
 
 
 def _pair(ref, test, mask=None):

@@ -23,7 +23,7 @@ the beam in the water is the refracted one, the sky is seen at every angle
 Fournier-Forand (``ff``, from its backscatter fraction) and Petzold's
 average particle phase function (``petzold``) a ``tabphase`` holding
 exactly the table that aquaspec's light-field model is given
-(:func:`lightfield_phase`, :func:`aquaspec.phase.tabulated_phase`).
+(:func:`lightfield_phase`, :func:`aquaspec.medium.phase.tabulated_phase`).
 Integrator ``volpathmis`` (``volpath`` gives
 fireflies in water whose extinction varies strongly with wavelength), no
 path-length limit (see :data:`MAX_DEPTH`), box reconstruction filter.
@@ -60,10 +60,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bands import Bands
-from ..errors import AquaspecError
-from ..light import SurfaceLight
-from ..water import Water
+from aquaspec.colour.bands import Bands
+from aquaspec.errors import AquaspecError
+from aquaspec.light.sky import SurfaceLight
+from aquaspec.medium.water import Water
 
 #: Variants tried in order (llvm needs Debian's libllvm19; scalar needs nothing).
 VARIANTS = ("llvm_ad_spectral", "scalar_spectral")
@@ -83,8 +83,8 @@ WATER_BOX_M = 1000.0
 #: ``"ff"`` and ``"petzold"`` are Mitsuba's ``tabphase``: values on a regular
 #: grid of ``mu = cos Theta`` over [-1, 1] (``mu = 1`` forward, as verified by
 #: sampling it), linear in between and normalised by the plugin, i.e. exactly
-#: :class:`aquaspec.phase.TabulatedPhase` with the same values. The table has
-#: :data:`aquaspec.phase.DEFAULT_TABLE_NODES` nodes (forward peak resolved to
+#: :class:`aquaspec.medium.phase.TabulatedPhase` with the same values. The table has
+#: :data:`aquaspec.medium.phase.DEFAULT_TABLE_NODES` nodes (forward peak resolved to
 #: ~0.4 degree; B and g of the table within 2e-6 of the functions').
 #:
 #: ``"petzold"`` is Petzold's *particle* phase function alone, for all of b:
@@ -101,7 +101,7 @@ FF_DEFAULT_BACKSCATTER = 0.0183
 
 def check_phase(phase: str, g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER):
     """Raise :class:`AquaspecError` unless ``phase`` and its parameter are accepted."""
-    from ..phase import FournierForand, HenyeyGreenstein
+    from aquaspec.medium.phase import FournierForand, HenyeyGreenstein
     if phase not in PHASES:
         raise AquaspecError(f"reference phase function {phase!r}; accepted: {', '.join(PHASES)}")
     if phase == "hg":
@@ -115,12 +115,12 @@ def lightfield_phase(phase: str, g: float = 0.0,
     """``(method, params)`` of aquaspec's phase function equal to the reference's.
 
     ``params`` is a tuple of ``(name, value)`` pairs for
-    :func:`aquaspec.phase.get_phase` (``SpectralSetup.phase_params``). ``ff``
+    :func:`aquaspec.medium.phase.get_phase` (``SpectralSetup.phase_params``). ``ff``
     and ``petzold`` are the tabulated functions whose values
     :func:`reference_phase` gives Mitsuba (``petzold`` unmixed: see
     :data:`PHASES`).
     """
-    from ..phase import DEFAULT_TABLE_NODES
+    from aquaspec.medium.phase import DEFAULT_TABLE_NODES
     check_phase(phase, g, backscatter)
     if phase == "isotropic":
         return "isotropic", ()
@@ -133,8 +133,8 @@ def lightfield_phase(phase: str, g: float = 0.0,
 
 
 def phase_function(phase: str, g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER):
-    """The :class:`aquaspec.phase.PhaseFunction` of the reference's water."""
-    from ..phase import get_phase
+    """The :class:`aquaspec.medium.phase.PhaseFunction` of the reference's water."""
+    from aquaspec.medium.phase import get_phase
     method, params = lightfield_phase(phase, g, backscatter)
     return get_phase(method, **dict(params))
 
@@ -227,7 +227,7 @@ def _film(bands, width, height):
 #: Spacing (nm) of the grid on which the medium's extinction and albedo are
 #: handed to Mitsuba, and the name of that choice in the reference caches'
 #: keys. aquaspec reads a and b as piecewise linear between the data's
-#: wavelengths (aquaspec.bands.band_average); Mitsuba interpolates each
+#: wavelengths (aquaspec.colour.bands.band_average); Mitsuba interpolates each
 #: given spectrum linearly, so c = a + b and b / c given at the data's own
 #: wavelengths (25 nm apart for Jerlov types) made b / c linear instead,
 #: with b 13 % higher and a 5 % lower in the 580-590 nm band for Jerlov IB
@@ -270,7 +270,7 @@ def _check_range(water, light, bands):
 
 def sky_irradiance(light: SurfaceLight) -> np.ndarray:
     """The diffuse sky's downwelling irradiance just below the surface, on the
-    light's wavelength grid (:meth:`aquaspec.light.SurfaceLight.sky_values`:
+    light's wavelength grid (:meth:`aquaspec.light.sky.SurfaceLight.sky_values`:
     ``E0`` minus the sun's share, clipped at 0). The reference's sky radiance
     is this over pi."""
     return light.sky_values()
@@ -280,7 +280,7 @@ def sun_emitter(light: SurfaceLight) -> dict | None:
     """Mitsuba's ``directional`` emitter of the light's sun (None without one).
 
     ``direction`` is the way the refracted beam travels under water
-    (:attr:`aquaspec.sun.Sun.direction`, y < 0); ``irradiance`` the beam's
+    (:attr:`aquaspec.light.sun.Sun.direction`, y < 0); ``irradiance`` the beam's
     irradiance normal to it just below the surface (``beam_normal``).
     """
     if light.sun is None:
@@ -422,7 +422,7 @@ def preflight(scene, camera, water: Water, light: SurfaceLight, *, phase: str = 
     sky must reach the camera through the water).
     Returns the tiny render.
     """
-    from ..camera import Camera
+    from aquaspec.scene.camera import Camera
     fov_y = float(np.degrees(2 * np.arctan(camera.height / 2 / camera.fy)))
     tiny = Camera.look_at(camera.position, camera.position + camera.forward, width=size[0],
                           height=size[1], fov_y_deg=fov_y, up=camera.true_up)

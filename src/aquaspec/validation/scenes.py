@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Camera
-from ..reflectance import Reflectance, colorchecker
-from ..scene.mesh import Mesh, Scene
+from aquaspec.scene.camera import Camera
+from aquaspec.colour.reflectance import Reflectance, colorchecker
+from aquaspec.scene.mesh import Mesh, Scene
 
 BOARD_DISTANCE_M = 3.0
 PATCH_SIZE_M = 0.2
@@ -45,7 +45,7 @@ def board_scene(depth_m: float, *, width: int = 96, height: int = 72,
     ``distance_m sin(DOWN_PITCH_DEG)`` below the camera). ``view``: one of
     :data:`VIEWS` (module docstring).
     """
-    from ..errors import AquaspecError
+    from aquaspec.errors import AquaspecError
     if view not in VIEWS:
         raise AquaspecError(f"view={view!r}; accepted: {', '.join(VIEWS)}")
     cam_pos = np.array([0.0, -float(depth_m), 0.0])
@@ -77,7 +77,7 @@ def board_scene(depth_m: float, *, width: int = 96, height: int = 72,
     v, f = quad(0.0, 0.0, 0.0, 3 * PATCH_PITCH_M + 0.05, 2 * PATCH_PITCH_M + 0.05)
     scene.add(Mesh(v, f, np.tile(normal, (4, 1)), back, name="backing"))
     if seabed_below_m is not None:
-        from ..lightfield import Seabed
+        from aquaspec.transport.lightfield.solve import Seabed
         below = float(seabed_below_m)
         lowest = float(cam_pos[1] - v[:, 1].min())
         if not (np.isfinite(below) and below > max(lowest, 0.0)):

@@ -33,21 +33,21 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bands import Bands
-from ..errors import AquaspecError
-from ..light import DEFAULT_SUN_AZIMUTH_DEG, surface_light
-from ..water import load_water
-from . import metrics
-from .baselines import render_baseline
-from .reference import (FF_DEFAULT_BACKSCATTER, MAX_DEPTH, MEDIUM_SPECTRA, REFERENCE_BANDS,
+from aquaspec.colour.bands import Bands
+from aquaspec.errors import AquaspecError
+from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
+from aquaspec.medium.water import load_water
+from aquaspec.validation import metrics
+from aquaspec.validation.baselines import render_baseline
+from aquaspec.validation.reference import (FF_DEFAULT_BACKSCATTER, MAX_DEPTH, MEDIUM_SPECTRA, REFERENCE_BANDS,
                         bands_to_rgb, cache_key, check_phase, light_key, lightfield_phase,
                         measure_kd, phase_function, phase_key, preflight, render_reference,
                         spectra_digest, water_with_kd)
-from .scenes import board_scene, masks
+from aquaspec.validation.scenes import board_scene, masks
 
 DEFAULT_WATERS = ("I", "IA", "IB", "II", "3C")
 DEFAULT_DEPTHS = (3.0, 5.0, 9.0)
-#: Surface lights of the study (:func:`aquaspec.light.surface_light`).
+#: Surface lights of the study (:func:`aquaspec.light.sky.surface_light`).
 STUDY_LIGHTS = ("overcast", "sun-sky")
 DEFAULT_SUN_ELEVATION_DEG = 60.0
 SCENE_VERSION = "board-v1"
@@ -93,7 +93,7 @@ def lightfield_kd(water, phase_lf, phase_params=(), depths_m=KD_DEPTHS_M) -> dic
     path tracer's the same way); ``k_inf``: the asymptotic kappa_1 of the
     discrete-ordinates solution, the attenuation far below the surface.
     """
-    from ..lightfield import solve_lightfield
+    from aquaspec.transport.lightfield.solve import solve_lightfield
     wb = water.on_bands(REFERENCE_BANDS)
     lf = solve_lightfield(wb.a, wb.b, phase=phase_lf, wavelength_nm=REFERENCE_BANDS.centers_nm,
                           **dict(phase_params))
@@ -125,7 +125,7 @@ def format_attenuation(waters: dict, wavelengths_nm=(450.0, 550.0, 650.0)) -> st
 def default_cache_dir() -> Path | None:
     """Where path-traced references are kept: ``reference`` in aquaspec's cache
     (:func:`aquaspec.cache.cache_dir`; None when ``AQUASPEC_CACHE=off``)."""
-    from ..cache import cache_dir
+    from aquaspec.cache import cache_dir
     base = cache_dir()
     return None if base is None else base / "reference"
 
@@ -136,7 +136,7 @@ def _cached(cache_dir, key, compute):
     atomic writing), and whether they were read from there."""
     if cache_dir is None:
         return compute(), False
-    from ..cache import load_arrays, save_arrays
+    from aquaspec.cache import load_arrays, save_arrays
     path = Path(cache_dir) / f"{key}.npz"
     found = load_arrays(path)
     if found is not None:
@@ -151,9 +151,9 @@ def _cached(cache_dir, key, compute):
 def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=None,
               cone_spread=False, seabed=None, spread_scattering="single", ambient_shadow=False,
               sun_shadow=None):
-    from ..renderer import SpectralSetup
-    from ..sensors import get_sensor
-    from ..shading import shade_gbuffer
+    from aquaspec.rendering.renderer import SpectralSetup
+    from aquaspec.colour.sensors import get_sensor
+    from aquaspec.shading.shade import shade_gbuffer
     setup = SpectralSetup(water, get_sensor("human"), light, Bands(n), ms_model=ms_model,
                           phase=phase_lf, phase_params=phase_params,
                           forward_cone_deg=forward_cone_deg,
@@ -174,10 +174,10 @@ def _shadow_rays(n: int):
     """The shadow's ray integrals on the GPU when there is one (its WGSL twins
     agree with NumPy within 1e-5 of the term; several times faster), else
     None (NumPy). One per band count (the pipelines are compiled once)."""
-    from ..errors import GPUUnavailableError
+    from aquaspec.errors import GPUUnavailableError
     try:
-        from ..gpu.device import get_device
-        from ..gpu.shadow_rays import ShadowRays
+        from aquaspec.gpu.device import get_device
+        from aquaspec.gpu.passes.shadow_rays import ShadowRays
         return ShadowRays(get_device()[1], n)
     except GPUUnavailableError:
         return None
@@ -192,8 +192,8 @@ def gpu_frame_seconds(scene, camera, water, light, n: int, *, ms_model="seeds",
     so it is an upper bound of the frame time. Returns None (and the reason)
     when no wgpu adapter is available.
     """
-    from ..renderer import Renderer, SpectralSetup
-    from ..sensors import get_sensor
+    from aquaspec.rendering.renderer import Renderer, SpectralSetup
+    from aquaspec.colour.sensors import get_sensor
     try:
         r = Renderer(camera.width, camera.height, n)
     except Exception as exc:  # noqa: BLE001 - wgpu raises several types without an adapter
@@ -243,11 +243,11 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     boundary; the light field is then also run without it
     (``lightfield-deep-n*``) to show what leaving it out costs.
     ``cone_spread`` spreads the light-field model's forward cone over the
-    image (:mod:`aquaspec.conespread`; None: when ``ms_models`` has the light
-    field, as :func:`aquaspec.model.cone_spread_for`), its light taken as
+    image (:mod:`aquaspec.transport.lightfield.conespread`; None: when ``ms_models`` has the light
+    field, as :func:`aquaspec.transport.monzon2022.cone_spread_for`), its light taken as
     scattered once or a Poisson number of times (``spread_scattering``,
-    :mod:`aquaspec.conespread`); ``ambient_shadow`` subtracts the scene's
-    first-order shadow in the light field (:mod:`aquaspec.shadow`); ``forward_cone_deg``
+    :mod:`aquaspec.transport.lightfield.conespread`); ``ambient_shadow`` subtracts the scene's
+    first-order shadow in the light field (:mod:`aquaspec.transport.lightfield.shadow`); ``forward_cone_deg``
     None is the model's default cone (15 degrees, 40 with the spread).
     ``view`` is the board's view (:data:`.scenes.VIEWS`: facing the camera,
     or lying flat seen from above).
@@ -255,7 +255,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     ``light`` (:data:`STUDY_LIGHTS`) is the surface light of both sides:
     ``overcast`` (the thesis's setting), or ``sun-sky`` with the sun at
     ``sun_elevation_deg`` and ``sun_azimuth_deg``
-    (:func:`aquaspec.light.surface_light`). The same light object, with its
+    (:func:`aquaspec.light.sky.surface_light`). The same light object, with its
     sun, goes to aquaspec's shading (:func:`_spectral`, the baselines), to
     the reference (a ``directional`` emitter plus the rest of E0 as the
     sky: :mod:`.reference`) and to the Kd meters (which add the sun's
@@ -264,7 +264,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     Kd of the attenuation table (:func:`lightfield_kd`) is for a diffuse
     sky: it is the light-field solution's own, whatever the light.
     """
-    from ..gpu.raster import raycast_gbuffer
+    from aquaspec.gpu.passes.raster import raycast_gbuffer
     say = progress or (lambda m: None)
     if not sensors:
         raise AquaspecError("the study needs at least one sensor")
@@ -276,7 +276,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     if ambient_shadow and "lightfield" not in ms_models:
         raise AquaspecError(f"ambient_shadow is part of the light-field model; ms_models="
                             f"{list(ms_models)}; accepted: a list with 'lightfield'")
-    from ..lightfield import forward_cone
+    from aquaspec.transport.lightfield.solve import forward_cone
     forward_cone_deg = forward_cone(forward_cone_deg, cone_spread)
     if spread_scattering not in ("single", "multiple") or (
             spread_scattering == "multiple" and not cone_spread):
@@ -339,7 +339,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
             gb = raycast_gbuffer(scene, cam)
             sun_shadow = None
             if light.sun is not None:
-                from ..sun import numpy_shadow_map
+                from aquaspec.light.sun import numpy_shadow_map
                 sun_shadow = numpy_shadow_map(scene, cam, light.sun.to_sun)
             m = masks(gb)
             going_down = cam.ray_directions()[..., 1] <= 0
@@ -544,7 +544,7 @@ def format_timing(scenes) -> str:
 
 def write_results(result, out_dir) -> dict:
     """CSV and JSON of every row, the per-scene summary, and the plots; returns paths."""
-    from ..output import write_file_atomically
+    from aquaspec.io.output import write_file_atomically
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     rows = result["rows"]
@@ -587,7 +587,7 @@ def plot_errors(rows, path, *, region="patch_means", kd="database", order=None):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from ..output import write_file_atomically
+    from aquaspec.io.output import write_file_atomically
     s = [r for r in summarise(rows, region=region)
          if r["kd"] == kd or r["method"] == "unreal"]
     order = list(order or [])
@@ -634,7 +634,7 @@ def plot_panels(images, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from ..output import write_file_atomically
+    from aquaspec.io.output import write_file_atomically
     scenes = sorted({(w, d) for (w, d, m, k) in images}, key=lambda x: (x[0], x[1]))
     ours = sorted({m for (_, _, m, k) in images if m.startswith("seeds-n")},
                   key=lambda m: int(m.split("n")[-1]))[-1:]

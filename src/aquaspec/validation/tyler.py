@@ -7,7 +7,7 @@ down the distribution stops changing shape and decays with one rate
 ``K_inf`` (the asymptotic radiance distribution, [Mobley1994]_ Sec. 9.3).
 That shape depends only on the single-scattering albedo ``omega0 = b / c``
 and the phase function, so it checks the discrete-ordinates model
-(:mod:`aquaspec.lightfield`) with no free parameter:
+(:mod:`aquaspec.transport.lightfield.solve`) with no free parameter:
 
 1. ``K_inf`` from Tyler's own tables: the decay of the scalar irradiance
    (his azimuthally averaged radiance integrated over the sphere) between
@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import AquaspecError
+from aquaspec.errors import AquaspecError
 
 #: Tyler's beam attenuation, 1/m (transmittance 67.3 % per metre; ``jerlov``).
 TYLER_C = -float(np.log(0.673))
@@ -55,7 +55,7 @@ def tyler_mean_radiance(depth_m: float):
     """``(tilt_deg, L)``: Tyler's radiance at one depth averaged over azimuth.
 
     Tilt 0 is looking straight up, 180 straight down (``mu = cos(tilt)`` in
-    :mod:`aquaspec.lightfield`'s convention). His tables give one side of
+    :mod:`aquaspec.transport.lightfield.solve`'s convention). His tables give one side of
     the sun's vertical plane at 20-degree steps from 0 to 180 degrees; the
     average over the full circle weights the two end columns by half.
     """
@@ -95,7 +95,7 @@ def tyler_k_inf(depths_m=(53.7, 66.1)) -> float:
 
 
 def _single_band(c, omega0, phase, n_streams, **phase_params):
-    from ..lightfield import solve_lightfield
+    from aquaspec.transport.lightfield.solve import solve_lightfield
     return solve_lightfield([c * (1.0 - omega0)], [c * omega0], phase=phase,
                             wavelength_nm=[TYLER_WAVELENGTH_NM], n_streams=n_streams,
                             **phase_params)
@@ -172,7 +172,7 @@ def plot_tyler(res: dict, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..output import write_file_atomically
+    from aquaspec.io.output import write_file_atomically
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.semilogy(res["tilt_deg"], res["tyler_shape"], "ko", label="Tyler 1958, "
                 f"{res['depths_m'][-1]:g} m (azimuthal mean)")

@@ -1,0 +1,349 @@
+"""The direct sun on the GPU: its shadow map and its light, added to a shading pass's image.
+
+Two passes (maths in :mod:`aquaspec.light.sun`, NumPy twin
+:func:`aquaspec.light.sun.sun_radiance`):
+
+- the shadow map: the scene's draw calls (:meth:`aquaspec.gpu.passes.raster.RasterPass.draws`)
+  rasterised depth-only along the refracted beam (``shaders/sun_shadow.wgsl``,
+  :meth:`aquaspec.light.sun.ShadowMapSpec.clip_matrix`) into a ``depth32float``
+  texture of :data:`aquaspec.light.sun.DEFAULT_MAP_SIZE` texels a side;
+- the froxels (``shaders/sun.wgsl``, ``build_froxels``): the beam's single
+  scattering integrated front to back along each column of
+  :data:`aquaspec.light.sun.FROXEL_TILE` x ``FROXEL_TILE`` pixels, over
+  :data:`aquaspec.light.sun.FROXEL_SLICES` slices, in camera RGB;
+- the sun's radiance (``main``): per pixel the sun-lit surface's light and
+  the single scattering read from the froxels at the pixel's distance, added
+  in camera RGB to the shading pass's linear image (its ``rgb_buffer``), so
+  :meth:`read_rgb` of that pass returns the whole image.
+
+Bindings of sun.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
+surface and sigmoid textures (:mod:`aquaspec.gpu.passes.deferred`); 3 material band
+reflectances (M * n f32); 4 two vec4 per band; 5 ``ln p`` per band
+(:func:`aquaspec.light.sun.phase_table`); 6 the shadow map; 7 the image (vec4 per
+pixel, read and written); 8 the froxels (vec4 per column and slice
+boundary); 9 ``ln`` of the bands' mean phase function
+(:func:`aquaspec.light.sun.reference_phase`); 10 the caustic factor's slices
+(:class:`aquaspec.light.caustics.CausticMap`, an ``r16float`` 2-D array with its mip
+levels; a 1 x 1 x 2 stand-in without caustics) and 11 its repeating
+trilinear sampler.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.errors import AquaspecError
+from aquaspec.light.sun import (BIAS_TEXELS, CAUSTIC_SUBSAMPLES, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE,
+                   FROXEL_SLICES, FROXEL_TILE, NORMAL_OFFSET_TEXELS, TAIL, ShadowMapSpec,
+                   SunInputs, reference_phase, shadow_map_spec)
+from aquaspec.gpu.buffers import create_storage_buffer, create_uniform_buffer, upload_buffer
+from aquaspec.gpu.passes.deferred import CAMERA_FIELDS, camera_fields
+from aquaspec.gpu.layout import UniformLayout
+from aquaspec.gpu.materials import UNIFORM_VEC4
+from aquaspec.gpu.shaders import load_wgsl
+
+PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
+    ("to_sun", "vec3<f32>"),
+    ("e1", "vec3<f32>"), ("u0", "f32"),
+    ("e2", "vec3<f32>"), ("v0", "f32"),
+    ("width", "u32"), ("height", "u32"), ("shadowed", "u32"), ("map_size", "u32"),
+    ("texel", "f32"), ("h_min", "f32"), ("h_max", "f32"), ("bias", "f32"),
+    ("normal_offset", "f32"), ("neg_log_tail", "f32"), ("cols_x", "u32"), ("cols_y", "u32"),
+    ("caustic", "u32"), ("c_slices", "u32"), ("c_tile", "f32"), ("c_max_depth", "f32"),
+    ("c_texel", "f32"), ("c_levels", "f32"),
+])
+CAUSTIC_FORMAT = "r16float"
+#: Bound in place of the caustics when there are none (two 1 x 1 slices of 1).
+NO_CAUSTICS = (np.ones((2, 1, 1), np.float32),)
+CLIP_LAYOUT = UniformLayout("ShadowClip", [("clip", "mat4x4<f32>")])
+WORKGROUP = (8, 8)
+DEPTH_FORMAT = "depth32float"
+
+
+class SunPass:
+    """The sun's shadow map and radiance for one image size and band count.
+
+    Parameters
+    ----------
+    device : wgpu.GPUDevice
+    width, height, n_bands : int
+    map_size : int
+        Shadow-map side in texels.
+    """
+
+    def __init__(self, device, width: int, height: int, n_bands: int, *,
+                 map_size: int = DEFAULT_MAP_SIZE):
+        import wgpu
+        from aquaspec.light.sun import PHASE_TABLE_SIZE
+        self.device = device
+        self.width, self.height, self.n_bands = int(width), int(height), int(n_bands)
+        self.map_size = int(map_size)
+        self.phase_size = PHASE_TABLE_SIZE
+        self.cols = (-(-self.width // FROXEL_TILE), -(-self.height // FROXEL_TILE))
+        self._pipelines = {}
+        self._use_pipelines(True)
+        self._froxels = create_storage_buffer(
+            device, 16 * self.cols[0] * self.cols[1] * (FROXEL_SLICES + 1), label="sun froxels")
+        self._ref_phase = create_storage_buffer(device, 4 * self.phase_size,
+                                                label="sun mean phase")
+        self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="sun params")
+        self._clip = create_uniform_buffer(device, CLIP_LAYOUT, label="sun shadow clip")
+        self._bands = device.create_buffer(
+            label="sun bands", size=32 * self.n_bands,
+            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        self._phase = create_storage_buffer(device, 4 * self.n_bands * self.phase_size,
+                                            label="sun phase")
+        self._materials = device.create_buffer(
+            label="sun materials (uniform)", size=UNIFORM_VEC4 * 16,
+            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        self._map = device.create_texture(
+            label="sun shadow map", size=(self.map_size, self.map_size, 1), format=DEPTH_FORMAT,
+            usage=wgpu.TextureUsage.RENDER_ATTACHMENT | wgpu.TextureUsage.TEXTURE_BINDING
+            | wgpu.TextureUsage.COPY_SRC)
+        self._map_view = self._map.create_view()
+        shadow_src = load_wgsl("sun_shadow.wgsl")
+        self._shadow_module = device.create_shader_module(label="sun_shadow.wgsl",
+                                                          code=shadow_src)
+        self._shadow_pipelines = {}
+        # One layout for every vertex stride's pipeline (an "auto" layout is
+        # its own pipeline's only: a scene with several mesh modes needs one
+        # bind group that all of them accept).
+        clip_layout = device.create_bind_group_layout(entries=[
+            {"binding": 0, "visibility": wgpu.ShaderStage.VERTEX,
+             "buffer": {"type": wgpu.BufferBindingType.uniform}}])
+        self._shadow_layout = device.create_pipeline_layout(bind_group_layouts=[clip_layout])
+        self._clip_group = device.create_bind_group(layout=clip_layout, entries=[
+            {"binding": 0, "resource": {"buffer": self._clip, "offset": 0,
+                                        "size": CLIP_LAYOUT.size}}])
+        self._caustic_sampler = device.create_sampler(
+            address_mode_u=wgpu.AddressMode.repeat, address_mode_v=wgpu.AddressMode.repeat,
+            mag_filter=wgpu.FilterMode.linear, min_filter=wgpu.FilterMode.linear,
+            mipmap_filter=wgpu.MipmapFilterMode.linear)
+        self._caustic_map = None
+        self._caustic_tex = self._caustic_texture(NO_CAUSTICS)
+        self._bind_key = None
+        self._group = None
+        self.spec: ShadowMapSpec | None = None
+        self.shadowed = False
+        self._inputs = None
+
+    def _use_pipelines(self, materials_in_uniform: bool) -> None:
+        """Compile (once) and select the pipelines for where the materials are."""
+        key = bool(materials_in_uniform)
+        if key not in self._pipelines:
+            binding = ("@group(0) @binding(3) var<uniform> material_bands: "
+                       f"array<vec4<f32>, {UNIFORM_VEC4}>;") if key else \
+                "@group(0) @binding(3) var<storage, read> material_bands: array<f32>;"
+            src = load_wgsl("sun.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
+                            params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
+                            tile=FROXEL_TILE, slices=FROXEL_SLICES, phase_size=self.phase_size,
+                            caustic_sub=CAUSTIC_SUBSAMPLES,
+                            band_vec4=2 * self.n_bands, material_binding=binding,
+                            material_read="material_bands[k / 4u][k % 4u]" if key
+                            else "material_bands[k]")
+            module = self.device.create_shader_module(label="sun.wgsl", code=src)
+            self._pipelines[key] = (
+                self.device.create_compute_pipeline(
+                    label="sun", layout="auto", compute={"module": module, "entry_point": "main"}),
+                self.device.create_compute_pipeline(
+                    label="sun froxels", layout="auto",
+                    compute={"module": module, "entry_point": "build_froxels"}))
+        self._pipeline, self._build = self._pipelines[key]
+        self._bind_key = None
+
+    def _caustic_texture(self, levels):
+        """An r16float 2-D array texture holding ``levels`` (K, n_m, n_m) as its mips."""
+        import wgpu
+        k, n = levels[0].shape[0], levels[0].shape[-1]
+        tex = self.device.create_texture(
+            label="sun caustics", size=(n, n, k), format=CAUSTIC_FORMAT,
+            mip_level_count=len(levels), dimension="2d",
+            usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST)
+        for m, lv in enumerate(levels):
+            nm = lv.shape[-1]
+            self.device.queue.write_texture(
+                {"texture": tex, "mip_level": m, "origin": (0, 0, 0)},
+                np.ascontiguousarray(lv, np.float16),
+                {"offset": 0, "bytes_per_row": 2 * nm, "rows_per_image": nm}, (nm, nm, k))
+        return tex, tex.create_view(dimension="2d-array")
+
+    def _use_caustics(self, cmap) -> None:
+        """Upload the caustic map (once per map; None: the 1 x 1 stand-in)."""
+        if cmap is self._caustic_map:
+            return
+        self._caustic_tex = self._caustic_texture(NO_CAUSTICS if cmap is None else cmap.levels)
+        self._caustic_map = cmap
+        self._bind_key = None
+
+    # ---- per-band inputs --------------------------------------------------------
+    def set_inputs(self, sun: SunInputs, *, response_weights, material_bands,
+                   sigmoid_centers_t) -> None:
+        """Upload the per-band constants, the phase table and the materials."""
+        import wgpu
+        n = self.n_bands
+        w = np.asarray(response_weights, dtype=float)
+        if sun.b.size != n or w.shape != (n, 3):
+            raise AquaspecError(f"the sun pass was made for {n} bands; got {sun.b.size}")
+        mu0 = sun.mu0
+        bands = np.zeros((n, 2, 4), np.float32)
+        bands[:, 0, 0] = sun.c_view
+        bands[:, 0, 1] = np.asarray(sun.c_sun, dtype=float) / mu0
+        bands[:, 0, 2] = sun.b * sun.beam0
+        bands[:, 0, 3] = sun.beam0 / np.pi
+        bands[:, 1, :3] = w
+        bands[:, 1, 3] = sigmoid_centers_t
+        upload_buffer(self.device, self._bands, bands)
+        upload_buffer(self.device, self._phase, np.asarray(sun.log_phase, np.float32))
+        upload_buffer(self.device, self._ref_phase,
+                      reference_phase(sun.log_phase).astype(np.float32))
+        mb = np.asarray(material_bands if material_bands is not None else np.zeros((0, n)),
+                        np.float32).reshape(-1)
+        mb = np.concatenate([mb, np.zeros(-mb.size % 4 or (4 if mb.size == 0 else 0),
+                                          np.float32)])
+        in_uniform = mb.size <= 4 * UNIFORM_VEC4
+        if in_uniform:
+            if self._materials.usage & wgpu.BufferUsage.STORAGE:
+                self._materials = self.device.create_buffer(
+                    label="sun materials (uniform)", size=UNIFORM_VEC4 * 16,
+                    usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+            upload_buffer(self.device, self._materials, mb)
+        else:
+            self._materials = create_storage_buffer(self.device, mb, label="sun materials")
+        self._use_pipelines(in_uniform)
+        self._use_caustics(sun.caustics)
+        self._inputs = sun
+
+    # ---- the shadow map ---------------------------------------------------------
+    def _shadow_pipeline(self, stride: int):
+        import wgpu
+        if stride not in self._shadow_pipelines:
+            self._shadow_pipelines[stride] = self.device.create_render_pipeline(
+                label="sun shadow map", layout=self._shadow_layout,
+                vertex={"module": self._shadow_module, "entry_point": "vs_main", "buffers": [{
+                    "array_stride": stride, "step_mode": wgpu.VertexStepMode.vertex,
+                    "attributes": [{"format": wgpu.VertexFormat.float32x3, "offset": 0,
+                                    "shader_location": 0}]}]},
+                primitive={"topology": wgpu.PrimitiveTopology.triangle_list,
+                           "cull_mode": wgpu.CullMode.none},
+                depth_stencil={"format": DEPTH_FORMAT, "depth_write_enabled": True,
+                               "depth_compare": wgpu.CompareFunction.less},
+                multisample={"count": 1}, fragment=None)
+        return self._shadow_pipelines[stride]
+
+    def encode_shadow_map(self, encoder, raster, scene, camera, *,
+                          radius_m: float = DEFAULT_MAP_RADIUS_M) -> ShadowMapSpec | None:
+        """Record the shadow map of ``scene`` (None for no scene: nothing is shadowed)."""
+        import wgpu
+        from aquaspec.gpu.passes.raster import VERTEX_STRIDE
+        if self._inputs is None:
+            raise AquaspecError("SunPass.set_inputs() first")
+        spec = None
+        if scene is not None and scene.meshes:
+            spec = shadow_map_spec(scene.bounds(), camera.position, self._inputs.to_sun,
+                                   size=self.map_size, radius_m=radius_m)
+        self.spec, self.shadowed = spec, spec is not None
+        if spec is None:
+            return None
+        upload_buffer(self.device, self._clip, CLIP_LAYOUT.pack(
+            clip=np.asarray(spec.clip_matrix().T, np.float32).reshape(-1)))
+        rp = encoder.begin_render_pass(
+            color_attachments=[],
+            depth_stencil_attachment={"view": self._map_view, "depth_clear_value": 1.0,
+                                      "depth_load_op": wgpu.LoadOp.clear,
+                                      "depth_store_op": wgpu.StoreOp.store})
+        for d in raster.draws(scene):
+            pipe = self._shadow_pipeline(VERTEX_STRIDE[d.mode])
+            rp.set_pipeline(pipe)
+            rp.set_bind_group(0, self._clip_group)
+            rp.set_vertex_buffer(0, d.vertex)
+            rp.set_index_buffer(d.index, d.index_format)
+            rp.draw_indexed(d.count)
+        rp.end()
+        return spec
+
+    def no_shadows(self) -> None:
+        """Nothing shadows the sun in the next :meth:`encode` (e.g. RGB-D images)."""
+        self.spec, self.shadowed = None, False
+
+    # ---- the sun's radiance -----------------------------------------------------
+    def encode(self, encoder, camera, gbuffer_textures: dict, rgb_buffer) -> None:
+        """Record the sun's light added into ``rgb_buffer`` (vec4 per pixel)."""
+        if self._inputs is None:
+            raise AquaspecError("SunPass.set_inputs() first")
+        if (camera.width, camera.height) != (self.width, self.height):
+            raise AquaspecError(f"camera is {camera.width}x{camera.height}; the sun pass was "
+                                f"made for {self.width}x{self.height}")
+        spec = self.spec
+        geo = dict(e1=spec.e1, u0=spec.u0, e2=spec.e2, v0=spec.v0, map_size=spec.size,
+                   texel=spec.texel, h_min=spec.h_min, h_max=spec.h_max,
+                   bias=BIAS_TEXELS * spec.texel,
+                   normal_offset=NORMAL_OFFSET_TEXELS * spec.texel) if self.shadowed else dict(
+            e1=(1.0, 0.0, 0.0), u0=0.0, e2=(0.0, 0.0, 1.0), v0=0.0, map_size=self.map_size,
+            texel=1.0, h_min=0.0, h_max=1.0, bias=0.0, normal_offset=0.0)
+        cmap = self._caustic_map
+        caustic = dict(caustic=0, c_slices=2, c_tile=1.0, c_max_depth=1.0, c_texel=1.0,
+                       c_levels=1.0) if cmap is None else dict(
+            caustic=1, c_slices=cmap.depths.size, c_tile=cmap.waves.tile_m,
+            c_max_depth=cmap.max_depth, c_texel=cmap.texel, c_levels=float(len(cmap.levels)))
+        upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
+            **camera_fields(camera), to_sun=self._inputs.to_sun, **caustic,
+            width=self.width, height=self.height, shadowed=int(self.shadowed),
+            neg_log_tail=-np.log(TAIL), cols_x=self.cols[0], cols_y=self.cols[1], **geo))
+        key = (id(gbuffer_textures["surface"]), id(gbuffer_textures["sigmoid"]),
+               id(rgb_buffer), id(self._materials))
+        if key != self._bind_key:
+            def buf(binding, buffer):
+                return {"binding": binding, "resource": {"buffer": buffer, "offset": 0,
+                                                         "size": buffer.size}}
+            params = {"binding": 0, "resource": {"buffer": self._params, "offset": 0,
+                                                 "size": PARAMS_LAYOUT.size}}
+            caustic_entries = [{"binding": 10, "resource": self._caustic_tex[1]},
+                               {"binding": 11, "resource": self._caustic_sampler}]
+            self._group = self.device.create_bind_group(
+                layout=self._pipeline.get_bind_group_layout(0), entries=[
+                    params,
+                    {"binding": 1, "resource": gbuffer_textures["surface"].create_view()},
+                    {"binding": 2, "resource": gbuffer_textures["sigmoid"].create_view()},
+                    buf(3, self._materials), buf(4, self._bands),
+                    {"binding": 6, "resource": self._map_view},
+                    buf(7, rgb_buffer), buf(8, self._froxels), buf(9, self._ref_phase),
+                    *caustic_entries])
+            self._build_group = self.device.create_bind_group(
+                layout=self._build.get_bind_group_layout(0), entries=[
+                    params, buf(4, self._bands), buf(5, self._phase),
+                    {"binding": 6, "resource": self._map_view},
+                    buf(8, self._froxels), buf(9, self._ref_phase), *caustic_entries])
+            self._bind_key = key
+        cp = encoder.begin_compute_pass()
+        cp.set_pipeline(self._build)
+        cp.set_bind_group(0, self._build_group)
+        cp.dispatch_workgroups(-(-self.cols[0] * self.cols[1] // 64))
+        cp.end()
+        cp = encoder.begin_compute_pass()
+        cp.set_pipeline(self._pipeline)
+        cp.set_bind_group(0, self._group)
+        cp.dispatch_workgroups(-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]))
+        cp.end()
+
+    def read_shadow_map(self) -> np.ndarray | None:
+        """The last shadow map as heights ``h`` (size, size) float64 (``-inf``
+        where no surface), for tests; None when nothing is shadowed."""
+        if not self.shadowed:
+            return None
+        import wgpu
+        n = self.map_size
+        row = -(-4 * n // 256) * 256
+        buf = self.device.create_buffer(size=row * n, usage=wgpu.BufferUsage.COPY_DST
+                                        | wgpu.BufferUsage.MAP_READ)
+        enc = self.device.create_command_encoder()
+        enc.copy_texture_to_buffer({"texture": self._map, "mip_level": 0, "origin": (0, 0, 0),
+                                    "aspect": wgpu.TextureAspect.depth_only},
+                                   {"buffer": buf, "offset": 0, "bytes_per_row": row,
+                                    "rows_per_image": n}, (n, n, 1))
+        self.device.queue.submit([enc.finish()])
+        buf.map_sync(wgpu.MapMode.READ)
+        z = np.frombuffer(buf.read_mapped(), np.float32).reshape(n, row // 4)[:, :n].copy()
+        buf.unmap()
+        spec = self.spec
+        h = spec.h_max - z.astype(float) * (spec.h_max - spec.h_min)
+        return np.where(z >= 1.0, -np.inf, h)

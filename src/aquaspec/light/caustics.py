@@ -1,0 +1,606 @@
+"""Caustics: the sun's beam focused and spread by a wind-roughened surface.
+
+Conventions as in :mod:`aquaspec.light.sun` (metres, y up, the mean surface at
+``y = 0``, compass azimuths from ``-z`` towards ``+x``).
+
+The surface
+-----------
+A periodic tile ``L`` metres wide sampled on ``N x N`` points carries a
+random linear sea (Tessendorf's construction, "Simulating Ocean Water",
+SIGGRAPH course notes 2001):
+
+    h(x, t) = Re sum_k A(k) exp(i (k . x - omega(k) t)),   omega^2 = g |k|
+
+with ``A(k)`` complex normal, ``E|A|^2 = 2 F(k) dk^2`` (``dk = 2 pi / L``),
+so that ``h`` has the spectrum ``F``. ``F`` is the Pierson-Moskowitz spectrum
+of a fully developed sea in wavenumber form (Pierson & Moskowitz 1964,
+J. Geophys. Res. 69, 5181; ``alpha = 8.1e-3``, ``beta = 0.74``, wind speed
+``U`` at 19.5 m),
+
+    S(k) = alpha / (2 k^3) exp(-beta g^2 / (k^2 U^4)),
+
+spread over directions as ``(2 / pi) cos^2(theta)`` about the wind (waves run
+downwind only): ``F(k) = S(k) D(theta) / k``. Wavenumbers above the tile's
+Nyquist ``pi N / L`` are not represented. The slope variance of what is
+represented, ``sum k^2 F dk^2``, is :func:`resolved_slope_variance`; Cox &
+Munk's sun-glitter measurement (1954, J. Opt. Soc. Am. 44, 838: clean
+surface, ``sigma^2 = 0.003 + 5.12e-3 U``, ``U`` at 12.5 m) is
+:func:`cox_munk_slope_variance`, the check that the default tile is a
+plausible sea (:func:`describe` reports both).
+
+The beam through it
+-------------------
+Each surface sample is a facet with normal ``n ~ (-h_x, 1, -h_z)``. The sun's
+ray (direction ``-s_air``) is refracted there (Snell, ``n_w = 1.33``) into
+``t``; the facet passes ``cos_i T(cos_i)`` of the beam per unit of its own
+area (``T``: unpolarised Fresnel transmittance), that is
+
+    w = cos_i T(cos_i) / (n_y cos z T(cos z))
+
+times what a flat surface passes through the same horizontal area. Carried
+to depth ``d`` the ray lands at ``x0 + (d + h) t_xz / |t_y|``. The caustic
+factor at depth ``d`` is the landed flux per horizontal area over the flat
+surface's: a photon map, each facet's ``w`` splatted bilinearly (periodic)
+onto the texels of a plane at depth ``d``. The facets are the tile's samples
+refined ``oversample`` times by Fourier interpolation (the same band-limited
+surface, more facets per texel).
+
+The factor is stored in *foot coordinates*: a point ``p`` at depth ``d``
+looks up ``u = p_xz + (d / mu0) s_xz``, where the flat surface's refracted
+beam through ``p`` leaves the surface (``s``: towards the sun under water).
+A flat surface gives 1 everywhere; the map tiles with period ``L``.
+
+The sun is not a point: its disc (angular radius 0.2666 deg, the mean
+semi-diameter) blurs the pattern at depth ``d`` by an ellipse of radii
+``d alpha_perp / mu0`` across the plane of incidence and
+``d alpha_par / mu0^2`` along it, with the disc's radius refracted,
+``alpha_perp = alpha / n_w`` and ``alpha_par = alpha cos z / (n_w mu0)``:
+each slice is convolved with that uniform ellipse (in Fourier space,
+``2 J1(q) / q``).
+
+Waves shorter than the tile's samples (down to capillaries) are not in the
+tile, yet they tilt the facets further: each ray leaves the surface in a
+slightly random direction, which blurs the pattern. Their slope variance is
+what Cox & Munk measured beyond what the tile holds and beyond the waves
+longer than the tile (Pierson-Moskowitz's share below ``2 pi / L``, closed
+form with the exponential integral ``E1``),
+
+    sigma_u^2 = max(0, sigma_CM^2 - sigma_tile^2 - sigma_long^2)
+
+(:func:`unresolved_slope_variance`; zero for the default tile up to about
+3 m/s, where the tile holds all Cox & Munk's variance). Taken as isotropic
+(``sigma_u^2 / 2`` per axis) and small, a facet slope ``g`` moves the ray's
+landing point at depth ``d`` by ``d J g``, ``J`` the derivative of the
+refracted ray's horizontal run per unit depth with respect to the slope at
+the flat surface (:func:`run_jacobian`; ``(1 - 1/n_w) I`` for a sun at the
+zenith). Each slice is convolved with the Gaussian of covariance
+``d^2 sigma_u^2 / 2 J J^T``.
+
+Only the unscattered beam is modulated: what the water scatters is part of
+the single-scattering integral (which reads the factor along each ray) and
+of the diffuse light (whose mean over the tile the flat surface's already
+is).
+
+Slices are at depths ``d_k = D (k / (K - 1))^2``: caustics change fastest
+just below the surface. Lookups between slices are linear in ``sqrt(d / D)``;
+below ``D`` the last slice is used. The GPU samples a mip pyramid of each
+slice (``2 x 2`` means), trilinearly at a level set by the footprint of what
+is being lit; :func:`sample` is the NumPy twin.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from aquaspec.transport import monzon2022 as model
+from aquaspec.errors import AquaspecError
+
+GRAVITY = 9.81
+#: Pierson & Moskowitz (1964): the equilibrium constant and the peak factor.
+PM_ALPHA = 8.1e-3
+PM_BETA = 0.74
+#: The sun's mean angular radius (its semi-diameter), degrees.
+SUN_RADIUS_DEG = 0.2666
+
+DEFAULT_TILE_M = 8.0
+DEFAULT_GRID = 256
+DEFAULT_OVERSAMPLE = 4
+DEFAULT_SLICES = 32
+DEFAULT_MAX_DEPTH_M = 40.0
+#: Accepted wind speeds, m/s (PM's spectrum is for a fully developed sea).
+WIND_RANGE = (0.5, 25.0)
+
+
+@dataclass(frozen=True)
+class Waves:
+    """A wind sea over a periodic tile.
+
+    Attributes
+    ----------
+    wind_speed : float
+        m/s at 19.5 m (Pierson-Moskowitz's reference height).
+    wind_azimuth_deg : float
+        The way the wind blows (and the waves run), compass as the sun's.
+    time_s : float
+        The instant (waves move with ``omega^2 = g k``).
+    seed : int
+        The random phases' seed: the same seed gives the same sea.
+    tile_m, grid : float, int
+        Tile width and samples per side.
+    """
+
+    wind_speed: float
+    wind_azimuth_deg: float = 0.0
+    time_s: float = 0.0
+    seed: int = 0
+    tile_m: float = DEFAULT_TILE_M
+    grid: int = DEFAULT_GRID
+
+    def __post_init__(self):
+        u = float(self.wind_speed)
+        if not (np.isfinite(u) and WIND_RANGE[0] <= u <= WIND_RANGE[1]):
+            raise AquaspecError(f"wind speed {self.wind_speed!r} m/s; accepted: "
+                                f"{WIND_RANGE[0]} to {WIND_RANGE[1]}")
+        az = float(self.wind_azimuth_deg)
+        if not np.isfinite(az):
+            raise AquaspecError(f"wind azimuth {self.wind_azimuth_deg!r} deg; accepted: a "
+                                "finite angle")
+        t = float(self.time_s)
+        if not np.isfinite(t):
+            raise AquaspecError(f"wave time {self.time_s!r} s; accepted: a finite number")
+        tile = float(self.tile_m)
+        if not (np.isfinite(tile) and 0.5 <= tile <= 200.0):
+            raise AquaspecError(f"wave tile {self.tile_m!r} m; accepted: 0.5 to 200")
+        g = int(self.grid)
+        if g != self.grid or g < 16 or g > 4096 or g & (g - 1):
+            raise AquaspecError(f"wave grid {self.grid!r}; accepted: a power of two, 16 to 4096")
+        seed = int(self.seed)
+        if seed != self.seed or seed < 0:
+            raise AquaspecError(f"wave seed {self.seed!r}; accepted: an integer >= 0")
+        object.__setattr__(self, "wind_speed", u)
+        object.__setattr__(self, "wind_azimuth_deg", az % 360.0)
+        object.__setattr__(self, "time_s", t)
+        object.__setattr__(self, "tile_m", tile)
+        object.__setattr__(self, "seed", seed)
+
+    def describe(self) -> dict:
+        return {"spectrum": "Pierson-Moskowitz 1964, cos^2 spreading",
+                "wind_speed_m_s": self.wind_speed, "wind_azimuth_deg": self.wind_azimuth_deg,
+                "time_s": self.time_s, "seed": self.seed, "tile_m": self.tile_m,
+                "grid": self.grid,
+                "resolved_slope_variance": resolved_slope_variance(self),
+                "cox_munk_slope_variance": cox_munk_slope_variance(self.wind_speed),
+                "longer_than_tile_slope_variance": long_wave_slope_variance(self),
+                "unresolved_slope_variance": unresolved_slope_variance(self)}
+
+
+def pm_spectrum(k, wind_speed):
+    """Pierson-Moskowitz omnidirectional elevation spectrum ``S(k)``, m^3 (k in rad/m)."""
+    k = np.asarray(k, dtype=float)
+    safe = np.where(k > 0, k, 1.0)
+    out = PM_ALPHA / (2.0 * safe ** 3) * np.exp(-PM_BETA * GRAVITY ** 2
+                                                / (safe ** 2 * float(wind_speed) ** 4))
+    return np.where(k > 0, out, 0.0)
+
+
+def cox_munk_slope_variance(wind_speed) -> float:
+    """Cox & Munk's (1954) total slope variance of a clean sea surface."""
+    return 0.003 + 5.12e-3 * float(wind_speed)
+
+
+def pm_slope_variance(k_lo, k_hi, wind_speed) -> float:
+    """The Pierson-Moskowitz sea's slope variance from wavenumbers ``k_lo`` to
+    ``k_hi`` (rad/m; ``k_lo`` may be 0, ``k_hi`` not inf: the integral of
+    ``k^2 S(k)`` has no upper bound over all k):
+    ``alpha / 4 (E1(c / k_hi^2) - E1(c / k_lo^2))``, ``c = beta g^2 / U^4``."""
+    from scipy.special import exp1
+    c = PM_BETA * GRAVITY ** 2 / float(wind_speed) ** 4
+    lo, hi = float(k_lo), float(k_hi)
+    if not (0.0 <= lo <= hi < np.inf):
+        raise AquaspecError(f"wavenumbers {k_lo!r}..{k_hi!r} rad/m; accepted: "
+                            "0 <= k_lo <= k_hi, finite")
+    lower = exp1(c / lo ** 2) if lo > 0 else 0.0
+    return float(PM_ALPHA / 4.0 * (exp1(c / hi ** 2) - lower))
+
+
+def long_wave_slope_variance(waves) -> float:
+    """Slope variance of the Pierson-Moskowitz waves longer than the tile
+    (``k < 2 pi / L``)."""
+    return pm_slope_variance(0.0, 2.0 * np.pi / waves.tile_m, waves.wind_speed)
+
+
+def unresolved_slope_variance(waves) -> float:
+    """Cox & Munk's slope variance that neither the tile nor the waves longer
+    than it carry: the short waves' (see the module docstring), >= 0."""
+    return max(0.0, cox_munk_slope_variance(waves.wind_speed) - resolved_slope_variance(waves)
+               - long_wave_slope_variance(waves))
+
+
+def run_jacobian(air_to_sun, n_water: float = model.N_WATER, step: float = 1e-6) -> np.ndarray:
+    """``J`` (2, 2): how the refracted beam's horizontal run per unit depth,
+    ``t_xz / |t_y|``, changes with the facet slope ``(h_x, h_z)`` at the flat
+    surface (central differences of :func:`refract`); rows x, z of the run,
+    columns the slope's x, z."""
+    air = np.asarray(air_to_sun, dtype=float)
+    out = np.empty((2, 2))
+    for col in range(2):
+        runs = []
+        for sign in (1.0, -1.0):
+            slope = np.zeros(2)
+            slope[col] = sign * step
+            normal = np.array([-slope[0], 1.0, -slope[1]])
+            t, _ = refract(-air, normal / np.linalg.norm(normal), n_water)
+            runs.append(t[[0, 2]] / abs(t[1]))
+        out[:, col] = (runs[0] - runs[1]) / (2.0 * step)
+    return out
+
+
+def _wavenumbers(n: int, tile_m: float):
+    k1 = 2.0 * np.pi * np.fft.fftfreq(n, tile_m / n)
+    kx, kz = np.meshgrid(k1, k1)            # [i, j]: row i is z, column j is x
+    return kx, kz
+
+
+def _wind_direction(azimuth_deg):
+    a = np.radians(azimuth_deg)
+    return np.sin(a), -np.cos(a)
+
+
+def directional_spectrum(waves: Waves):
+    """``F(k)`` on the tile's FFT grid, (N, N) in m^4, and ``(kx, kz)``."""
+    kx, kz = _wavenumbers(waves.grid, waves.tile_m)
+    k = np.hypot(kx, kz)
+    wx, wz = _wind_direction(waves.wind_azimuth_deg)
+    cos_t = np.where(k > 0, (kx * wx + kz * wz) / np.where(k > 0, k, 1.0), 0.0)
+    spread = np.where(cos_t > 0, 2.0 / np.pi * cos_t ** 2, 0.0)
+    f = pm_spectrum(k, waves.wind_speed) * spread / np.where(k > 0, k, 1.0)
+    return np.where(k > 0, f, 0.0), kx, kz
+
+
+def resolved_slope_variance(waves: Waves) -> float:
+    """Mean square slope (both axes) of the tile's spectrum, ``sum k^2 F dk^2``."""
+    f, kx, kz = directional_spectrum(waves)
+    dk = 2.0 * np.pi / waves.tile_m
+    return float(np.sum((kx ** 2 + kz ** 2) * f) * dk * dk)
+
+
+def _amplitudes(waves: Waves):
+    f, kx, kz = directional_spectrum(waves)
+    dk = 2.0 * np.pi / waves.tile_m
+    rng = np.random.default_rng(waves.seed)
+    xi = rng.standard_normal((2,) + f.shape)
+    amp = (xi[0] + 1j * xi[1]) * np.sqrt(f) * dk
+    omega = np.sqrt(GRAVITY * np.hypot(kx, kz))
+    return amp * np.exp(-1j * omega * waves.time_s)
+
+
+def surface(waves: Waves, oversample: int = 1):
+    """The height and its slopes on ``(oversample N)^2`` points, each (M, M):
+    ``(h, dh/dx, dh/dz)``; point ``[i, j]`` is at ``x = j L / M``, ``z = i L / M``.
+    ``oversample > 1`` evaluates the same band-limited surface between the samples."""
+    n = waves.grid
+    m = n * int(oversample)
+    amp = _amplitudes(waves)
+    big = np.zeros((m, m), complex)
+    idx = np.fft.fftfreq(n, 1.0 / n).astype(np.int64) % m
+    big[np.ix_(idx, idx)] = amp
+    kx, kz = _wavenumbers(m, waves.tile_m)
+    scale = float(m) * m
+    h = np.fft.ifft2(big).real * scale
+    hx = np.fft.ifft2(1j * kx * big).real * scale
+    hz = np.fft.ifft2(1j * kz * big).real * scale
+    return h, hx, hz
+
+
+def refract(d, normal, n_water: float = model.N_WATER):
+    """Refract unit directions ``d`` (..., 3) travelling down through a surface
+    with unit upward normals (..., 3): ``(t, cos_i)``; ``cos_i <= 0`` where the
+    facet faces away from the ray (``t`` then is ``d``)."""
+    cos_i = -np.sum(d * normal, axis=-1)
+    eta = 1.0 / n_water
+    sin2_t = eta * eta * np.clip(1.0 - cos_i * cos_i, 0.0, 1.0)
+    cos_t = np.sqrt(1.0 - sin2_t)
+    t = eta * d + (eta * cos_i - cos_t)[..., None] * normal
+    return np.where((cos_i > 0)[..., None], t, d), cos_i
+
+
+def facet_weights(cos_i, normal_y, cos_z, n_water: float = model.N_WATER):
+    """``w``: what a facet passes per horizontal area over what a flat surface passes."""
+    from aquaspec.light.sky import fresnel_transmittance
+    ci = np.clip(cos_i, 0.0, 1.0)
+    flat = cos_z * fresnel_transmittance(cos_z, n_water)
+    return np.where(cos_i > 0, ci * fresnel_transmittance(ci, n_water) / (normal_y * flat), 0.0)
+
+
+def _periodic_cell(u, n: int, tile_m: float):
+    """The four texels around foot points ``u`` (..., 2) on ``n x n`` periodic
+    texels of a tile (texel ``[i, j]`` centred at ``((j + 1/2), (i + 1/2)) L / n``):
+    ``(i0, i1, j0, j1, fz, fx)``, rows along z and columns along x."""
+    x = np.asarray(u[..., 0]) / tile_m * n - 0.5
+    z = np.asarray(u[..., 1]) / tile_m * n - 0.5
+    j0, i0 = np.floor(x), np.floor(z)
+    fx, fz = x - j0, z - i0
+    j0 = j0.astype(np.int64) % n
+    i0 = i0.astype(np.int64) % n
+    return i0, (i0 + 1) % n, j0, (j0 + 1) % n, fz, fx
+
+
+def splat(u, weights, n: int, tile_m: float) -> np.ndarray:
+    """Bilinear periodic splat of points ``u`` (P, 2) (x, z) onto ``n x n``
+    texels of a tile (:func:`_periodic_cell`): the summed weights per texel."""
+    i0, i1, j0, j1, fz, fx = _periodic_cell(u, n, tile_m)
+    out = np.zeros(n * n)
+    for ii, wz in ((i0, 1.0 - fz), (i1, fz)):
+        for jj, wx in ((j0, 1.0 - fx), (j1, fx)):
+            out += np.bincount(ii * n + jj, weights=weights * wz * wx, minlength=n * n)
+    return out.reshape(n, n)
+
+
+def _disc_transfer(n: int, radii, along, tile_m: float) -> np.ndarray:
+    """Fourier transfer (n, n) of a uniform ellipse: radii ``(r_along,
+    r_across)`` m, ``along`` the unit (x, z) of its first axis."""
+    from scipy.special import j1
+    r_par, r_perp = radii
+    kx, kz = _wavenumbers(n, tile_m)
+    k_par = kx * along[0] + kz * along[1]
+    k_perp = -kx * along[1] + kz * along[0]
+    q = np.hypot(k_par * r_par, k_perp * r_perp)
+    qs = np.where(q > 1e-8, q, 1.0)
+    return np.where(q > 1e-8, 2.0 * j1(qs) / qs, 1.0)
+
+
+def _gaussian_transfer(n: int, cov, tile_m: float) -> np.ndarray:
+    """Fourier transfer (n, n) of a Gaussian of covariance ``cov`` (2, 2), m^2,
+    axes (x, z): ``exp(-k^T cov k / 2)``."""
+    kx, kz = _wavenumbers(n, tile_m)
+    return np.exp(-0.5 * (cov[0, 0] * kx * kx + 2.0 * cov[0, 1] * kx * kz
+                          + cov[1, 1] * kz * kz))
+
+
+def disc_blur(slice_, radii, along, tile_m: float, cov=None) -> np.ndarray:
+    """Convolve a periodic slice (n, n) with a uniform ellipse (radii
+    ``(r_along, r_across)`` m, ``along`` the unit (x, z) of its first axis)
+    and, with ``cov`` (2, 2) m^2, a Gaussian of that covariance (axes x, z)."""
+    n = slice_.shape[0]
+    tf = None
+    if radii[0] > 0 or radii[1] > 0:
+        tf = _disc_transfer(n, radii, along, tile_m)
+    if cov is not None and np.any(np.asarray(cov) != 0):
+        g = _gaussian_transfer(n, np.asarray(cov, dtype=float), tile_m)
+        tf = g if tf is None else tf * g
+    if tf is None:
+        return slice_
+    return np.fft.ifft2(np.fft.fft2(slice_) * tf).real
+
+
+@dataclass(frozen=True)
+class CausticMap:
+    """The caustic factor per depth slice in foot coordinates (see the module docstring).
+
+    ``levels[m]``: (K, n / 2^m, n / 2^m) float32, level 0 the photon map,
+    each next level the 2 x 2 means of the one before; ``depths`` (K,) m.
+    """
+
+    waves: Waves
+    to_sun: np.ndarray
+    depths: np.ndarray
+    levels: tuple
+    mean_weight: float
+    info: dict = field(default_factory=dict)
+
+    @property
+    def max_depth(self) -> float:
+        return float(self.depths[-1])
+
+    @property
+    def texel(self) -> float:
+        return self.waves.tile_m / self.levels[0].shape[-1]
+
+    def describe(self) -> dict:
+        return {**self.waves.describe(), "slices": int(self.depths.size),
+                "max_depth_m": self.max_depth, "texels": int(self.levels[0].shape[-1]),
+                "texel_m": self.texel, "mean_facet_weight": self.mean_weight, **self.info}
+
+
+def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
+                   n_water: float = model.N_WATER, sun_radius_deg: float = SUN_RADIUS_DEG,
+                   unresolved_variance: float = 0.0, progress=None):
+    """The caustic factor (K, n, n) at ``depths`` (K,) under a periodic surface
+    sampled on (M, M) points (height ``h`` and slopes, :func:`surface`'s
+    layout), with the sun towards ``air_to_sun`` (unit, in air); and the
+    facets' mean weight ``w``. ``unresolved_variance``: the slope variance of
+    waves the samples do not hold (:func:`unresolved_slope_variance`), a
+    Gaussian blur. See the module docstring."""
+    air = np.asarray(air_to_sun, dtype=float)
+    s = -refract(-air, np.array([0.0, 1.0, 0.0]), n_water)[0]   # towards the sun under water
+    mu0 = float(s[1])
+    horiz = np.hypot(s[0], s[2])
+    dir_h = s[[0, 2]] / horiz if horiz > 1e-12 else np.array([1.0, 0.0])
+    m = h.shape[0]
+    norm = np.stack([-hx, np.ones_like(h), -hz], axis=-1)
+    norm /= np.linalg.norm(norm, axis=-1, keepdims=True)
+    t, cos_i = refract(np.broadcast_to(-air, norm.shape), norm, n_water)
+    w = facet_weights(cos_i, norm[..., 1], air[1], n_water).reshape(-1)
+    mean_w = float(np.sum(w) / (m * m))
+    lit = w > 0
+    x0 = np.stack(np.meshgrid(np.arange(m), np.arange(m)), axis=-1).reshape(-1, 2) \
+        * (tile_m / m)
+    ty = np.abs(t[..., 1]).reshape(-1)
+    slope = t[..., [0, 2]].reshape(-1, 2) / ty[:, None]
+    flat = -s[[0, 2]] / mu0
+    hh = h.reshape(-1)
+    x0, slope, hh, w = x0[lit], slope[lit], hh[lit], w[lit]
+    alpha = np.radians(sun_radius_deg)
+    a_perp = alpha / n_water
+    a_par = alpha * air[1] / (n_water * mu0)
+    per_photon = (n * n) / float(m * m)
+    jac = run_jacobian(air, n_water)
+    spread = 0.5 * float(unresolved_variance) * (jac @ jac.T)     # per unit depth^2
+    depths = np.asarray(depths, dtype=float)
+    out = np.empty((depths.size, n, n), np.float32)
+    for k, d in enumerate(depths):
+        u = x0 + d * (slope - flat) + hh[:, None] * slope
+        c = splat(u, w * per_photon, n, tile_m)
+        c = disc_blur(c, (d * a_par / mu0 ** 2, d * a_perp / mu0), dir_h, tile_m,
+                      cov=d * d * spread)
+        out[k] = np.maximum(c, 0.0)
+        if progress is not None:
+            progress(k + 1, depths.size)
+    return out, mean_w
+
+
+def slice_depths(max_depth_m: float, slices: int) -> np.ndarray:
+    return float(max_depth_m) * (np.arange(slices) / (slices - 1.0)) ** 2
+
+
+def _check_map_args(elevation_deg, azimuth_deg, slices, max_depth_m):
+    from aquaspec.light.sun import check_azimuth, check_elevation
+    if int(slices) < 2:
+        raise AquaspecError(f"caustic slices {slices!r}; accepted: 2 or more")
+    if not (np.isfinite(max_depth_m) and max_depth_m > 0):
+        raise AquaspecError(f"caustic depth range {max_depth_m!r} m; accepted: > 0")
+    return check_elevation(elevation_deg), check_azimuth(azimuth_deg)
+
+
+def _assemble(waves, elevation_deg, azimuth_deg, level0, mean_weight, *, n_water,
+              oversample, slices, max_depth_m, sun_radius_deg,
+              unresolved_slopes) -> CausticMap:
+    """A :class:`CausticMap` from its slices: level 0 and the mips made from
+    it, all kept at the GPU texture's half precision (both sides read the
+    same numbers)."""
+    from aquaspec.light.sun import refracted_to_sun
+    levels = [np.asarray(level0, np.float16).astype(np.float32)]
+    while levels[-1].shape[-1] > 1:
+        a = levels[-1]
+        levels.append(np.asarray(0.25 * (a[:, 0::2, 0::2] + a[:, 1::2, 0::2]
+                                         + a[:, 0::2, 1::2] + a[:, 1::2, 1::2]),
+                                 np.float16).astype(np.float32))
+    return CausticMap(waves=waves, to_sun=refracted_to_sun(elevation_deg, azimuth_deg, n_water),
+                      depths=slice_depths(max_depth_m, int(slices)), levels=tuple(levels),
+                      mean_weight=float(mean_weight),
+                      info={"sun_elevation_deg": elevation_deg, "sun_azimuth_deg": azimuth_deg,
+                            "oversample": int(oversample), "sun_radius_deg": sun_radius_deg,
+                            "unresolved_slope_blur": bool(unresolved_slopes)})
+
+
+def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
+                n_water: float = model.N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
+                slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
+                sun_radius_deg: float = SUN_RADIUS_DEG, unresolved_slopes: bool = True,
+                progress=None) -> CausticMap:
+    """The caustics of ``waves`` under the sun at ``elevation_deg``/``azimuth_deg`` (in air).
+
+    ``unresolved_slopes``: blur by the short waves the tile leaves out
+    (:func:`unresolved_slope_variance`). ``progress(done, total)`` is called
+    after each slice.
+    """
+    from aquaspec.light.sun import air_to_sun
+    elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
+                                                 max_depth_m)
+    h, hx, hz = surface(waves, oversample)
+    out, mean_w = caustic_slices(h, hx, hz, waves.tile_m, waves.grid,
+                                 air_to_sun(elevation_deg, azimuth_deg),
+                                 slice_depths(max_depth_m, int(slices)), n_water=n_water,
+                                 sun_radius_deg=sun_radius_deg,
+                                 unresolved_variance=unresolved_slope_variance(waves)
+                                 if unresolved_slopes else 0.0, progress=progress)
+    return _assemble(waves, elevation_deg, azimuth_deg, out, mean_w, n_water=n_water,
+                     oversample=oversample, slices=slices, max_depth_m=max_depth_m,
+                     sun_radius_deg=sun_radius_deg, unresolved_slopes=unresolved_slopes)
+
+
+def foot(points, to_sun) -> np.ndarray:
+    """Foot coordinates (..., 2) of points (..., 3): where the flat surface's
+    refracted beam through each point leaves the surface."""
+    p = np.asarray(points, dtype=float)
+    d = -p[..., 1]
+    s = np.asarray(to_sun, dtype=float)
+    return np.stack([p[..., 0] + d / s[1] * s[0], p[..., 2] + d / s[1] * s[2]], axis=-1)
+
+
+def _bilinear_wrap(level, k, u, tile_m):
+    """Bilinear periodic read of slice ``k`` (...) of one level at foot ``u`` (..., 2)."""
+    i0, i1, j0, j1, fz, fx = _periodic_cell(u, level.shape[-1], tile_m)
+
+    def at(i, j):
+        return level[k, i, j].astype(float)
+
+    return ((1 - fz) * ((1 - fx) * at(i0, j0) + fx * at(i0, j1))
+            + fz * ((1 - fx) * at(i1, j0) + fx * at(i1, j1)))
+
+
+def lod_of(footprint_m, texel_m, n_levels):
+    """Mip level for a footprint (m): ``log2(footprint / texel)`` clamped to the pyramid."""
+    f = np.maximum(np.asarray(footprint_m, dtype=float) / texel_m, 1.0)
+    return np.clip(np.log2(f), 0.0, n_levels - 1.0)
+
+
+def sample(cmap: CausticMap, points, footprint_m=0.0) -> np.ndarray:
+    """The caustic factor at points (..., 3), each averaged over about
+    ``footprint_m`` metres (trilinear in the mip pyramid; linear between depth
+    slices in ``sqrt(d / D)``)."""
+    p = np.asarray(points, dtype=float)
+    u = foot(p, cmap.to_sun)
+    d = np.clip(-p[..., 1], 0.0, cmap.max_depth)
+    n_k = cmap.depths.size
+    x = np.sqrt(d / cmap.max_depth) * (n_k - 1)
+    k0 = np.minimum(np.floor(x), n_k - 2).astype(np.int64)
+    fk = x - k0
+    lod = np.broadcast_to(lod_of(footprint_m, cmap.texel, len(cmap.levels)), d.shape)
+    m0 = np.floor(lod).astype(np.int64)
+    fm = lod - m0
+    m1 = np.minimum(m0 + 1, len(cmap.levels) - 1)
+    out = np.zeros(d.shape)
+    for m in np.unique(np.concatenate([m0.ravel(), m1.ravel()])):
+        wm = np.where(m0 == m, 1.0 - fm, 0.0) + np.where(m1 == m, fm, 0.0)
+        sel = wm > 0
+        if not np.any(sel):
+            continue
+        lv = cmap.levels[m]
+        v = ((1 - fk[sel]) * _bilinear_wrap(lv, k0[sel], u[sel], cmap.waves.tile_m)
+             + fk[sel] * _bilinear_wrap(lv, k0[sel] + 1, u[sel], cmap.waves.tile_m))
+        out[sel] += wm[sel] * v
+    return out
+
+
+_CACHE: dict = {}
+_CACHE_SIZE = 4
+
+
+def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
+                       n_water: float = model.N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
+                       slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
+                       sun_radius_deg: float = SUN_RADIUS_DEG,
+                       unresolved_slopes: bool = True) -> CausticMap:
+    """:func:`caustic_map`, remembered for the last few (waves, sun) in this
+    process and its slices kept in the cache directory (:mod:`aquaspec.cache`)."""
+    import sys
+
+    from aquaspec.light import sky as light
+
+    from aquaspec.light import sun
+    from aquaspec.cache import cached_arrays, code_digest
+    elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
+                                                 max_depth_m)
+    kw = dict(n_water=float(n_water), oversample=int(oversample), slices=int(slices),
+              max_depth_m=float(max_depth_m), sun_radius_deg=float(sun_radius_deg),
+              unresolved_slopes=bool(unresolved_slopes))
+    key = (waves, elevation_deg, azimuth_deg, tuple(sorted(kw.items())))
+    hit = _CACHE.get(key)
+    if hit is not None:
+        return hit
+    def compute():
+        cm = caustic_map(waves, elevation_deg, azimuth_deg, **kw)
+        return {"level0": cm.levels[0].astype(np.float16),
+                "mean_weight": np.array(cm.mean_weight)}
+
+    data = cached_arrays("caustics", code_digest([sys.modules[__name__], light, sun],
+                                                 repr(key)), compute)
+    hit = _assemble(waves, elevation_deg, azimuth_deg, data["level0"],
+                    float(data["mean_weight"]), **kw)
+    if len(_CACHE) >= _CACHE_SIZE:
+        _CACHE.pop(next(iter(_CACHE)))
+    _CACHE[key] = hit
+    return hit

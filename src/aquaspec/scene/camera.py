@@ -1,0 +1,149 @@
+"""Pinhole camera in world space.
+
+World units are metres, y is up, the water surface is y = 0 and a point's
+depth is ``-p.y``. Pixel (i, j) is row i (top to bottom), column j (left to
+right); its ray goes through the pixel centre (j + 0.5, i + 0.5) in pixel
+coordinates. Intrinsics follow the usual computer-vision convention (``fx,
+fy, cx, cy`` in pixels, image y pointing down).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from aquaspec.errors import AquaspecError
+
+#: Largest accepted image side, in pixels.
+MAX_SIDE = 8192
+
+
+def check_size(width, height):
+    """Validate an image size; returns ``(width, height)`` as ints."""
+    for name, v in (("width", width), ("height", height)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= MAX_SIDE:
+            raise AquaspecError(f"image {name} {v!r} is not accepted; use an integer "
+                                f"from 1 to {MAX_SIDE}")
+    return int(width), int(height)
+
+
+def _normalise(v, name):
+    v = np.asarray(v, dtype=float)
+    n = np.linalg.norm(v)
+    if v.shape != (3,) or not np.isfinite(n) or n == 0:
+        raise AquaspecError(f"{name} {v!r} must be a finite, non-zero 3-vector")
+    return v / n
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera.
+
+    Parameters
+    ----------
+    position : (3,) array
+        Centre of projection in world metres.
+    forward : (3,) array
+        Viewing direction (normalised here).
+    up : (3,) array
+        Approximate up vector; the image's up is its part orthogonal to
+        ``forward``.
+    width, height : int
+        Image size in pixels (1 to 8192).
+    fx, fy, cx, cy : float
+        Pinhole intrinsics in pixels.
+    """
+
+    position: np.ndarray
+    forward: np.ndarray
+    up: np.ndarray
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    near: float = 0.05
+    far: float = 1000.0
+    right: np.ndarray = field(init=False, repr=False)
+    true_up: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        check_size(self.width, self.height)
+        object.__setattr__(self, "position", np.asarray(self.position, dtype=float).reshape(3))
+        if not np.all(np.isfinite(self.position)):
+            raise AquaspecError(f"camera position {self.position!r} must be finite")
+        fwd = _normalise(self.forward, "camera forward")
+        right = np.cross(fwd, _normalise(self.up, "camera up"))
+        if np.linalg.norm(right) < 1e-9:
+            raise AquaspecError("camera up is parallel to forward; give another up vector")
+        right /= np.linalg.norm(right)
+        object.__setattr__(self, "forward", fwd)
+        object.__setattr__(self, "right", right)
+        object.__setattr__(self, "true_up", np.cross(right, fwd))
+        for name in ("fx", "fy"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise AquaspecError(f"focal length {name}={v!r} must be a positive number of pixels")
+
+    @classmethod
+    def look_at(cls, position, target, *, width, height, fov_y_deg=60.0, up=(0.0, 1.0, 0.0)):
+        """Camera at ``position`` looking at ``target`` with vertical field of view."""
+        width, height = check_size(width, height)
+        if not 1.0 <= fov_y_deg <= 170.0:
+            raise AquaspecError(f"vertical field of view {fov_y_deg!r} deg; accepted: 1 to 170")
+        f = 0.5 * height / np.tan(np.radians(fov_y_deg) / 2)
+        fwd = np.asarray(target, dtype=float) - np.asarray(position, dtype=float)
+        return cls(position, fwd, up, width, height, f, f, width / 2, height / 2)
+
+    @property
+    def depth_m(self) -> float:
+        """Depth of the camera below the surface (``-position.y``)."""
+        return float(-self.position[1])
+
+    def rotation(self) -> np.ndarray:
+        """World-from-camera rotation; columns are right, down, forward (CV axes)."""
+        return np.stack([self.right, -self.true_up, self.forward], axis=1)
+
+    def ray_directions(self) -> np.ndarray:
+        """Unit world-space ray directions through pixel centres, shape (H, W, 3)."""
+        j = np.arange(self.width) + 0.5
+        i = np.arange(self.height) + 0.5
+        x = (j[None, :] - self.cx) / self.fx
+        y = (i[:, None] - self.cy) / self.fy
+        d = (self.right[None, None, :] * x[..., None]
+             - self.true_up[None, None, :] * y[..., None]
+             + self.forward[None, None, :])
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+    def view_matrix(self) -> np.ndarray:
+        """4x4 world-to-view matrix (OpenGL-style view space: x right, y up, -z forward)."""
+        r = np.stack([self.right, self.true_up, -self.forward])
+        m = np.eye(4)
+        m[:3, :3] = r
+        m[:3, 3] = -r @ self.position
+        return m
+
+    def projection_matrix(self) -> np.ndarray:
+        """4x4 view-to-clip matrix for WebGPU (clip z in [0, 1], y up in NDC).
+
+        Built from the pinhole intrinsics so that a point projects to the
+        pixel the CV convention assigns it.
+        """
+        w, h, n, f = self.width, self.height, self.near, self.far
+        p = np.zeros((4, 4))
+        p[0, 0] = 2 * self.fx / w
+        p[0, 2] = 1 - 2 * self.cx / w          # multiplies z_view (negative ahead)
+        p[1, 1] = 2 * self.fy / h
+        p[1, 2] = 2 * self.cy / h - 1
+        p[2, 2] = f / (n - f)
+        p[2, 3] = n * f / (n - f)
+        p[3, 2] = -1.0
+        return p
+
+    def describe(self) -> dict:
+        return {"position_m": self.position.tolist(), "forward": self.forward.tolist(),
+                "up": self.true_up.tolist(), "width": self.width, "height": self.height,
+                "fx": self.fx, "fy": self.fy, "cx": self.cx, "cy": self.cy,
+                "depth_m": self.depth_m}

@@ -1,0 +1,73 @@
+"""The G-buffer: what the shading passes need to know about each pixel.
+
+It can come from rasterising meshes (:mod:`aquaspec.gpu.passes.raster`) or from an
+RGB-D image (:mod:`aquaspec.scene.rgbd`); the shading passes do not care which.
+
+Per pixel:
+
+- ``distance``: distance ``S`` in metres from the camera centre to the first
+  surface along the pixel's ray; ``inf`` where the ray sees open water.
+- ``normal``: unit world-space surface normal (zeros where there is no hit).
+- ``material``: index into ``materials``, or :data:`PER_PIXEL` when the
+  reflectance comes from the pixel's own ``sigmoid`` coefficients (textures,
+  RGB-D photographs).
+- ``sigmoid``: Jakob-Hanika (2019) coefficients in normalised wavelength
+  (see :func:`aquaspec.colour.reflectance.sigmoid_band_values`).
+
+``materials`` is a list of :class:`aquaspec.colour.reflectance.Reflectance`: measured
+spectra stay measured and are band-averaged once per band count.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from aquaspec.scene.camera import Camera
+from aquaspec.errors import AquaspecError
+
+#: Material index meaning "use this pixel's sigmoid coefficients".
+PER_PIXEL = np.uint32(0xFFFFFFFF)
+
+
+@dataclass
+class GBuffer:
+    camera: Camera
+    distance: np.ndarray            # (H, W) float32, inf = open water
+    normal: np.ndarray              # (H, W, 3) float32
+    material: np.ndarray            # (H, W) uint32
+    sigmoid: np.ndarray             # (H, W, 3) float32
+    materials: list = field(default_factory=list)
+
+    def __post_init__(self):
+        h, w = self.camera.height, self.camera.width
+        self.distance = np.asarray(self.distance, dtype=np.float32)
+        self.normal = np.asarray(self.normal, dtype=np.float32)
+        self.material = np.asarray(self.material, dtype=np.uint32)
+        self.sigmoid = np.asarray(self.sigmoid, dtype=np.float32)
+        for name, arr, shape in (("distance", self.distance, (h, w)),
+                                 ("normal", self.normal, (h, w, 3)),
+                                 ("material", self.material, (h, w)),
+                                 ("sigmoid", self.sigmoid, (h, w, 3))):
+            if arr.shape != shape:
+                raise AquaspecError(f"G-buffer {name} has shape {arr.shape}; "
+                                    f"the camera needs {shape}")
+        if np.any(np.isnan(self.distance)) or np.any(self.distance < 0):
+            raise AquaspecError("G-buffer distance must be >= 0 or inf (open water), never NaN")
+        hit = np.isfinite(self.distance)
+        used = np.unique(self.material[hit])
+        bad = used[(used != PER_PIXEL) & (used >= len(self.materials))]
+        if bad.size:
+            raise AquaspecError(f"G-buffer uses material index {int(bad[0])} but only "
+                                f"{len(self.materials)} materials are defined")
+
+    @property
+    def hit(self) -> np.ndarray:
+        """(H, W) bool: the ray hit a surface."""
+        return np.isfinite(self.distance)
+
+    def positions(self) -> np.ndarray:
+        """(H, W, 3) world positions of the hits (inf where open water)."""
+        d = self.camera.ray_directions()
+        return self.camera.position + d * self.distance[..., None].astype(float)

@@ -1,0 +1,332 @@
+"""Deferred spectral shading of a G-buffer in NumPy (float64): the reference.
+
+:func:`shade_gbuffer` turns a :class:`~aquaspec.scene.gbuffer.GBuffer` into linear
+camera RGB with the analytic model of :mod:`aquaspec.transport.monzon2022`. It is the oracle
+the GPU pass :class:`aquaspec.gpu.passes.deferred.DeferredPass` (WGSL:
+``shaders/deferred.wgsl`` and ``shaders/common.wgsl``) is tested against; the
+two follow the same formulas and the same branches, so change them together.
+
+Conventions
+-----------
+World units are metres, y is up, the water surface is y = 0 and the depth of
+a point p is ``-p.y``. The camera sits at depth ``d_o = -camera.position.y``
+(>= 0); pixel ray ``v`` is :meth:`Camera.ray_directions`. Per pixel:
+
+- open water (``distance = inf``): the ray runs to infinity, or, going up,
+  to the water surface at ``S = d_o / v_y``, where the sky is seen through
+  Snell's window (:func:`aquaspec.transport.monzon2022.surface_from_below`);
+- a hit at distance ``S``: a Lambertian surface at depth
+  ``-(o_y + S v_y)`` with normal ``n``, lit by the ambient irradiance
+  (:func:`aquaspec.transport.monzon2022.ambient_irradiance`, model ``ambient``).
+  A hit *beyond* the water surface (an up ray with ``S > d_o / v_y``, e.g. a
+  rock sticking out of the water) is not reached: the ray ends at the
+  surface, and the pixel is shaded as open water looking up.
+
+Band radiance ``L = T(S) L_surf + L_MS`` (:func:`aquaspec.transport.monzon2022.pixel_radiance`)
+becomes camera RGB as ``sum_i w_i L_i R_c,i`` with ``response_weights``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.transport import monzon2022 as model
+from aquaspec.errors import AquaspecError
+from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
+# The Jakob-Hanika sigmoid at normalised wavelengths (reflectance.py holds it).
+from aquaspec.colour.reflectance import sigmoid_at as sigmoid_reflectance
+
+#: Upper bound on float64 elements of one row chunk per band array.
+_CHUNK_ELEMENTS = 1 << 20
+
+
+def _band_array(name, value, n, *, unit, minimum=0.0):
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (n,):
+        raise AquaspecError(f"{name} has shape {arr.shape}; expected ({n},), one value "
+                            f"per band in {unit}")
+    if not np.all(np.isfinite(arr)):
+        raise AquaspecError(f"{name} contains NaN or infinity; expected finite {unit}")
+    if minimum is not None and np.any(arr < minimum):
+        i = int(np.argmax(arr < minimum))
+        raise AquaspecError(f"{name}[{i}] = {arr[i]:g} is negative; accepted: >= 0 {unit}")
+    return arr
+
+
+def check_medium(a, b, kd, e0, response_weights, material_bands, sigmoid_centers_t,
+                 ambient, n_materials=None):
+    """Validate the per-band inputs of the shading; returns them as float64 arrays.
+
+    Shared by :func:`shade_gbuffer` and the GPU pass so both accept and
+    reject the same inputs. ``n_materials``, when given, is the number of
+    materials the G-buffer defines.
+    """
+    a_arr = np.asarray(a, dtype=float)
+    if a_arr.ndim != 1 or a_arr.size < 1:
+        raise AquaspecError(f"a has shape {a_arr.shape}; expected (n,) with n >= 1 bands")
+    n = a_arr.size
+    a_arr = _band_array("a", a_arr, n, unit="1/m")
+    b_arr = _band_array("b", b, n, unit="1/m")
+    kd_arr = _band_array("kd", kd, n, unit="1/m")
+    e0_arr = _band_array("e0", e0, n, unit="W m^-2 nm^-1")
+    c = a_arr + b_arr
+    if np.any(c <= 0):
+        i = int(np.argmax(c <= 0))
+        raise AquaspecError(f"extinction a + b is {c[i]:g} in band {i}; it must be > 0 1/m "
+                            "(open-water rays would never end)")
+    w = np.asarray(response_weights, dtype=float)
+    if w.shape != (n, 3):
+        raise AquaspecError(f"response_weights has shape {w.shape}; expected ({n}, 3)")
+    if not np.all(np.isfinite(w)):
+        raise AquaspecError("response_weights contains NaN or infinity")
+    mb = np.zeros((0, n)) if material_bands is None else np.asarray(material_bands, dtype=float)
+    if mb.ndim != 2 or mb.shape[1] != n:
+        raise AquaspecError(f"material_bands has shape {mb.shape}; expected (M, {n}): "
+                            "one band reflectance per material")
+    if n_materials is not None and mb.shape[0] != n_materials:
+        raise AquaspecError(f"material_bands has {mb.shape[0]} rows but the G-buffer defines "
+                            f"{n_materials} materials")
+    if not np.all(np.isfinite(mb)) or np.any(mb < 0):
+        raise AquaspecError("material_bands must be finite and >= 0")
+    t = _band_array("sigmoid_centers_t", sigmoid_centers_t, n, unit="(lambda - 550)/100",
+                    minimum=None)
+    if ambient not in model.AMBIENT_MODELS:
+        raise AquaspecError(f"unknown ambient model {ambient!r}; known: "
+                            f"{', '.join(model.AMBIENT_MODELS)}")
+    return a_arr, b_arr, kd_arr, e0_arr, w, mb, t
+
+
+def camera_depth(camera) -> float:
+    """Camera depth ``-position.y`` in m; raises if the camera is above the water."""
+    d_o = float(-camera.position[1])
+    if d_o < 0:
+        raise AquaspecError(f"camera is {-d_o:g} m above the water surface (position y = "
+                            f"{camera.position[1]:g}); the shading needs y <= 0")
+    return d_o
+
+
+def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_bands,
+                  sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
+                  return_radiance: bool = False, lightfield: dict | None = None,
+                  progress=None, shadow_rays=None, sun=None, sun_shadow=None) -> dict:
+    """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
+
+    Parameters
+    ----------
+    gbuffer : GBuffer
+        Distance, normal, material and sigmoid coefficients per pixel.
+    a, b, kd : array_like, shape (n,)
+        Band absorption, scattering and diffuse attenuation in 1/m.
+    e0 : array_like, shape (n,)
+        Downwelling irradiance just below the surface, W m^-2 nm^-1.
+    response_weights : array_like, shape (n, 3)
+        Band-averaged camera response times band width
+        (see :func:`aquaspec.transport.monzon2022.radiance_to_rgb`).
+    material_bands : array_like, shape (M, n)
+        Band reflectances of ``gbuffer.materials`` (M = their number; may be
+        ``None`` when there are none).
+    sigmoid_centers_t : array_like, shape (n,)
+        Normalised band-centre wavelengths ``(lambda - 550) / 100`` at which
+        per-pixel sigmoid reflectances are evaluated.
+    ambient : str
+        Ambient irradiance model, a key of :data:`aquaspec.transport.monzon2022.AMBIENT_MODELS`.
+    return_radiance : bool
+        Also return the band radiance.
+    lightfield : dict, optional
+        Tables from :func:`aquaspec.transport.lightfield.solve.lightfield_tables`: shade with
+        the light-field multiple-scattering model (``ms_model="lightfield"``)
+        instead of the seeds' (then ``kd`` and ``ambient`` are not used).
+    progress : callable, optional
+        Called with a short message at each step of the scene's shadow
+        (tables with ``ambient_shadow``: :func:`scene_shadow`).
+    shadow_rays : optional
+        Where the shadow's receivers' rays are integrated (``scene_shadow``'s
+        ``rays``; default here, in NumPy).
+    sun : aquaspec.light.sun.SunInputs, optional
+        Add the direct sun: lit surfaces and the beam's single scattering
+        (:func:`aquaspec.light.sun.sun_radiance`).
+    sun_shadow : (height_map, ShadowMapSpec), optional
+        The sun's shadow map (:func:`aquaspec.light.sun.shadow_map_numpy`); None:
+        nothing shadows the sun.
+
+    Returns
+    -------
+    dict
+        ``"camera_rgb"``: (H, W, 3) float64 linear camera RGB; with
+        ``return_radiance``, also ``"radiance"``: (H, W, n) float64 in
+        W m^-2 sr^-1 nm^-1.
+
+    Notes
+    -----
+    Rows are shaded in chunks so that 1920x1080 at 64 bands stays within a
+    few hundred MB. GPU twin: ``shaders/deferred.wgsl``.
+    """
+    if not isinstance(gbuffer, GBuffer):
+        raise AquaspecError(f"gbuffer must be an aquaspec.scene.gbuffer.GBuffer, got "
+                            f"{type(gbuffer).__name__}")
+    a, b, kd, e0, w, mb, t = check_medium(a, b, kd, e0, response_weights, material_bands,
+                                          sigmoid_centers_t, ambient,
+                                          n_materials=len(gbuffer.materials))
+    cam = gbuffer.camera
+    d_o = camera_depth(cam)
+    o_y = float(cam.position[1])
+    hgt, wid, n = cam.height, cam.width, a.size
+    per_pixel = gbuffer.material == PER_PIXEL
+    bad = gbuffer.hit & per_pixel & ~np.all(np.isfinite(gbuffer.sigmoid), axis=-1)
+    if np.any(bad):
+        i, j = np.argwhere(bad)[0]
+        raise AquaspecError(f"G-buffer sigmoid coefficients at pixel ({i}, {j}) are "
+                            f"{gbuffer.sigmoid[i, j].tolist()}; they must be finite")
+
+    if lightfield is None:
+        def radiance_of(**kw):
+            return model.pixel_radiance(a=a, b=b, kd=kd, e0=e0, depth_o=d_o, **kw)
+    else:
+        from aquaspec.transport.lightfield.solve import lightfield_pixel_radiance
+
+        def radiance_of(ambient=None, **kw):
+            return lightfield_pixel_radiance(lightfield, a=a, b=b, e0=e0, depth_o=d_o,
+                                             split_cone=spread, **kw)
+
+    # The light-field model's forward cone spread over the image
+    # (lightfield_tables(cone_spread=True)): each pixel's cone term is kept
+    # apart, convolved with the cone's kernel, then added.
+    spread = lightfield is not None and "cone_offset_cdf" in lightfield
+    # The scene's shadow in the light field (lightfield_tables(ambient_shadow=True)):
+    # scene_shadow, subtracted once the image is whole.
+    shadow = lightfield is not None and "shadow_phase" in lightfield
+    whole = spread or shadow
+    rgb = np.empty((hgt, wid, 3))
+    radiance = np.empty((hgt, wid, n)) if (return_radiance or whole) else None
+    cone_flat = np.zeros((hgt * wid, n)) if spread else None
+
+    def split(result, where, r0):
+        """The radiance of ``result``; with the spread, its cone term is stored
+        for the chunk's pixels ``where`` (rows from ``r0``)."""
+        if not spread:
+            return result
+        base, cone = result
+        start = r0 * wid
+        cone_flat[start:start + where.size][where] = cone   # a slice is a view
+        return base
+    dirs = cam.ray_directions()
+    rows = max(1, _CHUNK_ELEMENTS // max(1, wid * n))
+    for r0 in range(0, hgt, rows):
+        r1 = min(hgt, r0 + rows)
+        v_y = dirs[r0:r1, :, 1].reshape(-1)
+        s = gbuffer.distance[r0:r1].reshape(-1).astype(float)
+        mat = gbuffer.material[r0:r1].reshape(-1)
+        n_y = gbuffer.normal[r0:r1, :, 1].reshape(-1).astype(float)
+        sig = gbuffer.sigmoid[r0:r1].reshape(-1, 3)
+        hit = _reached(s, v_y, d_o)
+        s = np.where(hit, s, np.inf)
+
+        lrad = np.empty((v_y.size, n))
+        ow = ~hit
+        if np.any(ow):
+            lrad[ow] = split(radiance_of(v_y=v_y[ow, None], s=s[ow, None]), ow, r0)
+        if np.any(hit):
+            rho = _hit_reflectance(mat[hit], sig[hit], mb, t)
+            surface_depth = -(o_y + s[hit] * v_y[hit])
+            lrad[hit] = split(radiance_of(
+                v_y=v_y[hit, None], s=s[hit, None], rho=rho,
+                surface_depth=surface_depth[:, None], n_y=n_y[hit, None], ambient=ambient),
+                hit, r0)
+        if not np.all(np.isfinite(lrad)):
+            raise AquaspecError("shading produced a non-finite radiance; check the water "
+                                "coefficients and the G-buffer")
+        rgb[r0:r1] = model.radiance_to_rgb(lrad, w).reshape(r1 - r0, wid, 3)
+        if radiance is not None:
+            radiance[r0:r1] = lrad.reshape(r1 - r0, wid, n)
+    if spread and "cone_offset_cdf_nodes" in lightfield:
+        # Multiple scattering in the cone: each pixel's and band's kernel by
+        # its lambda = f b S (aquaspec.transport.lightfield.conespread.spread_by_lambda).
+        from aquaspec.transport.lightfield.conespread import node_pyramid_weights, spread_by_lambda
+        s_all = gbuffer.distance.astype(float)
+        lam = (np.asarray(lightfield["cone_weight"], dtype=float)
+               * np.where(np.isfinite(s_all), s_all, 0.0)[..., None])
+        radiance += spread_by_lambda(cone_flat.reshape(hgt, wid, n), lam,
+                                     lightfield["cone_lambda_nodes"],
+                                     node_pyramid_weights(lightfield, cam.fy, hgt, wid))
+    elif spread:
+        from aquaspec.transport.lightfield.conespread import pyramid_weights, spread as pyramid_spread
+        radiance += pyramid_spread(cone_flat.reshape(hgt, wid, n),
+                                   pyramid_weights(lightfield, cam.fy, hgt, wid))
+    if shadow:
+        radiance -= scene_shadow(gbuffer, b=b, e0=e0, material_bands=mb,
+                                 sigmoid_centers_t=t, lightfield=lightfield, progress=progress,
+                                 rays=shadow_rays)
+    if sun is not None:
+        from aquaspec.light.sun import sun_radiance
+        if progress is not None:
+            progress("the sun: lit surfaces and single scattering")
+        hmap, spec = sun_shadow if sun_shadow is not None else (None, None)
+        l_sun = sun_radiance(gbuffer, sun, height_map=hmap, spec=spec,
+                             rho_of_hits=lambda m: _hit_reflectance(
+                                 gbuffer.material[m], gbuffer.sigmoid[m], mb, t))
+        if radiance is not None:
+            radiance += l_sun
+        if not whole:
+            rgb += model.radiance_to_rgb(l_sun.reshape(-1, n), w).reshape(hgt, wid, 3)
+    if whole:
+        rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
+    out = {"camera_rgb": rgb}
+    if return_radiance:
+        out["radiance"] = radiance
+    return out
+
+
+def _hit_reflectance(material, sigmoid, material_bands, t):
+    """Band reflectance (P, n) of hit pixels: their material's (``material_bands``
+    rows), or with :data:`~aquaspec.scene.gbuffer.PER_PIXEL` their sigmoid's at ``t``.
+    (The G-buffer holds only defined material indices: GBuffer checks them.)"""
+    per_pixel = material == PER_PIXEL
+    rho = np.empty((material.size, material_bands.shape[1]))
+    rho[per_pixel] = sigmoid_reflectance(sigmoid[per_pixel], t)
+    rho[~per_pixel] = material_bands[material[~per_pixel]]
+    return rho
+
+
+def _reached(s, v_y, d_o):
+    """Which hits count: a finite distance ``s`` the ray (up component ``v_y``)
+    reaches before the water surface (camera depth ``d_o``)."""
+    to_surface = np.where(v_y > 0, d_o / np.where(v_y > 0, v_y, 1.0), np.inf)
+    return np.isfinite(s) & (s <= to_surface)
+
+
+def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
+                 lightfield: dict, progress=None, rays=None, **_medium) -> np.ndarray:
+    """The scene's first-order shadow in the light field for a G-buffer: ``dL``
+    (H, W, n), to subtract from the band radiance (:mod:`aquaspec.transport.lightfield.shadow`).
+
+    The surfaces' own radiance ``rho E(d, n_y) / pi`` comes from the light
+    field's irradiance table, as in :func:`shade_gbuffer`, which calls this
+    with ``lightfield_tables(ambient_shadow=True)``; the GPU renderer calls it
+    too (:class:`aquaspec.rendering.renderer.Renderer`), on the G-buffer it rasterised,
+    and subtracts the result in camera RGB. Takes the keyword arguments of
+    :meth:`aquaspec.rendering.renderer.SpectralSetup.medium` (those it does not use are
+    ignored). ``progress`` is called with a short message per grid of
+    receivers; ``rays`` integrates the receivers' rays elsewhere (the GPU
+    renderer's :class:`aquaspec.gpu.passes.shadow_rays.ShadowRays`; default NumPy:
+    seconds per image, almost independent of its size).
+    """
+    from aquaspec.transport.lightfield.solve import surface_radiance
+    from aquaspec.transport.lightfield.shadow import ambient_shadow
+    cam = gbuffer.camera
+    d_o = camera_depth(cam)
+    b = np.asarray(b, dtype=float)
+    e0 = np.asarray(e0, dtype=float)
+    mb = np.asarray(material_bands, dtype=float).reshape(-1, b.size)
+    v_y = cam.ray_directions()[..., 1]
+    dist = gbuffer.distance.astype(float)
+    hit = _reached(dist, v_y, d_o)
+    if len(mb) != len(gbuffer.materials):
+        raise AquaspecError(f"material_bands has {len(mb)} rows but the G-buffer defines "
+                            f"{len(gbuffer.materials)} materials")
+    rho = _hit_reflectance(gbuffer.material[hit], gbuffer.sigmoid[hit], mb,
+                           np.asarray(sigmoid_centers_t, dtype=float))
+    l_s = np.zeros(dist.shape + (b.size,))
+    l_s[hit] = surface_radiance(lightfield, rho, -(cam.position[1] + dist[hit] * v_y[hit]),
+                                gbuffer.normal[..., 1][hit].astype(float), e0)
+    return ambient_shadow(lightfield, cam, np.where(hit, dist, np.inf), gbuffer.normal, l_s,
+                          b=b, e0=e0, hit=hit, progress=progress, rays=rays)

@@ -1,0 +1,626 @@
+"""The GPU deferred pass against its NumPy reference, shade_gbuffer.
+
+G-buffers are built analytically here (ray-plane and ray-box intersections
+per pixel), so neither side's geometry comes from code under test.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from aquaspec.transport import monzon2022 as model
+from aquaspec.colour.bands import Bands
+from aquaspec.scene.camera import Camera
+from aquaspec.errors import AquaspecError
+from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
+from aquaspec.shading.shade import shade_gbuffer
+
+pytestmark = pytest.mark.gpu
+
+W, H = 64, 48
+
+#: Per-pixel relative tolerance between the f32 GPU and the f64 reference.
+RTOL = 1e-4
+#: Absolute floor, as a fraction of the image's largest value. f32 keeps about
+#: 7 digits of the brightest pixel's scale, and exp(-c S) of long paths in
+#: turbid water falls into f32's denormal / flush-to-zero range (~1e-38), so
+#: pixels whose value is a few 1e-7 of the image maximum carry no f32 digits
+#: to compare at 1e-4.
+ATOL_FRACTION = 1e-6
+
+
+_PASSES = {}
+
+
+def deferred_pass(device, n, *, debug=False):
+    """One DeferredPass per (n, debug) for the module: pipelines compile once."""
+    from aquaspec.gpu.passes.deferred import DeferredPass
+    key = (n, debug)
+    if key not in _PASSES:
+        _PASSES[key] = DeferredPass(W, H, n, device=device, debug_radiance=debug)
+    return _PASSES[key]
+
+
+# ------------------------------------------------------------------ inputs
+def medium(water_name, n, ambient="cosine"):
+    """Realistic per-band inputs: Jerlov water, a smooth daylight-like E0,
+    Gaussian RGB responses, two materials, band-centre t."""
+    from aquaspec.medium.water import load_water
+    bands = Bands(n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # 3C's gap-filling warnings
+        w = load_water(water_name).on_bands(bands)
+    lam = bands.centers_nm
+    e0 = 1.1 * np.exp(-((lam - 480.0) / 220.0) ** 2)
+    resp = np.stack([np.exp(-0.5 * ((lam - mu) / 40.0) ** 2) for mu in (600, 540, 460)], axis=1)
+    grey = np.full(n, 0.18)
+    red = 0.1 + 0.5 / (1.0 + np.exp(-(lam - 600.0) / 20.0))
+    return dict(a=w.a, b=w.b, kd=w.kd, e0=e0, response_weights=resp * bands.width_nm,
+                material_bands=np.stack([grey, red]), sigmoid_centers_t=(lam - 550.0) / 100.0,
+                ambient=ambient)
+
+
+def _plane_y(cam, y0):
+    """Distance to the horizontal plane y = y0 along each ray (inf if not hit)."""
+    d = cam.ray_directions()
+    num = y0 - cam.position[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = num / d[..., 1]
+    return np.where(np.isfinite(s) & (s > 0), s, np.inf)
+
+
+def _box(cam, lo, hi):
+    """Slab-method ray/box distance and outward normal per pixel."""
+    d = cam.ray_directions()
+    o = cam.position
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        t1 = (np.asarray(lo) - o) * inv
+        t2 = (np.asarray(hi) - o) * inv
+    tmin = np.nan_to_num(np.minimum(t1, t2), nan=-np.inf)
+    tmax = np.nan_to_num(np.maximum(t1, t2), nan=np.inf)
+    t_near = tmin.max(axis=-1)
+    t_far = tmax.min(axis=-1)
+    hit = (t_near <= t_far) & (t_near > 0)
+    axis = tmin.argmax(axis=-1)
+    normal = np.zeros(d.shape)
+    np.put_along_axis(normal, axis[..., None],
+                      -np.sign(np.take_along_axis(d, axis[..., None], axis=-1)), axis=-1)
+    return np.where(hit, t_near, np.inf), normal
+
+
+def _compose(cam, layers):
+    """Nearest of several (distance, normal, material, sigmoid) layers."""
+    s = np.full((cam.height, cam.width), np.inf)
+    nrm = np.zeros((cam.height, cam.width, 3))
+    mat = np.zeros((cam.height, cam.width), np.uint32)
+    sig = np.zeros((cam.height, cam.width, 3))
+    for ls, ln, lm, lsig in layers:
+        closer = ls < s
+        s = np.where(closer, ls, s)
+        nrm[closer] = np.broadcast_to(ln, nrm.shape)[closer]
+        mat[closer] = np.broadcast_to(lm, mat.shape)[closer]
+        sig[closer] = np.broadcast_to(lsig, sig.shape)[closer]
+    return GBuffer(cam, s, nrm, mat, sig, materials=["grey", "red"])
+
+
+def _sigmoid_field(cam, s):
+    """Per-pixel sigmoid coefficients varying with the hit position."""
+    p = cam.position + cam.ray_directions() * np.where(np.isfinite(s), s, 0.0)[..., None]
+    return np.stack([0.3 * np.sin(p[..., 0]), -1.5 + 0.2 * p[..., 2], 0.5 * np.cos(p[..., 0])],
+                    axis=-1)
+
+
+def scene_seabed():
+    """Seabed at 9 m ending in a drop-off at z = 25 m (open water beyond it),
+    seen at an angle; the top of the image sees the surface from below,
+    Snell's window included; a pillar breaks the surface."""
+    cam = Camera.look_at((0.0, -4.0, 0.0), (0.0, -3.0, 6.0), width=W, height=H, fov_y_deg=100.0)
+    s_floor = _plane_y(cam, -9.0)
+    z_floor = cam.position[2] + cam.ray_directions()[..., 2] * np.where(
+        np.isfinite(s_floor), s_floor, 0.0)
+    s_floor = np.where(z_floor < 25.0, s_floor, np.inf)
+    half = np.where(cam.ray_directions()[..., 0] < 0, PER_PIXEL, 0).astype(np.uint32)
+    s_pillar, n_pillar = _box(cam, (1.5, -9.0, 5.0), (3.0, 2.0, 6.0))
+    return _compose(cam, [(s_floor, (0.0, 1.0, 0.0), half, _sigmoid_field(cam, s_floor)),
+                          (s_pillar, n_pillar, 1, 0.0)])
+
+
+def scene_up():
+    """Looking straight up through Snell's window at a floating plate."""
+    cam = Camera.look_at((0.0, -6.0, 0.0), (0.0, 0.0, 0.0), width=W, height=H, fov_y_deg=110.0,
+                         up=(0.0, 0.0, 1.0))
+    s_plate = _plane_y(cam, -1.5)
+    p = cam.position + cam.ray_directions() * np.where(np.isfinite(s_plate), s_plate, 0)[..., None]
+    s_plate = np.where(np.hypot(p[..., 0] - 1.0, p[..., 2]) < 1.2, s_plate, np.inf)
+    return _compose(cam, [(s_plate, (0.0, -1.0, 0.0), PER_PIXEL, _sigmoid_field(cam, s_plate))])
+
+
+def scene_box():
+    """A box on a seabed at 12 m, camera at 8 m looking down at it."""
+    cam = Camera.look_at((-3.0, -8.0, -4.0), (0.0, -11.0, 2.0), width=W, height=H, fov_y_deg=70.0)
+    s_floor = _plane_y(cam, -12.0)
+    s_box, n_box = _box(cam, (-1.0, -12.0, 1.0), (1.0, -10.5, 3.0))
+    return _compose(cam, [(s_floor, (0.0, 1.0, 0.0), 0, 0.0),
+                          (s_box, n_box, PER_PIXEL, np.array([0.4, -0.8, 0.3]))])
+
+
+SCENES = {"seabed": scene_seabed, "up": scene_up, "box": scene_box}
+
+
+def comparable(gbuffer):
+    """Pixels whose branch cannot flip between f64 and f32: not on the rim of
+    Snell's window, not where a hit lies at the water surface itself."""
+    cam = gbuffer.camera
+    v_y = cam.ray_directions()[..., 1]
+    rim = np.abs(v_y - model.snell_window_cos()) < 1e-5
+    with np.errstate(divide="ignore", invalid="ignore"):
+        to_surface = np.where(v_y > 0, cam.depth_m / v_y, np.inf)
+        at_surface = (gbuffer.hit & (v_y > 0)
+                      & (np.abs(gbuffer.distance - to_surface) <= 1e-5 * to_surface))
+    mask = ~(rim | at_surface)
+    # Guard against the mask silently excluding most of the image.
+    assert mask.mean() > 0.97
+    return mask
+
+
+def assert_matches(gpu, ref, mask):
+    atol = ATOL_FRACTION * np.abs(ref).max()
+    np.testing.assert_allclose(gpu[mask], ref[mask], rtol=RTOL, atol=atol)
+
+
+def run_gpu(device, gbuffer, med, n, **kw):
+    p = deferred_pass(device, n, **kw)
+    p.set_gbuffer(gbuffer)
+    p.set_medium(**med)
+    p.run()
+    return p
+
+
+# ------------------------------------------------------------------- tests
+class TestDeferredMatchesReference:
+    @pytest.mark.parametrize("n", [3, 8, 31])
+    @pytest.mark.parametrize("water", ["I", "IB", "3C"])
+    @pytest.mark.parametrize("scene", list(SCENES))
+    def test_camera_rgb(self, device, scene, water, n):
+        gb = SCENES[scene]()
+        med = medium(water, n)
+        ref = shade_gbuffer(gb, **med)["camera_rgb"]
+        gpu = run_gpu(device, gb, med, n).read_rgb()
+        assert gpu.shape == (H, W, 3) and gpu.dtype == np.float32
+        assert np.all(ref > 0)
+        assert_matches(gpu, ref, comparable(gb))
+
+    @pytest.mark.parametrize("n", [1, 2, 3, 4, 7, 10, 13, 16, 17, 18, 22])
+    def test_band_counts_around_whole_material_vec4s(self, device, n):
+        # From GROUPED_MIN_BANDS bands the loop takes four bands at a time,
+        # then the rest (aquaspec.gpu.materials); below, a loop over each
+        # vec4's bands in a loop over the vec4s (one partial vec4 alone
+        # below 4 bands): every remainder 0-3 on both sides.
+        gb = scene_seabed()
+        med = medium("IB", n)
+        ref = shade_gbuffer(gb, **med)["camera_rgb"]
+        assert_matches(run_gpu(device, gb, med, n).read_rgb(), ref, comparable(gb))
+
+    @pytest.mark.parametrize("n", [7, 31])
+    def test_many_materials_in_a_storage_buffer(self, device, n):
+        # Over 64 KiB of material table (4096 vec4) it moves to a storage
+        # buffer: 2100 materials, drawn at random for the box scene's pixels.
+        from aquaspec.gpu.passes.deferred import DeferredPass
+        from aquaspec.gpu.materials import UNIFORM_VEC4
+        gb = scene_box()
+        n_mat = 2100
+        assert n_mat * -(-n // 4) > UNIFORM_VEC4
+        rng = np.random.default_rng(n)
+        mat = gb.material.copy()
+        own = gb.hit & (mat != PER_PIXEL)
+        mat[own] = rng.integers(0, n_mat, size=int(own.sum()))
+        gb = GBuffer(gb.camera, gb.distance, gb.normal, mat, gb.sigmoid,
+                     materials=[f"m{i}" for i in range(n_mat)])
+        med = medium("3C", n)
+        med["material_bands"] = rng.uniform(0.02, 0.9, size=(n_mat, n))
+        ref = shade_gbuffer(gb, **med)["camera_rgb"]
+        p = DeferredPass(W, H, n, device=device)
+        p.set_gbuffer(gb)
+        p.set_medium(**med)
+        assert not p._materials.in_uniform
+        p.run()
+        assert_matches(p.read_rgb(), ref, comparable(gb))
+        # Back to a small table: the uniform buffer again, same pass.
+        med = medium("3C", n)
+        gb2 = scene_box()
+        p.set_gbuffer(gb2)
+        p.set_medium(**med)
+        assert p._materials.in_uniform
+        p.run()
+        assert_matches(p.read_rgb(), shade_gbuffer(gb2, **med)["camera_rgb"], comparable(gb2))
+
+    @pytest.mark.parametrize("water", ["I", "3C"])
+    @pytest.mark.parametrize("scene", ["seabed", "up"])
+    def test_open_water_table(self, device, scene, water):
+        """Four-pixel groups that see only open water are shaded from the
+        open-water table (interpolated in v_y): they must match the reference
+        as the band loop does, and the table must really be used."""
+        from aquaspec.gpu.passes.deferred import open_water_table
+        gb = SCENES[scene]()
+        n = 8
+        med = medium(water, n)
+        ref = shade_gbuffer(gb, **med)["camera_rgb"]
+        p = run_gpu(device, gb, med, n)
+        table = p.read_rgb()
+        p.use_open_table = False
+        p.run()
+        loop = p.read_rgb()
+        p.use_open_table = True
+        assert_matches(table, ref, comparable(gb))
+        assert_matches(loop, ref, comparable(gb))
+        changed = np.any(table != loop, axis=-1)
+        v_y = gb.camera.ray_directions()[..., 1]
+        to_surface = np.where(v_y > 0, gb.camera.depth_m / np.where(v_y > 0, v_y, 1), np.inf)
+        seen = gb.hit & (gb.distance <= to_surface)    # surfaces the shading sees
+        assert changed.sum() > 100 and not np.any(changed & seen)
+        # The table itself against the per-band model at v_y between its samples.
+        t = open_water_table(med["a"], med["b"], med["kd"], med["e0"], med["response_weights"],
+                             gb.camera.depth_m, size=4096)
+        assert t.shape == (4096, 2, 4) and np.all(np.isfinite(t))
+
+    @pytest.mark.parametrize("n", [3, 8])
+    @pytest.mark.parametrize("scene", ["seabed", "box"])
+    def test_without_per_pixel_materials(self, device, scene, n):
+        """A G-buffer with no per-pixel material runs the pipeline that never
+        reads the sigmoid texture; it must shade the same."""
+        gb = SCENES[scene]()
+        gb.material[gb.material == PER_PIXEL] = 0
+        med = medium("IB", n)
+        p = run_gpu(device, gb, med, n)
+        assert not p.per_pixel
+        assert_matches(p.read_rgb(), shade_gbuffer(gb, **med)["camera_rgb"], comparable(gb))
+
+    def test_per_pixel_material_in_single_material_gbuffer_is_reported(self, device):
+        """PER_PIXEL in a G-buffer declared without per-pixel materials is an error, not rho = 0."""
+        from aquaspec.gpu.buffers import upload_texture
+        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        gb = scene_box()
+        p = deferred_pass(device, 3)
+        p.set_medium(**medium("IB", 3))
+        p.use_gbuffer_textures(gb.camera, per_pixel=False)
+        upload_texture(device, p.gbuffer_textures["surface"], pack_gbuffer(gb)["surface"])
+        p.run()
+        with pytest.raises(AquaspecError, match="material index"):
+            p.read_rgb()
+        p.set_gbuffer(gb)   # leave valid contents behind
+
+    def test_scenes_cover_every_branch(self):
+        """The scenes exercise hits, open water, the window, the black surface
+        outside it and a hit beyond the surface; otherwise the match above
+        would prove less."""
+        cos_c = model.snell_window_cos()
+        seen = set()
+        for make in SCENES.values():
+            gb = make()
+            v_y = gb.camera.ray_directions()[..., 1]
+            to_surface = np.where(v_y > 0, gb.camera.depth_m / np.where(v_y > 0, v_y, 1), np.inf)
+            hit = gb.hit & (gb.distance <= to_surface)
+            seen |= {name for name, m in [
+                ("hit", hit), ("per-pixel", hit & (gb.material == PER_PIXEL)),
+                ("material", hit & (gb.material != PER_PIXEL)),
+                ("open-down", ~gb.hit & (v_y <= 0)),
+                ("window", ~hit & (v_y > cos_c)),
+                ("outside-window", ~hit & (v_y > 0) & (v_y < cos_c)),
+                ("beyond-surface", gb.hit & ~hit)] if m.any()}
+        assert seen == {"hit", "per-pixel", "material", "open-down", "window",
+                        "outside-window", "beyond-surface"}
+
+    @pytest.mark.parametrize("ambient", ["uniform", "cosine"])
+    def test_ambient_models(self, device, ambient):
+        gb = scene_up()           # the plate faces down: the two models differ most
+        med = medium("IB", 8, ambient=ambient)
+        ref = shade_gbuffer(gb, **med)["camera_rgb"]
+        assert_matches(run_gpu(device, gb, med, 8).read_rgb(), ref, comparable(gb))
+
+    def test_k_crossing_zero(self, device):
+        """k = c - Kd v_y passes through 0 and below it across the image."""
+        gb = scene_up()
+        n = 8
+        med = medium("I", n)
+        c = med["a"] + med["b"]
+        med["kd"] = c / 0.8      # k = 0 at v_y = 0.8, k < 0 above
+        v_y = gb.camera.ray_directions()[..., 1]
+        assert v_y.min() < 0.8 < v_y.max()
+        ref = shade_gbuffer(gb, **med)["camera_rgb"]
+        assert_matches(run_gpu(device, gb, med, n).read_rgb(), ref, comparable(gb))
+
+    def test_radiance_debug_mode(self, device):
+        gb = scene_box()
+        med = medium("IB", 8)
+        ref = shade_gbuffer(gb, **med, return_radiance=True)
+        p = run_gpu(device, gb, med, 8, debug=True)
+        mask = comparable(gb)
+        rad = p.read_radiance()
+        assert rad.shape == (H, W, 8)
+        np.testing.assert_allclose(rad[mask], ref["radiance"][mask], rtol=RTOL,
+                                   atol=ATOL_FRACTION * ref["radiance"].max())
+        assert_matches(p.read_rgb(), ref["camera_rgb"], mask)
+
+    def test_read_radiance_needs_debug_mode(self, device):
+        p = run_gpu(device, scene_box(), medium("IB", 3), 3)
+        with pytest.raises(AquaspecError, match="debug_radiance"):
+            p.read_radiance()
+
+
+def gbuffer_textures(device, packed, label="raster"):
+    """Textures in the deferred pass's G-buffer layout, filled with ``packed``."""
+    import wgpu
+    from aquaspec.gpu.buffers import create_texture, upload_texture
+    from aquaspec.gpu.passes.deferred import GBUFFER_TEXTURES
+    out = {}
+    for name, arr in packed.items():
+        out[name] = create_texture(device, arr.shape[1], arr.shape[0],
+                                   GBUFFER_TEXTURES[name][1], label=f"{label} {name}",
+                                   usage=wgpu.TextureUsage.TEXTURE_BINDING
+                                   | wgpu.TextureUsage.COPY_DST)
+        upload_texture(device, out[name], arr)
+    return out
+
+
+class TestGpuResidentInputs:
+    def test_external_textures(self, device):
+        """A raster pass hands over its own textures in the documented layout."""
+        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        gb = scene_seabed()
+        med = medium("3C", 8)
+        tex = gbuffer_textures(device, pack_gbuffer(gb))
+        p = deferred_pass(device, 8)
+        p.set_medium(**med)
+        p.use_gbuffer_textures(gb.camera, **tex)
+        try:
+            p.run()
+            gpu = p.read_rgb()
+        finally:
+            # Restore the pass's own textures for the other tests sharing it.
+            from aquaspec.gpu.passes.deferred import DeferredPass
+            _PASSES.pop((8, False))
+            _PASSES[(8, False)] = DeferredPass(W, H, 8, device=device)
+        ref = shade_gbuffer(gb, **med)["camera_rgb"]
+        assert_matches(gpu, ref, comparable(gb))
+
+    def test_written_in_place(self, device):
+        """Writing the pass's own gbuffer_textures (as a raster pass does) works."""
+        from aquaspec.gpu.buffers import upload_texture
+        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        gb = scene_box()
+        med = medium("IB", 3)
+        p = deferred_pass(device, 3)
+        p.set_medium(**med)
+        for k, v in pack_gbuffer(gb).items():
+            upload_texture(device, p.gbuffer_textures[k], v)
+        p.set_camera(gb.camera)
+        p.run()
+        assert_matches(p.read_rgb(), shade_gbuffer(gb, **med)["camera_rgb"], comparable(gb))
+
+    def test_set_gbuffer_packs_the_documented_layout(self, device):
+        """set_gbuffer uploads the layout of the module docstring (distance, n_y, material)."""
+        from aquaspec.gpu.buffers import read_texture
+        gb = scene_seabed()
+        p = deferred_pass(device, 3)
+        p.set_gbuffer(gb)
+        surface = read_texture(device, p.gbuffer_textures["surface"], np.uint32, 4)
+        np.testing.assert_array_equal(surface[..., 0].view(np.float32),
+                                      np.where(gb.hit, gb.distance, -1.0).astype(np.float32))
+        np.testing.assert_array_equal(surface[..., 1].view(np.float32),
+                                      gb.normal[..., 1].astype(np.float32))
+        np.testing.assert_array_equal(surface[..., 3], gb.material)
+        assert p.per_pixel == bool(np.any(gb.hit & (gb.material == PER_PIXEL)))
+
+    def test_bad_material_index_is_reported(self, device):
+        from aquaspec.gpu.buffers import upload_texture
+        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        gb = scene_box()
+        packed = pack_gbuffer(gb)
+        packed["surface"][gb.hit & (gb.material == 0), 3] = 7
+        p = deferred_pass(device, 3)
+        p.set_medium(**medium("IB", 3))
+        upload_texture(device, p.gbuffer_textures["surface"], packed["surface"])
+        p.set_camera(gb.camera)
+        p.run()
+        with pytest.raises(AquaspecError, match="material index"):
+            p.read_rgb()
+        p.set_gbuffer(gb)   # leave valid contents behind
+
+    def test_wrong_texture(self, device):
+        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        gb = scene_box()
+        p = deferred_pass(device, 3)
+        packed = pack_gbuffer(gb)
+        small = gbuffer_textures(device, {"surface": packed["surface"][:10, :10]})
+        with pytest.raises(AquaspecError, match="surface texture is 10x10"):
+            p.use_gbuffer_textures(gb.camera, **small)
+        swapped = gbuffer_textures(device, {"sigmoid": packed["sigmoid"]})
+        with pytest.raises(AquaspecError, match="rgba32uint"):
+            p.use_gbuffer_textures(gb.camera, surface=swapped["sigmoid"])
+        with pytest.raises(AquaspecError, match="unknown G-buffer texture"):
+            p.use_gbuffer_textures(gb.camera, depth=swapped["sigmoid"])
+
+
+class TestDeferredInputErrors:
+    def test_band_count_mismatch(self, device):
+        p = deferred_pass(device, 3)
+        with pytest.raises(AquaspecError, match="created for 3"):
+            p.set_medium(**medium("IB", 8))
+
+    def test_size_mismatch(self, device):
+        p = deferred_pass(device, 3)
+        cam = Camera.look_at((0, -5, 0), (0, -5, 1), width=W + 1, height=H)
+        gb = GBuffer(cam, np.full((H, W + 1), np.inf), np.zeros((H, W + 1, 3)),
+                     np.zeros((H, W + 1)), np.zeros((H, W + 1, 3)))
+        with pytest.raises(AquaspecError, match="created for"):
+            p.set_gbuffer(gb)
+
+    def test_camera_above_water(self, device):
+        p = deferred_pass(device, 3)
+        cam = Camera.look_at((0, 1, 0), (0, -5, 1), width=W, height=H)
+        with pytest.raises(AquaspecError, match="above the water"):
+            p.set_camera(cam)
+
+    def test_ambient_ids_cover_the_model(self):
+        from aquaspec.gpu.passes.deferred import AMBIENT_MODEL_IDS
+        assert set(AMBIENT_MODEL_IDS) == set(model.AMBIENT_MODELS)
+
+    def test_bad_band_count(self, device):
+        from aquaspec.gpu.passes.deferred import DeferredPass
+        with pytest.raises(AquaspecError, match="n_bands"):
+            DeferredPass(W, H, 0, device=device)
+
+
+class TestCopyPass:
+    def test_returns_what_it_read(self, device):
+        from aquaspec.gpu.passes.copy import CopyPass
+        gb = scene_seabed()
+        p = deferred_pass(device, 3)
+        p.set_gbuffer(gb)
+        c = CopyPass(p)
+        c.run()
+        out = c.read()
+        assert out.shape == (H, W, 4)
+        dist = np.where(gb.hit, gb.distance, -1.0)
+        np.testing.assert_array_equal(out[..., 0], dist.astype(np.float32))
+        np.testing.assert_array_equal(out[..., 1], gb.normal[..., 1])
+        np.testing.assert_array_equal(out[..., 2], gb.sigmoid[..., 2])
+        np.testing.assert_array_equal(out[..., 3], gb.material.astype(np.float32))
+
+
+class TestTimePasses:
+    @pytest.mark.parametrize("method", ["auto", "wall-clock"])
+    def test_times_are_positive(self, device, method):
+        from aquaspec.gpu.buffers import time_passes, timestamps_supported
+        from aquaspec.gpu.passes.copy import CopyPass
+        p = run_gpu(device, scene_box(), medium("IB", 8), 8)
+        t = time_passes({"deferred": p, "copy": CopyPass(p)}, frames=3, warmup=1,
+                        method=method, device=device)
+        assert set(t.ms) == {"deferred", "copy"}
+        assert all(v > 0 and np.isfinite(v) for v in t.ms.values())
+        assert all(len(v) == 3 for v in t.samples_ms.values())
+        expected = ("timestamp-query" if method == "auto" and timestamps_supported(device)
+                    else "wall-clock")
+        assert t.method == expected
+
+    def test_bad_arguments(self, device):
+        from aquaspec.gpu.buffers import time_passes
+        p = deferred_pass(device, 3)
+        with pytest.raises(AquaspecError, match="frames"):
+            time_passes({"d": p}, frames=0, device=device)
+        with pytest.raises(AquaspecError, match="timing method"):
+            time_passes({"d": p}, method="stopwatch", device=device)
+        with pytest.raises(AquaspecError, match="at least one pass"):
+            time_passes({}, device=device)
+
+
+class TestBufferHelpers:
+    def test_storage_round_trip(self, device):
+        from aquaspec.gpu.buffers import create_storage_buffer, read_buffer, upload_buffer
+        data = np.arange(10, dtype=np.float32) * 1.5
+        buf = create_storage_buffer(device, data, label="round trip")
+        assert buf.size % 16 == 0 and buf.size >= data.nbytes
+        np.testing.assert_array_equal(read_buffer(device, buf, np.float32, (10,)), data)
+        upload_buffer(device, buf, np.array([7, 8], dtype=np.uint32), offset=8)
+        back = read_buffer(device, buf, np.uint32, (10,))
+        assert back[2:4].tolist() == [7, 8]
+        with pytest.raises(AquaspecError, match="do not fit"):
+            upload_buffer(device, buf, np.zeros(100, np.float32))
+        with pytest.raises(AquaspecError, match="needs"):
+            read_buffer(device, buf, np.float32, (100,))
+
+    def test_texture_round_trip(self, device):
+        from aquaspec.gpu.buffers import create_texture, read_texture, upload_texture
+        # 5 x 3 rgba32float: rows of 80 bytes, not a multiple of 256.
+        data = np.random.default_rng(0).random((3, 5, 4)).astype(np.float32)
+        tex = create_texture(device, 5, 3, "rgba32float", label="round trip")
+        upload_texture(device, tex, data)
+        np.testing.assert_array_equal(read_texture(device, tex, np.float32, 4), data)
+        with pytest.raises(AquaspecError, match="5x3"):
+            upload_texture(device, tex, data[:2])
+
+
+class TestSurfacePacking:
+    def test_octahedral_round_trip(self):
+        """Host packing of the surface texel: n_y exact, the rest within 16-bit quantisation."""
+        from aquaspec.gpu.passes.deferred import (oct_decode, oct_encode, pack_snorm16x2,
+                                           unpack_snorm16x2, unpack_surface)
+        rng = np.random.default_rng(3)
+        n = rng.normal(size=(4000, 3))
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        n[:6] = [[0, 1, 0], [0, -1, 0], [1, 0, 0], [0, 0, -1], [-0.6, 0, 0.8], [0, 0.6, -0.8]]
+        np.testing.assert_allclose(oct_decode(oct_encode(n)), n, atol=1e-12)
+        words = pack_snorm16x2(oct_encode(n))
+        assert np.abs(unpack_snorm16x2(words) - oct_encode(n)).max() <= 0.5 / 32767 + 1e-12
+        surface = np.zeros((len(n), 4), np.uint32)
+        surface[:, 0] = np.float32(2.5).view(np.uint32)
+        surface[:, 1] = n[:, 1].astype(np.float32).view(np.uint32)
+        surface[:, 2] = words
+        surface[:, 3] = 7
+        distance, normal, material = unpack_surface(surface)
+        np.testing.assert_array_equal(normal[:, 1], n[:, 1].astype(np.float32))
+        np.testing.assert_allclose(np.linalg.norm(normal, axis=1), 1.0, atol=1e-12)
+        np.testing.assert_allclose(normal, n, atol=1e-4)
+        assert np.all(distance == 2.5) and np.all(material == 7)
+
+
+class TestFusedDisplay:
+    """encode(display=True): shading and the display transform in one pass."""
+
+    @pytest.mark.parametrize("tonemap", ["filmic", "none"])
+    @pytest.mark.parametrize("scene", ["seabed", "up"])
+    def test_equals_display_pass_of_linear_output(self, device, scene, tonemap,
+                                                  fused_and_two_pass):
+        from aquaspec.colour import display
+        gb = SCENES[scene]()
+        n = 8
+        med = medium("IB", n)
+        p = run_gpu(device, gb, med, n)
+        linear = p.read_rgb()
+        settings = display.display_settings(linear, white_balance="grey-world")
+        kw = dict(exposure_ev=settings["exposure_ev"],
+                  white_balance_gains=settings["white_balance_gains"], tonemap=tonemap)
+        fused, expected = fused_and_two_pass(p, W, H, **kw)
+        assert fused.shape == (H, W, 3) and fused.dtype == np.uint8
+        # Same f32 arithmetic, but the compiler may fuse operations
+        # differently in the two shaders: codes may differ by one at ties.
+        diff = np.abs(fused.astype(int) - expected.astype(int))
+        assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
+        assert len(np.unique(fused.reshape(-1, 3), axis=0)) > 50   # a real picture
+        # And against the float64 NumPy chain, shading included.
+        ref, _ = display.to_display(shade_gbuffer(gb, **med)["camera_rgb"],
+                                    exposure=settings["exposure_ev"],
+                                    white_balance="grey-world", tonemap=tonemap)
+        m = comparable(gb)
+        assert np.abs(fused.astype(int) - ref.astype(int))[m].max() <= 1
+        with pytest.raises(AquaspecError, match="display image"):
+            p.read_rgb()
+
+    def test_non_finite_pixels_are_refused(self, device):
+        """Values that overflow float32 after exposure: the fused pass says where."""
+        gb = scene_seabed()
+        n = 3
+        med = medium("I", n)
+        med["e0"] = med["e0"] * 1e36
+        p = deferred_pass(device, n)
+        p.set_gbuffer(gb)
+        p.set_medium(**med)
+        p.set_display(exposure_ev=20.0)
+        p.run(display=True)
+        with pytest.raises(AquaspecError, match=r"non-finite .* first is at \(row"):
+            p.read_display()
+
+    def test_needs_settings_and_a_display_run(self, device):
+        from aquaspec.gpu.passes.deferred import DeferredPass
+        p = DeferredPass(W, H, 3, device=device)
+        p.set_gbuffer(scene_box())
+        p.set_medium(**medium("IB", 3))
+        with pytest.raises(AquaspecError, match="set_display"):
+            p.run(display=True)
+        p.run()
+        with pytest.raises(AquaspecError, match="display=True"):
+            p.read_display()
+        with pytest.raises(AquaspecError, match="unknown tone map 'aces'"):
+            p.set_display(exposure_ev=0.0, tonemap="aces")
