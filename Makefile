@@ -33,7 +33,7 @@ $(VENV)/.installed: pyproject.toml
 
 test: setup
 	@mkdir -p $(XDG_RUNTIME_DIR)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -rs
 
 demo: setup
 	@mkdir -p $(XDG_RUNTIME_DIR)

@@ -3,15 +3,24 @@
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
 import pytest
 
-os.environ.setdefault("XDG_RUNTIME_DIR", tempfile.mkdtemp(prefix="aquaspec-xdg-"))
-# What aquaspec caches per machine (aquaspec.colour.data) goes to a directory of
-# this test run, CLI subprocesses included, not to the user's cache.
-os.environ.setdefault("AQUASPEC_CACHE", tempfile.mkdtemp(prefix="aquaspec-cache-"))
+# What aquaspec caches per machine goes to a directory of this test run, CLI
+# subprocesses included, not to the user's cache; the directories this run made
+# are removed when it ends.
+_MADE = {}
+for _var, _prefix in (("XDG_RUNTIME_DIR", "aquaspec-xdg-"), ("AQUASPEC_CACHE", "aquaspec-cache-")):
+    if _var not in os.environ:
+        os.environ[_var] = _MADE[_var] = tempfile.mkdtemp(prefix=_prefix)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    for path in _MADE.values():
+        shutil.rmtree(path, ignore_errors=True)
 
 REPO = Path(__file__).resolve().parents[1]
 CAMSPEC = REPO.parent / "shared" / "data" / "camspec_database.txt"

@@ -89,33 +89,34 @@ def test_code_key_follows_source_and_constants(monkeypatch):
 
 
 def test_lightfield_tables_kept(monkeypatch, tmp_path):
-    from aquaspec.transport.lightfield import solve as lightfield
+    from aquaspec.transport.lightfield import bake as lightfield
+    from aquaspec.transport.lightfield import cone
     from aquaspec.colour.bands import Bands
     from aquaspec.medium.water import get_water
     monkeypatch.setenv(cache.CACHE_ENV, str(tmp_path))
     water = get_water("II").on_bands(Bands(4))
     kw = dict(phase="hg", g=0.9, n_depth=8, n_mu=9)
-    first = lightfield.lightfield_tables(water, **kw)
+    first = lightfield.lightfield_tables(water, **kw).to_arrays()
     assert len(list(tmp_path.glob("lightfield-tables-*.npz"))) == 1
-    computed = lightfield._lightfield_tables
-    monkeypatch.setattr(lightfield, "_lightfield_tables",
+    computed = lightfield.bake_tables
+    monkeypatch.setattr(lightfield, "bake_tables",
                         lambda *a, **k: pytest.fail("computed again"))
-    again = lightfield.lightfield_tables(water, **kw)
+    again = lightfield.lightfield_tables(water, **kw).to_arrays()
     assert again.keys() == first.keys()
     for name in first:
         assert again[name].dtype == first[name].dtype
         np.testing.assert_array_equal(again[name], first[name])
     # Other arguments, or another constant of the code, are another entry.
-    monkeypatch.setattr(lightfield, "_lightfield_tables", computed)
-    other = lightfield.lightfield_tables(water, **{**kw, "g": 0.8})
+    monkeypatch.setattr(lightfield, "bake_tables", computed)
+    other = lightfield.lightfield_tables(water, **{**kw, "g": 0.8}).to_arrays()
     assert not np.array_equal(other["irradiance_per_e0"], first["irradiance_per_e0"])
-    monkeypatch.setattr(lightfield, "CONE_OFFSET_SAMPLES", lightfield.CONE_OFFSET_SAMPLES + 1)
+    monkeypatch.setattr(cone, "CONE_OFFSET_SAMPLES", cone.CONE_OFFSET_SAMPLES + 1)
     lightfield.lightfield_tables(water, **kw)
     assert len(list(tmp_path.glob("lightfield-tables-*.npz"))) == 3
 
 
 def test_irradiance_factors_kept(monkeypatch, tmp_path):
-    from aquaspec.transport.lightfield import solve as lightfield
+    from aquaspec.transport.lightfield import bake as lightfield
     from aquaspec.transport.lightfield import compiled as lfc
     from aquaspec.colour.bands import Bands
     from aquaspec.medium.water import get_water

@@ -12,9 +12,11 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
+import scipy
 
 CACHE_ENV = "AQUASPEC_CACHE"
 
@@ -88,7 +90,6 @@ def cached_arrays(name: str, key: str | None, compute) -> dict:
 def package_version(distribution: str) -> str:
     """The installed version of a package (``"unknown"`` if it is not
     installed), for keys of results computed from its data."""
-    from importlib.metadata import PackageNotFoundError, version
     try:
         return version(distribution)
     except PackageNotFoundError:
@@ -108,12 +109,7 @@ def code_key(*modules) -> str | None:
     (so a changed file, or a constant set at run time, is never answered
     from an old result), with the versions of NumPy and SciPy. None when a
     module's source cannot be read (then nothing should be cached)."""
-    parts = [np.__version__]
-    try:
-        import scipy
-        parts.append(scipy.__version__)
-    except ImportError:
-        parts.append("no scipy")
+    parts = [np.__version__, scipy.__version__]
     for mod in modules:
         try:
             parts.append(Path(mod.__file__).read_bytes())

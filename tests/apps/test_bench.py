@@ -188,9 +188,11 @@ def test_sun_parts_record_their_own_pass_with_timestamps():
     (the path bench takes on hardware GPUs; lavapipe is timed by the wall clock)."""
     from aquaspec.colour.bands import Bands
     from aquaspec.apps.bench import _Sun
-    from aquaspec.gpu.buffers import submit_pass, time_passes, timestamps_supported
+    from aquaspec.gpu.dispatch import submit_pass
+    from aquaspec.gpu.timing import time_passes, timestamps_supported
     from aquaspec.light.sky import surface_light
-    from aquaspec.rendering.renderer import Renderer, SpectralSetup
+    from aquaspec.rendering.renderer import Renderer
+    from aquaspec.rendering.setup import SpectralSetup
     from aquaspec.scene.builtin import builtin_scene
     from aquaspec.colour.sensors import get_sensor
     from aquaspec.medium.water import get_water

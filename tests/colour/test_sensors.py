@@ -102,3 +102,9 @@ class TestSrgbMatrix:
         err_raw = np.linalg.norm(raw - ref, axis=1).mean()
         assert err_fit < 0.25 * err_raw
         assert np.linalg.norm(fitted[18] - ref[18]) < 0.05 * ref[18].mean()
+
+
+def test_radiance_to_rgb():
+    from aquaspec.colour.sensors import radiance_to_rgb
+    w = np.array([[1.0, 0, 0], [0, 2.0, 0], [0, 0, 3.0], [1.0, 1.0, 1.0]])
+    np.testing.assert_allclose(radiance_to_rgb([1.0, 1.0, 1.0, 2.0], w), [3, 4, 5])

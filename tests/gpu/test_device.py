@@ -47,7 +47,7 @@ def test_no_adapter_names_the_package(monkeypatch):
 @pytest.mark.gpu
 def test_white_patch_makes_a_grey_card_neutral():
     import numpy as np
-    from aquaspec.rendering.renderer import render
+    from aquaspec.rendering.api import render
     res = render(water="3C", depth_m=9.0, size=(64, 36), bands=8, white_balance="white-patch",
                  sensor="nikon-5100-npl")
     gains = np.array(res.params["display"]["white_balance_gains"])

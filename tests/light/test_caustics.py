@@ -3,105 +3,19 @@ sun's terms with it (NumPy, GPU, CLI)."""
 
 import numpy as np
 import pytest
-from scipy.integrate import quad
 
 from aquaspec.light import caustics as cst
+from aquaspec.light import waves as W
 from aquaspec.errors import AquaspecError
-from aquaspec.transport.monzon2022 import N_WATER
+from aquaspec.medium.interface import N_WATER, refract
 from aquaspec.light.sun import air_to_sun
 from support.plates import plate
 
 
 # ---- the sea ------------------------------------------------------------------------
 
-def test_pm_spectrum_integrates_to_its_closed_form_variance():
-    # int_0^inf alpha / (2 k^3) exp(-beta g^2 / (k^2 U^4)) dk = alpha U^4 / (4 beta g^2)
-    for u in (2.0, 7.0):
-        num, _ = quad(lambda k: cst.pm_spectrum(k, u), 1e-4, np.inf, limit=400)
-        exact = cst.PM_ALPHA * u ** 4 / (4 * cst.PM_BETA * cst.GRAVITY ** 2)
-        assert num == pytest.approx(exact, rel=1e-6)
-
-
-def test_spreading_keeps_the_omnidirectional_spectrum():
-    # On a ring of wavenumbers the directional spectrum integrates (k dtheta) back to S(k).
-    waves = cst.Waves(5.0, wind_azimuth_deg=30.0, tile_m=200.0, grid=1024)
-    f, kx, kz = cst.directional_spectrum(waves)
-    k = np.hypot(kx, kz)
-    dk = 2 * np.pi / waves.tile_m
-    ring = (k > 0.8) & (k < 1.2)
-    total = f[ring].sum() * dk * dk
-    s_int, _ = quad(lambda q: cst.pm_spectrum(q, 5.0), 0.8, 1.2)
-    assert total == pytest.approx(s_int, rel=0.02)
-    # The waves run downwind: nothing travels against the wind.
-    wx, wz = np.sin(np.radians(30.0)), -np.cos(np.radians(30.0))
-    assert np.all(f[(kx * wx + kz * wz) < 0] == 0)
-
-
-def test_sea_statistics_follow_the_spectrum():
-    waves = [cst.Waves(4.0, seed=s, tile_m=8.0, grid=256) for s in range(4)]
-    slope_var = cst.resolved_slope_variance(waves[0])
-    f, kx, kz = cst.directional_spectrum(waves[0])
-    dk2 = (2 * np.pi / 8.0) ** 2
-    on = f > 0
-    ratio = []
-    for w in waves:
-        amp = cst._amplitudes(w)
-        h, hx, hz = cst.surface(w)
-        # Parseval: each mode adds |A|^2 / 2 to the height's variance, k^2 |A|^2 / 2 to the slopes'.
-        assert h.var() == pytest.approx(np.sum(np.abs(amp) ** 2) / 2, rel=1e-6)
-        assert np.mean(hx ** 2 + hz ** 2) == pytest.approx(
-            np.sum((kx ** 2 + kz ** 2) * np.abs(amp) ** 2) / 2, rel=1e-4)   # (Nyquist rows)
-        ratio.append(np.abs(amp[on]) ** 2 / (2 * f[on] * dk2))
-    # E|A|^2 = 2 F dk^2 over some 10^5 modes
-    assert np.mean(ratio) == pytest.approx(1.0, abs=0.01)
-    # Cox & Munk's measured slope variance, the plausibility check of the default tile.
-    assert 0.7 < slope_var / cst.cox_munk_slope_variance(4.0) < 1.3
-
-
-def test_oversampled_surface_is_the_same_surface():
-    w = cst.Waves(3.0, grid=64, seed=3)
-    h1, hx1, _ = cst.surface(w, 1)
-    h4, hx4, _ = cst.surface(w, 4)
-    np.testing.assert_allclose(h4[::4, ::4], h1, atol=1e-12)
-    np.testing.assert_allclose(hx4[::4, ::4], hx1, atol=1e-10)
-
-
-def test_waves_move_with_time():
-    a = cst.surface(cst.Waves(3.0, grid=64, time_s=0.0))[0]
-    b = cst.surface(cst.Waves(3.0, grid=64, time_s=0.7))[0]
-    assert np.abs(a - b).max() > 0.1 * np.abs(a).max()
-
-
-@pytest.mark.parametrize("kwargs, message", [
-    ({"wind_speed": 0.0}, "wind speed 0.0"),
-    ({"wind_speed": float("nan")}, "wind speed nan"),
-    ({"wind_speed": 3.0, "grid": 300}, "power of two"),
-    ({"wind_speed": 3.0, "tile_m": -1.0}, "wave tile"),
-    ({"wind_speed": 3.0, "seed": -2}, "wave seed"),
-    ({"wind_speed": 3.0, "time_s": float("inf")}, "wave time"),
-])
-def test_bad_waves_are_refused(kwargs, message):
-    with pytest.raises(AquaspecError, match=message):
-        cst.Waves(**kwargs)
-
 
 # ---- refraction and the photon map --------------------------------------------------
-
-def test_refraction_obeys_snell():
-    rng = np.random.default_rng(1)
-    n = rng.normal(size=(200, 3)) * [0.2, 1.0, 0.2]
-    n[:, 1] = np.abs(n[:, 1]) + 0.5
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    d = np.broadcast_to(-air_to_sun(50.0, 20.0), n.shape)
-    t, cos_i = cst.refract(d, n)
-    ok = cos_i > 0
-    sin_i = np.sqrt(1 - cos_i[ok] ** 2)
-    cos_t = -np.sum(t[ok] * n[ok], axis=1)
-    np.testing.assert_allclose(np.linalg.norm(t[ok], axis=1), 1.0, atol=1e-12)
-    np.testing.assert_allclose(np.sqrt(1 - cos_t ** 2) * N_WATER, sin_i, atol=1e-12)
-    # t lies in the plane of d and n
-    np.testing.assert_allclose(np.einsum("ij,ij->i", np.cross(d[ok], n[ok]), t[ok]), 0,
-                               atol=1e-12)
 
 
 def test_splat_conserves_weight_and_a_regular_lattice_is_uniform():
@@ -140,10 +54,10 @@ def test_photon_map_matches_the_jacobian_of_a_sinusoid():
     hh = amp * np.sin(k * x0)
     nrm = np.stack([-slope, np.ones_like(x0), np.zeros_like(x0)], -1)
     nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
-    t, cos_i = cst.refract(np.broadcast_to(-air, nrm.shape), nrm)
+    t, cos_i = refract(np.broadcast_to(-air, nrm.shape), nrm)
     w = cst.facet_weights(cos_i, nrm[:, 1], air[1])
     sx = t[:, 0] / np.abs(t[:, 1])
-    s_flat = cst.refract(-air[None], np.array([[0.0, 1.0, 0.0]]))[0][0]
+    s_flat = refract(-air[None], np.array([[0.0, 1.0, 0.0]]))[0][0]
     u = x0 + d * (sx - s_flat[0] / abs(s_flat[1])) + hh * sx
     dudx = np.gradient(u, x0)
     assert dudx.min() > 0.2                  # one facet per point: before the focus
@@ -182,7 +96,7 @@ def test_a_sinusoid_focuses_at_its_paraxial_depth():
 
 
 def test_map_keeps_the_mean_and_the_sun_disc_blurs():
-    waves = cst.Waves(3.0, grid=64, tile_m=2.0)
+    waves = W.Waves(3.0, grid=64, tile_m=2.0)
     sharp = cst.caustic_map(waves, 50.0, 0.0, slices=6, max_depth_m=20.0, sun_radius_deg=0.0)
     soft = cst.caustic_map(waves, 50.0, 0.0, slices=6, max_depth_m=20.0)
     for cm in (sharp, soft):
@@ -220,7 +134,7 @@ def test_disc_blur_is_an_ellipse_along_the_beam():
 
 @pytest.fixture(scope="module")
 def cmap():
-    return cst.caustic_map(cst.Waves(3.0, grid=64, tile_m=2.0), 60.0, 150.0, slices=8,
+    return cst.caustic_map(W.Waves(3.0, grid=64, tile_m=2.0), 60.0, 150.0, slices=8,
                            max_depth_m=10.0)
 
 
@@ -257,9 +171,10 @@ def test_sample_reads_texels_slices_and_tiles(cmap):
 def test_surface_term_is_modulated_by_the_sampled_factor(cmap):
     """No scattering (b = 0): a plate's sun term with caustics over the one
     without is the caustic factor read at each pixel's footprint."""
-    from aquaspec.light import sun as S
+    from aquaspec.shading.sun import sun_radiance
+    from aquaspec.transport.sun_scattering import PHASE_TABLE_SIZE, SunInputs
     from aquaspec.scene.camera import Camera
-    from aquaspec.gpu.passes.raster import raycast_gbuffer
+    from aquaspec.scene.raycast import raycast_gbuffer
     from aquaspec.colour.reflectance import Reflectance
     from aquaspec.scene import Scene
     scene = Scene()
@@ -269,13 +184,13 @@ def test_surface_term_is_modulated_by_the_sampled_factor(cmap):
                          fov_y_deg=60.0, up=(0.0, 0.0, -1.0))
     gb = raycast_gbuffer(scene, cam)
     to_sun = cmap.to_sun
-    base = S.SunInputs(beam0=np.array([2.0, 1.0]), c_sun=np.array([0.1, 0.3]),
-                       c_view=np.array([0.1, 0.3]), b=np.zeros(2), to_sun=to_sun,
-                       log_phase=np.log(np.full((2, S.PHASE_TABLE_SIZE), 1 / (4 * np.pi))))
+    base = SunInputs(beam0=np.array([2.0, 1.0]), c_sun=np.array([0.1, 0.3]),
+                     c_view=np.array([0.1, 0.3]), b=np.zeros(2), to_sun=to_sun,
+                     log_phase=np.log(np.full((2, PHASE_TABLE_SIZE), 1 / (4 * np.pi))))
     import dataclasses
     rho = dict(rho_of_hits=lambda m: np.full((m.sum(), 2), 0.4))
-    flat = S.sun_radiance(gb, base, **rho)
-    wavy = S.sun_radiance(gb, dataclasses.replace(base, caustics=cmap), **rho)
+    flat = sun_radiance(gb, base, **rho)
+    wavy = sun_radiance(gb, dataclasses.replace(base, caustics=cmap), **rho)
     hit = gb.hit
     expect = cst.sample(cmap, gb.positions()[hit], gb.distance[hit] / cam.fx)
     np.testing.assert_allclose(wavy[hit] / flat[hit], expect[:, None] * [1, 1], rtol=1e-9)
@@ -285,12 +200,12 @@ def test_surface_term_is_modulated_by_the_sampled_factor(cmap):
 def _setup(wind, **kw):
     from aquaspec.colour.bands import Bands
     from aquaspec.light.sky import surface_light
-    from aquaspec.rendering.renderer import SpectralSetup
+    from aquaspec.rendering.setup import SpectralSetup
     from aquaspec.colour.sensors import get_sensor
     from aquaspec.medium.water import get_water
     light = surface_light("sun-sky", sun_elevation_deg=50.0, sun_azimuth_deg=30.0)
     return SpectralSetup(get_water("IB"), get_sensor("human"), light, Bands(6),
-                         waves=None if wind is None else cst.Waves(wind, **kw), ms_model="seeds")
+                         waves=None if wind is None else W.Waves(wind, **kw), ms_model="seeds")
 
 
 def test_froxels_with_caustics_against_a_fine_march():
@@ -298,18 +213,19 @@ def test_froxels_with_caustics_against_a_fine_march():
     against each pixel's own ray in 400 steps, built-in scene at 3 m. The
     froxels are 8 pixels wide, so their pattern is the column's mean."""
     import dataclasses
-    from aquaspec.light import sun as S
-    from aquaspec.gpu.passes.raster import raycast_gbuffer
+    from aquaspec.scene.shadowmap import numpy_shadow_map
+    from aquaspec.shading.sun import sun_radiance
+    from aquaspec.scene.raycast import raycast_gbuffer
     from aquaspec.scene.builtin import builtin_scene
     scene, cam = builtin_scene(3.0, width=160, height=90)
     setup = _setup(3.0)
     gb = raycast_gbuffer(scene, cam)
     sun = setup.sun_inputs()
-    hmap, spec = S.numpy_shadow_map(scene, cam, sun.to_sun, size=512)
+    hmap, spec = numpy_shadow_map(scene, cam, sun.to_sun, size=512)
     black = dict(rho_of_hits=lambda m: np.zeros((m.sum(), 6)), height_map=hmap, spec=spec)
-    frox = S.sun_radiance(gb, sun, **black)
-    march = S.sun_radiance(gb, dataclasses.replace(sun, n_steps=400), method="march", **black)
-    flat = S.sun_radiance(gb, dataclasses.replace(sun, caustics=None), **black)
+    frox = sun_radiance(gb, sun, **black)
+    march = sun_radiance(gb, dataclasses.replace(sun, n_steps=400), method="march", **black)
+    flat = sun_radiance(gb, dataclasses.replace(sun, caustics=None), **black)
     rel = np.abs(frox / march - 1.0)
     assert np.median(rel) < 0.05
     assert np.percentile(rel, 99) < 0.2
@@ -321,10 +237,10 @@ def test_froxels_with_caustics_against_a_fine_march():
 
 
 def _render(backend, **kw):
-    from aquaspec.rendering.renderer import render
+    from aquaspec.rendering.api import render
     base = dict(water="IB", depth_m=3.0, size=(96, 54), bands=6, light="sun-sky",
                 sun_elevation_deg=50.0, sun_azimuth_deg=30.0, sun_shadow_map=256,
-                exposure=0.0, waves=cst.Waves(3.0, grid=128))
+                exposure=0.0, waves=W.Waves(3.0, grid=128))
     return render(backend=backend, **{**base, **kw})
 
 
@@ -386,30 +302,6 @@ def test_cli_wind(tmp_path, capsys):
 
 # ---- the waves the tile leaves out ---------------------------------------------------
 
-@pytest.mark.parametrize("wind, k_lo, k_hi", [(7.0, 0.3, 20.0), (2.0, 0.05, 300.0),
-                                              (12.0, 0.01, 0.8)])
-def test_pm_slope_variance_is_the_integral(wind, k_lo, k_hi):
-    from scipy.integrate import quad
-    num = quad(lambda k: k * k * cst.pm_spectrum(k, wind), k_lo, k_hi, limit=400,
-               points=[np.sqrt(cst.PM_BETA) * cst.GRAVITY / wind ** 2])[0]
-    assert cst.pm_slope_variance(k_lo, k_hi, wind) == pytest.approx(num, rel=1e-7)
-
-
-def test_unresolved_variance_completes_cox_munk():
-    for wind in (1.0, 2.0, 3.0):
-        # The default tile holds all of Cox & Munk's variance up to 3 m/s.
-        assert cst.unresolved_slope_variance(cst.Waves(wind)) == 0.0
-    for wind in (5.0, 10.0):
-        w = cst.Waves(wind)
-        long = cst.long_wave_slope_variance(w)
-        assert long == pytest.approx(cst.pm_slope_variance(1e-9, 2 * np.pi / w.tile_m, wind),
-                                     rel=1e-9)
-        total = cst.resolved_slope_variance(w) + long + cst.unresolved_slope_variance(w)
-        assert total == pytest.approx(cst.cox_munk_slope_variance(wind), rel=1e-12)
-        assert cst.unresolved_slope_variance(w) > 0.1 * cst.cox_munk_slope_variance(wind)
-    doc = cst.Waves(10.0).describe()
-    assert doc["unresolved_slope_variance"] > 0 and doc["longer_than_tile_slope_variance"] > 0
-
 
 def test_run_jacobian_closed_forms():
     n = 1.33
@@ -443,8 +335,8 @@ def test_gaussian_blur_has_the_covariance():
 
 
 def test_strong_wind_blurs_deep_caustics():
-    waves = cst.Waves(10.0, grid=64, tile_m=2.0)
-    assert cst.unresolved_slope_variance(waves) > 0.01
+    waves = W.Waves(10.0, grid=64, tile_m=2.0)
+    assert W.unresolved_slope_variance(waves) > 0.01
     kw = dict(slices=4, max_depth_m=9.0, sun_radius_deg=0.0)
     sharp = cst.caustic_map(waves, 60.0, 20.0, unresolved_slopes=False, **kw)
     soft = cst.caustic_map(waves, 60.0, 20.0, **kw)
@@ -454,5 +346,5 @@ def test_strong_wind_blurs_deep_caustics():
     # Unchanged at the surface, less contrast below (the blur grows with depth).
     np.testing.assert_allclose(soft.levels[0][0], sharp.levels[0][0], atol=1e-6)
     assert soft.levels[0][1].std() < 0.8 * sharp.levels[0][1].std()
-    calm = cst.Waves(2.0, grid=64, tile_m=2.0)
-    assert cst.unresolved_slope_variance(calm) == 0.0
+    calm = W.Waves(2.0, grid=64, tile_m=2.0)
+    assert W.unresolved_slope_variance(calm) == 0.0

@@ -7,7 +7,7 @@ import pytest
 
 from aquaspec.colour.bands import Bands
 from aquaspec.errors import AquaspecError
-from aquaspec.light.sky import LIGHTS, fresnel_transmittance, surface_light
+from aquaspec.light.sky import LIGHTS, surface_light
 from aquaspec.colour.reflectance import (Reflectance, _srgb_matrix, _FIT_WL, colorchecker,
                                   fit_sigmoid, fit_sigmoid_image, fit_sigmoid_many,
                                   sigmoid_band_values, sigmoid_spectrum)
@@ -31,11 +31,6 @@ class TestLight:
         # Clear-sky global irradiance is about 1000 W/m^2 at high sun, about
         # 40-45 % of it in 400-700 nm, minus a few percent of Fresnel loss.
         assert 350 < hi.total_w_m2() < 500
-
-    def test_fresnel(self):
-        # Normal incidence: 1 - ((n-1)/(n+1))^2.
-        np.testing.assert_allclose(fresnel_transmittance(1.0), 1 - (0.33 / 2.33) ** 2)
-        assert fresnel_transmittance(0.0) == pytest.approx(0.0, abs=1e-12)
 
     @pytest.mark.parametrize("kwargs,match", [
         ({"kind": "moonlight"}, "unknown surface light 'moonlight'"),

@@ -5,8 +5,9 @@ import pytest
 
 from aquaspec.errors import AquaspecError
 from aquaspec.medium.phase import (FournierForand, HenyeyGreenstein, Isotropic, PetzoldParticles,
-                            PureWaterPhase, band_moments, ff_backscatter_fraction, get_phase,
-                            hg_backscatter_fraction, redistribution_matrix)
+                            PureWaterPhase, ff_backscatter_fraction, get_phase,
+                            hg_backscatter_fraction)
+from aquaspec.medium.phase_bands import band_moments, redistribution_matrix
 
 NORM_TOL = 1e-6
 
@@ -96,7 +97,8 @@ class TestTabulated:
     def test_exact_integrals_of_a_small_table(self):
         """Normalisation, B, cone fraction and moments against Gauss on every cell."""
         from numpy.polynomial.legendre import leggauss
-        from aquaspec.medium.phase import TabulatedPhase, legendre_table
+        from aquaspec.medium.phase import TabulatedPhase
+        from aquaspec.numerics import legendre_table
         rng = np.random.default_rng(3)
         raw = rng.random(21) + np.linspace(0, 5, 21) ** 3      # 20 cells, forward-heavy
         tab = TabulatedPhase(raw)
@@ -173,7 +175,8 @@ class TestTabulated:
         assert abs(coarse - ph.legendre_moments(8)[8]) > 1e-3
 
     def test_registry_and_band_moments(self):
-        from aquaspec.medium.phase import TabulatedPhase, band_cone_fraction, tabulated_phase
+        from aquaspec.medium.phase import TabulatedPhase, tabulated_phase
+        from aquaspec.medium.phase_bands import band_cone_fraction
         tab = get_phase("tabulated", of="ff", backscatter=0.0183)
         assert isinstance(tab, TabulatedPhase)
         assert tab is tabulated_phase("ff", backscatter=0.0183)       # cached
@@ -263,7 +266,7 @@ class TestMitsubaTabphase:
 def test_cone_offset_cdf_isotropic_closed_form():
     """Isotropic scattering: F(a) = [1 - cos a + a (Si(theta_c) - Si(a))] / (1 - cos theta_c)."""
     from scipy.special import sici
-    from aquaspec.medium.phase import band_cone_offset_cdf
+    from aquaspec.medium.phase_bands import band_cone_offset_cdf
     tc = np.radians(30.0)
     a = np.linspace(0.0, tc, 13)
     got = band_cone_offset_cdf("isotropic", 30.0, a, b=[0.1, 0.2])
@@ -276,7 +279,7 @@ def test_cone_offset_cdf_isotropic_closed_form():
 def test_cone_offset_cdf_forward_peaked_and_mixed():
     """A forward-peaked cone puts its light close to the pixel; Petzold's bands
     mix in pure water (wider) the more of b it is; beyond the cone F = 1."""
-    from aquaspec.medium.phase import band_cone_offset_cdf
+    from aquaspec.medium.phase_bands import band_cone_offset_cdf
     a = np.radians([0.5, 2.0, 10.0, 40.0, 50.0])
     ff = band_cone_offset_cdf("ff", 40.0, a, backscatter=0.0183)[0]
     iso = band_cone_offset_cdf("isotropic", 40.0, a)[0]

@@ -82,7 +82,7 @@ class TestCli:
 
     def test_colour_text_names_the_model(self, capsys):
         for argv, name in [([], "light field (petzold phase function)"),
-                           (["--ms-model", "seeds"], "seeds' model")]:
+                           (["--ms-model", "seeds"], "monzon2022 model (the seeds' model)")]:
             assert main(["colour", "--water", "IB", "--depth", "5", "--bands", "4", *argv]) == 0
             assert capsys.readouterr().out.splitlines()[0].endswith(name)
 
@@ -159,7 +159,7 @@ class TestMsModels:
 
 def _sun_setup(ms_model, elevation, azimuth, n=8, water="IB"):
     from aquaspec.light.sky import surface_light
-    from aquaspec.rendering.renderer import SpectralSetup
+    from aquaspec.rendering.setup import SpectralSetup
     return SpectralSetup(load_water(water), get_sensor("human"),
                          surface_light("sun-sky", sun_elevation_deg=elevation,
                                        sun_azimuth_deg=azimuth), Bands(n),
@@ -210,14 +210,14 @@ class TestSun:
         """Horizontal view, sun behind the camera: the water's share is
         b p(theta) E_b(d) / c, the card's adds rho/pi E_b(d) sin(theta_w) e^{-cS}."""
         from aquaspec.rendering.appearance import GREY_CARD_REFLECTANCE, colour_of_setup
-        from aquaspec.transport.monzon2022 import radiance_to_rgb
-        from aquaspec.light.sun import phase_from_table
+        from aquaspec.colour.sensors import radiance_to_rgb
+        from aquaspec.transport.sun_scattering import phase_from_log_table
         setup = _sun_setup("lightfield", 35, 180)
         sun = setup.sun_inputs()
         d, s = 4.0, 2.0
         res = colour_of_setup(setup, depth_m=d, distance_m=s)
         e_b = sun.beam0 * np.exp(-sun.c_sun * d / sun.mu0)
-        p = phase_from_table(sun.log_phase, -sun.to_sun[2])      # view -z
+        p = phase_from_log_table(sun.log_phase, -sun.to_sun[2])      # view -z
         scatter = sun.b * p * e_b / sun.c_view
         w = setup.sensor.band_weights(setup.bands)
         np.testing.assert_allclose(res["sun_part"]["water_rgb"], radiance_to_rgb(scatter, w),
@@ -269,44 +269,3 @@ class TestSun:
         base = ["colour", "--water", "IB", "--bands", "8"]
         assert main(base + (argv if "--depth" in argv else ["--depth", "5", *argv])) == 2
         assert match in capsys.readouterr().err
-
-
-class TestWhiteCard:
-    def test_along_the_view_or_level_near_the_surface(self):
-        from aquaspec.scene.camera import Camera
-        from aquaspec.rendering.renderer import WHITE_CARD_DISTANCE_M, white_card
-        down = Camera((0, -5, 0), (0, -1, -1), (0, 1, 0), 8, 8, 8.0, 8.0, 4.0, 4.0)
-        card = white_card(down)
-        assert card["depth_m"] == 5 and card["distance_m"] == WHITE_CARD_DISTANCE_M
-        np.testing.assert_allclose(card["view"], np.array([0, -1, -1]) / np.sqrt(2))
-        up = Camera((0, -0.5, 0), (1, 2, 0), (0, 0, 1), 8, 8, 8.0, 8.0, 4.0, 4.0)
-        np.testing.assert_allclose(white_card(up)["view"], [1, 0, 0])
-
-    def test_unbalanceable_card_fails_before_shading(self, monkeypatch):
-        import aquaspec.shading.shade
-        from aquaspec.rendering.renderer import render
-        from aquaspec.colour.sensors import Sensor
-        wl = np.linspace(380.0, 720.0, 35)
-        # A CSV-like sensor whose red lobe is negative everywhere.
-        odd = Sensor("odd", wl, np.stack([-np.ones_like(wl), np.ones_like(wl),
-                                          np.ones_like(wl)]))
-        monkeypatch.setattr(aquaspec.shading.shade, "shade_gbuffer",
-                            lambda *a, **k: pytest.fail("shaded before the check"))
-        with pytest.raises(AquaspecError, match=r"grey card 1 m ahead has camera RGB -.*"
-                                                r"sensor 'odd'.*'grey-world'"):
-            render(water="IB", depth_m=5.0, size=(32, 18), bands=8, sensor=odd,
-                   white_balance="white-patch", backend="numpy")
-
-    def test_human_white_patch_adapts_the_cones(self):
-        """Blue water's card has a negative linear-sRGB red: the eye's von Kries
-        adaptation still balances it (a camera's per-channel gains could not)."""
-        from aquaspec.rendering.renderer import render
-        res = render(water="IB", depth_m=5.0, size=(32, 18), bands=8,
-                     white_balance="white-patch", backend="numpy")
-        ref = np.array(res.params["white_card"]["camera_rgb"])
-        assert ref[0] < 0
-        disp = res.params["display"]
-        assert disp["white_balance_space"].startswith("cones")
-        np.testing.assert_allclose(disp["white_balance_gains"], 1.0)
-        m = np.array(disp["matrix"])
-        np.testing.assert_allclose(m @ ref, ref.mean(), rtol=1e-9)

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from aquaspec.io.layers_file import LAYER_NAMES, read_layers
 from aquaspec.rendering import layers as lay
 from aquaspec.scene.camera import Camera
 from aquaspec.cli import main
@@ -50,7 +51,7 @@ class TestSeedsClosedForm:
         gb = small_gbuffer()
         m = medium()
         got = layers_of(gb, m)
-        assert list(got) == list(lay.LAYER_NAMES)
+        assert list(got) == list(LAYER_NAMES)
         c = A + B
         dirs = gb.camera.ray_directions()
         for (i, j), s in np.ndenumerate(gb.distance.astype(float)):
@@ -62,7 +63,7 @@ class TestSeedsClosedForm:
                 continue
             mat = gb.material[i, j]
             if mat == PER_PIXEL:
-                from aquaspec.shading.shade import sigmoid_reflectance
+                from aquaspec.colour.reflectance import sigmoid_at as sigmoid_reflectance
                 rho = sigmoid_reflectance(gb.sigmoid[i, j][None], T_CENTRES)[0]
             else:
                 rho = MATS[mat]
@@ -102,7 +103,7 @@ class TestSeedsClosedForm:
 def tables():
     """Jerlov II on N bands and its light-field tables (Petzold, cone 15 degrees)."""
     from aquaspec.colour.bands import Bands
-    from aquaspec.transport.lightfield.solve import lightfield_tables
+    from aquaspec.transport.lightfield.bake import lightfield_tables
     from aquaspec.medium.water import get_water
     w = get_water("II").on_bands(Bands(N))
     return w, lightfield_tables(w, phase="petzold", forward_cone_deg=15.0, n_depth=24, n_mu=33)
@@ -135,19 +136,19 @@ class TestGPU:
         direct signal within the compiled model's interpolation, measured
         4e-4 of the largest value; the rest from the same NumPy code on the
         read-back G-buffer)."""
-        import aquaspec.rendering.renderer as ar
+        import aquaspec.rendering.api as ar
         kw = dict(water="II", depth_m=4, bands=6, size=(64, 36), sensor="nikon-5100-npl",
                   cone_spread=spread, layers=True)
         g = ar.render(**kw)
         n = ar.render(backend="numpy", **kw)
-        for k in lay.LAYER_NAMES:
+        for k in LAYER_NAMES:
             scale = np.abs(n.layers[k]).max()
             tol = 2e-3 if k in ("backscatter", "direct") else 1e-5
             np.testing.assert_allclose(g.layers[k], n.layers[k], rtol=0, atol=tol * scale,
                                        err_msg=k)
         np.testing.assert_allclose(g.layers["direct"] + g.layers["backscatter"], g.linear_rgb,
                                    atol=1e-6 * np.abs(g.linear_rgb).max())
-        assert g.params["layers"]["names"] == list(lay.LAYER_NAMES)
+        assert g.params["layers"]["names"] == list(LAYER_NAMES)
         if spread:
             # The spread moves some of a target's light onto open water beside it.
             hit = g.layers["range_m"] > 0
@@ -159,7 +160,7 @@ class TestGPU:
     def test_rgbd(self, device):
         """An RGB-D photograph: the range is the distance along each ray (the
         depth map is z), and the albedo follows the photograph's colours."""
-        import aquaspec.rendering.renderer as ar
+        import aquaspec.rendering.api as ar
         rng = np.random.default_rng(3)
         img = rng.random((12, 16, 3))
         dep = np.full((12, 16), 2.0)
@@ -175,48 +176,8 @@ class TestGPU:
         assert corr > 0.95
 
 
-class TestFiles:
-    def layers(self):
-        rng = np.random.default_rng(0)
-        out = {k: rng.random((5, 7, 3)).astype(np.float32) for k in lay.COLOUR_LAYERS}
-        out["range_m"] = rng.random((5, 7)).astype(np.float32) * 10
-        return out
-
-    @pytest.mark.parametrize("suffix", [".exr", ".npz"])
-    def test_round_trip(self, tmp_path, suffix):
-        src = self.layers()
-        p = lay.write_layers(tmp_path / f"x{suffix}", src, {"water": {"name": "IB"}})
-        got, meta = lay.read_layers(p)
-        for k in lay.LAYER_NAMES:
-            np.testing.assert_array_equal(got[k], src[k])
-        assert meta["water"] == {"name": "IB"} and "aquaspec_version" in meta
-
-    def test_refuses_bad_layers(self, tmp_path):
-        src = self.layers()
-        src["direct"][1, 2, 0] = np.nan
-        with pytest.raises(AquaspecError, match="layer 'direct' has NaN"):
-            lay.write_layers(tmp_path / "x.npz", src)
-        assert list(tmp_path.iterdir()) == []
-        with pytest.raises(AquaspecError, match="accepted suffixes|accepted: .exr, .npz"):
-            lay.write_layers(tmp_path / "x.tif", self.layers())
-        bad = self.layers()
-        del bad["albedo"]
-        with pytest.raises(AquaspecError, match=r"layers lack \['albedo'\]"):
-            lay.write_layers(tmp_path / "x.npz", bad)
-        bad = self.layers()
-        bad["range_m"] = bad["range_m"][:4]
-        with pytest.raises(AquaspecError, match="layer 'range_m' is"):
-            lay.write_layers(tmp_path / "x.npz", bad)
-        with pytest.raises(AquaspecError, match="no layers file"):
-            lay.read_layers(tmp_path / "none.npz")
-
-    def test_save_image_needs_layers(self, tmp_path):
-        from aquaspec.io.output import save_image
-        with pytest.raises(AquaspecError, match="without layers"):
-            save_image(tmp_path / "a.png", np.zeros((2, 2, 3), np.uint8),
-                       layers_path=tmp_path / "a.npz")
-
-    def test_black_gbuffer(self):
+class TestBlackGbuffer:
+    def test_same_geometry_no_reflectance(self):
         gb = small_gbuffer()
         black = lay.black_gbuffer(gb)
         np.testing.assert_array_equal(black.distance, gb.distance)
@@ -235,8 +196,8 @@ class TestCommand:
                      str(out), "--linear", str(lin), "--layers", str(layers)]) == 0
         side = json.loads((tmp_path / "x.png.json").read_text())
         assert side["files"]["layers"] == "x_layers.exr"
-        assert side["layers"]["names"] == list(lay.LAYER_NAMES)
-        got, meta = lay.read_layers(layers)
+        assert side["layers"]["names"] == list(LAYER_NAMES)
+        got, meta = read_layers(layers)
         assert meta["water"]["name"] == "3C" and meta["files"]["layers"] == "x_layers.exr"
         np.testing.assert_allclose(got["direct"] + got["backscatter"], np.load(lin),
                                    atol=1e-6 * np.abs(np.load(lin)).max())

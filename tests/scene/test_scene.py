@@ -7,10 +7,10 @@ from PIL import Image
 
 from aquaspec.scene.camera import Camera
 from aquaspec.errors import AquaspecError
-from aquaspec.gpu.passes.raster import _bilinear_repeat, raycast_gbuffer
+from aquaspec.scene.raycast import bilinear_repeat, raycast_gbuffer
 from aquaspec.colour.reflectance import Reflectance, colorchecker
 from aquaspec.scene import Mesh, Scene, builtin_scene, load_mesh, place_in_front
-from aquaspec.scene.mesh import srgb_to_linear
+from aquaspec.colour.srgb import srgb_decode
 
 UNIT_TOL = 1e-12
 
@@ -153,7 +153,7 @@ class TestLoadMesh:
         s.export(tmp_path / "s.ply")
         m = load_mesh(tmp_path / "s.ply").meshes[0]
         assert m.per_pixel
-        np.testing.assert_allclose(m.vertex_rgb[0], srgb_to_linear([1.0, 128 / 255, 0.0]))
+        np.testing.assert_allclose(m.vertex_rgb[0], srgb_decode([1.0, 128 / 255, 0.0]))
 
     def test_glb_texture_orientation(self, tmp_path):
         img = np.zeros((8, 8, 3), np.uint8)
@@ -172,7 +172,7 @@ class TestLoadMesh:
         # glTF multiplies the texture by the (linear) base colour factor.
         top_v = m.uv[np.argmax(m.vertices[:, 1]), 1]
         bottom_v = m.uv[np.argmin(m.vertices[:, 1]), 1]
-        got = _bilinear_repeat(m.texture.astype(float),
+        got = bilinear_repeat(m.texture.astype(float),
                                np.array([[0.5, 0.9 * top_v + 0.1 * bottom_v],
                                          [0.5, 0.1 * top_v + 0.9 * bottom_v]]))
         np.testing.assert_allclose(got, [[1, 0, 0], [0, 0, 0.2]], atol=1e-6)

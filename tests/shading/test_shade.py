@@ -4,13 +4,15 @@ forms, against per-ray model.pixel_radiance, and its input checks."""
 import numpy as np
 import pytest
 
+from aquaspec.medium.interface import N_WATER
 from aquaspec.transport import monzon2022 as model
 
 from aquaspec.shading import shade as shading
 from aquaspec.scene.camera import Camera
 from aquaspec.errors import AquaspecError
 from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
-from aquaspec.shading.shade import shade_gbuffer, sigmoid_reflectance
+from aquaspec.colour.reflectance import sigmoid_at as sigmoid_reflectance
+from aquaspec.shading.shade import shade_gbuffer
 from support.five_bands import A, B, E0, KD, MATS, N, RESP, T_CENTRES, medium
 
 #: Both sides are float64; only rounding separates them.
@@ -72,7 +74,7 @@ class TestClosedForms:
         out = shade_gbuffer(gb, **medium(kd=kd), return_radiance=True)
         c = A + B
         k = c - kd
-        l_sky = E0 * model.N_WATER ** 2 / np.pi
+        l_sky = E0 * N_WATER ** 2 / np.pi
         l_ms = B * E0 / (4 * np.pi) * np.exp(-kd * d) * (1 - np.exp(-k * d)) / k
         np.testing.assert_allclose(out["radiance"][0, 0], np.exp(-c * d) * l_sky + l_ms,
                                    rtol=1e-10)
@@ -190,11 +192,11 @@ class TestInputErrors:
 
 
 def test_lightfield_shading_matches_pixel_radiance():
-    """shade_gbuffer with light-field tables is lightfield_pixel_radiance per pixel."""
+    """shade_gbuffer with light-field tables is LightfieldTables.pixel_radiance per pixel."""
     from aquaspec.colour.bands import Bands
     from aquaspec.scene.camera import Camera
     from aquaspec.scene.gbuffer import GBuffer
-    from aquaspec.transport.lightfield.solve import lightfield_pixel_radiance, lightfield_tables
+    from aquaspec.transport.lightfield.bake import lightfield_tables
     from aquaspec.colour.reflectance import Reflectance
     from aquaspec.medium.water import load_water
     bands = Bands(6)
@@ -218,8 +220,8 @@ def test_lightfield_shading_matches_pixel_radiance():
         hit = np.isfinite(dist[i, j])
         kw = dict(rho=grey.on_bands(bands), surface_depth=np.array([4 - dist[i, j] * v_y]),
                   n_y=np.array([1.0])) if hit else {}
-        want = lightfield_pixel_radiance(tables, a=bw.a, b=bw.b, e0=e0, depth_o=4.0,
-                                         v_y=np.array([v_y]), s=np.array([dist[i, j]]), **kw)
+        want = tables.pixel_radiance(a=bw.a, b=bw.b, e0=e0, depth_o=4.0,
+                                     v_y=np.array([v_y]), s=np.array([dist[i, j]]), **kw)
         np.testing.assert_allclose(out["radiance"][i, j], np.ravel(want), rtol=1e-12)
 
 
@@ -227,7 +229,7 @@ def _spread_case(dist, fov_y_deg, cone_spread, cone_deg=30.0):
     """Light-field shading of a G-buffer: camera at 5 m looking along -z, a
     grey surface facing it where ``dist`` is finite."""
     from aquaspec.colour.bands import Bands
-    from aquaspec.transport.lightfield.solve import lightfield_tables
+    from aquaspec.transport.lightfield.bake import lightfield_tables
     from aquaspec.colour.reflectance import Reflectance
     from aquaspec.medium.water import load_water
     h, w = dist.shape
@@ -251,8 +253,8 @@ def test_cone_spread_is_the_per_pixel_cone_convolved():
     = the per-pixel cone model); the convolution leaves a uniform cone term
     alone and turns a single pixel's into the kernel."""
     from aquaspec.colour.bands import Bands
-    from aquaspec.transport.lightfield.solve import (cone_spread_kernel, lightfield_pixel_radiance,
-                                     lightfield_tables, spread_cone_light)
+    from aquaspec.transport.lightfield.bake import lightfield_tables
+    from aquaspec.transport.lightfield.cone import cone_spread_kernel, spread_cone_light
     from aquaspec.medium.water import load_water
     bw = load_water("II").on_bands(Bands(3))
     t = lightfield_tables(bw, phase="ff", backscatter=0.0183, forward_cone_deg=20.0,
@@ -262,17 +264,17 @@ def test_cone_spread_is_the_per_pixel_cone_convolved():
     kw = dict(a=bw.a, b=bw.b, e0=np.full(3, 0.3), depth_o=5.0, v_y=v, s=s_,
               rho=np.full(3, 0.2), surface_depth=5.0 - np.where(np.isfinite(s_), s_, 0) * v,
               n_y=np.zeros((4, 1)))
-    base, cone = lightfield_pixel_radiance(t, split_cone=True, **kw)
-    np.testing.assert_allclose(base + cone, lightfield_pixel_radiance(t, **kw), rtol=1e-12)
+    base, cone = t.pixel_radiance(split_cone=True, **kw)
+    np.testing.assert_allclose(base + cone, t.pixel_radiance(**kw), rtol=1e-12)
     assert np.all(cone[:3] != 0)
     fy = 30.0
     uniform = np.broadcast_to(cone[1], (20, 30, 3)).copy()
-    np.testing.assert_allclose(spread_cone_light(uniform, t, fy), uniform, rtol=1e-10)
-    k = cone_spread_kernel(t["cone_offset_rad"], t["cone_offset_cdf"][0], fy)
+    np.testing.assert_allclose(spread_cone_light(uniform, t.cone, fy), uniform, rtol=1e-10)
+    k = cone_spread_kernel(t.cone.offset_rad, t.cone.offset_cdf[0], fy)
     r = k.shape[0] // 2
     delta = np.zeros((2 * r + 9, 2 * r + 9, 3))
     delta[r + 4, r + 4] = 1.0
-    out = spread_cone_light(delta, t, fy)
+    out = spread_cone_light(delta, t.cone, fy)
     np.testing.assert_allclose(out[4:-4, 4:-4, 0], k, atol=1e-12)
 
 

@@ -6,8 +6,8 @@ import numpy as np
 from aquaspec.transport.lightfield import shadow
 from aquaspec.colour.bands import Bands
 from aquaspec.scene.camera import Camera
-from aquaspec.gpu.passes.raster import raycast_gbuffer
-from aquaspec.transport.lightfield.solve import lightfield_tables, surface_radiance
+from aquaspec.scene.raycast import raycast_gbuffer
+from aquaspec.transport.lightfield.bake import lightfield_tables
 from aquaspec.colour.reflectance import Reflectance
 from aquaspec.scene import Mesh, Scene
 from aquaspec.medium.water import load_water
@@ -38,15 +38,15 @@ def board(n_bands: int = 4, e0_scale: float = 1.0) -> dict:
     d_hit = np.where(gb.hit, -(cam.position[1] + gb.distance * cam.ray_directions()[..., 1]),
                      0.0)
     l_s = np.where(gb.hit[..., None],
-                   surface_radiance(tables, np.full(bands.n, RHO), d_hit, gb.normal[..., 1], e0),
+                   tables.surface_radiance(np.full(bands.n, RHO), d_hit, gb.normal[..., 1], e0),
                    0.0)
     return dict(tables=tables, cam=cam, gb=gb, b=np.asarray(water.b), e0=e0, l_s=l_s,
                 dist=np.where(gb.hit, gb.distance, np.inf))
 
 
 def board_context(n_bands: int = 4, e0_scale: float = 1.0):
-    """``(shadow._Context, G-buffer)`` of :func:`board`."""
+    """``(shadow.ShadowContext, G-buffer)`` of :func:`board`."""
     s = board(n_bands, e0_scale)
     gb = s["gb"]
-    return shadow._Context(s["tables"], s["cam"], s["dist"], gb.normal, s["l_s"], gb.hit,
-                           s["b"], s["e0"]), gb
+    return shadow.ShadowContext(s["tables"], s["cam"], s["dist"], gb.normal, s["l_s"],
+                                gb.hit, s["b"], s["e0"]), gb

@@ -11,7 +11,7 @@ What is checked against closed forms, in Mitsuba's own water:
 - the Kd meters (which never see a delta emitter unscattered) plus the
   closed-form beam against the plates;
 - the sun's single scattering alone (the sun as the only light, volpathmis
-  ``max_depth = 2``) against :func:`aquaspec.light.sun.single_scattering_open`,
+  ``max_depth = 2``) against :func:`aquaspec.transport.sun_scattering.single_scattering_open`,
   looking towards, across and away from the sun, isotropic and HG;
 - the study and the CLI hand the light with its sun to both sides, and the
   cache keys hold the sun.
@@ -265,14 +265,14 @@ def test_kd_meters_add_the_unscattered_sun():
 def test_single_scattering_of_the_sun(phase, g):
     """The sun as the only light, paths of at most one scattering event
     (volpathmis ``max_depth = 2``: camera - medium - emitter), against
-    :func:`aquaspec.light.sun.single_scattering_open` with the same c, b and phase
+    :func:`aquaspec.transport.sun_scattering.single_scattering_open` with the same c, b and phase
     function, per pixel of a 3-degree view towards, across and away from the
     sun (Jerlov IB at 4 m). Both sides are the same quantity, so only Monte
     Carlo noise separates them: tolerance 4 standard errors of the pixels'
     mean plus 1.5 %. With HG the sun's forward peak (looking at the sun is
     25x looking away) checks the scattering angle's convention."""
     mitsuba()
-    from aquaspec.light import sun as S
+    from aquaspec.transport import sun_scattering as S
     from aquaspec.scene.camera import Camera
     from aquaspec.scene.mesh import Scene
     from aquaspec.validation.reference import medium_spectra, phase_function, render_reference

@@ -163,7 +163,7 @@ class TestReference:
         surface), summed over three 100 nm groups of bands to beat the noise.
         """
         mitsuba()
-        from aquaspec.gpu.passes.raster import raycast_gbuffer
+        from aquaspec.scene.raycast import raycast_gbuffer
         from aquaspec.validation.reference import render_reference
         from aquaspec.validation.scenes import board_scene, masks
         from aquaspec.validation.study import _spectral
@@ -186,7 +186,7 @@ class TestReference:
         """As above with Fournier-Forand and Petzold: Mitsuba's tabphase and the light
         field's moments come from one table (a wrong table, sign or scale fails)."""
         mitsuba()
-        from aquaspec.gpu.passes.raster import raycast_gbuffer
+        from aquaspec.scene.raycast import raycast_gbuffer
         from aquaspec.validation.reference import lightfield_phase, render_reference
         from aquaspec.validation.scenes import board_scene, masks
         from aquaspec.validation.study import _spectral
@@ -545,7 +545,7 @@ def test_reference_stderr_of_known_noise():
 
 
 def test_converged_means_leave_out_noisy_scenes():
-    from aquaspec.validation.study import converged_means, format_converged
+    from aquaspec.validation.report import converged_means, format_converged
     rows = [{"water": w, "depth_m": d, "camera": "c", "method": "m", "kd": "database",
              "region": "grey", "rmse_rel": e, "hsv": 0.0, "hue_deg": 1.0, "ciede2000": 0.0,
              "mean_ratio": 1.0 + e} for w, d, e in (("I", 3.0, 0.1), ("7C", 12.0, 50.0))]
@@ -560,7 +560,7 @@ def test_board_views():
     """view="down": the board lies flat (facing up) 3 m along a view pitched
     45 degrees down, and every patch is seen; the level view is the thesis's
     board facing the camera (the cached references' geometry)."""
-    from aquaspec.gpu.passes.raster import raycast_gbuffer
+    from aquaspec.scene.raycast import raycast_gbuffer
     from aquaspec.validation.scenes import (BOARD_DISTANCE_M, DOWN_PITCH_DEG, GREY_PATCH,
                                             PATCH_PITCH_M, board_scene, masks)
     scene, cam = board_scene(5.0, view="down")

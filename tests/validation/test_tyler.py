@@ -7,6 +7,7 @@ import pytest
 
 from aquaspec.cli import main
 from aquaspec.errors import AquaspecError
+from aquaspec.transport.lightfield.solve import solve_lightfield
 from aquaspec.validation.tyler import (TYLER_C, fit_albedo, tyler_check, tyler_k_inf,
                                        tyler_mean_radiance)
 
@@ -35,7 +36,6 @@ def test_k_inf_is_between_the_tables_decay_rates():
 
 
 def test_fitted_albedo_reproduces_k_inf():
-    from aquaspec.transport.lightfield.solve import solve_lightfield
     k = tyler_k_inf()
     w0 = fit_albedo(k, TYLER_C, "hg", g=0.92)
     lf = solve_lightfield([TYLER_C * (1 - w0)], [TYLER_C * w0], phase="hg", g=0.92)
@@ -77,7 +77,6 @@ def test_cli_writes_json_and_plot(tmp_path, capsys):
 
 @pytest.mark.parametrize("phase,kw", [("hg", {"g": 0.92}), ("isotropic", {})])
 def test_asymptotic_shape_is_the_deep_radiance(phase, kw):
-    from aquaspec.transport.lightfield.solve import solve_lightfield
     lf = solve_lightfield([0.1], [0.3], phase=phase, n_streams=24, **kw)
     mu = np.linspace(-1, 1, 41)
     depth = 40.0 / (lf.kappa[0, 1] - lf.kappa[0, 0])

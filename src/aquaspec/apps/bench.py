@@ -49,7 +49,26 @@ import time
 import numpy as np
 
 from aquaspec.colour.bands import Bands
+from aquaspec.colour.display import display_settings, to_display
+from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
+from aquaspec.gpu.timing import time_passes
+from aquaspec.gpu.device import adapter_info
+from aquaspec.gpu.passes.copy import CopyPass
+from aquaspec.gpu.passes.display import DisplayPass
+from aquaspec.gpu.passes.sun import SunPass
+from aquaspec.io.atomic import write_file_atomically
+from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
+from aquaspec.medium.water import get_water
+from aquaspec.rendering.api import as_waves
+from aquaspec.rendering.renderer import Renderer
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.builtin import builtin_scene
+from aquaspec.scene.shadowmap import (DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, numpy_shadow_map,
+                                      shadow_map_spec)
+from aquaspec.shading.shade import shade_gbuffer
+from aquaspec.transport.froxels import FROXEL_SLICES, FROXEL_TILE
+from aquaspec.transport.models import DEFAULT_MS_MODEL, MONZON2022, cone_spread_for, ms_model_name
 
 DEFAULT_SIZES = ((1280, 720), (1920, 1080))
 DEFAULT_BANDS = (3, 8, 16, 32, 64)
@@ -62,7 +81,7 @@ class _Geometry:
         self.r, self.scene, self.camera = renderer, scene, camera
 
     def encode(self, encoder, timestamp_writes=None):
-        self.r.raster.render_to(self.r.deferred, self.scene, self.camera, encoder=encoder,
+        self.r.raster.render_to(self.r.deferred.gbuffer, self.scene, self.camera, encoder=encoder,
                                 timestamp_writes=timestamp_writes)
 
 
@@ -134,7 +153,7 @@ class _Sun:
         self.sun.encode_shadow_map(encoder, self.r.raster, self.scene, self.camera)
 
     def _light(self, encoder):
-        self.sun.encode(encoder, self.camera, self.r.deferred.gbuffer_textures, self.rgb)
+        self.sun.encode(encoder, self.camera, self.r.deferred.gbuffer.textures, self.rgb)
 
     def encode(self, encoder):
         self._shadow_map(encoder)
@@ -170,7 +189,7 @@ def _frame_wall_ms(renderer, passes, frames, warmup):
             p.encode(enc)
         t0 = time.perf_counter()
         dev.queue.submit([enc.finish()])
-        dev.queue.read_buffer(renderer.deferred._status)  # waits for the frame
+        dev.queue.read_buffer(renderer.deferred.output.status_buffer)  # waits for the frame
         if f >= warmup:
             out.append((time.perf_counter() - t0) * 1e3)
     return float(np.median(out))
@@ -196,8 +215,8 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
         without it.
     sun_shadow_map : int, optional
         Side of the sun's shadow map in texels (16 to 8192; default
-        :data:`aquaspec.light.sun.DEFAULT_MAP_SIZE`).
-    waves : aquaspec.light.caustics.Waves or float, optional
+        :data:`aquaspec.scene.shadowmap.DEFAULT_MAP_SIZE`).
+    waves : aquaspec.light.waves.Waves or float, optional
         A wind sea (or its wind speed in m/s) focusing the sun into caustics;
         needs ``light="sun-sky"``. The sun over a flat surface is timed
         beside it.
@@ -205,41 +224,25 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
     The other parameters: the number of ``frames`` timed after ``warmup``,
     the scene's ``water``, ``depth_m`` and ``sensor``, and the model
     (``ms_model``, ``phase``, ``cone_spread``, ``spread_scattering``) as
-    :func:`aquaspec.rendering.renderer.render` takes them; ``numpy_reference`` and
+    :func:`aquaspec.rendering.api.render` takes them; ``numpy_reference`` and
     ``compare_seeds`` as in the module docstring; ``progress`` is called
     with a line per measurement.
     """
-    from aquaspec.colour.display import display_settings, to_display
-    from aquaspec.gpu.buffers import time_passes
-    from aquaspec.gpu.passes.copy import CopyPass
-    from aquaspec.gpu.device import adapter_info
-    from aquaspec.gpu.passes.display import DisplayPass
-    from aquaspec.gpu.passes.sun import SunPass
-    from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
-    from aquaspec.rendering.renderer import Renderer, SpectralSetup, _waves
-    from aquaspec.scene.builtin import builtin_scene
-    from aquaspec.colour.sensors import get_sensor
-    from aquaspec.shading.shade import shade_gbuffer
-    from aquaspec.light.sun import (DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, FROXEL_SLICES, FROXEL_TILE,
-                      numpy_shadow_map, shadow_map_spec)
-    from aquaspec.medium.water import get_water
-
     say = progress or (lambda m: None)
     if frames < 20:
         say(f"note: {frames} frames (the study asks for at least 20)")
     if not sizes or not bands:
         raise AquaspecError("bench needs at least one size and one band count")
-    from aquaspec.transport.monzon2022 import DEFAULT_MS_MODEL, cone_spread_for
-    ms_model = DEFAULT_MS_MODEL if ms_model is None else ms_model
+    ms_model = ms_model_name(DEFAULT_MS_MODEL if ms_model is None else ms_model)
     cone_spread = cone_spread_for(ms_model, cone_spread)
-    if compare_seeds and ms_model == "seeds":
+    if compare_seeds and ms_model == MONZON2022:
         raise AquaspecError("compare_seeds times the seeds' frame beside another model's: it "
                             "needs ms_model='lightfield'")
     light_obj = surface_light(light, sun_elevation_deg=sun_elevation_deg,
                               sun_azimuth_deg=DEFAULT_SUN_AZIMUTH_DEG if sun_azimuth_deg is None
                               else sun_azimuth_deg)
     sun = light_obj.sun
-    waves = _waves(waves)
+    waves = as_waves(waves)
     if waves is not None and sun is None:
         raise AquaspecError(f"waves focus the sun's beam into caustics: they need "
                             f"light='sun-sky', not {light!r}")
@@ -412,7 +415,7 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
     return {"adapter": adapter_info(), "frames": frames, "warmup": warmup,
             "ms_model": ms_model, **({"phase": phase, "cone_spread": cone_spread,
                                         "spread_scattering": spread_scattering}
-                                     if ms_model != "seeds" else {}),
+                                     if ms_model != MONZON2022 else {}),
             "water": w_obj.describe(), "sensor": s_obj.describe(), "depth_m": depth_m,
             "light": light_obj.describe(),
             **({} if sun is None else {"sun_rendering": {
@@ -505,10 +508,9 @@ def format_table(result: dict) -> str:
 
 
 def plot(result: dict, path) -> None:
-    import matplotlib
+    import matplotlib  # deferred: matplotlib takes 0.3 s to import; only --plot needs it
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from aquaspec.io.output import write_file_atomically
+    import matplotlib.pyplot as plt  # deferred: as matplotlib
     fig, ax = plt.subplots(figsize=(6, 4))
     for f in result["fits"]:
         sel = [x for x in result["rows"] if (x["width"], x["height"]) == (f["width"], f["height"])]

@@ -22,16 +22,18 @@ import time
 
 import numpy as np
 
-from aquaspec.rendering.appearance import check_ms_model
 from aquaspec.colour.bands import Bands
 from aquaspec.colour.display import to_display
+from aquaspec.colour.sensors import builtin_sensors, get_sensor, load_camspec
 from aquaspec.errors import AquaspecError
+from aquaspec.light.waves import WIND_RANGE, Waves
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
-from aquaspec.transport.monzon2022 import DEFAULT_MS_MODEL, MS_MODELS
-from aquaspec.rendering.renderer import Renderer, SpectralSetup
-from aquaspec.scene.builtin import builtin_scene
-from aquaspec.colour.sensors import builtin_sensors, get_sensor
 from aquaspec.medium.water import JERLOV_TYPES, load_water
+from aquaspec.rendering.appearance import check_ms_model
+from aquaspec.rendering.renderer import Renderer
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.builtin import builtin_scene
+from aquaspec.transport.models import DEFAULT_MS_MODEL, MS_MODELS
 
 
 class Viewer:
@@ -43,7 +45,7 @@ class Viewer:
         Frame size in pixels.
     water, depth_m, bands, sensor, exposure, ms_model, cone_spread : initial settings
         ``exposure`` is ``"auto"`` or EV; ``ms_model`` a key of
-        :data:`aquaspec.transport.monzon2022.MS_MODELS`; ``cone_spread`` (light field only;
+        :data:`aquaspec.transport.models.MS_MODELS`; ``cone_spread`` (light field only;
         None: on) spreads the forward cone's light over the image (cone 40
         degrees); ``spread_scattering`` ("single" or "multiple") how.
     sun_elevation_deg, sun_azimuth_deg : float
@@ -61,8 +63,9 @@ class Viewer:
         self.width, self.height = width, height
         self.camspec = camspec
         self.state = {"water": water, "depth_m": float(depth_m), "bands": int(bands),
-                      "sensor": sensor, "exposure": exposure, "ms_model": ms_model,
-                      # (the light field's default: spread; see model.cone_spread_for)
+                      "sensor": sensor, "exposure": exposure,
+                      "ms_model": check_ms_model(ms_model),
+                      # (the light field's default: spread; see models.cone_spread_for)
                       "cone_spread": True if cone_spread is None else bool(cone_spread),
                       "sun_elevation": float(sun_elevation_deg),
                       "sun_azimuth": float(sun_azimuth_deg), "wind": float(wind)}
@@ -72,7 +75,6 @@ class Viewer:
                                 "'single', 'multiple'")
         self.spread_scattering = spread_scattering
         self._waters, self._sensors, self._setups = {}, {}, {}
-        check_ms_model(ms_model)
         self._renderer = None
         self._scene_depth = None
         self.last_frame_ms = None
@@ -82,7 +84,6 @@ class Viewer:
     def sensors(self) -> list[str]:
         names = list(builtin_sensors())
         if self.camspec:
-            from aquaspec.colour.sensors import load_camspec
             names += list(load_camspec(self.camspec))
         return names
 
@@ -93,7 +94,7 @@ class Viewer:
             raise AquaspecError(f"unknown viewer setting(s) {sorted(unknown)}; accepted: "
                                 f"{', '.join(self.state)}")
         if "ms_model" in changes:
-            check_ms_model(changes["ms_model"])
+            changes["ms_model"] = check_ms_model(changes["ms_model"])
         self._check_sun({**self.state, **changes})
         self.state.update(changes)
         s = self.state
@@ -119,7 +120,6 @@ class Viewer:
 
     @staticmethod
     def _check_sun(state) -> None:
-        from aquaspec.light.caustics import WIND_RANGE
         e, w = state["sun_elevation"], state["wind"]
         if not (np.isfinite(e) and 0.0 <= e <= 90.0):
             raise AquaspecError(f"sun elevation {e!r} deg; accepted: 0 (no sun) to 90")
@@ -161,7 +161,6 @@ class Viewer:
                 light = surface_light("sun-sky", sun_elevation_deg=sun[0],
                                       sun_azimuth_deg=sun[1])
                 if sun[2] > 0:
-                    from aquaspec.light.caustics import Waves
                     waves = Waves(sun[2])
             self._setups[key] = SpectralSetup(self._waters[water], self._sensors[sensor],
                                               light, Bands(bands),
@@ -186,6 +185,7 @@ class Viewer:
 
     def attach(self, fig):
         """Build the image and the controls in a matplotlib figure."""
+        # deferred: matplotlib takes 0.3 s to import; only a window needs it
         from matplotlib.widgets import CheckButtons, RadioButtons, Slider
         self.update()
         ax = fig.add_axes([0.22, 0.31, 0.76, 0.66])
@@ -245,8 +245,8 @@ class Viewer:
 
 def run_viewer(**kwargs) -> None:
     """Open the interactive window (needs a display and a GUI backend)."""
-    import matplotlib
-    import matplotlib.pyplot as plt
+    import matplotlib  # deferred: matplotlib takes 0.3 s to import; only a window needs it
+    import matplotlib.pyplot as plt  # deferred: as matplotlib
     if matplotlib.get_backend().lower() in ("agg", "pdf", "svg", "ps", "template"):
         raise AquaspecError(
             f"matplotlib's backend {matplotlib.get_backend()!r} cannot open a window; run on a "

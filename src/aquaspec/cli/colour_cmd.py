@@ -6,6 +6,9 @@ import json
 
 from aquaspec.cli.common import (add_band_options, add_light_options, add_sensor_options,
                      add_water_options, bands_from, light_from, sensor_from, water_from)
+from aquaspec.rendering.appearance import view_from_elevation, water_colour
+from aquaspec.transport.lightfield.cone import forward_cone
+from aquaspec.transport.models import MONZON2022
 
 
 def register(sub):
@@ -33,8 +36,6 @@ def register(sub):
 
 
 def run(args):
-    from aquaspec.rendering.appearance import view_from_elevation, water_colour
-    from aquaspec.transport.lightfield.solve import forward_cone
     res = water_colour(water_from(args), sensor_from(args), bands_from(args),
                        depth_m=args.depth, distance_m=args.distance, light=light_from(args),
                        ambient=args.ambient, outside="zero" if args.outside_zero else "error",
@@ -45,7 +46,7 @@ def run(args):
         print(json.dumps(res, indent=2))
     else:
         fmt = lambda v: " ".join(f"{x:.6g}" for x in v)  # noqa: E731
-        model = ("seeds' model" if res["ms_model"] == "seeds"
+        model = ("monzon2022 model (the seeds' model)" if res["ms_model"] == MONZON2022
                  else f"light field ({res['phase']} phase function)")
         elev = res["view_elevation_deg"]
         view = "horizontal view" if elev == 0 else f"view {elev:+g} deg"

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 from aquaspec.colour.bands import Bands
-from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, LIGHTS, surface_light
-from aquaspec.transport.monzon2022 import AMBIENT_MODELS, DEFAULT_AMBIENT, DEFAULT_MS_MODEL, MS_MODELS
 from aquaspec.colour.sensors import get_sensor
+from aquaspec.errors import AquaspecError
+from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, LIGHTS, surface_light
+from aquaspec.light.waves import Waves
 from aquaspec.medium.water import DEFAULT_SOURCE, SOURCES, get_water
+from aquaspec.transport.models import DEFAULT_MS_MODEL, MS_MODEL_CHOICES
+from aquaspec.transport.monzon2022 import AMBIENT_MODELS, DEFAULT_AMBIENT
 
 
 def add_water_options(p, *, required=True):
@@ -62,8 +65,7 @@ def add_sun_rendering_options(p, wind_help):
 
 
 def waves_from(args):
-    """The :class:`aquaspec.light.caustics.Waves` of :func:`add_sun_rendering_options`, or None."""
-    from aquaspec.errors import AquaspecError
+    """The :class:`aquaspec.light.waves.Waves` of :func:`add_sun_rendering_options`, or None."""
     if args.wind is None:
         for opt, val, default in (("--wind-azimuth", args.wind_azimuth, 0.0),
                                   ("--wave-time", args.wave_time, 0.0),
@@ -71,7 +73,6 @@ def waves_from(args):
             if val != default:
                 raise AquaspecError(f"{opt} describes the waves: it needs --wind M_S")
         return None
-    from aquaspec.light.caustics import Waves
     if args.light != "sun-sky":
         raise AquaspecError(f"--wind focuses the sun into caustics: it needs --light "
                             f"sun-sky, not {args.light!r}")
@@ -86,10 +87,10 @@ def add_light_options(p):
     p.add_argument("--ambient", default=DEFAULT_AMBIENT, choices=list(AMBIENT_MODELS),
                    help=f"seeds model: how surface irradiance depends on the normal (default "
                         f"{DEFAULT_AMBIENT})")
-    p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODELS),
-                   help="multiple-scattering model: 'seeds' (thesis Eq. 4.7 from Kd) or "
-                        "'lightfield' (discrete-ordinates light field with a phase function) "
-                        f"(default {DEFAULT_MS_MODEL})")
+    p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODEL_CHOICES),
+                   help="multiple-scattering model: 'monzon2022' (thesis Eq. 4.7 from Kd; "
+                        "alias 'seeds') or 'lightfield' (discrete-ordinates light field with "
+                        f"a phase function) (default {DEFAULT_MS_MODEL})")
     p.add_argument("--phase", default="petzold", choices=("petzold", "ff", "hg", "isotropic"),
                    help="phase function for --ms-model lightfield (default petzold)")
     p.add_argument("--forward-cone", type=float, default=None, metavar="DEG",
@@ -106,7 +107,6 @@ def add_spread_scattering_option(p):
 
 
 def parse_range(text):
-    from aquaspec.errors import AquaspecError
     try:
         lo, hi = (float(x) for x in str(text).split("-"))
     except ValueError:
@@ -118,7 +118,6 @@ def parse_depth_albedo(text, flag: str, accepted: str, default_albedo: float = 0
     """``M[,ALBEDO]`` -> ``(M, ALBEDO)``: M > 0 metres, ALBEDO in [0, 1]
     (``default_albedo`` when left out); else an error naming ``flag`` and
     ``accepted``."""
-    from aquaspec.errors import AquaspecError
     try:
         values = [float(x) for x in str(text).split(",")]
     except ValueError:

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import jerlov
+
+from aquaspec.colour.sensors import builtin_sensors, load_camspec
+from aquaspec.medium.water import DEFAULT_SOURCE, list_waters
+
 
 def register(sub):
     p = sub.add_parser("list", help="list water types or sensors",
@@ -13,8 +18,6 @@ def register(sub):
 
 def run(args):
     if args.what == "waters":
-        from aquaspec.medium.water import DEFAULT_SOURCE, list_waters
-        import jerlov
         by_source = {}
         for source, wtype in list_waters():
             by_source.setdefault(source, []).append(wtype)
@@ -24,7 +27,6 @@ def run(args):
             print(f"    {jerlov.get_source(source).citation}")
         print("or your own: --water FILE.csv with columns wavelength_nm,a,b[,Kd]")
     else:
-        from aquaspec.colour.sensors import builtin_sensors, load_camspec
         for name, s in builtin_sensors().items():
             print(f"{name:24s} {s.range_nm[0]:g}-{s.range_nm[1]:g} nm  {s.source}")
         if args.camspec:

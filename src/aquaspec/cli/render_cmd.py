@@ -8,10 +8,18 @@ import sys
 from aquaspec.cli.common import (add_band_options, add_light_options, add_sensor_options,
                      add_spread_scattering_option, add_sun_rendering_options, add_water_options,
                      parse_depth_albedo, parse_range, waves_from)
+from aquaspec.colour.display import TONEMAPS, WHITE_BALANCE_METHODS
+from aquaspec.errors import AquaspecError
+from aquaspec.io.atomic import check_writable
+from aquaspec.io.layers_file import check_layers_path
+from aquaspec.io.linear import LINEAR_SUFFIXES
+from aquaspec.io.png import PNG_SUFFIXES
+from aquaspec.io.save import save_image
+from aquaspec.scene.camera import parse_size
+from aquaspec.scene.seabed import Seabed
 
 
 def register(sub):
-    from aquaspec.colour.display import TONEMAPS, WHITE_BALANCE_METHODS
     p = sub.add_parser(
         "render", help="render an image (PNG + JSON sidecar, optional linear EXR/NPY)",
         description="Render the built-in seabed scene (or your mesh, or an RGB-D photograph) "
@@ -72,7 +80,6 @@ def register(sub):
 
 
 def _floats(text, n, what):
-    from aquaspec.errors import AquaspecError
     try:
         vals = tuple(float(x) for x in str(text).split(","))
     except ValueError:
@@ -83,14 +90,12 @@ def _floats(text, n, what):
 
 
 def run(args):
-    from aquaspec.errors import AquaspecError
-    from aquaspec.io.output import LINEAR_SUFFIXES, PNG_SUFFIXES, check_writable, save_image
-    from aquaspec.rendering.renderer import parse_size, render
+    # deferred: the renderer loads wgpu and every GPU pass; `aquaspec --help` need not
+    from aquaspec.rendering.api import render
     check_writable(args.output, suffixes=PNG_SUFFIXES)
     if args.linear:
         check_writable(args.linear, suffixes=LINEAR_SUFFIXES)
     if args.layers:
-        from aquaspec.rendering.layers import check_layers_path
         check_layers_path(args.layers)
     size = parse_size(args.size)
     exposure = args.exposure
@@ -143,7 +148,6 @@ def run(args):
 
 def _seabed(text):
     """--seabed: "scene", "none" or DEPTH[,ALBEDO] -> what render() takes."""
-    from aquaspec.transport.lightfield.solve import Seabed
     t = str(text).strip().lower()
     if t in ("scene", "none"):
         return "scene" if t == "scene" else None

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from aquaspec.cli.common import add_band_options, add_water_options
+from aquaspec.cli.common import add_band_options, add_water_options, bands_from, water_from
+from aquaspec.colour.sensors import get_sensor
+from aquaspec.io.atomic import check_writable, write_file_atomically
 
 
 def register(sub):
@@ -29,10 +31,9 @@ def table(water, bands):
 
 
 def plot(path, water, sensor, bands):
-    import matplotlib
+    import matplotlib  # deferred: matplotlib takes 0.3 s to import; only --plot needs it
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from aquaspec.io.output import check_writable, write_file_atomically
+    import matplotlib.pyplot as plt  # deferred: as matplotlib
     check_writable(path, suffixes=(".png",))
     n_ax = 2 if sensor is not None else 1
     fig, axes = plt.subplots(1, n_ax, figsize=(6 * n_ax, 4), squeeze=False)
@@ -66,9 +67,6 @@ def plot(path, water, sensor, bands):
 
 
 def run(args):
-    from aquaspec.io.output import check_writable
-    from aquaspec.colour.sensors import get_sensor
-    from aquaspec.cli.common import bands_from, water_from
     if args.plot:
         check_writable(args.plot, suffixes=(".png",))
     water, bands = water_from(args), bands_from(args)

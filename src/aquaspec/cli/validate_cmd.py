@@ -3,12 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
-from aquaspec.cli.common import add_spread_scattering_option
+from pathlib import Path
+
+from aquaspec.cli.common import add_spread_scattering_option, parse_depth_albedo
+from aquaspec.colour.sensors import builtin_sensors, get_sensor, load_camspec
+from aquaspec.errors import AquaspecError
+from aquaspec.io.atomic import check_writable, write_file_atomically
+from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
+from aquaspec.light.sun import check_azimuth, check_elevation
+from aquaspec.scene.camera import parse_size
+from aquaspec.transport.models import ms_model_name
 
 
 def register(sub):
-    from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
     p = sub.add_parser(
         "validate", help="compare with a spectral path tracer (Mitsuba 3) over waters x depths x "
                          "cameras",
@@ -89,16 +98,14 @@ def register(sub):
 
 
 def run(args):
-    from aquaspec.errors import AquaspecError
-    from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
-    from aquaspec.transport.monzon2022 import MS_MODELS
-    from aquaspec.light.sun import check_azimuth, check_elevation
-    from aquaspec.rendering.renderer import parse_size
-    from aquaspec.colour.sensors import builtin_sensors, get_sensor, load_camspec
+    # deferred: the study loads wgpu and every GPU pass; `aquaspec --help` need not
     from aquaspec.validation.reference import FF_DEFAULT_BACKSCATTER, check_phase, require_mitsuba
-    from aquaspec.validation.study import (DEFAULT_SUN_ELEVATION_DEG, default_cache_dir,
-                                    format_attenuation, format_converged, format_summary,
-                                    format_timing, run_study, write_results)
+    # deferred: as above
+    from aquaspec.validation.report import (format_attenuation, format_converged,
+                                            format_summary, format_timing, write_results)
+    # deferred: as above
+    from aquaspec.validation.study import (REGIONS, DEFAULT_SUN_ELEVATION_DEG, default_cache_dir,
+                                           run_study)
     if args.g is not None and args.phase != "hg":
         raise AquaspecError(f"--g is the Henyey-Greenstein parameter: it needs --phase hg, "
                             f"not --phase {args.phase}")
@@ -129,9 +136,7 @@ def run(args):
     waters = tuple(w.strip() for w in args.waters.split(",") if w.strip())
     ms_models = tuple(m.strip() for m in args.ms_models.split(",") if m.strip())
     for m in ms_models:
-        if m not in MS_MODELS:
-            raise AquaspecError(f"unknown multiple-scattering model {m!r}; known: "
-                                f"{', '.join(MS_MODELS)}")
+        ms_model_name(m)
     if args.camspec:
         sensors = load_camspec(args.camspec)
     else:
@@ -151,7 +156,6 @@ def run(args):
                     sun_azimuth_deg=sun_azimuth,
                     gpu_timing=args.gpu_timing,
                     cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
-    from aquaspec.validation.study import REGIONS
     for region in REGIONS:
         print(format_summary(res["rows"], region=region))
         print()
@@ -168,10 +172,6 @@ def run(args):
 
 def _output_dir(path, probe_name):
     """Create the output directory and check it is writable, before any work."""
-    from pathlib import Path
-
-    from aquaspec.errors import AquaspecError
-    from aquaspec.io.output import check_writable
     out = Path(path)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -183,10 +183,7 @@ def _output_dir(path, probe_name):
 
 
 def _run_tyler(out):
-    import json
-    from pathlib import Path
-
-    from aquaspec.io.output import write_file_atomically
+    # deferred: aquaspec.validation loads wgpu and every GPU pass; `aquaspec --help` need not
     from aquaspec.validation.tyler import format_tyler, plot_tyler, tyler_check
     res = tyler_check()
     print(format_tyler(res))
@@ -201,7 +198,6 @@ def _seabed_below(text) -> dict:
     """--seabed-below M[,ALBEDO] -> run_study keywords."""
     if text is None:
         return {}
-    from aquaspec.cli.common import parse_depth_albedo
     below, albedo = parse_depth_albedo(text, "--seabed-below", "M[,ALBEDO] with M > 0 metres "
                                        "and ALBEDO in [0, 1], e.g. 2 or 2,0.3")
     return {"seabed_below_m": below, "seabed_albedo": albedo}

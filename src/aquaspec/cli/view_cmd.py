@@ -4,6 +4,11 @@ from __future__ import annotations
 
 import argparse
 
+from aquaspec.cli.common import add_spread_scattering_option
+from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
+from aquaspec.scene.camera import parse_size
+from aquaspec.transport.models import DEFAULT_MS_MODEL, MS_MODEL_CHOICES
+
 
 def register(sub):
     p = sub.add_parser("view", help="interactive window with live controls",
@@ -15,17 +20,14 @@ def register(sub):
     p.add_argument("--depth", type=float, default=5.0)
     p.add_argument("--bands", type=int, default=8)
     p.add_argument("--sensor", default="human")
-    from aquaspec.transport.monzon2022 import DEFAULT_MS_MODEL, MS_MODELS
-    p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODELS),
+    p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODEL_CHOICES),
                    help=f"multiple-scattering model to start with (default {DEFAULT_MS_MODEL})")
     p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
                    help="start with the light field's forward cone spread over the image "
                         "(default: on)")
-    from aquaspec.cli.common import add_spread_scattering_option
     add_spread_scattering_option(p)
     p.add_argument("--sun-elevation", type=float, default=0.0, metavar="DEG",
                    help="start with the sun at DEG (0 = an overcast sky; default 0)")
-    from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
     p.add_argument("--sun-azimuth", type=float, default=DEFAULT_SUN_AZIMUTH_DEG, metavar="DEG",
                    help="the sun's compass angle, as for render (default "
                         f"{DEFAULT_SUN_AZIMUTH_DEG:g})")
@@ -37,7 +39,7 @@ def register(sub):
 
 
 def run(args):
-    from aquaspec.rendering.renderer import parse_size
+    # deferred: the viewer loads wgpu, rendercanvas and matplotlib; `aquaspec --help` need not
     from aquaspec.apps.viewer import run_viewer
     w, h = parse_size(args.size)
     run_viewer(width=w, height=h, water=args.water, depth_m=args.depth, bands=args.bands,

@@ -35,7 +35,7 @@ _LAYOUT = 1
 
 def _from_colour() -> dict:
     """The four datasets from colour-science, flattened to named arrays."""
-    import colour
+    import colour  # deferred: colour-science takes 1.2-1.5 s to import; only a cache miss needs it
     out = {}
     cmfs = colour.MSDS_CMFS[CMFS_NAME]
     out["cmfs/wl"] = np.asarray(cmfs.wavelengths, float)

@@ -49,7 +49,9 @@ from numbers import Real
 
 import numpy as np
 
+from aquaspec.colour.srgb import srgb_encode
 from aquaspec.errors import AquaspecError
+from aquaspec.io.finite import check_finite
 
 #: Accepted range of a manual exposure in EV (stops). 2**64 covers any
 #: physical radiance scale; beyond it the caller has almost certainly passed
@@ -90,27 +92,8 @@ def _as_rgb(rgb, what="image") -> np.ndarray:
     return arr
 
 
-def check_finite(arr, what="image") -> None:
-    """Raise :class:`AquaspecError` if ``arr`` holds NaN or infinity.
-
-    The message gives how many values are bad and the index of the first one,
-    so the pass that produced them can be found; nothing non-finite is ever
-    quietly clipped into an output image.
-    """
-    arr = np.asarray(arr)
-    bad = ~np.isfinite(arr)
-    n_bad = int(np.count_nonzero(bad))
-    if n_bad:
-        first = tuple(int(i) for i in np.argwhere(bad)[0])
-        value = arr[first]
-        where = (f"(row {first[0]}, column {first[1]}, channel {first[2]})"
-                 if arr.ndim == 3 else f"index {first}")
-        raise AquaspecError(
-            f"{what} has {n_bad} non-finite value(s) of {arr.size}; the first is "
-            f"{value!r} at {where}; accepted: finite values only")
-
-
-def _check_ev(ev) -> float:
+def check_ev(ev) -> float:
+    """An exposure in EV, checked: a finite number within the accepted range."""
     if isinstance(ev, bool) or not isinstance(ev, (Real, np.integer, np.floating)):
         raise AquaspecError(f"exposure {ev!r} is not accepted; give a number of stops "
                             f"(EV) in [-{EV_LIMIT:g}, {EV_LIMIT:g}] or 'auto'")
@@ -143,7 +126,7 @@ def luminance_like(rgb) -> np.ndarray:
 
 def exposure_ev(rgb, ev) -> np.ndarray:
     """Scale linear RGB by ``2**ev`` (``ev`` in stops, within +-:data:`EV_LIMIT`)."""
-    ev = _check_ev(ev)
+    ev = check_ev(ev)
     return _as_rgb(rgb) * 2.0 ** ev
 
 
@@ -395,23 +378,8 @@ def tonemap(x, method="filmic") -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------
-# sRGB encoding and quantisation
+# quantisation (the sRGB encoding before it: aquaspec.colour.srgb)
 # ---------------------------------------------------------------------------
-
-def srgb_encode(linear) -> np.ndarray:
-    """sRGB transfer function of [IEC61966] on [0, 1] (input clipped to it).
-
-    ``12.92 x`` for ``x <= 0.0031308``, else ``1.055 x**(1/2.4) - 0.055``.
-    """
-    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-
-
-def srgb_decode(encoded) -> np.ndarray:
-    """Inverse of :func:`srgb_encode` (input clipped to [0, 1])."""
-    v = np.clip(np.asarray(encoded, dtype=np.float64), 0.0, 1.0)
-    return np.where(v <= 0.04045, v / 12.92, np.power((v + 0.055) / 1.055, 2.4))
-
 
 #: Accepted output bit depths -> integer dtype.
 BIT_DEPTHS = {8: np.uint8, 16: np.uint16}
@@ -458,7 +426,7 @@ def display_settings(rgb, *, exposure="auto", white_balance="none", reference_rg
     if auto and exposure != "auto":
         raise AquaspecError(f"exposure {exposure!r} is not accepted; accepted: 'auto' "
                             f"or a number of stops (EV) in [-{EV_LIMIT:g}, {EV_LIMIT:g}]")
-    manual_ev = None if auto else _check_ev(exposure)
+    manual_ev = None if auto else check_ev(exposure)
     rgb = np.maximum(rgb, 0.0)
     adaptation = None
     if cone_matrix is not None and white_balance == "white-patch":

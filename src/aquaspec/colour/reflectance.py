@@ -31,14 +31,19 @@ sigmoid reflectances (textures, RGB-D images) are evaluated at band centres
 from __future__ import annotations
 
 import functools
+import sys
 import threading
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from aquaspec.cache import cached_arrays, code_digest
+from aquaspec.colour import data as colourdata
 from aquaspec.colour.bands import Bands
+from aquaspec.colour.srgb import XYZ_TO_SRGB
 from aquaspec.errors import AquaspecError, DataRangeError
-from aquaspec.medium.water import read_csv_columns
+from aquaspec.io.csv import read_csv_columns
 
 SIGMOID_CENTER_NM = 550.0
 SIGMOID_SCALE_NM = 100.0
@@ -79,7 +84,7 @@ def sigmoid_at(coeffs, t):
     """Reflectance of sigmoid coefficients ``(..., 3)`` at normalised wavelengths ``t`` (n,).
 
     Returns ``(..., n)``. WGSL twin: ``sigmoid_reflectance`` in
-    ``shaders/common.wgsl`` (same Horner form and clamp).
+    ``gpu/wgsl/common.wgsl`` (same Horner form and clamp).
     """
     c = np.asarray(coeffs, dtype=float)
     t = np.asarray(t, dtype=float)
@@ -99,8 +104,6 @@ def sigmoid_band_values(coeffs, bands: Bands):
 @functools.lru_cache(maxsize=1)
 def _srgb_matrix():
     """(3, m) matrix: reflectance on _FIT_WL -> linear sRGB under D65 (white -> ~1)."""
-    from aquaspec.colour import data as colourdata
-    from aquaspec.colour.sensors import XYZ_TO_SRGB
     cmfs_wl, cmfs = colourdata.cmfs_1931()
     xyz = np.stack([np.interp(_FIT_WL, cmfs_wl, cmfs[:, k]) for k in range(3)])
     e = np.interp(_FIT_WL, *colourdata.d65())
@@ -262,9 +265,6 @@ def _build_sigmoid_table(n: int) -> np.ndarray:
 def sigmoid_table() -> np.ndarray:
     """The table of coefficients (3, n, n, n, 3) of :func:`fit_sigmoid_many`,
     computed once per machine (a few seconds) and kept in aquaspec's cache."""
-    import sys
-
-    from aquaspec.cache import cached_arrays, code_digest
     n = SIGMOID_TABLE_SIZE
     M, basis, _ = _fit_system()
     key = code_digest([sys.modules[__name__]], M.tobytes(), basis.tobytes())
@@ -420,7 +420,6 @@ class Reflectance:
 
 def reflectance_from_csv(path, name: str | None = None) -> Reflectance:
     """A measured reflectance from a CSV with columns ``wavelength_nm,reflectance``."""
-    from pathlib import Path
     cols = read_csv_columns(path, ("wavelength_nm", "reflectance"), what="reflectance")
     return Reflectance(name or Path(path).stem, cols["wavelength_nm"], cols["reflectance"],
                        source=f"csv:{path}")
@@ -429,7 +428,6 @@ def reflectance_from_csv(path, name: str | None = None) -> Reflectance:
 @functools.lru_cache(maxsize=1)
 def colorchecker() -> tuple:
     """The 24 ColorChecker patches in chart order (row by row, grey row last)."""
-    from aquaspec.colour import data as colourdata
     return tuple(Reflectance(name, wl, np.clip(values, 0, 1),
                              source="ColorChecker, BabelColor Average (colour-science)")
                  for name, wl, values in colourdata.colorchecker_spectra())

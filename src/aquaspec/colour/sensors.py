@@ -30,14 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
+from aquaspec.colour import data as colourdata
 from aquaspec.colour.bands import Bands
+from aquaspec.colour.reflectance import colorchecker
+from aquaspec.colour.srgb import XYZ_TO_SRGB
 from aquaspec.errors import AquaspecError, DataRangeError
-from aquaspec.medium.water import read_csv_columns
-
-#: XYZ (D65) to linear sRGB, IEC 61966-2-1:1999.
-XYZ_TO_SRGB = np.array([[3.2406, -1.5372, -0.4986],
-                        [-0.9689, 1.8758, 0.0415],
-                        [0.0557, -0.2040, 1.0570]])
+from aquaspec.io.csv import read_csv_columns
 
 #: XYZ to the sharpened cone responses of CAT02, CIECAM02's chromatic
 #: adaptation transform (CIE 159:2004; Moroney et al. 2002, "The CIECAM02
@@ -129,9 +127,17 @@ class Sensor:
         return None
 
 
+def radiance_to_rgb(radiance, response_weights):
+    """Camera RGB from band radiance: ``RGB_c = sum_i w_i L_i R_c,i``.
+
+    ``radiance`` has the band axis last, shape (..., n); ``response_weights``
+    is (n, 3), the band-averaged response curves times the band width (see
+    :meth:`Sensor.band_weights`).
+    """
+    return np.asarray(radiance, dtype=float) @ np.asarray(response_weights, dtype=float)
+
+
 def _fit_srgb_matrix(sensor: Sensor) -> np.ndarray:
-    from aquaspec.colour import data as colourdata
-    from aquaspec.colour.reflectance import colorchecker
     lo, hi = max(400.0, sensor.range_nm[0]), min(700.0, sensor.range_nm[1])
     bands = Bands(int(round(hi - lo)), lo, hi)
     e = bands.average(*colourdata.d65())
@@ -153,7 +159,6 @@ def _slug(name: str) -> str:
 
 def human_sensor() -> Sensor:
     """CIE 1931 2-degree observer followed by XYZ -> linear sRGB."""
-    from aquaspec.colour import data as colourdata
     wl, cmfs = colourdata.cmfs_1931()
     return Sensor("human", wl, XYZ_TO_SRGB @ cmfs.T,
                   source="CIE 1931 2-degree observer (colour-science) -> linear sRGB "
@@ -161,7 +166,6 @@ def human_sensor() -> Sensor:
 
 
 def _npl_sensors() -> dict:
-    from aquaspec.colour import data as colourdata
     out = {}
     for key, (wl, rgb) in colourdata.camera_sensitivities().items():
         out[_slug(key)] = Sensor(_slug(key), wl, rgb.T,

@@ -1,1 +1,2 @@
-"""GPU layer: wgpu device selection, WGSL loading, uniform layouts, passes."""
+"""GPU layer: wgpu device, buffers, bindings, WGSL loading, uniform layouts, and the
+passes (:mod:`aquaspec.gpu.passes`, each beside its WGSL)."""

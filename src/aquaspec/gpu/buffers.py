@@ -1,36 +1,19 @@
-"""Small GPU utilities: storage buffers, textures, readback and pass timing.
+"""GPU buffers and textures: creating, uploading, reading back.
 
 Every helper takes the wgpu ``device`` explicitly (from
 :func:`aquaspec.gpu.device.get_device`) so that passes never pick a device
 behind the caller's back.
-
-Timing
-------
-:func:`time_passes` measures GPU time per pass with timestamp queries when
-the device has the ``"timestamp-query"`` feature (wgpu-native resolves them
-in device ticks; they are scaled by the queue's timestamp period), otherwise
-with a wall clock around ``submit`` + wait, which also counts submission and
-synchronisation overhead; the result says which method was used.
 """
 
 from __future__ import annotations
 
-import statistics
-import time
-from dataclasses import dataclass, field
-from typing import Mapping
-
 import numpy as np
+import wgpu
 
 from aquaspec.errors import AquaspecError
 
 #: Storage buffers are sized in multiples of this many bytes (vec4 alignment).
 BUFFER_ALIGN = 16
-
-
-def _wgpu():
-    import wgpu
-    return wgpu
 
 
 def _aligned(nbytes: int) -> int:
@@ -50,7 +33,6 @@ def create_storage_buffer(device, data_or_nbytes, *, label: str = "", extra_usag
     extra_usage : int
         More ``wgpu.BufferUsage`` flags (e.g. ``VERTEX`` for a raster pass).
     """
-    wgpu = _wgpu()
     usage = (wgpu.BufferUsage.STORAGE | wgpu.BufferUsage.COPY_DST
              | wgpu.BufferUsage.COPY_SRC | extra_usage)
     if isinstance(data_or_nbytes, (int, np.integer)):
@@ -64,10 +46,12 @@ def create_storage_buffer(device, data_or_nbytes, *, label: str = "", extra_usag
     return buf
 
 
-def create_uniform_buffer(device, layout, *, label: str = ""):
-    """A uniform buffer sized for a :class:`~aquaspec.gpu.layout.UniformLayout`."""
-    wgpu = _wgpu()
-    return device.create_buffer(label=label, size=layout.size,
+def create_uniform_buffer(device, layout_or_nbytes, *, label: str = ""):
+    """A uniform buffer sized for a :class:`~aquaspec.gpu.layout.UniformLayout`, or of
+    a size in bytes (e.g. a uniform array of per-band vec4)."""
+    size = layout_or_nbytes if isinstance(layout_or_nbytes, (int, np.integer)) \
+        else layout_or_nbytes.size
+    return device.create_buffer(label=label, size=int(size),
                                 usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
 
 
@@ -100,7 +84,6 @@ def read_buffer(device, buffer, dtype, shape) -> np.ndarray:
 def create_texture(device, width: int, height: int, format: str, *, label: str = "",
                    usage: int | None = None):
     """A 2-D texture (default usage: storage binding, texture binding, copies)."""
-    wgpu = _wgpu()
     if usage is None:
         usage = (wgpu.TextureUsage.STORAGE_BINDING | wgpu.TextureUsage.TEXTURE_BINDING
                  | wgpu.TextureUsage.COPY_DST | wgpu.TextureUsage.COPY_SRC)
@@ -130,192 +113,16 @@ def read_texture(device, texture, dtype, channels: int) -> np.ndarray:
     return np.frombuffer(raw, dtype=dtype, count=w * h * channels).reshape(h, w, channels).copy()
 
 
-def timestamps_supported(device) -> bool:
-    """True when the device was created with the ``"timestamp-query"`` feature."""
-    return "timestamp-query" in device.features
-
-
-def timestamp_period_ns(device) -> tuple[float, bool]:
-    """Nanoseconds per timestamp tick, and whether the driver reported it.
-
-    wgpu-native resolves timestamps in device ticks, not nanoseconds; its
-    ``wgpuQueueGetTimestampPeriod`` gives the scale. When the installed
-    wgpu-py cannot reach it, 1 ns per tick is assumed (true on most drivers,
-    lavapipe included) and the second value is False.
-    """
-    try:
-        from wgpu.backends.wgpu_native._ffi import lib
-        return float(lib.wgpuQueueGetTimestampPeriod(device.queue._internal)), True
-    except (ImportError, AttributeError):
-        return 1.0, False
-
-
-@dataclass
-class PassTimes:
-    """Result of :func:`time_passes`.
-
-    Attributes
-    ----------
-    ms : dict
-        Median time per pass in milliseconds, keyed like the input passes.
-    method : str
-        ``"timestamp-query"`` (GPU time of the pass alone) or
-        ``"wall-clock"`` (submit + wait per pass, includes overhead).
-    frames : int
-        Number of timed frames (after ``warmup`` untimed ones).
-    samples_ms : dict
-        Every timed sample per pass.
-    notes : list of str
-    """
-
-    ms: dict
-    method: str
-    frames: int
-    samples_ms: dict = field(repr=False, default_factory=dict)
-    notes: list = field(default_factory=list)
-
-
-def _time_timestamps(device, passes, frames, warmup):
-    wgpu = _wgpu()
-    names = list(passes)
-    count = 2 * len(names)
-    qs = device.create_query_set(label="aquaspec timing", type=wgpu.QueryType.timestamp,
-                                 count=count)
-    resolve = device.create_buffer(label="aquaspec timing resolve", size=8 * count,
-                                   usage=wgpu.BufferUsage.QUERY_RESOLVE | wgpu.BufferUsage.COPY_SRC)
-    period, known = timestamp_period_ns(device)
-    samples = {k: [] for k in names}
-    for f in range(warmup + frames):
-        enc = device.create_command_encoder()
-        for i, name in enumerate(names):
-            passes[name].encode(enc, timestamp_writes={
-                "query_set": qs, "beginning_of_pass_write_index": 2 * i,
-                "end_of_pass_write_index": 2 * i + 1})
-        enc.resolve_query_set(qs, 0, count, resolve, 0)
-        device.queue.submit([enc.finish()])
-        ticks = np.frombuffer(device.queue.read_buffer(resolve), dtype=np.uint64)
-        if f < warmup:
-            continue
-        for i, name in enumerate(names):
-            begin, end = int(ticks[2 * i]), int(ticks[2 * i + 1])
-            if end < begin or begin == 0:
-                return None
-            samples[name].append((end - begin) * period * 1e-6)
-    notes = [] if known else ["timestamp period not reported by the driver; 1 ns/tick assumed"]
-    return samples, notes
-
-
-def _time_wall_clock(device, passes, frames, warmup):
-    wgpu = _wgpu()
-    # Waiting on a tiny readback: queue.on_submitted_work_done_sync() fails
-    # inside wgpu-py 0.32's callback binding, and a readback is ordered after
-    # every earlier submission anyway.
-    fence = device.create_buffer(label="aquaspec timing fence", size=BUFFER_ALIGN,
-                                 usage=wgpu.BufferUsage.COPY_SRC)
-    samples = {k: [] for k in passes}
-    for f in range(warmup + frames):
-        for name, p in passes.items():
-            enc = device.create_command_encoder()
-            p.encode(enc)
-            t0 = time.perf_counter()
-            device.queue.submit([enc.finish()])
-            device.queue.read_buffer(fence)
-            dt = (time.perf_counter() - t0) * 1e3
-            if f >= warmup:
-                samples[name].append(dt)
-    return samples, []
-
-
-#: Timing methods accepted by :func:`time_passes` (besides ``"auto"``).
-TIMING_METHODS = {"timestamp-query": _time_timestamps, "wall-clock": _time_wall_clock}
-
-
-def time_passes(passes: Mapping[str, object], *, frames: int = 20, warmup: int = 3,
-                method: str = "auto", device=None) -> PassTimes:
-    """Median GPU time per pass, in milliseconds.
-
-    Parameters
-    ----------
-    passes : mapping of str to pass
-        Each pass has ``encode(encoder, timestamp_writes=None)`` recording its
-        compute (or render) pass into a command encoder, as
-        :class:`~aquaspec.gpu.passes.deferred.DeferredPass` and
-        :class:`~aquaspec.gpu.passes.copy.CopyPass` do; it must be ready to run.
-    frames : int
-        Timed frames (>= 1); the median over them is reported.
-    warmup : int
-        Untimed frames first (>= 0): pipeline compilation and caches.
-    method : {"auto", "timestamp-query", "wall-clock"}
-        ``"auto"`` uses timestamp queries when the device supports them and
-        falls back to the wall clock otherwise (or if the driver returns
-        unusable timestamps).
-    device : wgpu.GPUDevice, optional
-        Default: the shared device.
-
-    Returns
-    -------
-    PassTimes
-    """
-    if not passes:
-        raise AquaspecError("time_passes needs at least one pass")
-    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
-        raise AquaspecError(f"frames={frames!r}; accepted: an integer >= 1")
-    if isinstance(warmup, bool) or not isinstance(warmup, int) or warmup < 0:
-        raise AquaspecError(f"warmup={warmup!r}; accepted: an integer >= 0")
-    if method not in ("auto", *TIMING_METHODS):
-        raise AquaspecError(f"timing method {method!r} is unknown; accepted: auto, "
-                            f"{', '.join(TIMING_METHODS)}")
-    if device is None:
-        from aquaspec.gpu.device import get_device
-        _, device = get_device()
-    notes = []
-    result = None
-    if method in ("auto", "timestamp-query"):
-        if timestamps_supported(device):
-            result = _time_timestamps(device, passes, frames, warmup)
-            if result is None:
-                notes.append("the driver returned unusable timestamps")
-        else:
-            notes.append("device lacks the 'timestamp-query' feature")
-        if result is None and method == "timestamp-query":
-            raise AquaspecError("timing method 'timestamp-query' is unavailable: "
-                                + "; ".join(notes) + "; use method='wall-clock' or 'auto'")
-        used = "timestamp-query"
-    if result is None:
-        result = _time_wall_clock(device, passes, frames, warmup)
-        used = "wall-clock"
-    samples, more = result
-    return PassTimes(ms={k: float(statistics.median(v)) for k, v in samples.items()},
-                     method=used, frames=frames, samples_ms=samples, notes=notes + more)
-
-
-def record_dispatch(encoder, pipeline, bind_group, workgroups, timestamp_writes=None) -> None:
-    """Record one compute pass: ``pipeline`` with ``bind_group`` over ``workgroups``.
-
-    ``timestamp_writes`` (optional) brackets the pass for :func:`time_passes`.
-    """
-    record_dispatches(encoder, [(pipeline, bind_group, workgroups)], timestamp_writes)
-
-
-def record_dispatches(encoder, dispatches, timestamp_writes=None) -> None:
-    """Record ``(pipeline, bind_group, workgroups)`` dispatches in order in one compute pass.
-
-    Each dispatch is its own usage scope (WebGPU), so a dispatch may read what
-    the one before wrote. One pass instead of one per dispatch: on lavapipe a
-    compute pass of its own cost a small dispatch 40-90 us, in a shared pass
-    20-40 us (measured with 21 dispatches of 1-64 workgroups).
-    """
-    kwargs = {} if timestamp_writes is None else {"timestamp_writes": timestamp_writes}
-    cp = encoder.begin_compute_pass(**kwargs)
-    for pipeline, bind_group, workgroups in dispatches:
-        cp.set_pipeline(pipeline)
-        cp.set_bind_group(0, bind_group)
-        cp.dispatch_workgroups(*workgroups)
-    cp.end()
-
-
-def submit_pass(device, gpu_pass) -> None:
-    """Record ``gpu_pass.encode`` into a new encoder and submit it (does not wait)."""
-    enc = device.create_command_encoder()
-    gpu_pass.encode(enc)
-    device.queue.submit([enc.finish()])
+def create_array_texture(device, data, *, label: str = ""):
+    """A sampled ``rgba32float`` 2-D array texture holding texels ``(layers, rows, cols, 4)``;
+    returns its ``2d-array`` view."""
+    data = np.ascontiguousarray(data, dtype=np.float32)
+    layers, rows, cols = data.shape[:3]
+    tex = device.create_texture(
+        label=label, size=(cols, rows, layers), format="rgba32float",
+        usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST,
+        dimension="2d", mip_level_count=1, sample_count=1)
+    device.queue.write_texture({"texture": tex, "mip_level": 0, "origin": (0, 0, 0)},
+                               data, {"offset": 0, "bytes_per_row": cols * 16,
+                                      "rows_per_image": rows}, (cols, rows, layers))
+    return tex.create_view(dimension="2d-array")

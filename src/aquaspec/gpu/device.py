@@ -12,6 +12,8 @@ import functools
 import os
 import tempfile
 
+import wgpu
+
 from aquaspec.errors import GPUUnavailableError
 from aquaspec.gpu import ffi_types
 
@@ -56,10 +58,6 @@ def _choose(adapters, want: str | None):
 def get_device():
     """The shared ``(adapter, device)`` pair, created on first use."""
     _ensure_runtime_dir()
-    try:
-        import wgpu
-    except ImportError as exc:  # pragma: no cover - wgpu is a dependency
-        raise GPUUnavailableError(f"wgpu is not installed ({exc}); pip install wgpu") from exc
     # (About 1.2 s less start-up per process: see ffi_types.)
     ffi_types.install()
     try:

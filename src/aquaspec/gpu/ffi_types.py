@@ -14,7 +14,7 @@ the parser would have built (``cffi.model`` types compare by value). ``install``
 of the parser of wgpu-py's ``ffi``; anything else (function types,
 qualifiers, unknown names) still goes to cffi's parser. If cffi's internals are
 not what this expects, nothing is changed and wgpu-py works as before, only
-slower to start. ``tests/test_gpu_device.py`` checks that the lookup gives the
+slower to start. ``tests/gpu/test_ffi_types.py`` checks that the lookup gives the
 parser's answer.
 """
 
@@ -35,6 +35,7 @@ def typedef_lookup(parser, fallback):
     ``uint32_t`` or ``char``; ``fallback`` (the parser) takes anything else.
     ``parser`` is a ``cffi.cparser.Parser``.
     """
+    # deferred: cffi's internals, needed only once a device is made (install)
     from cffi import commontypes, model
 
     declarations = parser._declarations
@@ -69,6 +70,7 @@ def typedef_lookup(parser, fallback):
 def install() -> bool:
     """Put the typedef lookup in front of wgpu-py's cffi parser (once); True if it is there."""
     try:
+        # deferred: loads wgpu-native's library; only when a device is made
         from wgpu.backends.wgpu_native._ffi import ffi
         parser = ffi._parser
         current = parser.parse_type_and_quals

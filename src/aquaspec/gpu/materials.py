@@ -2,7 +2,7 @@
 
 The table has one row per material and ``ceil(n / 4)`` vec4 per row, band
 ``i`` in component ``i % 4`` of vec4 ``i // 4`` (zeros past the last band);
-``shaders/materials.wgsl`` reads it. It lives in a uniform buffer of
+``gpu/wgsl/materials.wgsl`` reads it. It lives in a uniform buffer of
 :data:`UNIFORM_VEC4` vec4 (64 KiB, WebGPU's default binding limit) when it
 fits, else in a storage buffer; both are always bound (binding 3 storage,
 binding 5 uniform) and the shader's ``MATERIALS_IN_UNIFORM`` constant picks
@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from aquaspec.gpu.buffers import create_storage_buffer, upload_buffer
+from aquaspec.gpu.buffers import create_storage_buffer, create_uniform_buffer, upload_buffer
 
 #: vec4 entries of the uniform material table (64 KiB).
 UNIFORM_VEC4 = 4096
@@ -50,12 +50,9 @@ class MaterialTable:
     """The two buffers of the material table and which one the shader reads."""
 
     def __init__(self, device, label: str):
-        import wgpu
         self.device = device
         self.label = label
-        self.uniform = device.create_buffer(
-            label=f"{label} (uniform)", size=UNIFORM_VEC4 * 16,
-            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        self.uniform = create_uniform_buffer(device, UNIFORM_VEC4 * 16, label=f"{label} (uniform)")
         self.storage = create_storage_buffer(device, 16, label=f"{label} (storage)")
         #: Whether the current table is in the uniform buffer.
         self.in_uniform = True
@@ -78,7 +75,7 @@ class MaterialTable:
 
     @staticmethod
     def layout() -> dict:
-        """Binding kinds for :func:`aquaspec.gpu.buffers.bind_group_layout`."""
+        """Binding kinds for :func:`aquaspec.gpu.bindings.bind_group_layout`."""
         return {B_MATERIAL_STORAGE: "read", B_MATERIAL_UNIFORM: "uniform"}
 
     def resources(self) -> dict:

@@ -1,6 +1,10 @@
 """Loading WGSL from package resources.
 
-Shaders live in ``aquaspec/shaders/*.wgsl``. Two mechanisms compose them:
+A pass's shader lives beside its Python module, ``aquaspec/gpu/passes/<name>.wgsl``;
+the pieces several shaders include (``common.wgsl``, ``tonemap.wgsl``,
+``materials.wgsl``, ``lftables.wgsl``) live in ``aquaspec/gpu/wgsl/``. A name
+is looked up in both folders and must be in exactly one. Two mechanisms
+compose them:
 
 - ``#include "name.wgsl"`` on a line of its own pastes that file (once).
 - ``{{ name }}`` is replaced by a template value given to :func:`load_wgsl`;
@@ -15,23 +19,33 @@ from importlib import resources
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
 _TEMPLATE = re.compile(r"\{\{\s*([A-Za-z_][A-Za-z0-9_]*)\s*\}\}")
 
+#: Folders of ``aquaspec.gpu`` holding WGSL: the passes' shaders, the shared includes.
+WGSL_FOLDERS = ("passes", "wgsl")
 
-def _read(name: str) -> str:
-    path = resources.files("aquaspec") / "shaders" / name
-    if not path.is_file():
-        raise FileNotFoundError(f"no WGSL resource {name!r} in aquaspec/shaders")
-    return path.read_text(encoding="utf-8")
+
+def wgsl_path(name: str):
+    """The resource of the WGSL file ``name`` (in one of :data:`WGSL_FOLDERS`)."""
+    root = resources.files("aquaspec.gpu")
+    found = [root / folder / name for folder in WGSL_FOLDERS if (root / folder / name).is_file()]
+    if not found:
+        raise FileNotFoundError(f"no WGSL resource {name!r} in aquaspec/gpu/"
+                                f"{{{','.join(WGSL_FOLDERS)}}}")
+    if len(found) > 1:
+        raise FileNotFoundError(f"WGSL resource {name!r} is in more than one of aquaspec/gpu/"
+                                f"{{{','.join(WGSL_FOLDERS)}}}")
+    return found[0]
 
 
 def _expand(name: str, seen: set[str]) -> str:
     if name in seen:
         return ""
     seen.add(name)
-    return _INCLUDE.sub(lambda m: _expand(m.group(1), seen), _read(name))
+    text = wgsl_path(name).read_text(encoding="utf-8")
+    return _INCLUDE.sub(lambda m: _expand(m.group(1), seen), text)
 
 
 def load_wgsl(name: str, **values) -> str:
-    """WGSL source of ``shaders/<name>`` with includes and templates resolved."""
+    """WGSL source of ``name`` with includes and templates resolved."""
     src = _expand(name, set())
 
     def sub(m):

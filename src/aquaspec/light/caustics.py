@@ -1,39 +1,17 @@
 """Caustics: the sun's beam focused and spread by a wind-roughened surface.
 
 Conventions as in :mod:`aquaspec.light.sun` (metres, y up, the mean surface at
-``y = 0``, compass azimuths from ``-z`` towards ``+x``).
-
-The surface
------------
-A periodic tile ``L`` metres wide sampled on ``N x N`` points carries a
-random linear sea (Tessendorf's construction, "Simulating Ocean Water",
-SIGGRAPH course notes 2001):
-
-    h(x, t) = Re sum_k A(k) exp(i (k . x - omega(k) t)),   omega^2 = g |k|
-
-with ``A(k)`` complex normal, ``E|A|^2 = 2 F(k) dk^2`` (``dk = 2 pi / L``),
-so that ``h`` has the spectrum ``F``. ``F`` is the Pierson-Moskowitz spectrum
-of a fully developed sea in wavenumber form (Pierson & Moskowitz 1964,
-J. Geophys. Res. 69, 5181; ``alpha = 8.1e-3``, ``beta = 0.74``, wind speed
-``U`` at 19.5 m),
-
-    S(k) = alpha / (2 k^3) exp(-beta g^2 / (k^2 U^4)),
-
-spread over directions as ``(2 / pi) cos^2(theta)`` about the wind (waves run
-downwind only): ``F(k) = S(k) D(theta) / k``. Wavenumbers above the tile's
-Nyquist ``pi N / L`` are not represented. The slope variance of what is
-represented, ``sum k^2 F dk^2``, is :func:`resolved_slope_variance`; Cox &
-Munk's sun-glitter measurement (1954, J. Opt. Soc. Am. 44, 838: clean
-surface, ``sigma^2 = 0.003 + 5.12e-3 U``, ``U`` at 12.5 m) is
-:func:`cox_munk_slope_variance`, the check that the default tile is a
-plausible sea (:func:`describe` reports both).
+``y = 0``, compass azimuths from ``-z`` towards ``+x``). The surface is a
+wind sea on a periodic tile (:mod:`aquaspec.light.waves`).
 
 The beam through it
 -------------------
 Each surface sample is a facet with normal ``n ~ (-h_x, 1, -h_z)``. The sun's
-ray (direction ``-s_air``) is refracted there (Snell, ``n_w = 1.33``) into
-``t``; the facet passes ``cos_i T(cos_i)`` of the beam per unit of its own
-area (``T``: unpolarised Fresnel transmittance), that is
+ray (direction ``-s_air``) is refracted there (Snell, ``n_w = 1.33``,
+:func:`aquaspec.medium.interface.refract`) into ``t``; the facet passes
+``cos_i T(cos_i)`` of the beam per unit of its own area (``T``: unpolarised
+Fresnel transmittance, :func:`aquaspec.medium.interface.fresnel_transmittance`),
+that is
 
     w = cos_i T(cos_i) / (n_y cos z T(cos z))
 
@@ -67,7 +45,7 @@ form with the exponential integral ``E1``),
 
     sigma_u^2 = max(0, sigma_CM^2 - sigma_tile^2 - sigma_long^2)
 
-(:func:`unresolved_slope_variance`; zero for the default tile up to about
+(:func:`aquaspec.light.waves.unresolved_slope_variance`; zero for the default tile up to about
 3 m/s, where the tile holds all Cox & Munk's variance). Taken as isotropic
 (``sigma_u^2 / 2`` per axis) and small, a facet slope ``g`` moves the ray's
 landing point at depth ``d`` by ``d J g``, ``J`` the derivative of the
@@ -90,135 +68,28 @@ is being lit; :func:`sample` is the NumPy twin.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.special import j1
 
-from aquaspec.transport import monzon2022 as model
+from aquaspec.cache import cached_arrays, code_digest
 from aquaspec.errors import AquaspecError
+from aquaspec.light.sun import air_to_sun, check_azimuth, check_elevation, refracted_to_sun
+from aquaspec.light.waves import Waves, surface, unresolved_slope_variance, wavenumbers
+from aquaspec.medium.interface import FLAT_NORMAL, N_WATER, fresnel_transmittance, refract
+from aquaspec.numerics import bilinear_blend, repeat_cell
 
-GRAVITY = 9.81
-#: Pierson & Moskowitz (1964): the equilibrium constant and the peak factor.
-PM_ALPHA = 8.1e-3
-PM_BETA = 0.74
 #: The sun's mean angular radius (its semi-diameter), degrees.
 SUN_RADIUS_DEG = 0.2666
 
-DEFAULT_TILE_M = 8.0
-DEFAULT_GRID = 256
 DEFAULT_OVERSAMPLE = 4
 DEFAULT_SLICES = 32
 DEFAULT_MAX_DEPTH_M = 40.0
-#: Accepted wind speeds, m/s (PM's spectrum is for a fully developed sea).
-WIND_RANGE = (0.5, 25.0)
 
 
-@dataclass(frozen=True)
-class Waves:
-    """A wind sea over a periodic tile.
-
-    Attributes
-    ----------
-    wind_speed : float
-        m/s at 19.5 m (Pierson-Moskowitz's reference height).
-    wind_azimuth_deg : float
-        The way the wind blows (and the waves run), compass as the sun's.
-    time_s : float
-        The instant (waves move with ``omega^2 = g k``).
-    seed : int
-        The random phases' seed: the same seed gives the same sea.
-    tile_m, grid : float, int
-        Tile width and samples per side.
-    """
-
-    wind_speed: float
-    wind_azimuth_deg: float = 0.0
-    time_s: float = 0.0
-    seed: int = 0
-    tile_m: float = DEFAULT_TILE_M
-    grid: int = DEFAULT_GRID
-
-    def __post_init__(self):
-        u = float(self.wind_speed)
-        if not (np.isfinite(u) and WIND_RANGE[0] <= u <= WIND_RANGE[1]):
-            raise AquaspecError(f"wind speed {self.wind_speed!r} m/s; accepted: "
-                                f"{WIND_RANGE[0]} to {WIND_RANGE[1]}")
-        az = float(self.wind_azimuth_deg)
-        if not np.isfinite(az):
-            raise AquaspecError(f"wind azimuth {self.wind_azimuth_deg!r} deg; accepted: a "
-                                "finite angle")
-        t = float(self.time_s)
-        if not np.isfinite(t):
-            raise AquaspecError(f"wave time {self.time_s!r} s; accepted: a finite number")
-        tile = float(self.tile_m)
-        if not (np.isfinite(tile) and 0.5 <= tile <= 200.0):
-            raise AquaspecError(f"wave tile {self.tile_m!r} m; accepted: 0.5 to 200")
-        g = int(self.grid)
-        if g != self.grid or g < 16 or g > 4096 or g & (g - 1):
-            raise AquaspecError(f"wave grid {self.grid!r}; accepted: a power of two, 16 to 4096")
-        seed = int(self.seed)
-        if seed != self.seed or seed < 0:
-            raise AquaspecError(f"wave seed {self.seed!r}; accepted: an integer >= 0")
-        object.__setattr__(self, "wind_speed", u)
-        object.__setattr__(self, "wind_azimuth_deg", az % 360.0)
-        object.__setattr__(self, "time_s", t)
-        object.__setattr__(self, "tile_m", tile)
-        object.__setattr__(self, "seed", seed)
-
-    def describe(self) -> dict:
-        return {"spectrum": "Pierson-Moskowitz 1964, cos^2 spreading",
-                "wind_speed_m_s": self.wind_speed, "wind_azimuth_deg": self.wind_azimuth_deg,
-                "time_s": self.time_s, "seed": self.seed, "tile_m": self.tile_m,
-                "grid": self.grid,
-                "resolved_slope_variance": resolved_slope_variance(self),
-                "cox_munk_slope_variance": cox_munk_slope_variance(self.wind_speed),
-                "longer_than_tile_slope_variance": long_wave_slope_variance(self),
-                "unresolved_slope_variance": unresolved_slope_variance(self)}
-
-
-def pm_spectrum(k, wind_speed):
-    """Pierson-Moskowitz omnidirectional elevation spectrum ``S(k)``, m^3 (k in rad/m)."""
-    k = np.asarray(k, dtype=float)
-    safe = np.where(k > 0, k, 1.0)
-    out = PM_ALPHA / (2.0 * safe ** 3) * np.exp(-PM_BETA * GRAVITY ** 2
-                                                / (safe ** 2 * float(wind_speed) ** 4))
-    return np.where(k > 0, out, 0.0)
-
-
-def cox_munk_slope_variance(wind_speed) -> float:
-    """Cox & Munk's (1954) total slope variance of a clean sea surface."""
-    return 0.003 + 5.12e-3 * float(wind_speed)
-
-
-def pm_slope_variance(k_lo, k_hi, wind_speed) -> float:
-    """The Pierson-Moskowitz sea's slope variance from wavenumbers ``k_lo`` to
-    ``k_hi`` (rad/m; ``k_lo`` may be 0, ``k_hi`` not inf: the integral of
-    ``k^2 S(k)`` has no upper bound over all k):
-    ``alpha / 4 (E1(c / k_hi^2) - E1(c / k_lo^2))``, ``c = beta g^2 / U^4``."""
-    from scipy.special import exp1
-    c = PM_BETA * GRAVITY ** 2 / float(wind_speed) ** 4
-    lo, hi = float(k_lo), float(k_hi)
-    if not (0.0 <= lo <= hi < np.inf):
-        raise AquaspecError(f"wavenumbers {k_lo!r}..{k_hi!r} rad/m; accepted: "
-                            "0 <= k_lo <= k_hi, finite")
-    lower = exp1(c / lo ** 2) if lo > 0 else 0.0
-    return float(PM_ALPHA / 4.0 * (exp1(c / hi ** 2) - lower))
-
-
-def long_wave_slope_variance(waves) -> float:
-    """Slope variance of the Pierson-Moskowitz waves longer than the tile
-    (``k < 2 pi / L``)."""
-    return pm_slope_variance(0.0, 2.0 * np.pi / waves.tile_m, waves.wind_speed)
-
-
-def unresolved_slope_variance(waves) -> float:
-    """Cox & Munk's slope variance that neither the tile nor the waves longer
-    than it carry: the short waves' (see the module docstring), >= 0."""
-    return max(0.0, cox_munk_slope_variance(waves.wind_speed) - resolved_slope_variance(waves)
-               - long_wave_slope_variance(waves))
-
-
-def run_jacobian(air_to_sun, n_water: float = model.N_WATER, step: float = 1e-6) -> np.ndarray:
+def run_jacobian(air_to_sun, n_water: float = N_WATER, step: float = 1e-6) -> np.ndarray:
     """``J`` (2, 2): how the refracted beam's horizontal run per unit depth,
     ``t_xz / |t_y|``, changes with the facet slope ``(h_x, h_z)`` at the flat
     surface (central differences of :func:`refract`); rows x, z of the run,
@@ -237,100 +108,26 @@ def run_jacobian(air_to_sun, n_water: float = model.N_WATER, step: float = 1e-6)
     return out
 
 
-def _wavenumbers(n: int, tile_m: float):
-    k1 = 2.0 * np.pi * np.fft.fftfreq(n, tile_m / n)
-    kx, kz = np.meshgrid(k1, k1)            # [i, j]: row i is z, column j is x
-    return kx, kz
-
-
-def _wind_direction(azimuth_deg):
-    a = np.radians(azimuth_deg)
-    return np.sin(a), -np.cos(a)
-
-
-def directional_spectrum(waves: Waves):
-    """``F(k)`` on the tile's FFT grid, (N, N) in m^4, and ``(kx, kz)``."""
-    kx, kz = _wavenumbers(waves.grid, waves.tile_m)
-    k = np.hypot(kx, kz)
-    wx, wz = _wind_direction(waves.wind_azimuth_deg)
-    cos_t = np.where(k > 0, (kx * wx + kz * wz) / np.where(k > 0, k, 1.0), 0.0)
-    spread = np.where(cos_t > 0, 2.0 / np.pi * cos_t ** 2, 0.0)
-    f = pm_spectrum(k, waves.wind_speed) * spread / np.where(k > 0, k, 1.0)
-    return np.where(k > 0, f, 0.0), kx, kz
-
-
-def resolved_slope_variance(waves: Waves) -> float:
-    """Mean square slope (both axes) of the tile's spectrum, ``sum k^2 F dk^2``."""
-    f, kx, kz = directional_spectrum(waves)
-    dk = 2.0 * np.pi / waves.tile_m
-    return float(np.sum((kx ** 2 + kz ** 2) * f) * dk * dk)
-
-
-def _amplitudes(waves: Waves):
-    f, kx, kz = directional_spectrum(waves)
-    dk = 2.0 * np.pi / waves.tile_m
-    rng = np.random.default_rng(waves.seed)
-    xi = rng.standard_normal((2,) + f.shape)
-    amp = (xi[0] + 1j * xi[1]) * np.sqrt(f) * dk
-    omega = np.sqrt(GRAVITY * np.hypot(kx, kz))
-    return amp * np.exp(-1j * omega * waves.time_s)
-
-
-def surface(waves: Waves, oversample: int = 1):
-    """The height and its slopes on ``(oversample N)^2`` points, each (M, M):
-    ``(h, dh/dx, dh/dz)``; point ``[i, j]`` is at ``x = j L / M``, ``z = i L / M``.
-    ``oversample > 1`` evaluates the same band-limited surface between the samples."""
-    n = waves.grid
-    m = n * int(oversample)
-    amp = _amplitudes(waves)
-    big = np.zeros((m, m), complex)
-    idx = np.fft.fftfreq(n, 1.0 / n).astype(np.int64) % m
-    big[np.ix_(idx, idx)] = amp
-    kx, kz = _wavenumbers(m, waves.tile_m)
-    scale = float(m) * m
-    h = np.fft.ifft2(big).real * scale
-    hx = np.fft.ifft2(1j * kx * big).real * scale
-    hz = np.fft.ifft2(1j * kz * big).real * scale
-    return h, hx, hz
-
-
-def refract(d, normal, n_water: float = model.N_WATER):
-    """Refract unit directions ``d`` (..., 3) travelling down through a surface
-    with unit upward normals (..., 3): ``(t, cos_i)``; ``cos_i <= 0`` where the
-    facet faces away from the ray (``t`` then is ``d``)."""
-    cos_i = -np.sum(d * normal, axis=-1)
-    eta = 1.0 / n_water
-    sin2_t = eta * eta * np.clip(1.0 - cos_i * cos_i, 0.0, 1.0)
-    cos_t = np.sqrt(1.0 - sin2_t)
-    t = eta * d + (eta * cos_i - cos_t)[..., None] * normal
-    return np.where((cos_i > 0)[..., None], t, d), cos_i
-
-
-def facet_weights(cos_i, normal_y, cos_z, n_water: float = model.N_WATER):
+def facet_weights(cos_i, normal_y, cos_z, n_water: float = N_WATER):
     """``w``: what a facet passes per horizontal area over what a flat surface passes."""
-    from aquaspec.light.sky import fresnel_transmittance
     ci = np.clip(cos_i, 0.0, 1.0)
     flat = cos_z * fresnel_transmittance(cos_z, n_water)
     return np.where(cos_i > 0, ci * fresnel_transmittance(ci, n_water) / (normal_y * flat), 0.0)
 
 
-def _periodic_cell(u, n: int, tile_m: float):
+def periodic_cell(u, n: int, tile_m: float):
     """The four texels around foot points ``u`` (..., 2) on ``n x n`` periodic
     texels of a tile (texel ``[i, j]`` centred at ``((j + 1/2), (i + 1/2)) L / n``):
     ``(i0, i1, j0, j1, fz, fx)``, rows along z and columns along x."""
-    x = np.asarray(u[..., 0]) / tile_m * n - 0.5
-    z = np.asarray(u[..., 1]) / tile_m * n - 0.5
-    j0, i0 = np.floor(x), np.floor(z)
-    fx, fz = x - j0, z - i0
-    j0 = j0.astype(np.int64) % n
-    i0 = i0.astype(np.int64) % n
-    return i0, (i0 + 1) % n, j0, (j0 + 1) % n, fz, fx
+    j0, j1, fx = repeat_cell(np.asarray(u[..., 0]) / tile_m * n - 0.5, n)
+    i0, i1, fz = repeat_cell(np.asarray(u[..., 1]) / tile_m * n - 0.5, n)
+    return i0, i1, j0, j1, fz, fx
 
 
 def splat(u, weights, n: int, tile_m: float) -> np.ndarray:
     """Bilinear periodic splat of points ``u`` (P, 2) (x, z) onto ``n x n``
-    texels of a tile (:func:`_periodic_cell`): the summed weights per texel."""
-    i0, i1, j0, j1, fz, fx = _periodic_cell(u, n, tile_m)
+    texels of a tile (:func:`periodic_cell`): the summed weights per texel."""
+    i0, i1, j0, j1, fz, fx = periodic_cell(u, n, tile_m)
     out = np.zeros(n * n)
     for ii, wz in ((i0, 1.0 - fz), (i1, fz)):
         for jj, wx in ((j0, 1.0 - fx), (j1, fx)):
@@ -341,9 +138,8 @@ def splat(u, weights, n: int, tile_m: float) -> np.ndarray:
 def _disc_transfer(n: int, radii, along, tile_m: float) -> np.ndarray:
     """Fourier transfer (n, n) of a uniform ellipse: radii ``(r_along,
     r_across)`` m, ``along`` the unit (x, z) of its first axis."""
-    from scipy.special import j1
     r_par, r_perp = radii
-    kx, kz = _wavenumbers(n, tile_m)
+    kx, kz = wavenumbers(n, tile_m)
     k_par = kx * along[0] + kz * along[1]
     k_perp = -kx * along[1] + kz * along[0]
     q = np.hypot(k_par * r_par, k_perp * r_perp)
@@ -354,7 +150,7 @@ def _disc_transfer(n: int, radii, along, tile_m: float) -> np.ndarray:
 def _gaussian_transfer(n: int, cov, tile_m: float) -> np.ndarray:
     """Fourier transfer (n, n) of a Gaussian of covariance ``cov`` (2, 2), m^2,
     axes (x, z): ``exp(-k^T cov k / 2)``."""
-    kx, kz = _wavenumbers(n, tile_m)
+    kx, kz = wavenumbers(n, tile_m)
     return np.exp(-0.5 * (cov[0, 0] * kx * kx + 2.0 * cov[0, 1] * kx * kz
                           + cov[1, 1] * kz * kz))
 
@@ -405,7 +201,7 @@ class CausticMap:
 
 
 def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
-                   n_water: float = model.N_WATER, sun_radius_deg: float = SUN_RADIUS_DEG,
+                   n_water: float = N_WATER, sun_radius_deg: float = SUN_RADIUS_DEG,
                    unresolved_variance: float = 0.0, progress=None):
     """The caustic factor (K, n, n) at ``depths`` (K,) under a periodic surface
     sampled on (M, M) points (height ``h`` and slopes, :func:`surface`'s
@@ -414,7 +210,7 @@ def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
     waves the samples do not hold (:func:`unresolved_slope_variance`), a
     Gaussian blur. See the module docstring."""
     air = np.asarray(air_to_sun, dtype=float)
-    s = -refract(-air, np.array([0.0, 1.0, 0.0]), n_water)[0]   # towards the sun under water
+    s = -refract(-air, FLAT_NORMAL, n_water)[0]   # towards the sun under water
     mu0 = float(s[1])
     horiz = np.hypot(s[0], s[2])
     dir_h = s[[0, 2]] / horiz if horiz > 1e-12 else np.array([1.0, 0.0])
@@ -456,7 +252,6 @@ def slice_depths(max_depth_m: float, slices: int) -> np.ndarray:
 
 
 def _check_map_args(elevation_deg, azimuth_deg, slices, max_depth_m):
-    from aquaspec.light.sun import check_azimuth, check_elevation
     if int(slices) < 2:
         raise AquaspecError(f"caustic slices {slices!r}; accepted: 2 or more")
     if not (np.isfinite(max_depth_m) and max_depth_m > 0):
@@ -470,7 +265,6 @@ def _assemble(waves, elevation_deg, azimuth_deg, level0, mean_weight, *, n_water
     """A :class:`CausticMap` from its slices: level 0 and the mips made from
     it, all kept at the GPU texture's half precision (both sides read the
     same numbers)."""
-    from aquaspec.light.sun import refracted_to_sun
     levels = [np.asarray(level0, np.float16).astype(np.float32)]
     while levels[-1].shape[-1] > 1:
         a = levels[-1]
@@ -486,7 +280,7 @@ def _assemble(waves, elevation_deg, azimuth_deg, level0, mean_weight, *, n_water
 
 
 def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
-                n_water: float = model.N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
+                n_water: float = N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
                 slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
                 sun_radius_deg: float = SUN_RADIUS_DEG, unresolved_slopes: bool = True,
                 progress=None) -> CausticMap:
@@ -496,7 +290,6 @@ def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
     (:func:`unresolved_slope_variance`). ``progress(done, total)`` is called
     after each slice.
     """
-    from aquaspec.light.sun import air_to_sun
     elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
                                                  max_depth_m)
     h, hx, hz = surface(waves, oversample)
@@ -522,13 +315,12 @@ def foot(points, to_sun) -> np.ndarray:
 
 def _bilinear_wrap(level, k, u, tile_m):
     """Bilinear periodic read of slice ``k`` (...) of one level at foot ``u`` (..., 2)."""
-    i0, i1, j0, j1, fz, fx = _periodic_cell(u, level.shape[-1], tile_m)
+    i0, i1, j0, j1, fz, fx = periodic_cell(u, level.shape[-1], tile_m)
 
     def at(i, j):
         return level[k, i, j].astype(float)
 
-    return ((1 - fz) * ((1 - fx) * at(i0, j0) + fx * at(i0, j1))
-            + fz * ((1 - fx) * at(i1, j0) + fx * at(i1, j1)))
+    return bilinear_blend(at(i0, j0), at(i0, j1), at(i1, j0), at(i1, j1), fz, fx)
 
 
 def lod_of(footprint_m, texel_m, n_levels):
@@ -567,21 +359,18 @@ def sample(cmap: CausticMap, points, footprint_m=0.0) -> np.ndarray:
 
 _CACHE: dict = {}
 _CACHE_SIZE = 4
+#: The modules whose code keys the cached slices (:func:`aquaspec.cache.code_digest`).
+_CODE_MODULES = (__name__, "aquaspec.light.waves", "aquaspec.light.sun",
+                 "aquaspec.medium.interface")
 
 
 def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
-                       n_water: float = model.N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
+                       n_water: float = N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
                        slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
                        sun_radius_deg: float = SUN_RADIUS_DEG,
                        unresolved_slopes: bool = True) -> CausticMap:
     """:func:`caustic_map`, remembered for the last few (waves, sun) in this
     process and its slices kept in the cache directory (:mod:`aquaspec.cache`)."""
-    import sys
-
-    from aquaspec.light import sky as light
-
-    from aquaspec.light import sun
-    from aquaspec.cache import cached_arrays, code_digest
     elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
                                                  max_depth_m)
     kw = dict(n_water=float(n_water), oversample=int(oversample), slices=int(slices),
@@ -596,7 +385,7 @@ def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *
         return {"level0": cm.levels[0].astype(np.float16),
                 "mean_weight": np.array(cm.mean_weight)}
 
-    data = cached_arrays("caustics", code_digest([sys.modules[__name__], light, sun],
+    data = cached_arrays("caustics", code_digest([sys.modules[m] for m in _CODE_MODULES],
                                                  repr(key)), compute)
     hit = _assemble(waves, elevation_deg, azimuth_deg, data["level0"],
                     float(data["mean_weight"]), **kw)

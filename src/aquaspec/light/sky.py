@@ -11,8 +11,8 @@ Three kinds (:data:`LIGHTS`), each scaled by a total irradiance:
   earth's surface for cloudless atmospheres", J. Climate Appl. Meteor. 25,
   87-97), as implemented by pvlib, for a sun elevation; each part is then
   carried through the flat water surface with its Fresnel transmittance
-  (unpolarised light, n = 1.33): the sun's at its zenith angle, the sky's
-  averaged over a uniform sky (0.934).
+  (unpolarised light, n = 1.33, :func:`aquaspec.medium.interface.fresnel_transmittance`):
+  the sun's at its zenith angle, the sky's averaged over a uniform sky (0.934).
 
 ``total_w_m2`` is the irradiance integrated over 400-700 nm (W m^-2) after
 scaling; by default 100 W m^-2 for ``overcast`` and ``d65``, and SPECTRL2's
@@ -31,9 +31,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aquaspec.colour import data as colourdata
 from aquaspec.colour.bands import Bands
 from aquaspec.errors import AquaspecError
-from aquaspec.transport.monzon2022 import N_WATER
+from aquaspec.light.sun import Sun, check_azimuth, check_elevation, refracted_to_sun
+from aquaspec.medium.interface import fresnel_transmittance
 
 LIGHTS = ("overcast", "d65", "sun-sky")
 DEFAULT_TOTAL_W_M2 = 100.0
@@ -50,7 +52,7 @@ class SurfaceLight:
     values: np.ndarray
     params: dict
     #: The direct sun (:class:`aquaspec.light.sun.Sun`), or None (sky only).
-    sun: object = None
+    sun: Sun | None = None
 
     def on_bands(self, bands: Bands) -> np.ndarray:
         """``E0`` per band: everything, sky and sun."""
@@ -98,23 +100,13 @@ class SurfaceLight:
         return out
 
 
-def fresnel_transmittance(cos_i, n: float = N_WATER):
-    """Unpolarised Fresnel transmittance from air into water at incidence cosine ``cos_i``."""
-    cos_i = np.clip(np.asarray(cos_i, dtype=float), 0.0, 1.0)
-    sin_t = np.sqrt(1.0 - cos_i ** 2) / n
-    cos_t = np.sqrt(1.0 - sin_t ** 2)
-    rs = ((cos_i - n * cos_t) / (cos_i + n * cos_t)) ** 2
-    rp = ((cos_t - n * cos_i) / (cos_t + n * cos_i)) ** 2
-    return 1.0 - 0.5 * (rs + rp)
-
-
-#: Fresnel transmittance of a uniform sky into flat water (cosine-weighted mean).
+#: Fresnel transmittance of a uniform sky into flat water (cosine-weighted mean of
+#: :func:`aquaspec.medium.interface.fresnel_transmittance`).
 SKY_TRANSMITTANCE = 0.934
 
 
 def _sun_sky(elevation_deg, azimuth_deg):
-    from aquaspec.light.sun import Sun, refracted_to_sun
-    import pvlib
+    import pvlib  # deferred: pvlib (with pandas) takes about a second to import; only sun-sky needs it
     zen = 90.0 - elevation_deg
     airmass = float(pvlib.atmosphere.get_relative_airmass(zen))
     r = pvlib.spectrum.spectrl2(apparent_zenith=zen, aoi=zen, surface_tilt=0.0,
@@ -160,11 +152,9 @@ def surface_light(kind: str = "overcast", *, total_w_m2: float | None = None,
     if kind == "overcast":
         wl, val, params = np.array([300.0, 830.0]), np.ones(2), {}
     elif kind == "d65":
-        from aquaspec.colour import data as colourdata
         wl, val = colourdata.d65()
         params = {}
     else:
-        from aquaspec.light.sun import check_azimuth, check_elevation
         wl, val, params, sun = _sun_sky(check_elevation(sun_elevation_deg),
                                         check_azimuth(sun_azimuth_deg))
     light = SurfaceLight(kind, wl, val, params, sun)

@@ -8,8 +8,8 @@ A phase function ``p(mu)`` of the scattering cosine ``mu = cos(Theta)`` is in
 Each :class:`PhaseFunction` gives its value, its backscatter fraction
 ``B = 2 pi int_{-1}^{0} p dmu`` and its Legendre moments
 ``chi_l = 2 pi int p(mu) P_l(mu) dmu`` (``chi_0 = 1``; ``chi_1`` is the mean
-cosine g), from which :func:`redistribution_matrix` builds the azimuthally
-averaged redistribution matrix that the discrete-ordinates solver
+cosine g), from which :func:`aquaspec.medium.phase_bands.redistribution_matrix`
+builds the azimuthally averaged redistribution matrix that the discrete-ordinates solver
 (:mod:`aquaspec.transport.lightfield.solve`) needs. Moments are integrated on a fine grid in
 the scattering angle, graded geometrically towards 0 degrees, so strongly
 forward-peaked functions (Petzold, Fournier-Forand, HG with g = 0.95) are
@@ -19,8 +19,9 @@ Registry: :data:`PHASE_FUNCTIONS` maps a ``method`` name to a factory;
 :func:`get_phase` looks it up with a clear error. Water's own (Rayleigh-like)
 scattering is a separate phase function (:class:`PureWaterPhase`); the
 ``"petzold"`` method mixes it with Petzold's particle phase function by the
-``b_w / b_p`` split of each band (:func:`band_moments`), because the b of the
-Jerlov types includes pure water's scattering.
+``b_w / b_p`` split of each band, because the b of the Jerlov types includes
+pure water's scattering: the per-band quantities, that mixture written once,
+are :mod:`aquaspec.medium.phase_bands`.
 
 ``"tabulated"`` (:func:`tabulated_phase`, :class:`TabulatedPhase`) is any of
 them on a regular grid in ``mu``, linear in between: the representation of
@@ -58,29 +59,20 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import lru_cache
 
+import warnings
+
+import jerlov
 import numpy as np
 from numpy.polynomial.legendre import leggauss
 
 from aquaspec.errors import AquaspecError
+from aquaspec.numerics import legendre_table
 
 _FOUR_PI = 4.0 * np.pi
 
 #: Smallest scattering angle (rad) of the moment grid; below it the mass of a
 #: forward peak is added to every moment at P_l(1) = 1 (error < (l theta)^2/4).
 _THETA_MIN_RAD = 1e-7
-
-
-def legendre_table(lmax: int, x):
-    """``P_l(x)`` for ``l = 0..lmax``: shape ``(lmax + 1,) + x.shape``."""
-    x = np.asarray(x, dtype=float)
-    out = np.empty((lmax + 1,) + x.shape)
-    out[0] = 1.0
-    if lmax >= 1:
-        out[1] = x
-    for l in range(1, lmax):
-        out[l + 1] = ((2 * l + 1) * x * out[l] - l * out[l - 1]) / (l + 1)
-    return out
-
 
 @lru_cache(maxsize=4)
 def _theta_grid(n_decades: int = 8, per_decade: int = 24, order: int = 8):
@@ -313,9 +305,6 @@ PETZOLD_AVERAGE_STATIONS = ("AUTEC 8", "HAOCE 11", "NUC 2240")
 @lru_cache(maxsize=1)
 def _petzold_average():
     """Angles (rad), particle phase (1/sr) and sub-0.1-degree mass, averaged."""
-    import warnings
-
-    import jerlov
     phases, below = [], []
     angles = None
     with warnings.catch_warnings():
@@ -604,9 +593,6 @@ PHASE_FUNCTIONS = {
     "tabulated": tabulated_phase,
 }
 
-#: Methods whose particle phase is mixed with pure water by the b_w / b_p split.
-MIXED_WITH_WATER = frozenset({"petzold"})
-
 
 def get_phase(method: str, **params) -> PhaseFunction:
     """The phase function named ``method`` (a key of :data:`PHASE_FUNCTIONS`).
@@ -624,141 +610,3 @@ def get_phase(method: str, **params) -> PhaseFunction:
     except TypeError as exc:
         raise AquaspecError(f"bad parameters {params!r} for phase function {method!r}: "
                             f"{exc}") from None
-
-
-def band_moments(method: str | PhaseFunction, lmax: int, b=None, wavelength_nm=None,
-                 **params) -> np.ndarray:
-    """Legendre moments per band, shape ``(n_bands, lmax + 1)``.
-
-    For ``"petzold"`` the band phase function is the mixture
-    ``(b_w p_w + b_p p_p) / b``, ``b_w = jerlov.pure_water_scattering(lambda)``
-    at the band centres ``wavelength_nm``, ``b_p = max(b - b_w, 0)``; other
-    methods apply to the whole b. ``b`` (1/m) sets the number of bands.
-    """
-    b_arr = np.atleast_1d(np.asarray(1.0 if b is None else b, dtype=float))
-    phase = method if isinstance(method, PhaseFunction) else get_phase(method, **params)
-    chi = phase.legendre_moments(lmax)
-    out = np.broadcast_to(chi, (b_arr.size, lmax + 1)).copy()
-    if phase.name in MIXED_WITH_WATER:
-        if wavelength_nm is None:
-            raise AquaspecError(f"phase {phase.name!r} mixes pure water by wavelength: "
-                                "give wavelength_nm (band centres)")
-        wl = np.atleast_1d(np.asarray(wavelength_nm, dtype=float))
-        if wl.shape != b_arr.shape:
-            raise AquaspecError(f"wavelength_nm has shape {wl.shape}; expected {b_arr.shape} "
-                                "(one per band)")
-        frac_w = pure_water_fraction(phase, b_arr, wl)
-        chi_w = PureWaterPhase().legendre_moments(lmax)
-        out = frac_w[:, None] * chi_w + (1.0 - frac_w[:, None]) * chi
-    return out
-
-
-def band_cone_fraction(method, half_angle_deg: float, b=None, wavelength_nm=None,
-                       **params) -> np.ndarray:
-    """Fraction of scattering within ``half_angle_deg`` of forward, per band.
-
-    ``f = 2 pi int_{cos theta_c}^1 p(mu) dmu`` for the band phase function
-    (mixed with pure water by band for ``"petzold"``, as in
-    :func:`band_moments`). Integrated over the angle on a grid that is
-    geometric towards 0 degrees, where forward-peaked functions live.
-    """
-    if not 0.0 <= half_angle_deg < 90.0:
-        raise AquaspecError(f"forward cone half-angle {half_angle_deg!r} deg; accepted: 0 to 90")
-    b_arr = np.atleast_1d(np.asarray(1.0 if b is None else b, dtype=float))
-    if half_angle_deg == 0.0:
-        return np.zeros(b_arr.size)
-    phase = method if isinstance(method, PhaseFunction) else get_phase(method, **params)
-    theta_c = np.radians(half_angle_deg)
-    theta = np.concatenate([[0.0], np.geomspace(1e-7, theta_c, 4000)])
-
-    def cone(ph):
-        if isinstance(ph, TabulatedPhase):
-            return ph.cone_fraction(theta_c)
-        y = 2 * np.pi * ph.value(np.cos(theta)) * np.sin(theta)
-        return float(np.trapezoid(y, theta))
-
-    f = np.full(b_arr.size, cone(phase))
-    if phase.name in MIXED_WITH_WATER:
-        frac_w = pure_water_fraction(phase, b_arr, wavelength_nm)
-        f = frac_w * cone(PureWaterPhase()) + (1.0 - frac_w) * f
-    return f
-
-
-def pure_water_fraction(phase: PhaseFunction, b, wavelength_nm=None) -> np.ndarray:
-    """Share of ``b`` that scatters with pure water's phase function, per band:
-    ``min(b_w(lambda), b) / b`` for the phase functions mixed with pure water
-    (:data:`MIXED_WITH_WATER`, at the band centres ``wavelength_nm``), else 0."""
-    b_arr = np.atleast_1d(np.asarray(b, dtype=float))
-    if phase.name not in MIXED_WITH_WATER:
-        return np.zeros(b_arr.size)
-    import jerlov
-    wl = np.atleast_1d(np.asarray(wavelength_nm, dtype=float))
-    bw = np.minimum(np.asarray(jerlov.pure_water_scattering(wl), dtype=float), b_arr)
-    return np.where(b_arr > 0, bw / np.where(b_arr > 0, b_arr, 1.0), 1.0)
-
-
-def _cone_offset_cdf_one(ph, theta_c, offsets):
-    """Cone mass and the CDF of ``alpha = theta U`` at ``offsets`` for one phase function."""
-    theta = np.concatenate([[0.0], np.geomspace(1e-7, theta_c, 4000)])
-    g = 2 * np.pi * ph.value(np.cos(theta)) * np.sin(theta)
-    # Cumulative int_0^theta g and int_0^theta g / theta (g / theta -> 2 pi p(1) at 0).
-    g_over = np.concatenate([[2 * np.pi * float(ph.value(1.0))], g[1:] / theta[1:]])
-    dt = np.diff(theta)
-    cum_g = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * dt)])
-    cum_go = np.concatenate([[0.0], np.cumsum(0.5 * (g_over[1:] + g_over[:-1]) * dt)])
-    a = np.clip(offsets, 0.0, theta_c)
-    mass = cum_g[-1]
-    below = np.interp(a, theta, cum_g)
-    beyond = cum_go[-1] - np.interp(a, theta, cum_go)
-    return mass, (below + a * beyond) / mass
-
-
-def band_cone_offset_cdf(method, half_angle_deg: float, offsets_rad, b=None,
-                         wavelength_nm=None, **params) -> np.ndarray:
-    """Where the forward cone's light appears to come from, seen from the camera, per band.
-
-    Light that reaches the camera after one scattering by ``theta`` (within
-    the cone ``half_angle_deg``) at a point a fraction ``1 - U`` of the way
-    from the camera to a target left the target at an angular offset
-    ``alpha = theta U`` from the pixel's own direction; along a ray of
-    length S every point is equally likely (the path from the target to the
-    camera has length S wherever the scattering happens), so ``U`` is
-    uniform on [0, 1]. Returns ``P(alpha <= a)`` at ``offsets_rad`` (radians),
-    shape ``(n_bands, len(offsets))``:
-    ``F(a) = [int_0^a g + a int_a^theta_c g(theta)/theta dtheta] / int_0^theta_c g``,
-    ``g = 2 pi p(cos theta) sin theta`` (the band phase function, mixed with
-    pure water by band for ``"petzold"`` as :func:`band_cone_fraction`).
-    """
-    if not 0.0 < half_angle_deg < 90.0:
-        raise AquaspecError(f"forward cone half-angle {half_angle_deg!r} deg; accepted: "
-                            "above 0 and below 90")
-    offsets = np.asarray(offsets_rad, dtype=float)
-    b_arr = np.atleast_1d(np.asarray(1.0 if b is None else b, dtype=float))
-    phase = method if isinstance(method, PhaseFunction) else get_phase(method, **params)
-    theta_c = np.radians(half_angle_deg)
-    mass, cdf = _cone_offset_cdf_one(phase, theta_c, offsets)
-    out = np.tile(cdf, (b_arr.size, 1))
-    if phase.name in MIXED_WITH_WATER:
-        frac_w = pure_water_fraction(phase, b_arr, wavelength_nm)[:, None]
-        mass_w, cdf_w = _cone_offset_cdf_one(PureWaterPhase(), theta_c, offsets)
-        m_w, m_p = frac_w * mass_w, (1.0 - frac_w) * mass
-        out = (m_w * cdf_w + m_p * cdf) / (m_w + m_p)
-    return out
-
-
-def redistribution_matrix(moments, mu_out, mu_in, weight_in):
-    """Azimuthally averaged redistribution ``Q[..., i, j]`` for DO quadrature.
-
-    ``Q_ij = w_j / 2 * sum_l (2l + 1) chi_l P_l(mu_i) P_l(mu_j)`` is the share of
-    light from quadrature direction ``j`` (weight ``w_j``, weights summing to 2
-    over the sphere) scattered into direction ``i``, times 2 pi per sr, so that
-    the in-scattered radiance is ``b sum_j Q_ij L_j``. ``moments`` is
-    ``(..., L)`` (truncated, e.g. delta-M scaled); rows sum to ``chi_0`` when
-    the quadrature integrates ``P_l`` exactly.
-    """
-    chi = np.asarray(moments, dtype=float)
-    lmax = chi.shape[-1] - 1
-    p_out = legendre_table(lmax, mu_out)     # (L, I)
-    p_in = legendre_table(lmax, mu_in)       # (L, J)
-    coef = chi * (2.0 * np.arange(lmax + 1) + 1.0) * 0.5
-    return ((coef[..., None, :] * p_out.T) @ p_in) * np.asarray(weight_in)

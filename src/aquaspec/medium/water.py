@@ -46,16 +46,16 @@ marked ``kd_derived = True`` everywhere it travels (metadata, tables).
 
 from __future__ import annotations
 
-import csv
-import io
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+import jerlov
 import numpy as np
 
 from aquaspec.colour.bands import Bands
 from aquaspec.errors import AquaspecError, DataRangeError
+from aquaspec.io.csv import read_csv_columns
 
 JERLOV_TYPES = ("I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C")
 SOURCES = ("solonenko2015", "williamson2022")
@@ -179,11 +179,6 @@ class Water:
                 "range_nm": list(self.range_nm)}
 
 
-def _jerlov():
-    import jerlov
-    return jerlov
-
-
 def _fill_gaps(name, source, wl, a, b, kd):
     """Fill NaN a and Kd as the module docstring describes."""
     gap = np.isnan(a) | np.isnan(kd)
@@ -191,7 +186,7 @@ def _fill_gaps(name, source, wl, a, b, kd):
         raise AquaspecError(f"Jerlov {name} ({source}): b is missing at "
                             f"{wl[np.isnan(b)].tolist()} nm and cannot be filled")
     good = np.flatnonzero(~gap)
-    aw = np.asarray(_jerlov().pure_water_absorption(wl), dtype=float)
+    aw = np.asarray(jerlov.pure_water_absorption(wl), dtype=float)
     a, kd = a.copy(), kd.copy()
     for i in np.flatnonzero(gap):
         # The nearest published wavelength anchors the extrapolation.
@@ -222,7 +217,6 @@ def load_water(name: str, source: str = DEFAULT_SOURCE) -> Water:
     """
     if source not in SOURCES:
         raise AquaspecError(f"unknown water source {source!r}; known: {', '.join(SOURCES)}")
-    jerlov = _jerlov()
     src = jerlov.get_source(source)
     key = str(name).strip().upper()
     if key not in src.water_types:
@@ -269,59 +263,6 @@ def load_water(name: str, source: str = DEFAULT_SOURCE) -> Water:
                  citation=src.citation + (f", doi:{src.doi}" if src.doi else ""))
 
 
-def _number(text, path, line, column):
-    try:
-        v = float(text)
-    except ValueError:
-        raise AquaspecError(f"{path}: line {line}, column {column!r}: {text!r} is not a "
-                            "number") from None
-    if not np.isfinite(v):
-        raise AquaspecError(f"{path}: line {line}, column {column!r}: {text!r} is not a "
-                            "finite number")
-    return v
-
-
-def read_csv_columns(path, required, optional=(), *, what="spectrum"):
-    """Read numeric columns from a CSV with a header row.
-
-    Returns a dict of column -> ndarray. Errors name the file, line and
-    column. Wavelengths (the first required column) must strictly ascend.
-    """
-    p = Path(path)
-    if not p.is_file():
-        raise AquaspecError(f"{what} file {str(path)!r} does not exist")
-    text = p.read_text(encoding="utf-8-sig")
-    reader = csv.reader(io.StringIO(text))
-    rows = [r for r in reader if r and any(c.strip() for c in r)
-            and not r[0].lstrip().startswith("#")]
-    if not rows:
-        raise AquaspecError(f"{path}: empty file; expected a header "
-                            f"{','.join(required + tuple(optional))} and rows of numbers")
-    header = [h.strip() for h in rows[0]]
-    lower = [h.lower() for h in header]
-    missing = [c for c in required if c.lower() not in lower]
-    if missing:
-        raise AquaspecError(f"{path}: missing column(s) {', '.join(missing)}; found "
-                            f"{', '.join(header) or 'none'}; expected "
-                            f"{','.join(required + tuple(optional))}")
-    cols = {c: lower.index(c.lower()) for c in required + tuple(optional) if c.lower() in lower}
-    out = {c: [] for c in cols}
-    for k, row in enumerate(rows[1:], start=2):
-        for c, idx in cols.items():
-            if idx >= len(row):
-                raise AquaspecError(f"{path}: line {k} has no value for column {c!r}")
-            out[c].append(_number(row[idx].strip(), path, k, c))
-    if len(rows) < 3:
-        raise AquaspecError(f"{path}: need at least two rows of data")
-    arrays = {c: np.asarray(v) for c, v in out.items()}
-    wl = arrays[required[0]]
-    if np.any(np.diff(wl) <= 0):
-        i = int(np.argmax(np.diff(wl) <= 0))
-        raise AquaspecError(f"{path}: wavelengths must strictly ascend; {wl[i + 1]:g} nm "
-                            f"follows {wl[i]:g} nm (line {i + 3})")
-    return arrays
-
-
 def water_from_csv(path, name: str | None = None) -> Water:
     """User water spectra from a CSV with columns ``wavelength_nm,a,b[,Kd]`` (1/m).
 
@@ -349,5 +290,4 @@ def get_water(spec: str, source: str = DEFAULT_SOURCE) -> Water:
 
 def list_waters() -> list[tuple[str, str]]:
     """``(source, type)`` pairs of every built-in water."""
-    jerlov = _jerlov()
     return [(s, t) for s in SOURCES for t in jerlov.get_source(s).water_types]

@@ -3,19 +3,24 @@
 "What colour is water X at depth Y for camera Z?": the camera RGB of open
 water (seen horizontally, or along any view) and of a grey card facing the
 camera, from the NumPy models the renderer uses (:mod:`aquaspec.transport.monzon2022`,
-:mod:`aquaspec.transport.lightfield.solve`, :mod:`aquaspec.light.sun`).
+:mod:`aquaspec.transport.lightfield.solve`, :mod:`aquaspec.transport.sun_scattering`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from aquaspec.transport import monzon2022 as model
 from aquaspec.colour.bands import Bands
+from aquaspec.colour.sensors import Sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import SurfaceLight, surface_light
-from aquaspec.colour.sensors import Sensor
+from aquaspec.colour.sensors import radiance_to_rgb
+from aquaspec.light.sun import surface_irradiance
 from aquaspec.medium.water import Water
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.transport import monzon2022 as model
+from aquaspec.transport.models import DEFAULT_MS_MODEL, MONZON2022, ms_model_name
+from aquaspec.transport.sun_scattering import phase_from_log_table, single_scattering_open
 
 GREY_CARD_REFLECTANCE = 0.18
 
@@ -35,10 +40,9 @@ def check_depth(depth_m, name="depth", what="below the surface"):
 
 
 def check_ms_model(name):
-    if name not in model.MS_MODELS:
-        raise AquaspecError(f"unknown multiple-scattering model {name!r}; known: "
-                            f"{', '.join(model.MS_MODELS)}")
-    return name
+    """The canonical name of a multiple-scattering model
+    (:func:`aquaspec.transport.models.ms_model_name`)."""
+    return ms_model_name(name)
 
 
 def check_distance(distance_m):
@@ -85,12 +89,13 @@ def view_from_elevation(elevation_deg) -> np.ndarray:
 def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
                  distance_m: float, light: SurfaceLight | None = None,
                  ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
-                 ms_model: str = model.DEFAULT_MS_MODEL, phase: str = "petzold",
+                 ms_model: str = DEFAULT_MS_MODEL, phase: str = "petzold",
                  forward_cone_deg: float = 15.0, view=HORIZONTAL_VIEW) -> dict:
     """Camera RGB of open water and of a grey card at ``distance_m``, seen along ``view``.
 
     ``ms_model`` picks the multiple-scattering model
-    (:data:`aquaspec.transport.monzon2022.MS_MODELS`): ``"seeds"`` (thesis Eq. 4.7 with the
+    (:data:`aquaspec.transport.models.MS_MODELS`): ``"monzon2022"`` (alias ``"seeds"``;
+    thesis Eq. 4.7 with the
     database Kd and ``ambient``) or ``"lightfield"`` (the discrete-ordinates
     light field of :mod:`aquaspec.transport.lightfield.solve` with phase function ``phase``).
     ``view`` (3,), y up, defaults to the horizontal :data:`HORIZONTAL_VIEW`;
@@ -100,7 +105,6 @@ def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
     Returns a dict with ``water_rgb``, ``grey_card_rgb`` (linear camera RGB,
     lists of 3 floats) and every parameter used.
     """
-    from aquaspec.rendering.renderer import SpectralSetup
     check_ms_model(ms_model)
     setup = SpectralSetup(water, sensor, light or surface_light("overcast"), bands,
                           ambient=ambient, outside=outside, ms_model=ms_model, phase=phase,
@@ -110,7 +114,7 @@ def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
 
 def colour_of_setup(setup, *, depth_m: float, distance_m: float,
                     view=HORIZONTAL_VIEW) -> dict:
-    """:func:`water_colour` for a :class:`aquaspec.rendering.renderer.SpectralSetup`:
+    """:func:`water_colour` for a :class:`aquaspec.rendering.setup.SpectralSetup`:
     what its renderer gives one open-water ray and one grey card.
 
     From a camera at ``depth_m`` looking along ``view``:
@@ -145,22 +149,18 @@ def colour_of_setup(setup, *, depth_m: float, distance_m: float,
             return model.pixel_radiance(a=bw.a, b=bw.b, kd=bw.kd, e0=e0, depth_o=depth,
                                         v_y=np.full(1, v_y), ambient=setup.ambient, **kw)
     else:
-        from aquaspec.transport.lightfield.solve import lightfield_pixel_radiance
-
         def radiance(**kw):
-            return lightfield_pixel_radiance(tables, a=bw.a, b=bw.b, e0=e0, depth_o=depth,
-                                             v_y=np.full(1, v_y), **kw)
+            return tables.pixel_radiance(a=bw.a, b=bw.b, e0=e0, depth_o=depth,
+                                         v_y=np.full(1, v_y), **kw)
     water_l = radiance(s=np.inf)
     card_l = radiance(s=dist, rho=GREY_CARD_REFLECTANCE, surface_depth=np.full(1, card_depth),
                       n_y=np.full(1, -v_y))
     sun_part = {}
     sun = setup.sun_inputs()
     if sun is not None:
-        from aquaspec.light.sun import phase_from_table, single_scattering_open, surface_irradiance
-
         def scattered(s):
             return single_scattering_open(
-                b=sun.b, phase_value=phase_from_table(sun.log_phase, v @ sun.to_sun),
+                b=sun.b, phase_value=phase_from_log_table(sun.log_phase, v @ sun.to_sun),
                 beam0=sun.beam0, c_sun=sun.c_sun, c_view=sun.c_view, depth_o=depth,
                 v_y=v_y, s=s, mu0=sun.mu0)
         water_sun = scattered(np.inf)
@@ -169,13 +169,13 @@ def colour_of_setup(setup, *, depth_m: float, distance_m: float,
         water_l = water_l + water_sun
         card_l = card_l + card_sun
         sun_part = {"sun_part": {
-            "water_rgb": model.radiance_to_rgb(water_sun, weights).tolist(),
-            "grey_card_rgb": model.radiance_to_rgb(card_sun, weights).tolist(),
+            "water_rgb": radiance_to_rgb(water_sun, weights).tolist(),
+            "grey_card_rgb": radiance_to_rgb(card_sun, weights).tolist(),
             "what": "the sun's beam scattered once along the ray, and on the card the beam "
                     "itself (included in water_rgb and grey_card_rgb)"}}
     out = {
-        "water_rgb": model.radiance_to_rgb(water_l, weights).tolist(),
-        "grey_card_rgb": model.radiance_to_rgb(card_l, weights).tolist(),
+        "water_rgb": radiance_to_rgb(water_l, weights).tolist(),
+        "grey_card_rgb": radiance_to_rgb(card_l, weights).tolist(),
         "units": "linear camera RGB: sum over bands of width_nm * radiance (W m^-2 sr^-1 nm^-1)"
                  " * band-averaged response",
         "water": setup.water.describe(),
@@ -189,7 +189,7 @@ def colour_of_setup(setup, *, depth_m: float, distance_m: float,
         "bands": setup.bands.describe(),
         "light": setup.light.describe(),
         "ms_model": setup.ms_model,
-        **({"ambient_model": setup.ambient} if setup.ms_model == "seeds"
+        **({"ambient_model": setup.ambient} if setup.ms_model == MONZON2022
            else {"phase": setup.phase, **dict(setup.phase_params),
                  "forward_cone_deg": setup.cone_deg, "cone_spread": setup.cone_spread}),
         **sun_part,

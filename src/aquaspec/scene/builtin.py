@@ -24,10 +24,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from aquaspec.scene.camera import Camera
+from aquaspec.colour.reflectance import colorchecker
 from aquaspec.errors import AquaspecError
+from aquaspec.scene.camera import Camera
 from aquaspec.scene.load import rgb_material
 from aquaspec.scene.mesh import Mesh, Scene
+from aquaspec.scene.seabed import Seabed
 
 #: Height of the camera above the seabed directly below it, metres.
 CAMERA_HEIGHT_M = 1.5
@@ -178,9 +180,7 @@ def _terrain(height, y0, material, rows=110, columns=91):
 
 
 def _colorchecker_board(scene, camera_pos, ground_y):
-    from aquaspec.colour.reflectance import colorchecker  # measured spectra of the 24 patches
-
-    patches = list(colorchecker())
+    patches = list(colorchecker())   # measured spectra of the 24 patches
     if len(patches) != 24:
         raise AquaspecError(f"colorchecker() returned {len(patches)} patches; expected 24")
     w = 6 * PATCH_PITCH_M + (PATCH_PITCH_M - PATCH_SIZE_M)
@@ -270,7 +270,6 @@ def builtin_scene(depth_m: float, *, seed: int = 0, width: int = 1280, height: i
     terrain = scene.add(_terrain(height, y0, mat["sand"], *TERRAIN_GRID))
     # The light field's lower boundary: the sand, flat at the terrain's
     # deepest point (no surface lies below the boundary).
-    from aquaspec.transport.lightfield.solve import Seabed
     scene.seabed = Seabed(float(-terrain.vertices[:, 1].min()), scene.materials[mat["sand"]])
     _colorchecker_board(scene, cam_pos, ground(0.0, -BOARD_DISTANCE_M))
 

@@ -28,6 +28,17 @@ def check_size(width, height):
     return int(width), int(height)
 
 
+def parse_size(text) -> tuple[int, int]:
+    """``"WxH"`` (or a ``(W, H)`` pair) -> (W, H), validated by :func:`check_size`."""
+    if isinstance(text, (tuple, list)) and len(text) == 2:
+        return check_size(*text)
+    try:
+        w, h = (int(x) for x in str(text).lower().split("x"))
+    except ValueError:
+        raise AquaspecError(f"image size {text!r} is not WIDTHxHEIGHT, e.g. 1280x720") from None
+    return check_size(w, h)
+
+
 def _normalise(v, name):
     v = np.asarray(v, dtype=float)
     n = np.linalg.norm(v)
@@ -147,3 +158,12 @@ class Camera:
                 "up": self.true_up.tolist(), "width": self.width, "height": self.height,
                 "fx": self.fx, "fy": self.fy, "cx": self.cx, "cy": self.cy,
                 "depth_m": self.depth_m}
+
+
+def camera_depth(camera) -> float:
+    """Camera depth ``-position.y`` in m; raises if the camera is above the water."""
+    d_o = float(-camera.position[1])
+    if d_o < 0:
+        raise AquaspecError(f"camera is {-d_o:g} m above the water surface (position y = "
+                            f"{camera.position[1]:g}); the shading needs y <= 0")
+    return d_o

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from aquaspec.colour.reflectance import sigmoid_at
 from aquaspec.scene.camera import Camera
 from aquaspec.errors import AquaspecError
 
@@ -71,3 +72,14 @@ class GBuffer:
         """(H, W, 3) world positions of the hits (inf where open water)."""
         d = self.camera.ray_directions()
         return self.camera.position + d * self.distance[..., None].astype(float)
+
+
+def hit_reflectance(material, sigmoid, material_bands, t):
+    """Band reflectance (P, n) of hit pixels: their material's (``material_bands``
+    rows), or with :data:`PER_PIXEL` their sigmoid's at ``t``.
+    (The G-buffer holds only defined material indices: GBuffer checks them.)"""
+    per_pixel = material == PER_PIXEL
+    rho = np.empty((material.size, material_bands.shape[1]))
+    rho[per_pixel] = sigmoid_at(sigmoid[per_pixel], t)
+    rho[~per_pixel] = material_bands[material[~per_pixel]]
+    return rho

@@ -20,9 +20,11 @@ import os
 
 import numpy as np
 
-from aquaspec.scene.camera import Camera
+from aquaspec.colour.reflectance import Reflectance
+from aquaspec.colour.srgb import srgb_decode
 from aquaspec.errors import AquaspecError
-from aquaspec.scene.mesh import Mesh, Scene, image_to_linear_rgb, srgb_to_linear
+from aquaspec.scene.camera import Camera
+from aquaspec.scene.mesh import Mesh, Scene, image_to_linear_rgb
 
 #: File suffixes :func:`load_mesh` accepts.
 MESH_FORMATS = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
@@ -33,7 +35,6 @@ DEFAULT_ALBEDO = (0.5, 0.5, 0.5)
 
 def rgb_material(rgb, name: str):
     """A reflectance object for a linear albedo triple (via aquaspec.colour.reflectance)."""
-    from aquaspec.colour.reflectance import Reflectance  # imported late: it depends on colour data
     return Reflectance.from_rgb(tuple(float(c) for c in rgb), name=name)
 
 
@@ -92,10 +93,10 @@ def _mesh_from_trimesh(geom, transform, name, scene: Scene, albedo):
         else:
             colour = factor
     elif kind == "vertex":
-        kwargs["vertex_rgb"] = srgb_to_linear(np.asarray(visual.vertex_colors)[:, :3] / 255.0)
+        kwargs["vertex_rgb"] = srgb_decode(np.asarray(visual.vertex_colors)[:, :3] / 255.0)
     elif kind == "face":
         # Faceted per-face colours: split vertices so each face owns its colour.
-        fc = srgb_to_linear(np.asarray(visual.face_colors)[:, :3] / 255.0)
+        fc = srgb_decode(np.asarray(visual.face_colors)[:, :3] / 255.0)
         idx = faces.reshape(-1)
         return Mesh(vertices[idx], np.arange(len(idx)).reshape(-1, 3),
                     None if normals is None else normals[idx],
@@ -132,7 +133,7 @@ def load_mesh(path, *, albedo=None) -> Scene:
         Missing file, unsupported suffix, unreadable or corrupt file, or a
         file without triangles; the message names the path and the formats.
     """
-    import trimesh
+    import trimesh  # deferred: trimesh takes about 0.9 s to import; only loading a mesh needs it
 
     path = os.fspath(path)
     if albedo is not None:

@@ -24,14 +24,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from aquaspec.scene.camera import Camera
+from aquaspec.colour.reflectance import fit_sigmoid_image
+from aquaspec.colour.srgb import srgb_decode
 from aquaspec.errors import AquaspecError
-
-
-def srgb_to_linear(c):
-    """Decode sRGB-encoded values in [0, 1] to linear (IEC 61966-2-1 transfer curve)."""
-    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+from aquaspec.scene.camera import Camera
 
 
 def image_to_linear_rgb(image, *, is_srgb: bool = True, what: str = "image") -> np.ndarray:
@@ -61,7 +57,7 @@ def image_to_linear_rgb(image, *, is_srgb: bool = True, what: str = "image") -> 
     else:
         raise AquaspecError(f"{what} has dtype {img.dtype}; accepted: uint8, uint16 or "
                             "float in [0, 1]")
-    return (srgb_to_linear(x) if is_srgb else x).astype(np.float32)
+    return (srgb_decode(x) if is_srgb else x).astype(np.float32)
 
 
 def _as_array(x, name, shape_tail, dtype):
@@ -204,7 +200,6 @@ class Mesh:
         """Jakob-Hanika coefficients of every texel, (H, W, 3) float32 (cached)."""
         cached = getattr(self, "_texture_sigmoid", None)
         if cached is None or cached[0] is not self.texture:
-            from aquaspec.colour.reflectance import fit_sigmoid_image
             cached = (self.texture, fit_sigmoid_image(self.texture).astype(np.float32))
             self._texture_sigmoid = cached
         return cached[1]
@@ -213,7 +208,6 @@ class Mesh:
         """Jakob-Hanika coefficients of the vertex colours, (V, 3) float32 (cached)."""
         cached = getattr(self, "_vertex_sigmoid", None)
         if cached is None or cached[0] is not self.vertex_rgb:
-            from aquaspec.colour.reflectance import fit_sigmoid_image
             coeffs = fit_sigmoid_image(self.vertex_rgb[:, None, :])[:, 0, :]
             cached = (self.vertex_rgb, coeffs.astype(np.float32))
             self._vertex_sigmoid = cached
@@ -255,7 +249,7 @@ class Scene:
     camera : Camera, optional
         A default viewpoint (the built-in scene and :func:`place_in_front`
         set one).
-    seabed : aquaspec.transport.lightfield.solve.Seabed, optional
+    seabed : aquaspec.scene.seabed.Seabed, optional
         The flat seabed the light field takes as its lower boundary (the
         built-in scene sets its terrain's); None: deep water below.
     """

@@ -30,9 +30,12 @@ from __future__ import annotations
 import os
 
 import numpy as np
+from PIL import Image
 
-from aquaspec.scene.camera import Camera
+from aquaspec.colour.reflectance import fit_sigmoid_image
 from aquaspec.errors import AquaspecError
+from aquaspec.io.exr import openexr
+from aquaspec.scene.camera import Camera
 from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
 from aquaspec.scene.mesh import image_to_linear_rgb
 
@@ -166,7 +169,6 @@ def gbuffer_from_rgbd(rgb, depth_m, intrinsics, *, camera_depth_m: float,
     dirs = camera.ray_directions()
     distance = depth / (dirs @ camera.forward)
     points = camera.position + dirs * distance[..., None]
-    from aquaspec.colour.reflectance import fit_sigmoid_image
     sigmoid = fit_sigmoid_image(colour)
     return GBuffer(camera, distance, normals_from_points(points, dirs),
                    np.full((h, w), PER_PIXEL, dtype=np.uint32), sigmoid, [])
@@ -190,13 +192,12 @@ def _read_depth(path, suffix):
         except Exception as exc:
             raise AquaspecError(f"could not read depth file {path!r} as .npy ({exc})") from exc
     if suffix == ".exr":
-        try:
-            import OpenEXR
-        except ImportError as exc:
+        exr = openexr()
+        if exr is None:
             raise AquaspecError("reading EXR depth needs the OpenEXR package: "
-                                "pip install 'aquaspec[exr]'") from exc
+                                "pip install 'aquaspec[exr]'")
         try:
-            channels = OpenEXR.File(path).channels()
+            channels = exr.File(path).channels()
         except Exception as exc:
             raise AquaspecError(f"could not read depth file {path!r} as OpenEXR ({exc})") from exc
         for name in EXR_DEPTH_CHANNELS:
@@ -208,7 +209,6 @@ def _read_depth(path, suffix):
                 return px
         raise AquaspecError(f"depth EXR {path!r} has channels {sorted(channels)}; expected one "
                             f"of {', '.join(EXR_DEPTH_CHANNELS)} or a single channel")
-    from PIL import Image
     try:
         with Image.open(path) as im:
             mode = im.mode
@@ -241,7 +241,6 @@ def load_rgbd(image_path, depth_path):
     """
     image_path, _ = _check_file(image_path, IMAGE_FORMATS, "image file")
     depth_path, suffix = _check_file(depth_path, DEPTH_FORMATS, "depth file")
-    from PIL import Image
     try:
         with Image.open(image_path) as im:
             rgb = np.array(im.convert("RGB") if im.mode not in ("RGB", "I;16") else im)

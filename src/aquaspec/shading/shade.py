@@ -3,7 +3,7 @@
 :func:`shade_gbuffer` turns a :class:`~aquaspec.scene.gbuffer.GBuffer` into linear
 camera RGB with the analytic model of :mod:`aquaspec.transport.monzon2022`. It is the oracle
 the GPU pass :class:`aquaspec.gpu.passes.deferred.DeferredPass` (WGSL:
-``shaders/deferred.wgsl`` and ``shaders/common.wgsl``) is tested against; the
+``gpu/passes/deferred.wgsl`` and ``gpu/wgsl/common.wgsl``) is tested against; the
 two follow the same formulas and the same branches, so change them together.
 
 Conventions
@@ -14,7 +14,7 @@ a point p is ``-p.y``. The camera sits at depth ``d_o = -camera.position.y``
 
 - open water (``distance = inf``): the ray runs to infinity, or, going up,
   to the water surface at ``S = d_o / v_y``, where the sky is seen through
-  Snell's window (:func:`aquaspec.transport.monzon2022.surface_from_below`);
+  Snell's window (:func:`aquaspec.medium.interface.surface_from_below`);
 - a hit at distance ``S``: a Lambertian surface at depth
   ``-(o_y + S v_y)`` with normal ``n``, lit by the ambient irradiance
   (:func:`aquaspec.transport.monzon2022.ambient_irradiance`, model ``ambient``).
@@ -30,11 +30,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from aquaspec.transport import monzon2022 as model
+from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.errors import AquaspecError
-from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
+from aquaspec.scene.camera import camera_depth
+from aquaspec.shading.sun import sun_radiance
+from aquaspec.transport import monzon2022 as model
+from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer, hit_reflectance
 # The Jakob-Hanika sigmoid at normalised wavelengths (reflectance.py holds it).
-from aquaspec.colour.reflectance import sigmoid_at as sigmoid_reflectance
+from aquaspec.transport.lightfield.conespread import (node_pyramid_weights, pyramid_weights,
+                                                      spread_by_lambda)
+from aquaspec.transport.lightfield.conespread import spread as pyramid_spread
+from aquaspec.transport.lightfield.shadow import ambient_shadow
+from aquaspec.transport.lightfield.tables import LightfieldTables
 
 #: Upper bound on float64 elements of one row chunk per band array.
 _CHUNK_ELEMENTS = 1 << 20
@@ -96,18 +103,9 @@ def check_medium(a, b, kd, e0, response_weights, material_bands, sigmoid_centers
     return a_arr, b_arr, kd_arr, e0_arr, w, mb, t
 
 
-def camera_depth(camera) -> float:
-    """Camera depth ``-position.y`` in m; raises if the camera is above the water."""
-    d_o = float(-camera.position[1])
-    if d_o < 0:
-        raise AquaspecError(f"camera is {-d_o:g} m above the water surface (position y = "
-                            f"{camera.position[1]:g}); the shading needs y <= 0")
-    return d_o
-
-
 def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_bands,
                   sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
-                  return_radiance: bool = False, lightfield: dict | None = None,
+                  return_radiance: bool = False, lightfield: LightfieldTables | None = None,
                   progress=None, shadow_rays=None, sun=None, sun_shadow=None) -> dict:
     """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
 
@@ -121,7 +119,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         Downwelling irradiance just below the surface, W m^-2 nm^-1.
     response_weights : array_like, shape (n, 3)
         Band-averaged camera response times band width
-        (see :func:`aquaspec.transport.monzon2022.radiance_to_rgb`).
+        (see :func:`aquaspec.colour.sensors.radiance_to_rgb`).
     material_bands : array_like, shape (M, n)
         Band reflectances of ``gbuffer.materials`` (M = their number; may be
         ``None`` when there are none).
@@ -132,8 +130,8 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         Ambient irradiance model, a key of :data:`aquaspec.transport.monzon2022.AMBIENT_MODELS`.
     return_radiance : bool
         Also return the band radiance.
-    lightfield : dict, optional
-        Tables from :func:`aquaspec.transport.lightfield.solve.lightfield_tables`: shade with
+    lightfield : LightfieldTables, optional
+        Tables from :func:`aquaspec.transport.lightfield.bake.lightfield_tables`: shade with
         the light-field multiple-scattering model (``ms_model="lightfield"``)
         instead of the seeds' (then ``kd`` and ``ambient`` are not used).
     progress : callable, optional
@@ -142,11 +140,11 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     shadow_rays : optional
         Where the shadow's receivers' rays are integrated (``scene_shadow``'s
         ``rays``; default here, in NumPy).
-    sun : aquaspec.light.sun.SunInputs, optional
+    sun : aquaspec.transport.sun_scattering.SunInputs, optional
         Add the direct sun: lit surfaces and the beam's single scattering
-        (:func:`aquaspec.light.sun.sun_radiance`).
+        (:func:`aquaspec.shading.sun.sun_radiance`).
     sun_shadow : (height_map, ShadowMapSpec), optional
-        The sun's shadow map (:func:`aquaspec.light.sun.shadow_map_numpy`); None:
+        The sun's shadow map (:func:`aquaspec.scene.shadowmap.shadow_map_numpy`); None:
         nothing shadows the sun.
 
     Returns
@@ -159,7 +157,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     Notes
     -----
     Rows are shaded in chunks so that 1920x1080 at 64 bands stays within a
-    few hundred MB. GPU twin: ``shaders/deferred.wgsl``.
+    few hundred MB. GPU twin: ``gpu/passes/deferred.wgsl``.
     """
     if not isinstance(gbuffer, GBuffer):
         raise AquaspecError(f"gbuffer must be an aquaspec.scene.gbuffer.GBuffer, got "
@@ -182,19 +180,17 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         def radiance_of(**kw):
             return model.pixel_radiance(a=a, b=b, kd=kd, e0=e0, depth_o=d_o, **kw)
     else:
-        from aquaspec.transport.lightfield.solve import lightfield_pixel_radiance
-
         def radiance_of(ambient=None, **kw):
-            return lightfield_pixel_radiance(lightfield, a=a, b=b, e0=e0, depth_o=d_o,
-                                             split_cone=spread, **kw)
+            return lightfield.pixel_radiance(a=a, b=b, e0=e0, depth_o=d_o, split_cone=spread,
+                                             **kw)
 
     # The light-field model's forward cone spread over the image
     # (lightfield_tables(cone_spread=True)): each pixel's cone term is kept
     # apart, convolved with the cone's kernel, then added.
-    spread = lightfield is not None and "cone_offset_cdf" in lightfield
+    spread = lightfield is not None and lightfield.cone is not None
     # The scene's shadow in the light field (lightfield_tables(ambient_shadow=True)):
     # scene_shadow, subtracted once the image is whole.
-    shadow = lightfield is not None and "shadow_phase" in lightfield
+    shadow = lightfield is not None and lightfield.shadow is not None
     whole = spread or shadow
     rgb = np.empty((hgt, wid, 3))
     radiance = np.empty((hgt, wid, n)) if (return_radiance or whole) else None
@@ -218,7 +214,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         mat = gbuffer.material[r0:r1].reshape(-1)
         n_y = gbuffer.normal[r0:r1, :, 1].reshape(-1).astype(float)
         sig = gbuffer.sigmoid[r0:r1].reshape(-1, 3)
-        hit = _reached(s, v_y, d_o)
+        hit = model.hit_before_surface(s, v_y, d_o)
         s = np.where(hit, s, np.inf)
 
         lrad = np.empty((v_y.size, n))
@@ -226,7 +222,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         if np.any(ow):
             lrad[ow] = split(radiance_of(v_y=v_y[ow, None], s=s[ow, None]), ow, r0)
         if np.any(hit):
-            rho = _hit_reflectance(mat[hit], sig[hit], mb, t)
+            rho = hit_reflectance(mat[hit], sig[hit], mb, t)
             surface_depth = -(o_y + s[hit] * v_y[hit])
             lrad[hit] = split(radiance_of(
                 v_y=v_y[hit, None], s=s[hit, None], rho=rho,
@@ -235,67 +231,47 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         if not np.all(np.isfinite(lrad)):
             raise AquaspecError("shading produced a non-finite radiance; check the water "
                                 "coefficients and the G-buffer")
-        rgb[r0:r1] = model.radiance_to_rgb(lrad, w).reshape(r1 - r0, wid, 3)
+        rgb[r0:r1] = radiance_to_rgb(lrad, w).reshape(r1 - r0, wid, 3)
         if radiance is not None:
             radiance[r0:r1] = lrad.reshape(r1 - r0, wid, n)
-    if spread and "cone_offset_cdf_nodes" in lightfield:
+    if spread and lightfield.cone.multiple:
         # Multiple scattering in the cone: each pixel's and band's kernel by
         # its lambda = f b S (aquaspec.transport.lightfield.conespread.spread_by_lambda).
-        from aquaspec.transport.lightfield.conespread import node_pyramid_weights, spread_by_lambda
+        cone = lightfield.cone
         s_all = gbuffer.distance.astype(float)
-        lam = (np.asarray(lightfield["cone_weight"], dtype=float)
+        lam = (np.asarray(cone.weight, dtype=float)
                * np.where(np.isfinite(s_all), s_all, 0.0)[..., None])
-        radiance += spread_by_lambda(cone_flat.reshape(hgt, wid, n), lam,
-                                     lightfield["cone_lambda_nodes"],
-                                     node_pyramid_weights(lightfield, cam.fy, hgt, wid))
+        radiance += spread_by_lambda(cone_flat.reshape(hgt, wid, n), lam, cone.lambda_nodes,
+                                     node_pyramid_weights(cone, cam.fy, hgt, wid))
     elif spread:
-        from aquaspec.transport.lightfield.conespread import pyramid_weights, spread as pyramid_spread
         radiance += pyramid_spread(cone_flat.reshape(hgt, wid, n),
-                                   pyramid_weights(lightfield, cam.fy, hgt, wid))
+                                   pyramid_weights(lightfield.cone, cam.fy, hgt, wid))
     if shadow:
         radiance -= scene_shadow(gbuffer, b=b, e0=e0, material_bands=mb,
                                  sigmoid_centers_t=t, lightfield=lightfield, progress=progress,
                                  rays=shadow_rays)
     if sun is not None:
-        from aquaspec.light.sun import sun_radiance
         if progress is not None:
             progress("the sun: lit surfaces and single scattering")
         hmap, spec = sun_shadow if sun_shadow is not None else (None, None)
         l_sun = sun_radiance(gbuffer, sun, height_map=hmap, spec=spec,
-                             rho_of_hits=lambda m: _hit_reflectance(
+                             rho_of_hits=lambda m: hit_reflectance(
                                  gbuffer.material[m], gbuffer.sigmoid[m], mb, t))
         if radiance is not None:
             radiance += l_sun
         if not whole:
-            rgb += model.radiance_to_rgb(l_sun.reshape(-1, n), w).reshape(hgt, wid, 3)
+            rgb += radiance_to_rgb(l_sun.reshape(-1, n), w).reshape(hgt, wid, 3)
     if whole:
-        rgb = model.radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
+        rgb = radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}
     if return_radiance:
         out["radiance"] = radiance
     return out
 
 
-def _hit_reflectance(material, sigmoid, material_bands, t):
-    """Band reflectance (P, n) of hit pixels: their material's (``material_bands``
-    rows), or with :data:`~aquaspec.scene.gbuffer.PER_PIXEL` their sigmoid's at ``t``.
-    (The G-buffer holds only defined material indices: GBuffer checks them.)"""
-    per_pixel = material == PER_PIXEL
-    rho = np.empty((material.size, material_bands.shape[1]))
-    rho[per_pixel] = sigmoid_reflectance(sigmoid[per_pixel], t)
-    rho[~per_pixel] = material_bands[material[~per_pixel]]
-    return rho
-
-
-def _reached(s, v_y, d_o):
-    """Which hits count: a finite distance ``s`` the ray (up component ``v_y``)
-    reaches before the water surface (camera depth ``d_o``)."""
-    to_surface = np.where(v_y > 0, d_o / np.where(v_y > 0, v_y, 1.0), np.inf)
-    return np.isfinite(s) & (s <= to_surface)
-
-
 def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
-                 lightfield: dict, progress=None, rays=None, **_medium) -> np.ndarray:
+                 lightfield: LightfieldTables, progress=None, rays=None,
+                 **_medium) -> np.ndarray:
     """The scene's first-order shadow in the light field for a G-buffer: ``dL``
     (H, W, n), to subtract from the band radiance (:mod:`aquaspec.transport.lightfield.shadow`).
 
@@ -304,14 +280,12 @@ def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
     with ``lightfield_tables(ambient_shadow=True)``; the GPU renderer calls it
     too (:class:`aquaspec.rendering.renderer.Renderer`), on the G-buffer it rasterised,
     and subtracts the result in camera RGB. Takes the keyword arguments of
-    :meth:`aquaspec.rendering.renderer.SpectralSetup.medium` (those it does not use are
+    :meth:`aquaspec.rendering.setup.SpectralSetup.medium` (those it does not use are
     ignored). ``progress`` is called with a short message per grid of
     receivers; ``rays`` integrates the receivers' rays elsewhere (the GPU
     renderer's :class:`aquaspec.gpu.passes.shadow_rays.ShadowRays`; default NumPy:
     seconds per image, almost independent of its size).
     """
-    from aquaspec.transport.lightfield.solve import surface_radiance
-    from aquaspec.transport.lightfield.shadow import ambient_shadow
     cam = gbuffer.camera
     d_o = camera_depth(cam)
     b = np.asarray(b, dtype=float)
@@ -319,14 +293,14 @@ def scene_shadow(gbuffer: GBuffer, *, b, e0, material_bands, sigmoid_centers_t,
     mb = np.asarray(material_bands, dtype=float).reshape(-1, b.size)
     v_y = cam.ray_directions()[..., 1]
     dist = gbuffer.distance.astype(float)
-    hit = _reached(dist, v_y, d_o)
+    hit = model.hit_before_surface(dist, v_y, d_o)
     if len(mb) != len(gbuffer.materials):
         raise AquaspecError(f"material_bands has {len(mb)} rows but the G-buffer defines "
                             f"{len(gbuffer.materials)} materials")
-    rho = _hit_reflectance(gbuffer.material[hit], gbuffer.sigmoid[hit], mb,
+    rho = hit_reflectance(gbuffer.material[hit], gbuffer.sigmoid[hit], mb,
                            np.asarray(sigmoid_centers_t, dtype=float))
     l_s = np.zeros(dist.shape + (b.size,))
-    l_s[hit] = surface_radiance(lightfield, rho, -(cam.position[1] + dist[hit] * v_y[hit]),
-                                gbuffer.normal[..., 1][hit].astype(float), e0)
+    l_s[hit] = lightfield.surface_radiance(rho, -(cam.position[1] + dist[hit] * v_y[hit]),
+                                           gbuffer.normal[..., 1][hit].astype(float), e0)
     return ambient_shadow(lightfield, cam, np.where(hit, dist, np.inf), gbuffer.normal, l_s,
                           b=b, e0=e0, hit=hit, progress=progress, rays=rays)

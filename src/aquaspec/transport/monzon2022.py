@@ -2,10 +2,10 @@
 
 This module is the oracle the GPU passes are tested against. Everything is
 vectorised: arrays broadcast against each other, with the band axis last.
-Its WGSL twin is ``shaders/common.wgsl``: the same formulas, rearranged for
+Its WGSL twin is ``gpu/wgsl/common.wgsl``: the same formulas, rearranged for
 speed (per-frame factors precomputed on the host, branches turned into
 selects, four pixels per invocation) and held to this module by
-``tests/test_gpu_deferred.py``; the G-buffer-level reference built on it is
+``tests/gpu/passes/test_deferred_pass.py``; the G-buffer-level reference built on it is
 :mod:`aquaspec.shading.shade`.
 
 Conventions (also in ``docs`` of every function below)
@@ -36,21 +36,10 @@ from __future__ import annotations
 import numpy as np
 
 from aquaspec.errors import AquaspecError
-
-#: Refractive index of sea water used for Snell's window.
-N_WATER = 1.33
+from aquaspec.medium.interface import surface_from_below
+from aquaspec.numerics import decay_integral, log_exprel
 
 _FOUR_PI = 4.0 * np.pi
-
-
-def _log_psi(y):
-    """log((exp(y) - 1) / y) for y > 0, without overflow."""
-    y = np.asarray(y, dtype=float)
-    small = y < 1e-8
-    safe = np.where(small, 1.0, y)
-    big = np.where(safe > 1.0, safe + np.log1p(-np.exp(-safe)) - np.log(safe),
-                   np.log(np.expm1(np.minimum(safe, 1.0)) / np.minimum(safe, 1.0)))
-    return np.where(small, 0.5 * y, big)
 
 
 def ray_length(s, depth_o, v_y):
@@ -66,6 +55,13 @@ def ray_length(s, depth_o, v_y):
     with np.errstate(over="ignore"):  # a grazing up-ray reaches the surface at inf
         to_surface = np.where(up, depth_o / np.where(up, v_y, 1.0), np.inf)
     return np.minimum(s, to_surface)
+
+
+def hit_before_surface(s, v_y, depth_o):
+    """Which hits count: a finite distance ``s`` the ray (up component ``v_y``)
+    reaches before the water surface (camera depth ``depth_o``)."""
+    to_surface = np.where(v_y > 0, depth_o / np.where(v_y > 0, v_y, 1.0), np.inf)
+    return np.isfinite(s) & (s <= to_surface)
 
 
 def transmittance(c, s):
@@ -100,7 +96,8 @@ def ms_path_integral(c, kd, depth_o, v_y, s):
     base = -kd * depth_o
     # x >= 0: exp(-Kd d_o) * (1 - e^-x) / k, i.e. S (1 - e^-x) / x, which is S at k = 0.
     k_safe = np.where(k > 0, k, 1.0)
-    finite_part = np.exp(base) * np.where(k > 0, -np.expm1(-np.maximum(x, 0.0)) / k_safe, s_f)
+    with np.errstate(over="ignore"):
+        finite_part = np.exp(base) * np.where(k > 0, decay_integral(k_safe, s_f), s_f)
     # x < 0: exp(-Kd d_o) * S * (e^y - 1)/y with y = -x; the exponent
     # -Kd d_o + y = -Kd d(S) - c S stays <= 0 for rays that stay under water.
     # (Evaluated only there: few rays, and most of the cost when done everywhere.)
@@ -109,7 +106,7 @@ def ms_path_integral(c, kd, depth_o, v_y, s):
         shape = finite_part.shape
         finite_part = np.asarray(finite_part)    # (a writable array also for 0-d input)
         finite_part[neg] = np.broadcast_to(s_f, shape)[neg] * np.exp(
-            np.broadcast_to(base, shape)[neg] + _log_psi(-np.broadcast_to(x, shape)[neg]))
+            np.broadcast_to(base, shape)[neg] + log_exprel(-np.broadcast_to(x, shape)[neg]))
     k_pos = np.where(k > 0, k, 1.0)
     infinite_part = np.where(k > 0, np.exp(base) / k_pos, np.inf)
     return np.where(finite, finite_part, infinite_part)
@@ -149,37 +146,6 @@ AMBIENT_MODELS = {
 DEFAULT_AMBIENT = "cosine"
 
 
-#: Multiple-scattering models, by the name the CLI takes (``--ms-model``):
-#: what a renderer calls for L_MS and for the ambient light on surfaces.
-#: Named by dotted path because :mod:`aquaspec.transport.lightfield.solve` imports this module.
-MS_MODELS = {
-    "seeds": "aquaspec.transport.monzon2022.pixel_radiance (l_ms_seeds + AMBIENT_MODELS)",
-    "lightfield": "aquaspec.transport.lightfield.solve.lightfield_pixel_radiance "
-                  "(tables from aquaspec.transport.lightfield.solve.lightfield_tables)",
-}
-#: The default: the light field with its forward cone spread over the image
-#: (:func:`cone_spread_for`), the model the validation against the path
-#: tracer found within 10 % and 1.5 degrees where the seeds' model was 35-75 %
-#: off (README, "Accuracy"); ``"seeds"`` stays available.
-DEFAULT_MS_MODEL = "lightfield"
-
-
-def cone_spread_for(ms_model: str, cone_spread: bool | None) -> bool:
-    """Whether the forward cone is spread over the image for ``ms_model``.
-
-    ``cone_spread=None`` means the model's default: on for ``"lightfield"``
-    (the configuration the validation measured), off for ``"seeds"`` (which
-    has no forward cone). ``True`` with another model than ``"lightfield"``
-    is an error.
-    """
-    if cone_spread is None:
-        return ms_model == "lightfield"
-    if cone_spread and ms_model != "lightfield":
-        raise AquaspecError(f"cone_spread is part of the light-field model; ms_model="
-                            f"{ms_model!r}; accepted: ms_model='lightfield' (or no cone spread)")
-    return bool(cone_spread)
-
-
 def ambient_irradiance(e0, kd, depth, n_y, model: str = DEFAULT_AMBIENT):
     """Irradiance on a surface at ``depth`` with unit normal of up component ``n_y``.
 
@@ -199,35 +165,6 @@ def ambient_irradiance(e0, kd, depth, n_y, model: str = DEFAULT_AMBIENT):
 def lambertian_radiance(rho, irradiance):
     """Radiance leaving a Lambertian surface of reflectance ``rho``: ``rho E / pi``."""
     return np.asarray(rho, dtype=float) * np.asarray(irradiance, dtype=float) / np.pi
-
-
-def snell_window_cos(n_water: float = N_WATER) -> float:
-    """Cosine of the critical angle: up-rays with ``v_y`` above it see the sky."""
-    return float(np.sqrt(1.0 - 1.0 / n_water ** 2))
-
-
-def surface_from_below(e0, v_y, n_water: float = N_WATER):
-    """Radiance of the water surface seen from below along an up-going ray.
-
-    Inside Snell's window the sky is seen; for a uniform (overcast) sky the
-    radiance there is uniform, and integrating it over the window (half-angle
-    ``theta_c``, ``sin theta_c = 1/n``) must give the downwelling irradiance
-    just below the surface, so ``L = E0 n^2 / pi``. Outside the window the
-    surface totally reflects the (much dimmer) water below; that reflection is
-    neglected (radiance 0), so the surface is the window disc on black.
-    """
-    inside = np.asarray(v_y, dtype=float) > snell_window_cos(n_water)
-    return np.where(inside, np.asarray(e0, dtype=float) * n_water ** 2 / np.pi, 0.0)
-
-
-def radiance_to_rgb(radiance, response_weights):
-    """Camera RGB from band radiance: ``RGB_c = sum_i w_i L_i R_c,i``.
-
-    ``radiance`` has the band axis last, shape (..., n); ``response_weights``
-    is (n, 3), the band-averaged response curves times the band width (see
-    :meth:`aquaspec.colour.sensors.Sensor.band_weights`).
-    """
-    return np.asarray(radiance, dtype=float) @ np.asarray(response_weights, dtype=float)
 
 
 def pixel_radiance(*, a, b, kd, e0, depth_o, v_y, s, rho=None, surface_depth=None,

@@ -22,8 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from aquaspec.transport import monzon2022 as model
 from aquaspec.colour.bands import Bands
+from aquaspec.errors import AquaspecError
+from aquaspec.transport import monzon2022 as model
 
 BASELINES = ("rgb", "unreal", "ifm")
 FINE = Bands(60)
@@ -47,7 +48,6 @@ def _rgb_inputs(water, light, sensor):
 
 def render_baseline(method, gbuffer, water, light, sensor, *, ambient=model.DEFAULT_AMBIENT):
     """Linear camera RGB (H, W, 3) of a G-buffer by baseline ``method``."""
-    from aquaspec.errors import AquaspecError
     if method not in ("unreal", "ifm"):
         raise AquaspecError(f"unknown baseline {method!r}; accepted: unreal, ifm "
                             "(the 'rgb' baseline is aquaspec with bands=3)")

@@ -11,7 +11,7 @@ compares it with aquaspec's map read through :func:`aquaspec.light.caustics.samp
 
 The Mitsuba scene, one per depth:
 
-- the surface: the tile's height field (:func:`aquaspec.light.caustics.surface`,
+- the surface: the tile's height field (:func:`aquaspec.light.waves.surface`,
   ``mesh_oversample`` times refined; by default as fine as aquaspec's
   facets) as a triangle mesh over the part of the periodic sea whose refracted
   light can reach the imaged patch (the tile repeated as needed), with
@@ -70,11 +70,12 @@ import time
 
 import numpy as np
 
-from aquaspec.light import caustics
-
-from aquaspec.transport import monzon2022 as model
 from aquaspec.errors import AquaspecError
+from aquaspec.light import caustics
 from aquaspec.light.sun import air_to_sun, refracted_to_sun
+from aquaspec.light.waves import Waves, surface
+from aquaspec.medium.interface import N_WATER, fresnel_transmittance, refract
+from aquaspec.validation.reference import mitsuba_variant
 
 #: Mitsuba variants tried in order: monochrome is enough (the dielectric's
 #: index is one number) and the LLVM variants are vectorised.
@@ -91,7 +92,6 @@ def require_mitsuba():
     """Import Mitsuba 3 and choose a variant of :data:`VARIANTS`:
     ``(mi, previous)``, ``previous`` the variant that was set before (``None``
     if none), for the caller to restore."""
-    from aquaspec.validation.reference import mitsuba_variant
     return mitsuba_variant(VARIANTS, "the caustics check")
 
 
@@ -218,15 +218,15 @@ def matched_kernels(c_aqua, c_mits):
     return filtered(c_aqua, 1), filtered(c_mits, 2), lambda img: filtered(img, 2)
 
 
-def compare_caustics(waves: caustics.Waves, elevation_deg: float, azimuth_deg: float, depths,
+def compare_caustics(waves: Waves, elevation_deg: float, azimuth_deg: float, depths,
                      *, spp: int = 64, oversample: int = 4, mesh_oversample: int | None = None,
                      view_texels: int | None = None, blocks=(1, 2, 4, 8), seed: int = 0,
-                     n_water: float = model.N_WATER) -> dict:
+                     n_water: float = N_WATER) -> dict:
     """aquaspec's caustic factor against Mitsuba's at ``depths`` (m).
 
     Parameters
     ----------
-    waves : caustics.Waves
+    waves : aquaspec.light.waves.Waves
         The sea.
     elevation_deg, azimuth_deg : float
         The sun in air (a point sun).
@@ -237,7 +237,7 @@ def compare_caustics(waves: caustics.Waves, elevation_deg: float, azimuth_deg: f
         each for the wavy surface, ``spp`` for the flat one); a render traces
         ``spp * view_texels^2`` photons.
     oversample : int
-        aquaspec's facets per texel side (:func:`aquaspec.light.caustics.surface`).
+        aquaspec's facets per texel side (:func:`aquaspec.light.waves.surface`).
     mesh_oversample : int, optional
         The Mitsuba mesh's vertices per texel side (default ``oversample``).
     view_texels : int, optional
@@ -267,8 +267,6 @@ def compare_caustics(waves: caustics.Waves, elevation_deg: float, azimuth_deg: f
         ``timing_s``: per depth the seconds of each render;
         ``info``: the set-up.
     """
-    from aquaspec.light.sky import fresnel_transmittance
-
     depths = np.atleast_1d(np.asarray(depths, dtype=float))
     if depths.size == 0 or np.any(~np.isfinite(depths)) or np.any(depths <= 0):
         raise AquaspecError(f"caustics check depths {depths.tolist()}; accepted: positive")
@@ -289,13 +287,13 @@ def compare_caustics(waves: caustics.Waves, elevation_deg: float, azimuth_deg: f
 
     t0 = time.perf_counter()
     mesh_os = int(oversample if mesh_oversample is None else mesh_oversample)
-    h, hx, hz = caustics.surface(waves, mesh_os)
+    h, hx, hz = surface(waves, mesh_os)
     m = h.shape[0]
     step = tile / m
     # Every facet's refracted direction (for the reach of the light).
     norm = np.stack([-hx, np.ones_like(h), -hz], axis=-1)
     norm /= np.linalg.norm(norm, axis=-1, keepdims=True)
-    t_dir, cos_i = caustics.refract(np.broadcast_to(-air, norm.shape), norm, n_water)
+    t_dir, cos_i = refract(np.broadcast_to(-air, norm.shape), norm, n_water)
     slope = t_dir[..., [0, 2]] / np.abs(t_dir[..., 1:2])
     t_surface = time.perf_counter() - t0
 

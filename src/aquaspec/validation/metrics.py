@@ -20,6 +20,7 @@ Each takes (..., 3) arrays and an optional boolean mask.
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import gaussian_filter
 
 from aquaspec.errors import AquaspecError
 
@@ -78,7 +79,6 @@ def hue_difference_deg(ref, test, mask=None) -> float:
 
 def ssim(ref, test, *, sigma: float = 1.5) -> float:
     """Mean SSIM of the channel-mean images (both (H, W, 3))."""
-    from scipy.ndimage import gaussian_filter
     ref = np.asarray(ref, dtype=float)
     test = np.asarray(test, dtype=float)
     if ref.shape != test.shape or ref.ndim != 3:
@@ -101,7 +101,7 @@ def display_lab(rgb, *, scale: float, matrix=None):
     ``rgb * scale``, then ``matrix`` (camera RGB -> linear sRGB), clipped to
     [0, 1], read as linear sRGB.
     """
-    import colour
+    import colour  # deferred: colour-science takes 1.2-1.5 s to import; only the metrics need it
     x = np.asarray(rgb, dtype=float) * scale
     if matrix is not None:
         x = x @ np.asarray(matrix, dtype=float).T
@@ -116,7 +116,7 @@ def ciede2000(ref, test, mask=None, *, matrix=None) -> float:
     The exposure maps the reference's 99th-percentile channel value to 0.9;
     the same scale and colour matrix are applied to both images.
     """
-    import colour
+    import colour  # deferred: colour-science takes 1.2-1.5 s to import; only the metrics need it
     r, t = _pair(ref, test, mask)
     scale = 0.9 / max(float(np.percentile(r, 99)), 1e-300)
     de = colour.delta_E(display_lab(r, scale=scale, matrix=matrix),

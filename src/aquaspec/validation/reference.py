@@ -63,7 +63,9 @@ import numpy as np
 from aquaspec.colour.bands import Bands
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import SurfaceLight
+from aquaspec.medium.phase import DEFAULT_TABLE_NODES, FournierForand, HenyeyGreenstein, get_phase
 from aquaspec.medium.water import Water
+from aquaspec.scene.camera import Camera
 
 #: Variants tried in order (llvm needs Debian's libllvm19; scalar needs nothing).
 VARIANTS = ("llvm_ad_spectral", "scalar_spectral")
@@ -101,7 +103,6 @@ FF_DEFAULT_BACKSCATTER = 0.0183
 
 def check_phase(phase: str, g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER):
     """Raise :class:`AquaspecError` unless ``phase`` and its parameter are accepted."""
-    from aquaspec.medium.phase import FournierForand, HenyeyGreenstein
     if phase not in PHASES:
         raise AquaspecError(f"reference phase function {phase!r}; accepted: {', '.join(PHASES)}")
     if phase == "hg":
@@ -120,7 +121,6 @@ def lightfield_phase(phase: str, g: float = 0.0,
     :func:`reference_phase` gives Mitsuba (``petzold`` unmixed: see
     :data:`PHASES`).
     """
-    from aquaspec.medium.phase import DEFAULT_TABLE_NODES
     check_phase(phase, g, backscatter)
     if phase == "isotropic":
         return "isotropic", ()
@@ -134,7 +134,6 @@ def lightfield_phase(phase: str, g: float = 0.0,
 
 def phase_function(phase: str, g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER):
     """The :class:`aquaspec.medium.phase.PhaseFunction` of the reference's water."""
-    from aquaspec.medium.phase import get_phase
     method, params = lightfield_phase(phase, g, backscatter)
     return get_phase(method, **dict(params))
 
@@ -182,7 +181,7 @@ def mitsuba_variant(variants, what: str):
     current one if it is among them): ``(mi, previous)``, ``previous`` the
     variant set before (None if none). Errors say what needed it (``what``)."""
     try:
-        import mitsuba as mi
+        import mitsuba as mi  # deferred: an optional dependency (the 'validation' extra)
     except ImportError as exc:
         raise AquaspecError(f"{what} needs Mitsuba 3, which is not installed: "
                             "pip install 'aquaspec[validation]'") from exc
@@ -351,7 +350,7 @@ def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
                g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
                max_depth: int = MAX_DEPTH) -> dict:
     """The Mitsuba scene dictionary (meshes are written as PLY into ``mesh_dir``)."""
-    import trimesh
+    import trimesh  # deferred: trimesh takes about 0.9 s to import; only the reference needs it
     mi = require_mitsuba()
     _check_range(water, light, bands)
     if abs(camera.cx - camera.width / 2) > 1e-6 or abs(camera.cy - camera.height / 2) > 1e-6:
@@ -422,7 +421,6 @@ def preflight(scene, camera, water: Water, light: SurfaceLight, *, phase: str = 
     sky must reach the camera through the water).
     Returns the tiny render.
     """
-    from aquaspec.scene.camera import Camera
     fov_y = float(np.degrees(2 * np.arctan(camera.height / 2 / camera.fy)))
     tiny = Camera.look_at(camera.position, camera.position + camera.forward, width=size[0],
                           height=size[1], fov_y_deg=fov_y, up=camera.true_up)

@@ -14,10 +14,13 @@ view; around it the camera sees the open water below.
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import binary_erosion
 
-from aquaspec.scene.camera import Camera
 from aquaspec.colour.reflectance import Reflectance, colorchecker
+from aquaspec.errors import AquaspecError
+from aquaspec.scene.camera import Camera
 from aquaspec.scene.mesh import Mesh, Scene
+from aquaspec.scene.seabed import Seabed
 
 BOARD_DISTANCE_M = 3.0
 PATCH_SIZE_M = 0.2
@@ -45,7 +48,6 @@ def board_scene(depth_m: float, *, width: int = 96, height: int = 72,
     ``distance_m sin(DOWN_PITCH_DEG)`` below the camera). ``view``: one of
     :data:`VIEWS` (module docstring).
     """
-    from aquaspec.errors import AquaspecError
     if view not in VIEWS:
         raise AquaspecError(f"view={view!r}; accepted: {', '.join(VIEWS)}")
     cam_pos = np.array([0.0, -float(depth_m), 0.0])
@@ -77,7 +79,6 @@ def board_scene(depth_m: float, *, width: int = 96, height: int = 72,
     v, f = quad(0.0, 0.0, 0.0, 3 * PATCH_PITCH_M + 0.05, 2 * PATCH_PITCH_M + 0.05)
     scene.add(Mesh(v, f, np.tile(normal, (4, 1)), back, name="backing"))
     if seabed_below_m is not None:
-        from aquaspec.transport.lightfield.solve import Seabed
         below = float(seabed_below_m)
         lowest = float(cam_pos[1] - v[:, 1].min())
         if not (np.isfinite(below) and below > max(lowest, 0.0)):
@@ -95,7 +96,6 @@ def board_scene(depth_m: float, *, width: int = 96, height: int = 72,
 
 def masks(gbuffer, erode: int = 1) -> dict:
     """Pixel masks: ``patches`` (24, H, W), ``background`` (open water), ``grey``."""
-    from scipy.ndimage import binary_erosion
     out = []
     for k in range(24):
         m = gbuffer.hit & (gbuffer.material == k)

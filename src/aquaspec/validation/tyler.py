@@ -38,9 +38,14 @@ References
 
 from __future__ import annotations
 
+import warnings
+
+import jerlov
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.io.atomic import write_file_atomically
+from aquaspec.transport.lightfield.solve import solve_lightfield
 
 #: Tyler's beam attenuation, 1/m (transmittance 67.3 % per metre; ``jerlov``).
 TYLER_C = -float(np.log(0.673))
@@ -59,9 +64,6 @@ def tyler_mean_radiance(depth_m: float):
     the sun's vertical plane at 20-degree steps from 0 to 180 degrees; the
     average over the full circle weights the two end columns by half.
     """
-    import warnings
-
-    import jerlov
     if depth_m not in jerlov.TYLER1958_DEPTHS:
         raise AquaspecError(f"Tyler depth {depth_m!r} m; accepted: "
                             f"{', '.join(f'{d:g}' for d in jerlov.TYLER1958_DEPTHS)}")
@@ -95,7 +97,6 @@ def tyler_k_inf(depths_m=(53.7, 66.1)) -> float:
 
 
 def _single_band(c, omega0, phase, n_streams, **phase_params):
-    from aquaspec.transport.lightfield.solve import solve_lightfield
     return solve_lightfield([c * (1.0 - omega0)], [c * omega0], phase=phase,
                             wavelength_nm=[TYLER_WAVELENGTH_NM], n_streams=n_streams,
                             **phase_params)
@@ -103,6 +104,7 @@ def _single_band(c, omega0, phase, n_streams, **phase_params):
 
 def fit_albedo(k_inf: float, c: float, phase, *, n_streams: int = 32, **phase_params) -> float:
     """``omega0`` whose asymptotic diffuse attenuation ``kappa_1`` equals ``k_inf``."""
+    # deferred: scipy.optimize takes about 0.4 s to import; only this fit needs it
     from scipy.optimize import brentq
     if not 0.0 < k_inf < c:
         raise AquaspecError(f"K_inf = {k_inf!r} 1/m must lie between 0 and c = {c!r} 1/m")
@@ -168,11 +170,11 @@ def format_tyler(res: dict) -> str:
 
 def plot_tyler(res: dict, path):
     """Tyler's shape and each phase's model shape against tilt (log axis); returns the path."""
+    # deferred: matplotlib is heavy to import and only the figure needs it
     import matplotlib
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # deferred: as above
 
-    from aquaspec.io.output import write_file_atomically
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.semilogy(res["tilt_deg"], res["tyler_shape"], "ko", label="Tyler 1958, "
                 f"{res['depths_m'][-1]:g} m (azimuthal mean)")

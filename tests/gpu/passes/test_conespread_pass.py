@@ -21,7 +21,8 @@ def reference(image, weights):
 
 def run_pass(sp, image):
     """Upload level 0, record the pass's dispatches in one compute pass, read U_0."""
-    from aquaspec.gpu.buffers import read_texture, record_dispatches, upload_texture
+    from aquaspec.gpu.buffers import read_texture, upload_texture
+    from aquaspec.gpu.dispatch import record_dispatches
     upload_texture(sp.device, sp.cone_texture, image.astype(np.float32))
     enc = sp.device.create_command_encoder()
     record_dispatches(enc, sp.dispatches())
@@ -114,7 +115,8 @@ def test_node_images_match_numpy(device, width, height, levels, nodes):
     in ceil(3 K / 4) vec4, level 0's slots side by side in the cone texture;
     U_0 = spread_nodes (each node's image with its own level weights, summed)."""
     from aquaspec.transport.lightfield.conespread import spread_nodes
-    from aquaspec.gpu.buffers import read_texture, record_dispatches, upload_texture
+    from aquaspec.gpu.buffers import read_texture, upload_texture
+    from aquaspec.gpu.dispatch import record_dispatches
     from aquaspec.gpu.passes.conespread import ConeSpreadPass, slots_for
     rng = np.random.default_rng(7 * width + height + levels + nodes)
     sp = ConeSpreadPass(device, width, height, levels, nodes=nodes)

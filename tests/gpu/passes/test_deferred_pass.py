@@ -13,6 +13,7 @@ from aquaspec.transport import monzon2022 as model
 from aquaspec.colour.bands import Bands
 from aquaspec.scene.camera import Camera
 from aquaspec.errors import AquaspecError
+from aquaspec.medium.interface import snell_window_cos
 from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
 from aquaspec.shading.shade import shade_gbuffer
 
@@ -154,7 +155,7 @@ def comparable(gbuffer):
     Snell's window, not where a hit lies at the water surface itself."""
     cam = gbuffer.camera
     v_y = cam.ray_directions()[..., 1]
-    rim = np.abs(v_y - model.snell_window_cos()) < 1e-5
+    rim = np.abs(v_y - snell_window_cos()) < 1e-5
     with np.errstate(divide="ignore", invalid="ignore"):
         to_surface = np.where(v_y > 0, cam.depth_m / v_y, np.inf)
         at_surface = (gbuffer.hit & (v_y > 0)
@@ -172,7 +173,7 @@ def assert_matches(gpu, ref, mask):
 
 def run_gpu(device, gbuffer, med, n, **kw):
     p = deferred_pass(device, n, **kw)
-    p.set_gbuffer(gbuffer)
+    p.gbuffer.upload(gbuffer)
     p.set_medium(**med)
     p.run()
     return p
@@ -222,17 +223,17 @@ class TestDeferredMatchesReference:
         med["material_bands"] = rng.uniform(0.02, 0.9, size=(n_mat, n))
         ref = shade_gbuffer(gb, **med)["camera_rgb"]
         p = DeferredPass(W, H, n, device=device)
-        p.set_gbuffer(gb)
+        p.gbuffer.upload(gb)
         p.set_medium(**med)
-        assert not p._materials.in_uniform
+        assert not p.materials.in_uniform
         p.run()
         assert_matches(p.read_rgb(), ref, comparable(gb))
         # Back to a small table: the uniform buffer again, same pass.
         med = medium("3C", n)
         gb2 = scene_box()
-        p.set_gbuffer(gb2)
+        p.gbuffer.upload(gb2)
         p.set_medium(**med)
-        assert p._materials.in_uniform
+        assert p.materials.in_uniform
         p.run()
         assert_matches(p.read_rgb(), shade_gbuffer(gb2, **med)["camera_rgb"], comparable(gb2))
 
@@ -274,28 +275,28 @@ class TestDeferredMatchesReference:
         gb.material[gb.material == PER_PIXEL] = 0
         med = medium("IB", n)
         p = run_gpu(device, gb, med, n)
-        assert not p.per_pixel
+        assert not p.gbuffer.per_pixel
         assert_matches(p.read_rgb(), shade_gbuffer(gb, **med)["camera_rgb"], comparable(gb))
 
     def test_per_pixel_material_in_single_material_gbuffer_is_reported(self, device):
         """PER_PIXEL in a G-buffer declared without per-pixel materials is an error, not rho = 0."""
         from aquaspec.gpu.buffers import upload_texture
-        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        from aquaspec.gpu.gbuffer import pack_gbuffer
         gb = scene_box()
         p = deferred_pass(device, 3)
         p.set_medium(**medium("IB", 3))
-        p.use_gbuffer_textures(gb.camera, per_pixel=False)
-        upload_texture(device, p.gbuffer_textures["surface"], pack_gbuffer(gb)["surface"])
+        p.gbuffer.use_textures(gb.camera, per_pixel=False)
+        upload_texture(device, p.gbuffer.textures["surface"], pack_gbuffer(gb)["surface"])
         p.run()
         with pytest.raises(AquaspecError, match="material index"):
             p.read_rgb()
-        p.set_gbuffer(gb)   # leave valid contents behind
+        p.gbuffer.upload(gb)   # leave valid contents behind
 
     def test_scenes_cover_every_branch(self):
         """The scenes exercise hits, open water, the window, the black surface
         outside it and a hit beyond the surface; otherwise the match above
         would prove less."""
-        cos_c = model.snell_window_cos()
+        cos_c = snell_window_cos()
         seen = set()
         for make in SCENES.values():
             gb = make()
@@ -353,11 +354,11 @@ def gbuffer_textures(device, packed, label="raster"):
     """Textures in the deferred pass's G-buffer layout, filled with ``packed``."""
     import wgpu
     from aquaspec.gpu.buffers import create_texture, upload_texture
-    from aquaspec.gpu.passes.deferred import GBUFFER_TEXTURES
+    from aquaspec.gpu.gbuffer import GBUFFER_FORMATS
     out = {}
     for name, arr in packed.items():
         out[name] = create_texture(device, arr.shape[1], arr.shape[0],
-                                   GBUFFER_TEXTURES[name][1], label=f"{label} {name}",
+                                   GBUFFER_FORMATS[name], label=f"{label} {name}",
                                    usage=wgpu.TextureUsage.TEXTURE_BINDING
                                    | wgpu.TextureUsage.COPY_DST)
         upload_texture(device, out[name], arr)
@@ -367,13 +368,13 @@ def gbuffer_textures(device, packed, label="raster"):
 class TestGpuResidentInputs:
     def test_external_textures(self, device):
         """A raster pass hands over its own textures in the documented layout."""
-        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        from aquaspec.gpu.gbuffer import pack_gbuffer
         gb = scene_seabed()
         med = medium("3C", 8)
         tex = gbuffer_textures(device, pack_gbuffer(gb))
         p = deferred_pass(device, 8)
         p.set_medium(**med)
-        p.use_gbuffer_textures(gb.camera, **tex)
+        p.gbuffer.use_textures(gb.camera, **tex)
         try:
             p.run()
             gpu = p.read_rgb()
@@ -388,59 +389,59 @@ class TestGpuResidentInputs:
     def test_written_in_place(self, device):
         """Writing the pass's own gbuffer_textures (as a raster pass does) works."""
         from aquaspec.gpu.buffers import upload_texture
-        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        from aquaspec.gpu.gbuffer import pack_gbuffer
         gb = scene_box()
         med = medium("IB", 3)
         p = deferred_pass(device, 3)
         p.set_medium(**med)
         for k, v in pack_gbuffer(gb).items():
-            upload_texture(device, p.gbuffer_textures[k], v)
-        p.set_camera(gb.camera)
+            upload_texture(device, p.gbuffer.textures[k], v)
+        p.gbuffer.set_camera(gb.camera)
         p.run()
         assert_matches(p.read_rgb(), shade_gbuffer(gb, **med)["camera_rgb"], comparable(gb))
 
-    def test_set_gbuffer_packs_the_documented_layout(self, device):
-        """set_gbuffer uploads the layout of the module docstring (distance, n_y, material)."""
+    def test_upload_packs_the_documented_layout(self, device):
+        """GBufferTextures.upload writes the layout of aquaspec.gpu.gbuffer's docstring (distance, n_y, material)."""
         from aquaspec.gpu.buffers import read_texture
         gb = scene_seabed()
         p = deferred_pass(device, 3)
-        p.set_gbuffer(gb)
-        surface = read_texture(device, p.gbuffer_textures["surface"], np.uint32, 4)
+        p.gbuffer.upload(gb)
+        surface = read_texture(device, p.gbuffer.textures["surface"], np.uint32, 4)
         np.testing.assert_array_equal(surface[..., 0].view(np.float32),
                                       np.where(gb.hit, gb.distance, -1.0).astype(np.float32))
         np.testing.assert_array_equal(surface[..., 1].view(np.float32),
                                       gb.normal[..., 1].astype(np.float32))
         np.testing.assert_array_equal(surface[..., 3], gb.material)
-        assert p.per_pixel == bool(np.any(gb.hit & (gb.material == PER_PIXEL)))
+        assert p.gbuffer.per_pixel == bool(np.any(gb.hit & (gb.material == PER_PIXEL)))
 
     def test_bad_material_index_is_reported(self, device):
         from aquaspec.gpu.buffers import upload_texture
-        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        from aquaspec.gpu.gbuffer import pack_gbuffer
         gb = scene_box()
         packed = pack_gbuffer(gb)
         packed["surface"][gb.hit & (gb.material == 0), 3] = 7
         p = deferred_pass(device, 3)
         p.set_medium(**medium("IB", 3))
-        upload_texture(device, p.gbuffer_textures["surface"], packed["surface"])
-        p.set_camera(gb.camera)
+        upload_texture(device, p.gbuffer.textures["surface"], packed["surface"])
+        p.gbuffer.set_camera(gb.camera)
         p.run()
         with pytest.raises(AquaspecError, match="material index"):
             p.read_rgb()
-        p.set_gbuffer(gb)   # leave valid contents behind
+        p.gbuffer.upload(gb)   # leave valid contents behind
 
     def test_wrong_texture(self, device):
-        from aquaspec.gpu.passes.deferred import pack_gbuffer
+        from aquaspec.gpu.gbuffer import pack_gbuffer
         gb = scene_box()
         p = deferred_pass(device, 3)
         packed = pack_gbuffer(gb)
         small = gbuffer_textures(device, {"surface": packed["surface"][:10, :10]})
         with pytest.raises(AquaspecError, match="surface texture is 10x10"):
-            p.use_gbuffer_textures(gb.camera, **small)
+            p.gbuffer.use_textures(gb.camera, **small)
         swapped = gbuffer_textures(device, {"sigmoid": packed["sigmoid"]})
         with pytest.raises(AquaspecError, match="rgba32uint"):
-            p.use_gbuffer_textures(gb.camera, surface=swapped["sigmoid"])
+            p.gbuffer.use_textures(gb.camera, surface=swapped["sigmoid"])
         with pytest.raises(AquaspecError, match="unknown G-buffer texture"):
-            p.use_gbuffer_textures(gb.camera, depth=swapped["sigmoid"])
+            p.gbuffer.use_textures(gb.camera, depth=swapped["sigmoid"])
 
 
 class TestDeferredInputErrors:
@@ -455,13 +456,13 @@ class TestDeferredInputErrors:
         gb = GBuffer(cam, np.full((H, W + 1), np.inf), np.zeros((H, W + 1, 3)),
                      np.zeros((H, W + 1)), np.zeros((H, W + 1, 3)))
         with pytest.raises(AquaspecError, match="created for"):
-            p.set_gbuffer(gb)
+            p.gbuffer.upload(gb)
 
     def test_camera_above_water(self, device):
         p = deferred_pass(device, 3)
         cam = Camera.look_at((0, 1, 0), (0, -5, 1), width=W, height=H)
         with pytest.raises(AquaspecError, match="above the water"):
-            p.set_camera(cam)
+            p.gbuffer.set_camera(cam)
 
     def test_ambient_ids_cover_the_model(self):
         from aquaspec.gpu.passes.deferred import AMBIENT_MODEL_IDS
@@ -478,7 +479,7 @@ class TestCopyPass:
         from aquaspec.gpu.passes.copy import CopyPass
         gb = scene_seabed()
         p = deferred_pass(device, 3)
-        p.set_gbuffer(gb)
+        p.gbuffer.upload(gb)
         c = CopyPass(p)
         c.run()
         out = c.read()
@@ -493,7 +494,7 @@ class TestCopyPass:
 class TestTimePasses:
     @pytest.mark.parametrize("method", ["auto", "wall-clock"])
     def test_times_are_positive(self, device, method):
-        from aquaspec.gpu.buffers import time_passes, timestamps_supported
+        from aquaspec.gpu.timing import time_passes, timestamps_supported
         from aquaspec.gpu.passes.copy import CopyPass
         p = run_gpu(device, scene_box(), medium("IB", 8), 8)
         t = time_passes({"deferred": p, "copy": CopyPass(p)}, frames=3, warmup=1,
@@ -506,7 +507,7 @@ class TestTimePasses:
         assert t.method == expected
 
     def test_bad_arguments(self, device):
-        from aquaspec.gpu.buffers import time_passes
+        from aquaspec.gpu.timing import time_passes
         p = deferred_pass(device, 3)
         with pytest.raises(AquaspecError, match="frames"):
             time_passes({"d": p}, frames=0, device=device)
@@ -514,56 +515,6 @@ class TestTimePasses:
             time_passes({"d": p}, method="stopwatch", device=device)
         with pytest.raises(AquaspecError, match="at least one pass"):
             time_passes({}, device=device)
-
-
-class TestBufferHelpers:
-    def test_storage_round_trip(self, device):
-        from aquaspec.gpu.buffers import create_storage_buffer, read_buffer, upload_buffer
-        data = np.arange(10, dtype=np.float32) * 1.5
-        buf = create_storage_buffer(device, data, label="round trip")
-        assert buf.size % 16 == 0 and buf.size >= data.nbytes
-        np.testing.assert_array_equal(read_buffer(device, buf, np.float32, (10,)), data)
-        upload_buffer(device, buf, np.array([7, 8], dtype=np.uint32), offset=8)
-        back = read_buffer(device, buf, np.uint32, (10,))
-        assert back[2:4].tolist() == [7, 8]
-        with pytest.raises(AquaspecError, match="do not fit"):
-            upload_buffer(device, buf, np.zeros(100, np.float32))
-        with pytest.raises(AquaspecError, match="needs"):
-            read_buffer(device, buf, np.float32, (100,))
-
-    def test_texture_round_trip(self, device):
-        from aquaspec.gpu.buffers import create_texture, read_texture, upload_texture
-        # 5 x 3 rgba32float: rows of 80 bytes, not a multiple of 256.
-        data = np.random.default_rng(0).random((3, 5, 4)).astype(np.float32)
-        tex = create_texture(device, 5, 3, "rgba32float", label="round trip")
-        upload_texture(device, tex, data)
-        np.testing.assert_array_equal(read_texture(device, tex, np.float32, 4), data)
-        with pytest.raises(AquaspecError, match="5x3"):
-            upload_texture(device, tex, data[:2])
-
-
-class TestSurfacePacking:
-    def test_octahedral_round_trip(self):
-        """Host packing of the surface texel: n_y exact, the rest within 16-bit quantisation."""
-        from aquaspec.gpu.passes.deferred import (oct_decode, oct_encode, pack_snorm16x2,
-                                           unpack_snorm16x2, unpack_surface)
-        rng = np.random.default_rng(3)
-        n = rng.normal(size=(4000, 3))
-        n /= np.linalg.norm(n, axis=1, keepdims=True)
-        n[:6] = [[0, 1, 0], [0, -1, 0], [1, 0, 0], [0, 0, -1], [-0.6, 0, 0.8], [0, 0.6, -0.8]]
-        np.testing.assert_allclose(oct_decode(oct_encode(n)), n, atol=1e-12)
-        words = pack_snorm16x2(oct_encode(n))
-        assert np.abs(unpack_snorm16x2(words) - oct_encode(n)).max() <= 0.5 / 32767 + 1e-12
-        surface = np.zeros((len(n), 4), np.uint32)
-        surface[:, 0] = np.float32(2.5).view(np.uint32)
-        surface[:, 1] = n[:, 1].astype(np.float32).view(np.uint32)
-        surface[:, 2] = words
-        surface[:, 3] = 7
-        distance, normal, material = unpack_surface(surface)
-        np.testing.assert_array_equal(normal[:, 1], n[:, 1].astype(np.float32))
-        np.testing.assert_allclose(np.linalg.norm(normal, axis=1), 1.0, atol=1e-12)
-        np.testing.assert_allclose(normal, n, atol=1e-4)
-        assert np.all(distance == 2.5) and np.all(material == 7)
 
 
 class TestFusedDisplay:
@@ -605,7 +556,7 @@ class TestFusedDisplay:
         med = medium("I", n)
         med["e0"] = med["e0"] * 1e36
         p = deferred_pass(device, n)
-        p.set_gbuffer(gb)
+        p.gbuffer.upload(gb)
         p.set_medium(**med)
         p.set_display(exposure_ev=20.0)
         p.run(display=True)
@@ -615,7 +566,7 @@ class TestFusedDisplay:
     def test_needs_settings_and_a_display_run(self, device):
         from aquaspec.gpu.passes.deferred import DeferredPass
         p = DeferredPass(W, H, 3, device=device)
-        p.set_gbuffer(scene_box())
+        p.gbuffer.upload(scene_box())
         p.set_medium(**medium("IB", 3))
         with pytest.raises(AquaspecError, match="set_display"):
             p.run(display=True)

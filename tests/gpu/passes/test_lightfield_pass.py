@@ -14,7 +14,7 @@ from aquaspec.colour.bands import Bands
 from aquaspec.errors import AquaspecError
 from aquaspec.scene.gbuffer import PER_PIXEL
 from aquaspec.light.sky import surface_light
-from aquaspec.rendering.renderer import SpectralSetup
+from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.shading.shade import shade_gbuffer
 from aquaspec.medium.water import load_water
@@ -52,11 +52,12 @@ def assert_fused_display_matches(lp, gb, fused_and_two_pass):
 
 
 def gpu_pass(gb, setup, e0_scale=1.0, filtering=None, tables=None):
-    from aquaspec.gpu.passes.deferred import DeferredPass
+    from aquaspec.gpu.device import get_device
+    from aquaspec.gpu.gbuffer import GBufferTextures
     from aquaspec.gpu.passes.lightfield import LightfieldPass
-    d = DeferredPass(gb.camera.width, gb.camera.height, setup.bands.n)
-    d.set_gbuffer(gb)
-    lp = LightfieldPass(d, filtering=filtering)
+    g = GBufferTextures(get_device()[1], gb.camera.width, gb.camera.height)
+    g.upload(gb)
+    lp = LightfieldPass(g, filtering=filtering)
     medium = setup.medium(gb.materials)
     medium["e0"] = medium["e0"] * e0_scale
     lp.set_medium(**medium, tables=setup.lightfield_tables() if tables is None else tables)
@@ -72,13 +73,13 @@ def twin_of(lp, gb, medium):
     """shade_compiled with the pass's compiled model (and pyramid weights)."""
     from aquaspec.transport.lightfield.conespread import node_pyramid_weights, pyramid_weights
     from aquaspec.transport.lightfield.compiled import shade_compiled
-    tables = lp._medium[0]
+    tables = lp.tables
     cam = gb.camera
     weights = None
     if lp.nodes:
-        weights = np.array(node_pyramid_weights(tables, cam.fy, cam.height, cam.width))
+        weights = np.array(node_pyramid_weights(tables.cone, cam.fy, cam.height, cam.width))
     elif lp.spread:
-        weights = pyramid_weights(tables, cam.fy, cam.height, cam.width)
+        weights = pyramid_weights(tables.cone, cam.fy, cam.height, cam.width)
     return shade_compiled(gb, lp.reference_compiled(), material_bands=medium["material_bands"],
                           sigmoid_centers_t=medium["sigmoid_centers_t"],
                           pyramid_weights=weights, start_level=lp.spread_start_level)
@@ -122,7 +123,7 @@ def test_seabed_tables(water, n, depth_h, rank, spread, lightfield_gbuffer):
     """Tables with a Lambertian seabed: the water table is built on the CPU
     (lightfield_compiled.water_table, with the multiple-scattering spread's
     node layers and kept share too) and the pass matches its twin."""
-    from aquaspec.transport.lightfield.solve import lightfield_tables
+    from aquaspec.transport.lightfield.bake import lightfield_tables
     gb = lightfield_gbuffer("builtin", 5.0)
     setup = setup_of(water, n, "petzold", cone=40.0 if spread else 15.0,
                      cone_spread=bool(spread))
@@ -133,15 +134,15 @@ def test_seabed_tables(water, n, depth_h, rank, spread, lightfield_gbuffer):
                                spread_scattering=how)
     medium = setup.medium(gb.materials)
     lp = gpu_pass(gb, setup, tables=tables)
-    assert lp.seabed and lp.spread == bool(spread) and lp._shape["rank"] == rank
+    assert lp.seabed and lp.spread == bool(spread) and lp.rank == rank
     lp.spread_start_level = 1 if how == "multiple" else None
     lp.run()
     if how == "multiple":
-        from aquaspec.transport.lightfield.compiled import node_alpha
+        from aquaspec.transport.lightfield.spreadplan import node_alpha
         comp = lp.reference_compiled()
         assert lp.nodes == 6 and comp.water.shape[0] == 7
-        np.testing.assert_allclose(lp.read_water_table(channels=4)[0, :, :-1, 3],
-                                   node_alpha(comp, lp._water_distances(5.0)), atol=1e-6)
+        np.testing.assert_allclose(lp.water.read(channels=4)[0, :, :-1, 3],
+                                   node_alpha(comp, lp.water.distances(5.0)), atol=1e-6)
     assert_matches(lp.read_rgb(), twin_of(lp, gb, medium), rtol=1e-3 if spread else 1e-4)
     plain = gpu_pass(gb, setup)                      # the same water over deep water
     plain.run()
@@ -157,7 +158,7 @@ def test_every_irradiance_rank(rank, lightfield_gbuffer, monkeypatch):
     gb = lightfield_gbuffer("builtin", 5.0)
     setup = setup_of("I", 12, "petzold", cone=15.0)
     lp = gpu_pass(gb, setup)
-    assert lp._shape["rank"] == rank
+    assert lp.rank == rank
     lp.run()
     assert_matches(lp.read_rgb(), twin_of(lp, gb, setup.medium(gb.materials)), rtol=1e-4)
 
@@ -174,10 +175,9 @@ def test_band_group_texture_layout():
     assert not tex[1, :, :, 2:].any()
 
 
-def test_filtering_needs_the_device_feature():
-    from aquaspec.gpu.passes.deferred import DeferredPass
+def test_filtering_needs_the_device_feature(device):
+    from aquaspec.gpu.gbuffer import GBufferTextures
     from aquaspec.gpu.passes.lightfield import LightfieldPass
-    d = DeferredPass(8, 4, 3)
 
     class NoFeatures:
         def __init__(self, dev):
@@ -187,10 +187,10 @@ def test_filtering_needs_the_device_feature():
         def __getattr__(self, name):
             return getattr(self._dev, name)
 
-    d.device = NoFeatures(d.device)
-    assert LightfieldPass(d).filtering is False
+    g = GBufferTextures(NoFeatures(device), 8, 4)
+    assert LightfieldPass(g).filtering is False
     with pytest.raises(AquaspecError, match="float32-filterable"):
-        LightfieldPass(d, filtering=True)
+        LightfieldPass(g, filtering=True)
 
 
 @pytest.mark.parametrize("kind,n,cone,filtering,start,projected", [
@@ -207,10 +207,10 @@ def test_cone_spread_matches_reference(kind, n, cone, filtering, start, projecte
     """The pyramid on the GPU (the light-field pass split into radiance and
     cone term, then conespread.wgsl) against shade_gbuffer's NumPy pyramid,
     linear RGB and the fused display; the kept share with its term per band
-    and projected (lightfield_compiled.kept_projection, here from any band
+    and projected (spreadplan.kept_projection, here from any band
     count; alpha = 0 without a coarse start never projects)."""
-    import aquaspec.transport.lightfield.compiled as lfc
-    monkeypatch.setattr(lfc, "KEPT_PROJECTION_MIN_BANDS", 1 if projected else 10 ** 6)
+    import aquaspec.transport.lightfield.spreadplan as lfs
+    monkeypatch.setattr(lfs, "KEPT_PROJECTION_MIN_BANDS", 1 if projected else 10 ** 6)
     gb = lightfield_gbuffer(kind, 5.0)
     setup = dataclasses.replace(setup_of("II", n, "ff", cone=cone),
                                 phase_params=(("backscatter", 0.0183),), cone_spread=True)
@@ -236,7 +236,7 @@ def test_cone_spread_matches_reference(kind, n, cone, filtering, start, projecte
 @pytest.mark.parametrize("start", [None, 2])
 def test_cone_spread_with_far_targets_in_turbid_water(start, lightfield_gbuffer):
     """Targets 50x farther in Jerlov 7C: exp(-f b S) underflows float32 (f b S
-    over 100), the pixel's kept share (lightfield_compiled.kept_share)
+    over 100), the pixel's kept share (spreadplan.kept_share)
     must stay finite with alpha = 0 (start at level 0) and alpha > 0."""
     gb = lightfield_gbuffer("builtin", 5.0)
     gb = dataclasses.replace(gb, distance=np.where(np.isfinite(gb.distance),
@@ -252,7 +252,7 @@ def test_cone_spread_with_far_targets_in_turbid_water(start, lightfield_gbuffer)
 
 
 def test_render_api_uses_the_lightfield_pass():
-    from aquaspec.rendering.renderer import render
+    from aquaspec.rendering.api import render
     gpu = render(water="IB", depth_m=5.0, size=(48, 27), bands=4, ms_model="lightfield",
                  phase="isotropic")
     cpu = render(water="IB", depth_m=5.0, size=(48, 27), bands=4, ms_model="lightfield",
@@ -271,7 +271,7 @@ def test_per_pixel_materials(kind, depth, cone, lightfield_gbuffer):
     gb = with_per_pixel_materials(lightfield_gbuffer(kind, depth))
     setup = setup_of("IB", 8, "petzold", cone)
     lp = gpu_pass(gb, setup)
-    assert lp.deferred.per_pixel
+    assert lp.gbuffer.per_pixel
     lp.run()
     got = lp.read_rgb()
     ref = twin_of(lp, gb, setup.medium(gb.materials))
@@ -287,20 +287,20 @@ def test_per_pixel_false_ignores_the_sigmoid_texture(lightfield_gbuffer):
     """per_pixel False: the sigmoid texture is not read (garbage there changes
     nothing), and a PER_PIXEL material then is reported as a bad index."""
     from aquaspec.gpu.buffers import upload_texture
-    from aquaspec.gpu.passes.deferred import pack_gbuffer
+    from aquaspec.gpu.gbuffer import pack_gbuffer
     gb = lightfield_gbuffer("builtin", 5.0)
     setup = setup_of("IB", 8, "petzold")
     lp = gpu_pass(gb, setup)
-    assert not lp.deferred.per_pixel
+    assert not lp.gbuffer.per_pixel
     lp.run()
     clean = lp.read_rgb()
-    upload_texture(lp.device, lp.deferred.gbuffer_textures["sigmoid"],
+    upload_texture(lp.device, lp.gbuffer.textures["sigmoid"],
                    np.full((gb.camera.height, gb.camera.width, 4), np.nan, np.float32))
     lp.run()
     np.testing.assert_array_equal(lp.read_rgb(), clean)
     pp = with_per_pixel_materials(gb)
-    lp.deferred.use_gbuffer_textures(gb.camera, per_pixel=False)
-    upload_texture(lp.device, lp.deferred.gbuffer_textures["surface"],
+    lp.gbuffer.use_textures(gb.camera, per_pixel=False)
+    upload_texture(lp.device, lp.gbuffer.textures["surface"],
                    pack_gbuffer(pp)["surface"])
     lp.run()
     with pytest.raises(AquaspecError, match="material index"):
@@ -333,7 +333,7 @@ def test_fused_display_equals_display_pass(kind, depth, cone, tonemap, fused_and
 
 def test_read_display_errors(lightfield_gbuffer):
     from aquaspec.gpu.buffers import upload_texture
-    from aquaspec.gpu.passes.deferred import pack_gbuffer
+    from aquaspec.gpu.gbuffer import pack_gbuffer
     gb = lightfield_gbuffer("builtin", 5.0)
     setup = setup_of("IB", 3, "isotropic")
     lp = gpu_pass(gb, setup, e0_scale=1e36)
@@ -353,7 +353,7 @@ def test_read_display_errors(lightfield_gbuffer):
     # A material index out of range is reported first.
     packed = pack_gbuffer(gb)
     packed["surface"][gb.hit, 3] = 1000
-    upload_texture(lp.device, lp.deferred.gbuffer_textures["surface"], packed["surface"])
+    upload_texture(lp.device, lp.gbuffer.textures["surface"], packed["surface"])
     lp.set_display(exposure_ev=-64.0)
     lp.run(display=True)
     with pytest.raises(AquaspecError, match="material index >= "):
@@ -371,33 +371,34 @@ def test_water_table_built_on_the_gpu_matches_numpy(water, n, phase, depth, cone
     """watertable.wgsl against lightfield_compiled.water_table (float64), both
     layers, and the table is rebuilt when the camera's depth changes."""
     from aquaspec.transport.lightfield.conespread import pyramid_weights
-    from aquaspec.transport.lightfield.compiled import spread_plan, water_table
+    from aquaspec.transport.lightfield.compiled import water_table
+    from aquaspec.transport.lightfield.spreadplan import spread_plan
     gb = lightfield_gbuffer("up", depth)
     params = (("backscatter", 0.0183),) if phase == "ff" else ()
     setup = dataclasses.replace(setup_of(water, n, phase, cone=cone), phase_params=params,
                                 cone_spread=spread)
     lp = gpu_pass(gb, setup)
     lp.run()
-    got = lp.read_water_table()
+    got = lp.water.read()
     med = setup.medium(gb.materials)
     ref = water_table(setup.lightfield_tables(), a=med["a"], b=med["b"], e0=med["e0"],
                       response_weights=med["response_weights"], depth_o=depth, split=spread)
     if spread:
         alpha = lp.spread_plan[1]
         cam = gb.camera
-        weights = pyramid_weights(setup.lightfield_tables(), cam.fy, cam.height, cam.width)
+        weights = pyramid_weights(setup.lightfield_tables().cone, cam.fy, cam.height, cam.width)
         assert alpha == spread_plan(weights, cam.fy)[1]
         ref = np.stack([ref[0] + alpha * ref[1], ref[1]])
     assert got.shape == ref.shape
     scale = np.abs(ref).max()
     np.testing.assert_allclose(got, ref, rtol=2e-4, atol=2e-6 * scale)
     # A new depth, a new table.
-    key = lp._water_key
+    key = lp.water.key
     gb2 = lightfield_gbuffer("up", depth + 1.0)
-    lp.deferred.set_gbuffer(gb2)
+    lp.gbuffer.upload(gb2)
     lp.run()
-    assert lp._water_key != key
-    assert np.abs(lp.read_water_table() - got).max() > 1e-3 * scale
+    assert lp.water.key != key
+    assert np.abs(lp.water.read() - got).max() > 1e-3 * scale
 
 
 @pytest.mark.parametrize("water,n,kind,start,filtering", [
@@ -425,12 +426,12 @@ def test_multiple_scattering_spread_matches_its_twin(water, n, kind, start, filt
     assert lp.nodes == len(LAMBDA_NODES) and lp.spread_plan[0] == (start or 0)
     comp = lp.reference_compiled()
     assert comp.water.shape[0] == 1 + lp.nodes
-    table = lp.read_water_table(channels=4)
+    table = lp.water.read(channels=4)
     np.testing.assert_allclose(table[..., :3], comp.water, rtol=2e-4,
                                atol=2e-6 * np.abs(comp.water).max())
     # Layer 0's fourth channel: the share a hit pixel keeps (node_alpha).
-    from aquaspec.transport.lightfield.compiled import node_alpha
-    kept = node_alpha(comp, lp._water_distances(5.0))
+    from aquaspec.transport.lightfield.spreadplan import node_alpha
+    kept = node_alpha(comp, lp.water.distances(5.0))
     np.testing.assert_allclose(table[0, :, :-1, 3], kept, atol=1e-5)
     assert 0.0 <= kept.min() and kept.max() < 1.0
     assert np.ptp(kept) > 0.01 if start else kept.max() == 0.0   # start 0: nothing kept

@@ -7,7 +7,8 @@ import trimesh
 from aquaspec.scene.camera import Camera
 from aquaspec.errors import AquaspecError
 from aquaspec.scene.gbuffer import PER_PIXEL
-from aquaspec.gpu.passes.raster import RasterPass, raycast_gbuffer
+from aquaspec.gpu.passes.raster import RasterPass
+from aquaspec.scene.raycast import raycast_gbuffer
 from aquaspec.colour.reflectance import Reflectance
 from aquaspec.scene import Mesh, Scene, builtin_scene
 
@@ -58,7 +59,7 @@ def compare(gpu, ref, *, normal_atol=NORMAL_ATOL, min_pixels=200):
     hit = m & np.isfinite(ref.distance)
     np.testing.assert_allclose(gpu.distance[hit], ref.distance[hit], rtol=DIST_RTOL)
     # n_y (all the shading uses) is stored exactly; the horizontal part goes
-    # through a 16-bit octahedral encoding (aquaspec.gpu.passes.deferred).
+    # through a 16-bit octahedral encoding (aquaspec.gpu.gbuffer).
     np.testing.assert_allclose(gpu.normal[hit][:, 1], ref.normal[hit][:, 1], atol=normal_atol)
     np.testing.assert_allclose(gpu.normal[hit], ref.normal[hit], atol=max(normal_atol, OCT_ATOL))
     np.testing.assert_array_equal(gpu.material[hit], ref.material[hit])
@@ -227,16 +228,16 @@ class TestBuiltin:
 
 class TestRenderTo:
     def test_matches_host_packing(self, raster):
-        """render_to leaves the deferred pass's textures equal to the packed host G-buffer."""
+        """render_to leaves the shading passes' G-buffer equal to the packed host G-buffer."""
         from aquaspec.gpu.buffers import read_texture
-        from aquaspec.gpu.passes.deferred import DeferredPass, pack_gbuffer
+        from aquaspec.gpu.gbuffer import GBufferTextures, pack_gbuffer
         s = plane_and_box()
         cam = Camera.look_at((0.3, -2.0, 0.0), (0.2, -3.5, -5.0), width=40, height=30)
         ref = pack_gbuffer(raster.render(s, cam))
-        dp = DeferredPass(40, 30, 3)
+        dp = GBufferTextures(raster.device, 40, 30)
         raster.render_to(dp, s, cam)
         for name, arr in ref.items():
-            got = read_texture(dp.device, dp.gbuffer_textures[name], arr.dtype, 4)
+            got = read_texture(dp.device, dp.textures[name], arr.dtype, 4)
             np.testing.assert_array_equal(got, arr)
         assert dp.camera is cam
         with pytest.raises(AquaspecError, match="40x30"):

@@ -1,6 +1,6 @@
 """The scene's shadow's ray integrals on the GPU (aquaspec.gpu.passes.shadow_hit,
 aquaspec.gpu.passes.shadow_open, shaders/shadow_*.wgsl) against their NumPy twins
-(aquaspec.transport.lightfield.shadow._Context.hit_rays and _open_ray), on the board of
+(aquaspec.transport.lightfield.shadow.ShadowContext.hit_rays and open_ray), on the board of
 tests/shadow_board.py (96x72, Jerlov II, Petzold)."""
 
 from __future__ import annotations
@@ -66,8 +66,8 @@ def test_hit_rays_dispatch_rows_and_contexts(hit_case, device, monkeypatch):
     ctx, rows, cols, want = hit_case
     hp = sh.HitRayPass(device, ctx.b.size)
     first = hp.hit_rays(ctx, rows[:20], cols[:20])
-    from aquaspec.gpu.passes import shadow_rays
-    monkeypatch.setattr(shadow_rays, "MAX_GROUPS_X", 7)  # (3 rows of 7 workgroups)
+    from aquaspec.gpu import band_rays
+    monkeypatch.setattr(band_rays, "MAX_GROUPS_X", 7)  # (3 rows of 7 workgroups)
     np.testing.assert_array_equal(hp.hit_rays(ctx, rows[:20], cols[:20]), first)
     brighter, _ = board_context(ctx.b.size, e0_scale=2.0)
     np.testing.assert_allclose(hp.hit_rays(brighter, rows[:20], cols[:20]), 2 * first,
@@ -104,7 +104,7 @@ def open_case(request):
     ctx, gb = board_context(request.param)
     rays = open_rays(ctx, gb)
     assert gb.hit.any() and rays.shape[0] > 40
-    return ctx, rays, np.stack([ctx._open_ray(v) for v in rays])
+    return ctx, rays, np.stack([ctx.open_ray(v) for v in rays])
 
 
 def band_errors(got, want):
@@ -146,16 +146,16 @@ def test_open_integrand_split_dispatch_and_a_new_context(device, monkeypatch):
     """Workgroups in rows (a small MAX_GROUPS_X) give the same values; a second
     context (twice the irradiance) is uploaded, not the first one's reused;
     odd band count 5."""
+    from aquaspec.gpu import band_rays
     from aquaspec.gpu.passes import shadow_open
-    from aquaspec.gpu.passes import shadow_rays
     ctx, gb = board_context(5)
     rays = open_rays(ctx, gb)[::3]
     ps = shadow_open.OpenRayPass(device, 5)
     whole = ps.integrand(ctx, rays)
-    monkeypatch.setattr(shadow_rays, "MAX_GROUPS_X", 7)
+    monkeypatch.setattr(band_rays, "MAX_GROUPS_X", 7)
     assert -(-rays.shape[0] * shadow.T_NODES // shadow_open.WORKGROUP) > 7
     np.testing.assert_array_equal(ps.integrand(ctx, rays), whole)
-    worst, _ = band_errors(whole, np.stack([ctx._open_ray(v) for v in rays]))
+    worst, _ = band_errors(whole, np.stack([ctx.open_ray(v) for v in rays]))
     assert np.all(worst <= MAX_TOL), worst
     ctx2, _ = board_context(5, e0_scale=2.0)
     np.testing.assert_allclose(ps.integrand(ctx2, rays), 2.0 * whole, rtol=1e-5,

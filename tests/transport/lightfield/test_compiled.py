@@ -1,6 +1,6 @@
 """The light-field model compiled for the GPU (aquaspec.transport.lightfield.compiled)
 against the model itself: the irradiance factorisation on the tables' nodes,
-the water table against lightfield_pixel_radiance, and the NumPy twin of the
+the water table against LightfieldTables.pixel_radiance, and the NumPy twin of the
 GPU pass against shade_gbuffer with tables."""
 
 from __future__ import annotations
@@ -14,8 +14,9 @@ from aquaspec.transport.lightfield import compiled as lfc
 from aquaspec.colour.bands import Bands
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import surface_light
-from aquaspec.transport.lightfield.solve import lightfield_pixel_radiance, lightfield_tables
-from aquaspec.rendering.renderer import SpectralSetup
+from aquaspec.transport.lightfield import spreadplan
+from aquaspec.transport.lightfield.bake import lightfield_tables
+from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.medium.water import load_water
 
@@ -32,18 +33,18 @@ class TestIrradianceFactors:
     def test_exact_with_as_many_functions_as_bands(self):
         t = tables_of("IB", 3)
         fac = lfc.irradiance_factors(t, rank=4)
-        assert fac["coef"].shape == (3, 6) and fac["basis"].shape == (4,) + t["depth_m"].shape \
-            + t["cosine"].shape
+        assert fac["coef"].shape == (3, 6) and fac["basis"].shape == (4,) + t.depth_m.shape \
+            + t.cosine.shape
         assert fac["max_error"] < 1e-12
 
     @pytest.mark.parametrize("water", ["IB", "7C"])
     def test_fit_reproduces_the_table(self, water):
         t = tables_of(water, 8)
         fac = lfc.irradiance_factors(t, rank=4)
-        d = np.asarray(t["depth_m"], float)
+        d = np.asarray(t.depth_m, float)
         ln_e = (fac["coef"][:, :1, None] + fac["coef"][:, 1:2, None] * d[None, :, None]
                 + np.einsum("ir,rjk->ijk", fac["coef"][:, 2:], fac["basis"]))
-        e = np.asarray(t["irradiance_per_e0"], float)
+        e = np.asarray(t.irradiance_per_e0, float)
         err = relative_error(np.exp(ln_e), e)[:, d <= lfc.ERROR_DEPTH_M]
         # The reported error is the error of this reconstruction.
         assert err.max() == pytest.approx(fac["max_error"], rel=1e-6)
@@ -84,7 +85,7 @@ class TestWaterTable:
         table = lfc.water_table(t, a=w.a, b=w.b, e0=e0, response_weights=resp, depth_o=d_o,
                                 split=split)
         assert table.shape == (2 if split else 1, lfc.DIRECTIONS, lfc.DISTANCES, 3)
-        v, inside = lfc.direction_nodes(float(t["window_cos"][0]))
+        v, inside = lfc.direction_nodes(t.window_cos)
         s = lfc.distance_nodes()
         rng = np.random.default_rng(3)
         rows = rng.choice(v.size, 40)
@@ -92,9 +93,9 @@ class TestWaterTable:
         vv, ss = v[rows, None], s[cols, None]
         to_surface = np.where(vv > 0, d_o / np.where(vv > 0, vv, 1.0), np.inf)
         sd = np.maximum(d_o - np.minimum(ss, to_surface) * vv, 0.0)
-        ref = lightfield_pixel_radiance(t, a=w.a, b=w.b, e0=e0, depth_o=d_o, v_y=vv, s=ss,
-                                        rho=np.zeros(5), surface_depth=sd,
-                                        n_y=np.zeros_like(vv), split_cone=split)
+        ref = t.pixel_radiance(a=w.a, b=w.b, e0=e0, depth_o=d_o, v_y=vv, s=ss,
+                               rho=np.zeros(5), surface_depth=sd,
+                               n_y=np.zeros_like(vv), split_cone=split)
         base, cone = ref if split else (ref, None)
         np.testing.assert_allclose(table[0, rows, cols], base @ resp, rtol=1e-9, atol=1e-12)
         if split:
@@ -103,8 +104,8 @@ class TestWaterTable:
             assert np.abs(table[1]).max() > 0          # the cone's share is there
         # Open water (last column): the model without a hit.
         with np.errstate(over="ignore"):      # up rays within 1e-30 of level
-            open_ref = lightfield_pixel_radiance(t, a=w.a, b=w.b, e0=e0, depth_o=d_o,
-                                                 v_y=v[:, None], s=np.full((v.size, 1), np.inf))
+            open_ref = t.pixel_radiance(a=w.a, b=w.b, e0=e0, depth_o=d_o,
+                                        v_y=v[:, None], s=np.full((v.size, 1), np.inf))
         np.testing.assert_allclose(table[0, :, -1], open_ref @ resp, rtol=1e-9, atol=1e-12)
         # Going down, S = inf is open water.
         down = v <= 0
@@ -170,13 +171,13 @@ def model_and_twin(gb, setup, tables, depth, floor=1e-3):
     med = setup.medium(gb.materials)
     ref = shade_gbuffer(gb, **med, lightfield=tables)["camera_rgb"]
     cam = gb.camera
-    spread = "cone_offset_cdf" in tables
+    spread = tables.cone is not None
     weights, alpha_nodes = None, None
-    if "cone_offset_cdf_nodes" in tables:
-        weights = np.array(node_pyramid_weights(tables, cam.fy, cam.height, cam.width))
-        alpha_nodes = lfc.multiple_plan(weights, cam.fy)[1]["alpha"]
+    if spread and tables.cone.multiple:
+        weights = np.array(node_pyramid_weights(tables.cone, cam.fy, cam.height, cam.width))
+        alpha_nodes = spreadplan.multiple_plan(weights, cam.fy)[1]["alpha"]
     elif spread:
-        weights = pyramid_weights(tables, cam.fy, cam.height, cam.width)
+        weights = pyramid_weights(tables.cone, cam.fy, cam.height, cam.width)
     comp = lfc.compile_lightfield(tables, a=med["a"], b=med["b"], e0=med["e0"],
                                   response_weights=med["response_weights"], depth_o=depth,
                                   alpha_nodes=alpha_nodes)
@@ -224,7 +225,6 @@ def test_twin_follows_the_model_with_a_seabed(spread, lightfield_gbuffer):
     """Tables with a Lambertian seabed (12 m, albedo 0.3, Jerlov I): the water
     table is the model on its nodes (lightfield_compiled._water_table_from_model)
     and the compiled image follows shade_gbuffer as in deep water."""
-    from aquaspec.transport.lightfield.solve import lightfield_tables
     from aquaspec.shading.shade import shade_gbuffer
     gb = lightfield_gbuffer("builtin", 5.0)
     setup = SpectralSetup(load_water("I"), get_sensor("nikon-5100-npl"),
@@ -271,8 +271,8 @@ def test_coarse_start_of_the_spread_follows_the_model():
                           Bands(4), ms_model="lightfield", cone_spread=True)
     tables = setup.lightfield_tables()
     med = setup.medium(gb.materials)
-    weights = pyramid_weights(tables, cam.fy, cam.height, cam.width)
-    start, alpha, coarse = lfc.spread_plan(weights, cam.fy)
+    weights = pyramid_weights(tables.cone, cam.fy, cam.height, cam.width)
+    start, alpha, coarse = spreadplan.spread_plan(weights, cam.fy)
     assert start == 2 and alpha == pytest.approx(weights[:2].sum()) and coarse.size \
         == weights.size - 2
     comp = lfc.compile_lightfield(tables, a=med["a"], b=med["b"], e0=med["e0"],
@@ -284,137 +284,3 @@ def test_coarse_start_of_the_spread_follows_the_model():
     assert err.mean() < 0.006 and np.percentile(err, 99) < 0.08
     # Light is moved, not made: the image's sum stays within 0.5 %.
     assert got.sum() == pytest.approx(ref.sum(), rel=5e-3)
-
-
-def test_spread_plan():
-    w = np.array([0.1, 0.1, 0.1, 0.3, 0.4])
-    assert lfc.spread_plan(w, 623.0)[0] == 3                 # 1280x720: 8 px = 0.74 degrees
-    assert lfc.spread_plan(w, 47.0)[0] == 0                  # 96 px wide: the whole pyramid
-    start, alpha, coarse = lfc.spread_plan(w, 623.0, start_level=2)
-    assert start == 2 and alpha == pytest.approx(0.2)
-    np.testing.assert_array_equal(coarse, w[2:])
-    assert lfc.spread_plan(w[:3], 623.0)[0] == 2             # no deeper than the pyramid
-    with pytest.raises(AquaspecError, match="weights"):
-        lfc.spread_plan(w[:1], 623.0)
-
-
-def test_coarse_sample_pixels():
-    ys, xs = lfc.coarse_sample_pixels(20, 30, 3)
-    assert ys.shape == (3, 4, 2)
-    np.testing.assert_array_equal(xs[0, 0], [2, 6])
-    np.testing.assert_array_equal(ys[0, 0], [2, 6])
-    np.testing.assert_array_equal(xs[1, 2], [18, 22])
-    np.testing.assert_array_equal(ys[1, 2], [10, 14])
-    assert xs.max() == 29 and ys.max() == 19                 # clamped at the edges
-    np.testing.assert_array_equal(lfc.coarse_sample_pixels(5, 5, 0)[1][2, 3], [3, 3])
-
-
-class TestKeptShare:
-    """The pixel's own share of its forward cone, tangent in f b (kept_share)."""
-
-    @staticmethod
-    def share(fb, fb_mean, alpha, s):
-        dk, slope = lfc.kept_share(fb_mean, alpha, s)
-        return dk[:, None] * np.exp(slope[:, None] * s[:, None] * (fb - fb_mean))
-
-    def test_exact_where_it_must_be(self):
-        s = np.array([0.0, 0.3, 2.0, 9.0, 40.0])
-        for alpha in (0.0, 0.3, 0.9):
-            # All bands with the mean f b: the tangent is the function itself.
-            np.testing.assert_allclose(self.share(np.array([0.4]), 0.4, alpha, s)[:, 0],
-                                       alpha + (1 - alpha) * np.exp(-0.4 * s), rtol=1e-12)
-        # Far targets in turbid water: exp(-x) underflows, the share stays finite.
-        for alpha in (0.0, 0.3):
-            dk, slope = lfc.kept_share(3.0, alpha, np.array([300.0, 1e4]))
-            assert np.all(np.isfinite(dk)) and np.all(np.isfinite(slope))
-        fb = np.array([0.1, 0.4, 0.9])                      # alpha = 0: T / T' exactly
-        np.testing.assert_allclose(self.share(fb, fb.mean(), 0.0, s),
-                                   np.exp(-fb * s[:, None]), rtol=1e-12)
-
-    def test_error_for_ocean_waters(self):
-        # f b spread 2.4x over the bands, as Jerlov II-9C with a 40 degree cone
-        # (evenly here): the kept light within 10 %, the misplaced share within
-        # 6 % of the cone (3.6 % with Jerlov II's own 16 bands).
-        fb = np.linspace(0.226, 0.550, 16)
-        s = np.linspace(0.0, 40.0, 4001)[:, None]
-        x = fb * s
-        got = self.share(fb, fb.mean(), 0.3, s[:, 0])
-        exact = 0.3 + 0.7 * np.exp(-x)
-        err = np.abs(got - exact)
-        assert (err / exact).max() < 0.10
-        assert (err / np.maximum(1 - np.exp(-x), 1e-9)).max() < 0.06
-        assert (err / exact).max() > 0.01                    # an approximation, measured
-
-    def test_slope_bound(self):
-        assert lfc.kept_slope_bound(0.0) == np.inf
-        x = np.linspace(0.0, 60.0, 600001)
-        for alpha in (0.05, 0.3, 0.9):
-            dk, slope = lfc.kept_share(1.0, alpha, x)
-            assert lfc.kept_slope_bound(alpha) == pytest.approx(np.max(-slope * x), rel=1e-4)
-        assert lfc.kept_slope_bound(0.3) < lfc.kept_slope_bound(0.1)
-
-    @staticmethod
-    def compiled(water, n):
-        w = load_water(water).on_bands(Bands(n))
-        tables = lightfield_tables(w, phase="ff", backscatter=0.0183, forward_cone_deg=40.0,
-                                   cone_spread=True)
-        e0 = surface_light("overcast").on_bands(Bands(n))
-        resp = get_sensor("human").band_weights(Bands(n))
-        return lfc.compile_lightfield(tables, a=w.a, b=w.b, e0=e0, response_weights=resp,
-                                      depth_o=5.0)
-
-    def test_projection(self):
-        """f b - mean(f b) from the band's own coefficients: exact with up to
-        rank + 3 bands, and within the tolerance of the kept light where used."""
-        comp = self.compiled("II", 6)                       # rank 4: exact
-        lam, hat, res = lfc.fb_projection(comp.k_depth, comp.c_beam, comp.g, comp.fb)
-        delta = comp.fb - comp.fb.mean()
-        assert res < 1e-10 * np.abs(delta).max()
-        np.testing.assert_allclose(hat, delta, atol=1e-10 * np.abs(delta).max())
-        comp = self.compiled("II", 16)
-        delta = comp.fb - comp.fb.mean()
-        assert lfc.kept_projection(comp, 0.0) is None      # alpha = 0: slope -1 everywhere
-        proj = lfc.kept_projection(comp, 0.3)
-        assert proj is not None and 0 < proj["error_bound"] <= lfc.KEPT_PROJECTION_TOLERANCE
-        # The kept light with and without the projection, over distances and
-        # random surfaces: within the bound, which is not loose by orders.
-        rng = np.random.default_rng(5)
-        m = 400
-        rho = rng.uniform(0.05, 0.9, (m, 16))
-        s = np.linspace(0.01, 40.0, m)
-        sd = rng.uniform(2.0, 9.0, m)
-        ny = rng.uniform(-1.0, 1.0, m)
-        dk, slope = lfc.kept_share(comp.fb.mean(), 0.3, s)
-        moved = np.abs(slope[:, None] * s[:, None] * (proj["fb_offset"] - delta))
-        assert moved.max() <= proj["error_bound"] * (1 + 1e-9)
-        assert moved.max() > 0.05 * proj["error_bound"]
-        # surface_rgb uses it (and conserves light either way).
-        kept, spread = lfc.surface_rgb(comp, rho, s, sd, ny, alpha=0.3)
-        exact = dataclasses.replace(comp, fb=comp.fb.copy())
-        with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(lfc, "kept_projection", lambda c, a: None)
-            kept_x, spread_x = lfc.surface_rgb(exact, rho, s, sd, ny, alpha=0.3)
-        assert not np.allclose(kept, kept_x, rtol=1e-9)
-        np.testing.assert_allclose(kept + 0.7 * spread, kept_x + 0.7 * spread_x, rtol=1e-10)
-        # A medium whose residual is too large for the tolerance keeps the band term.
-        bad = dataclasses.replace(comp, fb=comp.fb * (1 + 0.5 * np.sin(np.arange(16.0))))
-        assert lfc.kept_projection(bad, 0.3) is None
-
-    def test_light_is_conserved(self, lightfield_gbuffer):
-        """kept + (1 - alpha) spread = the whole target light T' (surface_rgb)."""
-        w = load_water("II").on_bands(Bands(8))
-        tables = lightfield_tables(w, phase="ff", backscatter=0.0183, forward_cone_deg=40.0,
-                                   cone_spread=True)
-        e0 = surface_light("overcast").on_bands(Bands(8))
-        resp = get_sensor("human").band_weights(Bands(8))
-        comp = lfc.compile_lightfield(tables, a=w.a, b=w.b, e0=e0, response_weights=resp,
-                                      depth_o=5.0)
-        rng = np.random.default_rng(3)
-        rho = rng.uniform(0.05, 0.9, (50, 8))
-        s = rng.uniform(0.1, 12.0, 50)
-        sd = rng.uniform(2.0, 9.0, 50)
-        ny = rng.uniform(-1.0, 1.0, 50)
-        whole, _ = lfc.surface_rgb(dataclasses.replace(comp, split=False), rho, s, sd, ny)
-        kept, spread = lfc.surface_rgb(comp, rho, s, sd, ny, alpha=0.3)
-        np.testing.assert_allclose(kept + 0.7 * spread, whole, rtol=1e-12)
-        assert np.abs(spread).max() > 0.05 * np.abs(whole).max()

@@ -5,8 +5,9 @@ import pytest
 
 from aquaspec.transport.lightfield import conespread
 from aquaspec.errors import AquaspecError
-from aquaspec.transport.lightfield.solve import cone_spread_kernel
-from aquaspec.medium.phase import band_cone_offset_cdf
+from aquaspec.transport.lightfield.cone import cone_spread_kernel
+from aquaspec.transport.lightfield.tables import ConeTables
+from aquaspec.medium.phase_bands import band_cone_offset_cdf
 
 CONE_DEG = 40.0
 OFFSETS = np.radians(CONE_DEG) * np.concatenate([[0.0], np.geomspace(1e-5, 1.0, 255)])
@@ -76,9 +77,8 @@ def test_measured_levels_follow_the_scale_law():
 
 
 def test_one_kernel_for_all_bands():
-    t = {"cone_offset_rad": OFFSETS,
-         "cone_offset_cdf": np.stack([ff_cdf(), np.sqrt(ff_cdf())]),
-         "cone_weight": np.array([3.0, 1.0])}
+    t = ConeTables(offset_rad=OFFSETS, offset_cdf=np.stack([ff_cdf(), np.sqrt(ff_cdf())]),
+                   weight=np.array([3.0, 1.0]))
     off, cdf = conespread.cone_cdf(t)
     np.testing.assert_allclose(cdf, 0.75 * ff_cdf() + 0.25 * np.sqrt(ff_cdf()))
     with pytest.raises(AquaspecError, match="pixels_per_radian"):
@@ -265,3 +265,46 @@ def test_multiple_scattering_cdf_without_a_cache(monkeypatch, tmp_path):
     conespread._multiple_cdf.cache_clear()
     assert not list(tmp_path.iterdir())
     assert a[-1] == 1.0 and np.all(np.diff(a) >= 0)
+
+
+def test_multiple_scattering_spread_moves_light_off_bright_targets():
+    """spread_scattering="multiple" in Jerlov II (about one to three scatterings
+    inside the cone over the board's 3 m): the white patch keeps less of its
+    light and the black board around the patches gets more, the light moved,
+    not made (the image's total within 1 %); the setup says which it used."""
+    from aquaspec.colour.bands import Bands
+    from aquaspec.scene.raycast import raycast_gbuffer
+    from aquaspec.light.sky import surface_light
+    from aquaspec.rendering.setup import SpectralSetup
+    from aquaspec.colour.sensors import get_sensor
+    from aquaspec.shading.shade import shade_gbuffer
+    from aquaspec.validation.scenes import board_scene, masks
+    from aquaspec.medium.water import load_water
+    scene, cam = board_scene(3.0, width=96, height=72)
+    gb = raycast_gbuffer(scene, cam)
+    m = masks(gb)
+    board = gb.hit & (gb.material == 24)
+    out = {}
+    for how in ("single", "multiple"):
+        setup = SpectralSetup(load_water("II"), get_sensor("human"), surface_light("overcast"),
+                              Bands(8), ms_model="lightfield", phase="petzold",
+                              cone_spread=True, spread_scattering=how)
+        assert setup.describe()["spread_scattering"] == how
+        tables = setup.lightfield_tables()
+        assert tables.cone.multiple == (how == "multiple")
+        res = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
+                            lightfield=tables)
+        out[how] = res["radiance"]
+        # The camera RGB is that of the spread radiance (it was not, with
+        # "multiple", until 2026-11-24).
+        w = setup.medium(gb.materials)["response_weights"]
+        np.testing.assert_allclose(res["camera_rgb"], out[how] @ w, rtol=1e-9, atol=1e-15)
+    single, multi = out["single"], out["multiple"]
+    white = m["patches"][18]
+    assert multi[white].mean() < 0.97 * single[white].mean()
+    assert multi[board].mean() > 1.03 * single[board].mean()
+    assert multi.sum() == pytest.approx(single.sum(), rel=0.01)
+    with pytest.raises(AquaspecError, match="needs cone_spread=True"):
+        SpectralSetup(load_water("II"), get_sensor("human"), surface_light("overcast"),
+                      Bands(3), ms_model="lightfield", cone_spread=False,
+                      spread_scattering="multiple").lightfield_tables()

@@ -8,8 +8,8 @@ from numpy.polynomial.legendre import leggauss
 from scipy.integrate import quad
 
 from aquaspec.errors import AquaspecError
-from aquaspec.transport.lightfield.solve import (SUN_RESONANCE_GAP, _tables_key, lightfield_tables,
-                                 solve_lightfield)
+from aquaspec.transport.lightfield.bake import lightfield_tables, tables_key
+from aquaspec.transport.lightfield.solve import SUN_RESONANCE_GAP, solve_lightfield
 
 
 def _pbar(phase, g, v, mu0):
@@ -252,14 +252,14 @@ TABLE_KW = dict(phase="petzold", n_depth=9, n_mu=11, n_streams=16, seabed_depth_
 
 
 def test_tables_with_and_without_sun(ib4):
-    sky = lightfield_tables(ib4, **TABLE_KW)
+    sky = lightfield_tables(ib4, **TABLE_KW).to_arrays()
     assert np.isnan(sky["sun_mu0"][0]) and np.all(sky["sun_fraction"] == 0)
-    zero = lightfield_tables(ib4, sun_mu0=0.8, sun_fraction=np.zeros(4), **TABLE_KW)
+    zero = lightfield_tables(ib4, sun_mu0=0.8, sun_fraction=np.zeros(4), **TABLE_KW).to_arrays()
     for k in sky:
         if k != "sun_mu0":
             np.testing.assert_allclose(zero[k], sky[k], rtol=2e-6, atol=1e-12, err_msg=k)
     share = np.array([0.2, 0.5, 0.6, 0.9])
-    sun = lightfield_tables(ib4, sun_mu0=0.8, sun_fraction=share, **TABLE_KW)
+    sun = lightfield_tables(ib4, sun_mu0=0.8, sun_fraction=share, **TABLE_KW).to_arrays()
     assert sun["sun_mu0"][0] == pytest.approx(0.8)
     # Down-welling diffuse light at d = 0 is the sky's share only.
     assert sun["cosine"][-1] == 1.0 and sun["depth_m"][0] == 0.0
@@ -285,7 +285,7 @@ def test_tables_key_and_arguments(ib4):
     base = dict(TABLE_KW, n_depth=9, n_mu=11, max_depth_m=50.0, surface="null",
                 forward_cone_deg=0.0, cone_spread=False, spread_scattering="single",
                 ambient_shadow=False)
-    keys = {_tables_key(ib4, dict(base, sun_mu0=mu0, sun_fraction=sf))
+    keys = {tables_key(ib4, dict(base, sun_mu0=mu0, sun_fraction=sf))
             for mu0, sf in ((None, None), (0.8, np.full(4, 0.5)), (0.9, np.full(4, 0.5)),
                             (0.8, np.full(4, 0.4)))}
     assert len(keys) == 4
@@ -301,7 +301,7 @@ def test_tables_ambient_shadow_with_sun(ib4):
     # The scene's shadow in the light field works on the diffuse field of sky + sun.
     share = np.full(4, 0.5)
     t = lightfield_tables(ib4, sun_mu0=0.8, sun_fraction=share, ambient_shadow=True,
-                          **TABLE_KW)
+                          **TABLE_KW).to_arrays()
     lf = solve_lightfield(ib4.a, ib4.b, phase="petzold", wavelength_nm=ib4.bands.centers_nm,
                           n_streams=16, seabed_depth_m=12.0, seabed_albedo=0.3,
                           e0=1 - share, sun_mu0=0.8, sun_beam=share / 0.8)
@@ -313,14 +313,12 @@ def test_tables_ambient_shadow_with_sun(ib4):
 def test_open_water_sees_the_sun_lit_seabed(ib4):
     """A down ray ending just above the tables' own seabed sees it lit by the
     diffuse field and by the beam, as the solution's boundary does."""
-    from aquaspec.transport.lightfield.solve import lightfield_pixel_radiance
     share = np.array([0.2, 0.5, 0.6, 0.9])
     tables = lightfield_tables(ib4, sun_mu0=0.8, sun_fraction=share, **TABLE_KW)
     lf = solve_lightfield(ib4.a, ib4.b, phase="petzold", wavelength_nm=ib4.bands.centers_nm,
                           n_streams=16, seabed_depth_m=12.0, seabed_albedo=0.3,
                           e0=1 - share, sun_mu0=0.8, sun_beam=share / 0.8)
     d = 12.0 - 0.01
-    got = lightfield_pixel_radiance(tables, a=ib4.a, b=ib4.b, e0=np.ones(4),
-                                    depth_o=np.array([[d]]), v_y=np.array([[-1.0]]),
-                                    s=np.array([[np.inf]]))[0]
+    got = tables.pixel_radiance(a=ib4.a, b=ib4.b, e0=np.ones(4), depth_o=np.array([[d]]),
+                                v_y=np.array([[-1.0]]), s=np.array([[np.inf]]))[0]
     np.testing.assert_allclose(got, lf.radiance(d, -1.0).ravel(), rtol=0.02)

@@ -1,6 +1,8 @@
 """The scene's first-order shadow in the light field (aquaspec.transport.lightfield.shadow) against a
 direct integration over directions with the board's rectangle as the occluder."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -8,8 +10,8 @@ from aquaspec.transport.lightfield import shadow
 from aquaspec.colour.bands import Bands
 from aquaspec.scene.camera import Camera
 from aquaspec.errors import AquaspecError
-from aquaspec.gpu.passes.raster import raycast_gbuffer
-from aquaspec.transport.lightfield.solve import bilinear, surface_radiance
+from aquaspec.scene.raycast import raycast_gbuffer
+from aquaspec.transport.lightfield.tables import table_lookup
 from aquaspec.colour.reflectance import Reflectance
 from aquaspec.scene import Mesh, Scene
 from aquaspec.medium.water import load_water
@@ -36,13 +38,13 @@ def direct(setup, row, col, n_t=160, n_theta=90, n_phi=64):
     # (Open water: up to the board's plane; behind it the board's front, the
     # only side the G-buffer has, faces away.)
     s = gb.distance[row, col] if gb.hit[row, col] else BOARD / -v[2]
-    lrad = np.asarray(tb["radiance_per_e0"], dtype=float)
-    d_max = float(tb["max_depth_m"][0])
-    k = np.asarray(tb["shadow_extinction"], dtype=float)
-    cone_cos = np.cos(np.radians(float(tb["forward_cone_deg"][0])))
-    th_nodes, basis = np.asarray(tb["shadow_theta"]), np.asarray(tb["shadow_phase"])
+    lrad = np.asarray(tb.shadow.radiance_per_e0, dtype=float)
+    d_max = tb.max_depth_m
+    k = np.asarray(tb.shadow.extinction, dtype=float)
+    cone_cos = np.cos(np.radians(tb.forward_cone_deg))
+    th_nodes, basis = np.asarray(tb.shadow.theta), np.asarray(tb.shadow.phase)
     # The band phase functions: particles mixed with pure water by band.
-    ph_tab = basis[0] + np.asarray(tb["shadow_phase_mix"])[:, None] * (basis[1] - basis[0])
+    ph_tab = basis[0] + np.asarray(tb.shadow.phase_mix)[:, None] * (basis[1] - basis[0])
     # t: graded towards the end of the ray (where the board fills the view).
     x = np.linspace(0.0, 1.0, n_t + 1)
     t_edges = s * (1.0 - (1.0 - x) ** 3)
@@ -71,10 +73,10 @@ def direct(setup, row, col, n_t=160, n_theta=90, n_phi=64):
             continue
         qq, rr = q[on], r[on]
         d_q = -qq[:, 1]
-        l_s = surface_radiance(tb, np.full(n, RHO), d_q, np.zeros(d_q.size), e0)
-        l_bg = bilinear(lrad, d_q, w[on, 1], d_max) * e0
+        l_s = tb.surface_radiance(np.full(n, RHO), d_q, np.zeros(d_q.size), e0)
+        l_bg = table_lookup(lrad, d_q, w[on, 1], d_max) * e0
         vq = qq - cam.position
-        l_v = bilinear(lrad, d_q, vq[:, 1] / np.linalg.norm(vq, axis=-1), d_max) * e0
+        l_v = table_lookup(lrad, d_q, vq[:, 1] / np.linalg.norm(vq, axis=-1), d_max) * e0
         dl = l_bg - l_s - (mu[on] > cone_cos)[:, None] * (l_v - l_s)
         total += wt * np.exp(-k * t) * b * np.sum(
             p[on] * np.exp(-k[None, :] * rr[:, None]) * dl * dw[on, None], axis=0)
@@ -119,7 +121,7 @@ def test_no_surface_no_shadow(setup):
 
 def test_shadow_needs_its_tables(setup):
     cam = setup["cam"]
-    tb = {k: v for k, v in setup["tables"].items() if k != "shadow_phase"}
+    tb = dataclasses.replace(setup["tables"], shadow=None)
     with pytest.raises(AquaspecError, match="ambient_shadow=True"):
         shadow.ambient_shadow(tb, cam, setup["gb"].distance, setup["gb"].normal,
                               np.zeros((cam.height, cam.width, 4)), b=setup["b"], e0=setup["e0"])
@@ -131,8 +133,7 @@ def test_shading_subtracts_the_shadow(setup):
     from aquaspec.shading.shade import shade_gbuffer
     gb, tb = setup["gb"], setup["tables"]
     n = setup["b"].size
-    plain = {k: v for k, v in tb.items() if not (k.startswith("shadow_")
-                                                  or k == "radiance_per_e0")}
+    plain = dataclasses.replace(tb, shadow=None)
     water = load_water("II", "solonenko2015").on_bands(Bands(4))
     kw = dict(a=water.a, b=water.b, kd=water.kd, e0=setup["e0"],
               response_weights=np.ones((n, 3)), material_bands=np.full((1, n), RHO),
@@ -144,7 +145,7 @@ def test_shading_subtracts_the_shadow(setup):
 
 
 def test_render_refuses_the_shadow_without_the_light_field():
-    from aquaspec.rendering.renderer import render
+    from aquaspec.rendering.api import render
     with pytest.raises(AquaspecError, match="light-field model"):
         render(size=(32, 18), bands=4, ambient_shadow=True, backend="numpy", ms_model="seeds")
 
@@ -157,8 +158,9 @@ def test_gpu_renderer_subtracts_the_shadow():
     from aquaspec.gpu.passes.raster import RasterPass
     from aquaspec.gpu.passes.shadow_rays import ShadowRays
     from aquaspec.light.sky import surface_light
-    from aquaspec.transport.monzon2022 import radiance_to_rgb
-    from aquaspec.rendering.renderer import Renderer, SpectralSetup
+    from aquaspec.colour.sensors import radiance_to_rgb
+    from aquaspec.rendering.renderer import Renderer
+    from aquaspec.rendering.setup import SpectralSetup
     from aquaspec.colour.sensors import get_sensor
     from aquaspec.shading.shade import scene_shadow, shade_gbuffer
     from aquaspec.scene.builtin import builtin_scene
@@ -213,13 +215,13 @@ def test_thin_structures_take_receivers_not_a_ray_per_pixel(setup, monkeypatch):
     gb = raycast_gbuffer(scene, cam)
     d_hit = np.where(gb.hit, -(cam.position[1] + gb.distance * cam.ray_directions()[..., 1]),
                      0.0)
-    l_s = np.where(gb.hit[..., None], surface_radiance(tb, np.full(b.size, RHO), d_hit,
-                                                       gb.normal[..., 1], e0), 0.0)
+    l_s = np.where(gb.hit[..., None], tb.surface_radiance(np.full(b.size, RHO), d_hit,
+                                                          gb.normal[..., 1], e0), 0.0)
     dist = np.where(gb.hit, gb.distance, np.inf)
     cols = np.flatnonzero(gb.hit.any(axis=0))
     assert cols.size == 16 and shadow.RECEIVERS_LONG_SIDE == 32    # 4 columns per pole
     rays = {"hit": 0, "open": 0}
-    hit_rays, open_integrand = shadow._Context.hit_rays, shadow._Context.open_integrand
+    hit_rays, open_integrand = shadow.ShadowContext.hit_rays, shadow.ShadowContext.open_integrand
 
     def count_hit(self, rows, cols):
         rays["hit"] += len(rows)
@@ -228,8 +230,8 @@ def test_thin_structures_take_receivers_not_a_ray_per_pixel(setup, monkeypatch):
     def count_open(self, dirs):
         rays["open"] += len(dirs)
         return open_integrand(self, dirs)
-    monkeypatch.setattr(shadow._Context, "hit_rays", count_hit)
-    monkeypatch.setattr(shadow._Context, "open_integrand", count_open)
+    monkeypatch.setattr(shadow.ShadowContext, "hit_rays", count_hit)
+    monkeypatch.setattr(shadow.ShadowContext, "open_integrand", count_open)
     dl = shadow.ambient_shadow(tb, cam, dist, gb.normal, l_s, b=b, e0=e0, hit=gb.hit)
     n_hit = int(gb.hit.sum())
     # (Measured with SERVE_WEIGHT 0.75: 358 of 1312 and 1201 of 13088; 122
@@ -241,7 +243,7 @@ def test_thin_structures_take_receivers_not_a_ray_per_pixel(setup, monkeypatch):
     pole[:, cols[:4]] = gb.hit[:, cols[:4]]
     rows, cc = np.nonzero(pole)
     monkeypatch.undo()
-    ctx = shadow._Context(tb, cam, dist, gb.normal, l_s, gb.hit, b, e0)
+    ctx = shadow.ShadowContext(tb, cam, dist, gb.normal, l_s, gb.hit, b, e0)
     own = ctx.hit_rays(rows, cc)
     got = dl[rows, cc]
     # The pole's mean per band within 8 % (measured 2-5 %: a pole's edge

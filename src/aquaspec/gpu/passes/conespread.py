@@ -1,8 +1,9 @@
 """The forward cone's light spread over the image on the GPU (an image pyramid).
 
-Twin of :func:`aquaspec.transport.lightfield.conespread.spread` (WGSL: ``shaders/conespread.wgsl``;
-``tests/test_gpu_conespread.py`` holds this pass against the NumPy reference,
-``tests/test_gpu_lightfield.py`` the light-field pass with the spread against
+Twin of :func:`aquaspec.transport.lightfield.conespread.spread` (WGSL: ``conespread.wgsl``
+beside this module; ``tests/gpu/passes/test_conespread_pass.py`` holds this pass
+against the NumPy reference, ``tests/gpu/passes/test_lightfield_pass.py`` the
+light-field pass with the spread against
 its NumPy twin). The light-field pass's COARSE pipeline writes the cone term
 at the spread's start level (:attr:`ConeSpreadPass.cone_texture`,
 ``rgba32float`` storage texture, :mod:`aquaspec.transport.lightfield.compiled`); this
@@ -50,7 +51,9 @@ import numpy as np
 
 from aquaspec.transport.lightfield.conespread import level_shapes
 from aquaspec.errors import AquaspecError
-from aquaspec.gpu.buffers import create_storage_buffer, create_texture, upload_buffer
+from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
+from aquaspec.gpu.buffers import create_storage_buffer, create_texture, create_uniform_buffer, upload_buffer
+from aquaspec.gpu.dispatch import compute_pipeline, record_dispatches
 from aquaspec.gpu.shaders import load_wgsl
 
 #: Invocations of the one workgroup. On lavapipe (8-wide SIMD) 8 measured
@@ -99,8 +102,6 @@ class ConeSpreadPass:
     float32-filterable)."""
 
     def __init__(self, device, width: int, height: int, levels: int, nodes: int = 1):
-        import wgpu
-        from aquaspec.gpu.passes.deferred import bind_group_entries, bind_group_layout
         self.device = device
         self.width, self.height, self.levels = int(width), int(height), int(levels)
         if self.width < 1 or self.height < 1 or not 0 <= self.levels <= MAX_LEVELS:
@@ -126,9 +127,7 @@ class ConeSpreadPass:
         self._levels_buffer = create_storage_buffer(
             device, 16 * self.slots * max(1, sum(sizes[1:])), label="cone levels")
         self._weight_at, self._mask_at, nbytes = _uniform_layout(self.slots)
-        self._uniform = device.create_buffer(
-            label="cone spread", size=nbytes,
-            usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
+        self._uniform = create_uniform_buffer(device, nbytes, label="cone spread")
         table = np.zeros((1 + MAX_LEVELS + 1, 4), np.uint32)
         table[0, 0] = self.levels
         for k, ((h, w), off) in enumerate(zip(self.shapes, self.offsets)):
@@ -142,14 +141,13 @@ class ConeSpreadPass:
         self._pipeline = None
         self._weights = None
 
-    def _build_pipeline(self):
-        src = load_wgsl("conespread.wgsl", workgroup=WORKGROUP, rows=ROWS,
-                        max_levels=MAX_LEVELS, slots=self.slots)
-        module = self.device.create_shader_module(label="conespread.wgsl", code=src)
-        return self.device.create_compute_pipeline(
-            label="cone spread",
-            layout=self.device.create_pipeline_layout(bind_group_layouts=[self._layout]),
-            compute={"module": module, "entry_point": "main"})
+    def pipeline(self):
+        """The compute pipeline (made when first used)."""
+        if self._pipeline is None:
+            src = load_wgsl("conespread.wgsl", workgroup=WORKGROUP, rows=ROWS,
+                            max_levels=MAX_LEVELS, slots=self.slots)
+            self._pipeline = compute_pipeline(self.device, self._layout, src, "conespread.wgsl")
+        return self._pipeline
 
     def set_weights(self, weights) -> None:
         """Level weights (levels + 1,), :func:`aquaspec.transport.lightfield.conespread.fit_weights`
@@ -179,6 +177,9 @@ class ConeSpreadPass:
         (weights set first)."""
         if self._weights is None:
             raise AquaspecError("ConeSpreadPass needs set_weights() before dispatches()")
-        if self._pipeline is None:
-            self._pipeline = self._build_pipeline()
-        return [(self._pipeline, self._group, (1, 1, 1))]
+        return [(self.pipeline(), self._group, (1, 1, 1))]
+
+    def encode(self, encoder, timestamp_writes=None) -> None:
+        """Record the pyramid alone into ``encoder`` (the light-field pass records
+        :meth:`dispatches` in its own compute pass instead)."""
+        record_dispatches(encoder, self.dispatches(), timestamp_writes)

@@ -1,12 +1,12 @@
 """The display pass: linear camera RGB -> sRGB RGBA8 on the GPU.
 
 The GPU twin of :func:`aquaspec.colour.display.to_display` for 8-bit output (WGSL:
-``shaders/display.wgsl``); ``tests/test_gpu_display.py`` holds the two
-together. The image-dependent settings (automatic exposure, grey-world
-gains) are resolved on the host by :func:`aquaspec.colour.display.display_settings`,
-or given directly; white balance, colour matrix and exposure are folded into
-one 3x3 matrix ``2**EV * M @ diag(gains)`` (all three are linear), then each
-pixel is tone mapped, sRGB encoded and rounded to 8 bits.
+``display.wgsl`` beside this module, the transform in ``gpu/wgsl/tonemap.wgsl``,
+its settings in :mod:`aquaspec.gpu.display_transform`);
+``tests/gpu/passes/test_display_pass.py`` holds the two together. The
+image-dependent settings (automatic exposure, grey-world gains) are resolved
+on the host by :func:`aquaspec.colour.display.display_settings`, or given
+directly.
 
 Input: a storage buffer of ``width * height`` ``vec4<f32>`` (RGB, w unused),
 pixel ``p = row * width + column``, the layout of
@@ -20,24 +20,17 @@ from __future__ import annotations
 
 import numpy as np
 
+import wgpu
+
 from aquaspec.colour import display
 from aquaspec.scene.camera import check_size
 from aquaspec.errors import AquaspecError
-from aquaspec.gpu.buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
-                      record_dispatch, submit_pass, upload_buffer)
-from aquaspec.gpu.layout import UniformLayout
+from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
+from aquaspec.gpu.buffers import create_storage_buffer, create_uniform_buffer, read_buffer, upload_buffer
+from aquaspec.gpu.device import get_device
+from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch, submit_pass
+from aquaspec.gpu.display_transform import DISPLAY_LAYOUT, TONEMAP_IDS, display_uniform
 from aquaspec.gpu.shaders import load_wgsl
-
-#: Tone maps with a WGSL implementation, by id (``tonemap()`` in display.wgsl);
-#: the same names and curves as :data:`aquaspec.colour.display.TONEMAPS`.
-TONEMAP_IDS = {"none": 0, "filmic": 1, "hable": 2, "reinhard": 3}
-
-#: Uniforms of display.wgsl: the folded colour matrix rows and the tone map.
-DISPLAY_LAYOUT = UniformLayout("DisplayParams", [
-    ("m0", "vec3<f32>"), ("width", "u32"),
-    ("m1", "vec3<f32>"), ("height", "u32"),
-    ("m2", "vec3<f32>"), ("tonemap", "u32"),
-])
 
 WORKGROUP = (8, 8)
 B_PARAMS, B_RGB_IN, B_RGBA_OUT, B_STATUS = 0, 1, 2, 3
@@ -47,20 +40,6 @@ def shader_source(tonemap: str = "filmic") -> str:
     """WGSL of ``display.wgsl`` with the uniform struct and tone map filled in."""
     return load_wgsl("display.wgsl", display_struct=DISPLAY_LAYOUT.wgsl(),
                      display_struct_name=DISPLAY_LAYOUT.name, tonemap_id=TONEMAP_IDS[tonemap])
-
-
-def folded_matrix(exposure_ev, gains=(1.0, 1.0, 1.0), matrix=None) -> np.ndarray:
-    """``2**EV * M @ diag(gains)`` (3, 3), float64: the pass's whole linear step."""
-    ev = display._check_ev(exposure_ev)
-    g = np.asarray(gains, dtype=np.float64)
-    if g.shape != (3,) or not np.all(np.isfinite(g)) or np.any(g <= 0):
-        raise AquaspecError(f"white-balance gains {gains!r}; accepted: three finite, "
-                            "positive numbers")
-    m = np.eye(3) if matrix is None else np.asarray(matrix, dtype=np.float64)
-    if m.shape != (3, 3) or not np.all(np.isfinite(m)):
-        raise AquaspecError(f"colour matrix of shape {m.shape} is not accepted; accepted: "
-                            "a finite 3x3 matrix, or None for the identity")
-    return 2.0 ** ev * m * g[None, :]
 
 
 class DisplayPass:
@@ -79,10 +58,8 @@ class DisplayPass:
     """
 
     def __init__(self, width: int, height: int, *, device=None):
-        from aquaspec.gpu.passes.deferred import bind_group_layout
         self.width, self.height = check_size(width, height)
         if device is None:
-            from aquaspec.gpu.device import get_device
             _, device = get_device()
         self.device = device
         npix = self.width * self.height
@@ -101,21 +78,12 @@ class DisplayPass:
     # ---------------------------------------------------------------- inputs
     def set_settings(self, *, exposure_ev, white_balance_gains=(1.0, 1.0, 1.0), matrix=None,
                      tonemap="filmic") -> None:
-        """Set the exposure (EV), gains, colour matrix and tone map directly."""
-        if not isinstance(tonemap, str) or tonemap not in TONEMAP_IDS:
-            raise AquaspecError(f"unknown tone map {tonemap!r}; accepted: "
-                                + ", ".join(repr(k) for k in TONEMAP_IDS))
-        m = folded_matrix(exposure_ev, white_balance_gains, matrix).astype(np.float32)
-        if not np.all(np.isfinite(m)):
-            raise AquaspecError(f"exposure EV {exposure_ev!r} with these gains overflows "
-                                "float32 on the GPU; accepted: a smaller exposure")
-        upload_buffer(self.device, self._uniform, DISPLAY_LAYOUT.pack(
-            m0=m[0], m1=m[1], m2=m[2], width=self.width, height=self.height,
-            tonemap=TONEMAP_IDS[tonemap]))
-        self.settings = {"exposure_ev": float(exposure_ev),
-                         "white_balance_gains": [float(g) for g in white_balance_gains],
-                         "matrix": None if matrix is None else np.asarray(matrix, float).tolist(),
-                         "tonemap": tonemap}
+        """Set the exposure (EV), gains, colour matrix and tone map directly
+        (checked by :func:`aquaspec.gpu.display_transform.display_uniform`)."""
+        data, self.settings = display_uniform(
+            self.width, self.height, exposure_ev=exposure_ev,
+            white_balance_gains=white_balance_gains, matrix=matrix, tonemap=tonemap)
+        upload_buffer(self.device, self._uniform, data)
 
     def set_from_image(self, rgb, *, tonemap="filmic", **kwargs) -> dict:
         """Resolve settings from host pixels with :func:`~aquaspec.colour.display.display_settings`.
@@ -142,7 +110,6 @@ class DisplayPass:
 
     def use_input(self, buffer) -> None:
         """Read a GPU buffer of ``width * height`` ``vec4<f32>`` (e.g. ``DeferredPass.rgb_buffer``)."""
-        import wgpu
         need = self.width * self.height * 16
         if buffer.size < need:
             raise AquaspecError(f"input buffer has {buffer.size} bytes; {self.width}x"
@@ -153,23 +120,21 @@ class DisplayPass:
         self._bind_group = None
 
     # ------------------------------------------------------------- dispatch
-    def _pipeline(self, tonemap):
+    def pipeline(self, tonemap):
+        """The compute pipeline of ``tonemap`` (a compile-time constant; made when first used)."""
         if tonemap not in self._pipelines:
-            module = self.device.create_shader_module(label=f"display.wgsl {tonemap}",
-                                                      code=shader_source(tonemap))
-            self._pipelines[tonemap] = self.device.create_compute_pipeline(
-                label=f"display {tonemap}",
-                layout=self.device.create_pipeline_layout(bind_group_layouts=[self._layout]),
-                compute={"module": module, "entry_point": "main"})
+            self._pipelines[tonemap] = compute_pipeline(self.device, self._layout,
+                                                        shader_source(tonemap),
+                                                        f"display.wgsl {tonemap}")
         return self._pipelines[tonemap]
 
-    def _get_bind_group(self):
+    def bind_group(self):
+        """The bind group (rebuilt when the input buffer changes)."""
         if self._bind_group is None:
             resources = {B_PARAMS: self._uniform, B_RGB_IN: self._input,
                          B_RGBA_OUT: self.output_buffer, B_STATUS: self._status}
-            self._bind_group = self.device.create_bind_group(layout=self._layout, entries=[
-                {"binding": k, "resource": {"buffer": v, "offset": 0, "size": v.size}}
-                for k, v in resources.items()])
+            self._bind_group = self.device.create_bind_group(
+                layout=self._layout, entries=bind_group_entries(resources))
         return self._bind_group
 
     def workgroups(self) -> tuple[int, int, int]:
@@ -186,8 +151,8 @@ class DisplayPass:
         # next submission, so it cannot be mixed with encoder.clear_buffer.)
         self.device.queue.write_buffer(self._status, 0,
                                        np.array([0, 0xFFFFFFFF, 0, 0], np.uint32))
-        record_dispatch(encoder, self._pipeline(self.settings["tonemap"]),
-                        self._get_bind_group(), self.workgroups(), timestamp_writes)
+        record_dispatch(encoder, self.pipeline(self.settings["tonemap"]),
+                        self.bind_group(), self.workgroups(), timestamp_writes)
 
     def run(self) -> None:
         """Run the transform (submits; does not wait)."""

@@ -1,8 +1,8 @@
-"""The geometry pass: meshes -> G-buffer, on the GPU, and its NumPy reference.
+"""The geometry pass: meshes -> G-buffer, on the GPU.
 
 :class:`RasterPass` rasterises a :class:`~aquaspec.scene.Scene` from a
 :class:`~aquaspec.scene.camera.Camera` with a wgpu render pipeline and a depth
-buffer (shader ``shaders/gbuffer.wgsl``). Per pixel it writes
+buffer (WGSL: ``raster.wgsl`` beside this module). Per pixel it writes
 
 - the distance ``S`` in metres from the camera centre to the surface point
   (the length of the camera-relative position, *not* the z-depth), ``inf``
@@ -15,33 +15,35 @@ buffer (shader ``shaders/gbuffer.wgsl``). Per pixel it writes
   fitted once per texel / vertex and interpolated (bilinearly between
   texels, repeat wrapping; barycentrically between vertices).
 
-GPU-resident layout (:attr:`RasterPass.targets`, valid after
-:meth:`RasterPass.encode`, the same as the deferred pass's G-buffer textures,
-:mod:`aquaspec.gpu.passes.deferred`): ``"surface"`` rgba32uint (S, n_y, octahedral
-normal, material index; open water: S = ``OPEN_WATER_DISTANCE``) and, only
-when the scene has textured or vertex-coloured meshes
-(:attr:`RasterPass.per_pixel`), ``"sigmoid"`` rgba32float (the three
-coefficients). Each draw mode has a pipeline per target set.
-
-:func:`raycast_gbuffer` computes the same G-buffer by ray-triangle
-intersection in float64 (vectorised, triangles binned into pixel tiles by
-their projected bounding boxes) and is what the tests compare
-:class:`RasterPass` against.
-
-:meth:`RasterPass.render_to` renders straight into a
-:class:`~aquaspec.gpu.passes.deferred.DeferredPass`'s G-buffer textures (no
+The targets are in the G-buffer layout of :mod:`aquaspec.gpu.gbuffer`
+(:attr:`RasterPass.targets`, valid after :meth:`RasterPass.encode`):
+``"surface"`` rgba32uint (S, n_y, octahedral normal, material index; open
+water: S = ``OPEN_WATER_DISTANCE``) and, only when the scene has textured or
+vertex-coloured meshes (:attr:`RasterPass.per_pixel`), ``"sigmoid"``
+rgba32float (the three coefficients). Each draw mode has a pipeline per
+target set. :meth:`RasterPass.render_to` renders straight into a
+:class:`~aquaspec.gpu.gbuffer.GBufferTextures`, the shading passes' input (no
 read-back, no copy).
+
+Its NumPy reference is :func:`aquaspec.scene.raycast.raycast_gbuffer`
+(float64 ray casting); ``tests/gpu/passes/test_raster_pass.py`` holds the two
+together.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+import wgpu
+
 from aquaspec.scene.camera import Camera
 from aquaspec.errors import AquaspecError
-from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
+from aquaspec.scene.gbuffer import GBuffer
 from aquaspec.scene.mesh import Mesh, Scene
-from aquaspec.gpu.passes.deferred import unpack_surface
+from aquaspec.scene.raycast import (MODE_MATERIAL, MODE_TEXTURE, MODE_VERTEX, check_scene,
+                                    reflectance_mode)
+from aquaspec.gpu.device import get_device
+from aquaspec.gpu.gbuffer import OPEN_WATER_DISTANCE, GBufferTextures, unpack_surface
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.shaders import load_wgsl
 
@@ -51,22 +53,14 @@ CAMERA_LAYOUT = UniformLayout("RasterCamera", [("view_proj", "mat4x4<f32>"),
 #: Depth buffer format.
 DEPTH_FORMAT = "depth32float"
 
-#: Reflectance modes of a mesh; each has its own vertex layout and vertex and
-#: fragment entry points (and pipeline), :data:`_ENTRY`.
-MODE_MATERIAL, MODE_TEXTURE, MODE_VERTEX = 0, 1, 2
+#: Vertex and fragment entry points of each reflectance mode
+#: (:func:`aquaspec.scene.raycast.reflectance_mode`); each mode has its own
+#: vertex layout and pipeline.
 _ENTRY = {MODE_MATERIAL: "material", MODE_TEXTURE: "texture", MODE_VERTEX: "vertex"}
 #: 4-byte words of each mode's attribute after position and normal.
 _EXTRA_WORDS = {MODE_MATERIAL: 1, MODE_TEXTURE: 2, MODE_VERTEX: 3}
 #: Bytes per vertex of each mode: position, normal, then the mode's attribute.
 VERTEX_STRIDE = {m: 4 * (6 + k) for m, k in _EXTRA_WORDS.items()}
-
-
-def _mode(mesh: Mesh) -> int:
-    if mesh.texture is not None:
-        return MODE_TEXTURE
-    if mesh.vertex_rgb is not None:
-        return MODE_VERTEX
-    return MODE_MATERIAL
 
 
 def _vertex_data(mesh: Mesh) -> np.ndarray:
@@ -76,7 +70,7 @@ def _vertex_data(mesh: Mesh) -> np.ndarray:
     material index (u32); texture mode: uv (2 f32); vertex mode: the sigmoid
     coefficients (3 f32).
     """
-    mode = _mode(mesh)
+    mode = reflectance_mode(mesh)
     data = np.zeros((len(mesh.vertices), 6 + _EXTRA_WORDS[mode]), dtype=np.float32)
     data[:, 0:3] = mesh.vertices
     data[:, 3:6] = mesh.normals
@@ -87,14 +81,6 @@ def _vertex_data(mesh: Mesh) -> np.ndarray:
     else:
         data[:, 6:9] = mesh.vertex_sigmoid()
     return data
-
-
-def _check_inputs(scene, camera):
-    if not isinstance(scene, Scene):
-        raise AquaspecError(f"expected an aquaspec.scene.Scene, got {type(scene).__name__}")
-    if not isinstance(camera, Camera):
-        raise AquaspecError(f"expected an aquaspec.scene.camera.Camera, got {type(camera).__name__}")
-    scene.validate()
 
 
 class _Draw:
@@ -108,7 +94,6 @@ class _Draw:
     """
 
     def __init__(self, device, mode, meshes, bind_group):
-        import wgpu
         self.mode = mode
         data = [_vertex_data(m) for m in meshes]
         offsets = np.cumsum([0] + [len(d) for d in data])[:-1]
@@ -128,7 +113,6 @@ class _Draw:
 
 
 def _texture_view(device, mesh: Mesh):
-    import wgpu
     coeffs = mesh.texture_sigmoid()
     h, w = coeffs.shape[:2]
     limit = device.limits["max-texture-dimension-2d"]
@@ -162,13 +146,11 @@ class RasterPass:
     """
 
     def __init__(self, device=None):
-        import wgpu
         if device is None:
-            from aquaspec.gpu.device import get_device
             _, device = get_device()
         self.device = device
-        src = load_wgsl("gbuffer.wgsl", camera_struct=CAMERA_LAYOUT.wgsl())
-        self._module = device.create_shader_module(label="gbuffer.wgsl", code=src)
+        src = load_wgsl("raster.wgsl", camera_struct=CAMERA_LAYOUT.wgsl())
+        self._module = device.create_shader_module(label="raster.wgsl", code=src)
         #: Whether the last scene encoded has per-pixel materials (two targets).
         self.per_pixel = False
         self._cam_layout = device.create_bind_group_layout(entries=[
@@ -195,7 +177,6 @@ class RasterPass:
         self.targets = {}
 
     def _pipeline(self, mode, per_pixel):
-        import wgpu
         key = (mode, per_pixel)
         if key in self._pipelines:
             return self._pipelines[key]
@@ -249,11 +230,11 @@ class RasterPass:
         # order within a mode (the depth test decides what is seen, exact ties
         # aside).
         for mode in (MODE_MATERIAL, MODE_VERTEX):
-            meshes = [m for m in scene.meshes if _mode(m) == mode]
+            meshes = [m for m in scene.meshes if reflectance_mode(m) == mode]
             if meshes:
                 draws.append(_Draw(self.device, mode, meshes, None))
         for m in scene.meshes:
-            if _mode(m) == MODE_TEXTURE:
+            if reflectance_mode(m) == MODE_TEXTURE:
                 group = self.device.create_bind_group(layout=self._tex_layout, entries=[
                     {"binding": 1, "resource": _texture_view(self.device, m)}])
                 draws.append(_Draw(self.device, MODE_TEXTURE, [m], group))
@@ -262,7 +243,6 @@ class RasterPass:
         self.per_pixel = any(d.mode != MODE_MATERIAL for d in draws)
 
     def _ensure_targets(self, width, height):
-        import wgpu
         if self._size == (width, height):
             return
         usage = (wgpu.TextureUsage.RENDER_ATTACHMENT | wgpu.TextureUsage.COPY_SRC
@@ -284,15 +264,13 @@ class RasterPass:
 
         The results land in :attr:`targets`, or in ``targets``
         (``{"surface", "sigmoid"}`` textures of the camera's size in the
-        formats of :mod:`aquaspec.gpu.passes.deferred`) when given; the sigmoid
+        formats of :mod:`aquaspec.gpu.gbuffer`) when given; the sigmoid
         target is written only when the scene has per-pixel materials
         (:attr:`per_pixel` tells after the call). Open water is cleared to
-        distance :data:`~aquaspec.gpu.passes.deferred.OPEN_WATER_DISTANCE`, normal
+        distance :data:`~aquaspec.gpu.gbuffer.OPEN_WATER_DISTANCE`, normal
         0 and material 0.
         """
-        import wgpu
-        from aquaspec.gpu.passes.deferred import OPEN_WATER_DISTANCE
-        _check_inputs(scene, camera)
+        check_scene(scene, camera)
         self._upload(scene)
         self._ensure_targets(camera.width, camera.height)
         out = self.targets if targets is None else targets
@@ -327,25 +305,24 @@ class RasterPass:
             rp.draw_indexed(d.count)
         rp.end()
 
-    def render_to(self, deferred_pass, scene: Scene, camera: Camera, encoder=None,
+    def render_to(self, gbuffer: GBufferTextures, scene: Scene, camera: Camera, encoder=None,
                   timestamp_writes=None):
-        """Rasterise straight into a :class:`~aquaspec.gpu.passes.deferred.DeferredPass`'s G-buffer.
+        """Rasterise straight into the shading passes' G-buffer.
 
-        Renders into ``deferred_pass.gbuffer_textures`` (nothing is read
-        back, nothing is copied) and sets the deferred pass's camera and
-        ``per_pixel``. With ``encoder`` the commands are only recorded;
-        without, they are submitted.
+        Renders into ``gbuffer``'s textures (nothing is read back, nothing is
+        copied) and sets its camera and ``per_pixel``. With ``encoder`` the
+        commands are only recorded; without, they are submitted.
         """
-        if (camera.width, camera.height) != (deferred_pass.width, deferred_pass.height):
-            raise AquaspecError(f"camera is {camera.width}x{camera.height} but the deferred "
-                                f"pass is {deferred_pass.width}x{deferred_pass.height}")
+        if (camera.width, camera.height) != (gbuffer.width, gbuffer.height):
+            raise AquaspecError(f"camera is {camera.width}x{camera.height} but the G-buffer "
+                                f"is {gbuffer.width}x{gbuffer.height}")
         own = encoder is None
         if own:
             encoder = self.device.create_command_encoder()
         self.encode(encoder, scene, camera, timestamp_writes=timestamp_writes,
-                    targets=deferred_pass.gbuffer_textures)
-        deferred_pass.set_camera(camera)
-        deferred_pass.per_pixel = self.per_pixel
+                    targets=gbuffer.textures)
+        gbuffer.set_camera(camera)
+        gbuffer.per_pixel = self.per_pixel
         if own:
             self.device.queue.submit([encoder.finish()])
 
@@ -366,7 +343,7 @@ class RasterPass:
     def read_gbuffer(self, scene: Scene, camera: Camera, textures=None) -> GBuffer:
         """The G-buffer of ``scene`` and ``camera`` last rasterised, read back from
         :attr:`targets`, or from ``textures`` (``{"surface", "sigmoid"}``, e.g. a
-        :class:`~aquaspec.gpu.passes.deferred.DeferredPass`'s after :meth:`render_to`)."""
+        :class:`~aquaspec.gpu.gbuffer.GBufferTextures`'s after :meth:`render_to`)."""
         src = self.targets if textures is None else textures
         w, h = camera.width, camera.height
         distance, normal, material = unpack_surface(
@@ -386,199 +363,3 @@ class RasterPass:
             {"texture": texture, "mip_level": 0, "origin": (0, 0, 0)},
             {"offset": 0, "bytes_per_row": 16 * w}, (w, h, 1))
         return np.frombuffer(data, dtype=dtype).reshape(h, w, 4)
-
-
-# ---------------------------------------------------------------------------
-# NumPy reference
-
-
-def _bilinear_repeat(image, uv):
-    """Bilinear sample of ``image`` (H, W, C) at ``uv`` (N, 2), as the shader does."""
-    h, w = image.shape[:2]
-    px = uv[:, 0] * w - 0.5
-    py = (1.0 - uv[:, 1]) * h - 0.5
-    x0 = np.floor(px)
-    y0 = np.floor(py)
-    fx = (px - x0)[:, None]
-    fy = (py - y0)[:, None]
-    x0 = x0.astype(np.int64)
-    y0 = y0.astype(np.int64)
-    xa, xb = x0 % w, (x0 + 1) % w
-    ya, yb = y0 % h, (y0 + 1) % h
-    top = image[ya, xa] * (1 - fx) + image[ya, xb] * fx
-    bottom = image[yb, xa] * (1 - fx) + image[yb, xb] * fx
-    return top * (1 - fy) + bottom * fy
-
-
-#: Side of the square pixel tiles :func:`raycast_gbuffer` bins triangles into.
-RAYCAST_TILE = 16
-
-
-def _pixel_boxes(tri, camera: Camera, dirs):
-    """Inclusive pixel boxes ``(j0, j1, i0, i1)`` (each (T,)) that hold every
-    pixel centre whose ray can meet each triangle ``tri`` (T, 3, 3) beyond
-    the near distance: the bounding box, one pixel wider on each side and
-    clipped to the image, of the triangle's part in front of the plane
-    ``z = z_min`` (camera z; ``z_min`` half the smallest z a pixel ray reaches
-    at ``camera.near``; ``dirs`` the pixel rays, (P, 3)), projected. A
-    triangle with no such part, or entirely off-screen, gets ``j0 > j1``.
-    """
-    w, h = camera.width, camera.height
-    min_cos = float((dirs @ camera.forward).min())
-    z_min = 0.5 * camera.near * min_cos
-    rel = tri - camera.position                               # (T, 3, 3)
-    z = rel @ camera.forward                                  # (T, 3)
-    # Points whose projections bound the clipped triangle: the vertices in
-    # front of the plane and where the edges cross it.
-    a, b = rel, rel[:, [1, 2, 0]]
-    za, zb = z, z[:, [1, 2, 0]]
-    cross = (za - z_min) * (zb - z_min) < 0
-    f = np.where(cross, (z_min - za) / np.where(cross, zb - za, 1.0), 0.0)
-    pts = np.concatenate([a, a + f[..., None] * (b - a)], axis=1)       # (T, 6, 3)
-    use = np.concatenate([z > z_min, cross], axis=1)                    # (T, 6)
-    pz = np.where(use, pts @ camera.forward, 1.0)
-    pj = (pts @ camera.right) / pz * camera.fx + camera.cx - 0.5
-    pi = -(pts @ camera.true_up) / pz * camera.fy + camera.cy - 0.5
-    j0 = np.floor(np.where(use, pj, np.inf).min(axis=1)) - 1
-    j1 = np.ceil(np.where(use, pj, -np.inf).max(axis=1)) + 1
-    i0 = np.floor(np.where(use, pi, np.inf).min(axis=1)) - 1
-    i1 = np.ceil(np.where(use, pi, -np.inf).max(axis=1)) + 1
-    off = ~use.any(axis=1) | (j1 < 0) | (j0 > w - 1) | (i1 < 0) | (i0 > h - 1)
-    box = [np.clip(np.where(off, 0, x), 0, lim).astype(np.int64)
-           for x, lim in ((j0, w - 1), (j1, w - 1), (i0, h - 1), (i1, h - 1))]
-    box[1] = np.where(off, -1, box[1])
-    return tuple(box)
-
-
-def _tile_candidates(boxes, width: int, height: int, tile: int):
-    """Per tile of ``tile`` x ``tile`` pixels (row-major), the triangles whose
-    box overlaps it, in ascending order: ``(starts, order)`` with tile k's
-    triangles ``order[starts[k]:starts[k + 1]]``."""
-    j0, j1, i0, i1 = boxes
-    keep = np.nonzero(j1 >= j0)[0]
-    tx0, tx1 = j0[keep] // tile, j1[keep] // tile
-    ty0, ty1 = i0[keep] // tile, i1[keep] // tile
-    nx = (tx1 - tx0 + 1)
-    counts = nx * (ty1 - ty0 + 1)
-    tiles_x = -(-width // tile)
-    tri = np.repeat(keep, counts)
-    # The k-th pair of a triangle covers tile (tx0 + k % nx, ty0 + k // nx).
-    k = np.arange(tri.size) - np.repeat(np.cumsum(counts) - counts, counts)
-    nxr = np.repeat(nx, counts)
-    tile_id = (np.repeat(ty0, counts) + k // nxr) * tiles_x + np.repeat(tx0, counts) + k % nxr
-    order = np.argsort(tile_id, kind="stable")               # triangles stay ascending
-    n_tiles = tiles_x * -(-height // tile)
-    starts = np.concatenate([[0], np.cumsum(np.bincount(tile_id, minlength=n_tiles))])
-    return starts, tri[order]
-
-
-def raycast_gbuffer(scene: Scene, camera: Camera, *, max_elements: int = 2_000_000,
-                    tile: int | None = RAYCAST_TILE) -> GBuffer:
-    """G-buffer by ray-triangle intersection (Moller-Trumbore, float64 reference).
-
-    Pixel-centre rays are tested against the triangles whose projected
-    bounding box covers their tile of ``tile`` x ``tile`` pixels
-    (:func:`_pixel_boxes`; ``tile=None``: every ray against every triangle,
-    the brute force the binning must equal), in chunks of at most
-    ``max_elements`` ray-triangle pairs. The per-pixel quantities follow the
-    same rules as :class:`RasterPass`. The binning skips only pairs that
-    cannot meet, so the result is the brute force's, bit for bit (tested);
-    measured on the built-in scene (12084 triangles): 320x180 in 0.16 s
-    instead of 26 s, 1280x720 in 0.9 s.
-    """
-    _check_inputs(scene, camera)
-    if tile is not None and not (isinstance(tile, (int, np.integer)) and tile >= 1):
-        raise AquaspecError(f"tile={tile!r}; accepted: a positive integer or None")
-    dirs = camera.ray_directions().reshape(-1, 3)
-    o = camera.position
-    n_rays = len(dirs)
-    best_t = np.full(n_rays, np.inf)
-    best_mesh = np.full(n_rays, -1)
-    best_face = np.zeros(n_rays, dtype=np.int64)
-    best_uv = np.zeros((n_rays, 2))
-    eps = 1e-12
-    # All triangles in scene order (mesh, then face): ties keep the first.
-    tris = [mesh.vertices[mesh.faces] for mesh in scene.meshes]
-    all_tri = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
-    tri_mesh = np.concatenate([np.full(len(t), mi) for mi, t in enumerate(tris)]) \
-        if tris else np.zeros(0, dtype=np.int64)
-    tri_face = np.concatenate([np.arange(len(t)) for t in tris]) \
-        if tris else np.zeros(0, dtype=np.int64)
-
-    def cast(rays, cand):
-        """Nearest hit of rays ``rays`` (indices) among triangles ``cand`` (ascending)."""
-        d = dirs[rays]
-        n = len(rays)
-        chunk = max(1, max_elements // n)
-        for start in range(0, len(cand), chunk):
-            idx = cand[start:start + chunk]
-            t3 = all_tri[idx]                                     # (T, 3, 3)
-            e1 = t3[:, 1] - t3[:, 0]
-            e2 = t3[:, 2] - t3[:, 0]
-            p = np.cross(d[:, None, :], e2[None])                 # (N, T, 3)
-            det = np.einsum("ntk,tk->nt", p, e1)
-            ok = np.abs(det) > eps
-            inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-            s = o - t3[:, 0]                                      # (T, 3)
-            u = np.einsum("ntk,tk->nt", p, s) * inv
-            q = np.cross(s, e1)                                   # (T, 3)
-            v = np.einsum("nk,tk->nt", d, q) * inv
-            t = (e2 * q).sum(axis=1)[None, :] * inv
-            valid = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > camera.near)
-            t = np.where(valid, t, np.inf)
-            k = np.argmin(t, axis=1)
-            tk = t[np.arange(n), k]
-            closer = tk < best_t[rays]
-            hit = rays[closer]
-            best_t[hit] = tk[closer]
-            best_mesh[hit] = tri_mesh[idx[k[closer]]]
-            best_face[hit] = tri_face[idx[k[closer]]]
-            best_uv[hit] = np.stack([u[closer, k[closer]], v[closer, k[closer]]], 1)
-
-    w, h = camera.width, camera.height
-    if tile is None:
-        cast(np.arange(n_rays), np.arange(len(all_tri)))
-    else:
-        starts, order = _tile_candidates(_pixel_boxes(all_tri, camera, dirs), w, h, int(tile))
-        tiles_x = -(-w // tile)
-        pix = np.arange(n_rays).reshape(h, w)
-        for k in range(len(starts) - 1):
-            if starts[k + 1] > starts[k]:
-                ty, tx = divmod(k, tiles_x)
-                rays = pix[ty * tile:(ty + 1) * tile, tx * tile:(tx + 1) * tile].reshape(-1)
-                cast(rays, order[starts[k]:starts[k + 1]])
-
-    normal = np.zeros((n_rays, 3))
-    material = np.zeros(n_rays, dtype=np.uint32)
-    sigmoid = np.zeros((n_rays, 3))
-    for mi, mesh in enumerate(scene.meshes):
-        sel = np.nonzero(best_mesh == mi)[0]
-        if sel.size == 0:
-            continue
-        f = mesh.faces[best_face[sel]]
-        b1, b2 = best_uv[sel, 0:1], best_uv[sel, 1:2]
-        b0 = 1.0 - b1 - b2
-
-        def interp(attr):
-            return b0 * attr[f[:, 0]] + b1 * attr[f[:, 1]] + b2 * attr[f[:, 2]]
-
-        n = interp(mesh.normals)
-        n /= np.linalg.norm(n, axis=1, keepdims=True)
-        tri = mesh.vertices[f]
-        g = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        g = np.where((np.einsum("ij,ij->i", g, dirs[sel]) > 0)[:, None], -g, g)
-        n = np.where((np.einsum("ij,ij->i", n, g) < 0)[:, None], -n, n)
-        normal[sel] = n
-        mode = _mode(mesh)
-        if mode == MODE_MATERIAL:
-            material[sel] = mesh.material
-        else:
-            material[sel] = PER_PIXEL
-            if mode == MODE_TEXTURE:
-                sigmoid[sel] = _bilinear_repeat(mesh.texture_sigmoid().astype(np.float64),
-                                                interp(mesh.uv))
-            else:
-                sigmoid[sel] = interp(mesh.vertex_sigmoid().astype(np.float64))
-    h, w = camera.height, camera.width
-    return GBuffer(camera, best_t.reshape(h, w), normal.reshape(h, w, 3),
-                   material.reshape(h, w), sigmoid.reshape(h, w, 3), list(scene.materials))

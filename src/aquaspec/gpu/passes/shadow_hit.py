@@ -1,22 +1,22 @@
 """The scene's shadow along rays that end on a surface, on the GPU.
 
-Twin of :meth:`aquaspec.transport.lightfield.shadow._Context.hit_rays` (float64 NumPy; the
+Twin of :meth:`aquaspec.transport.lightfield.shadow.ShadowContext.hit_rays` (float64 NumPy; the
 maths is in :mod:`aquaspec.transport.lightfield.shadow`'s docstring); WGSL:
-``shaders/shadow_hit.wgsl``, one workgroup of :data:`WORKGROUP` invocations
+``shadow_hit.wgsl`` beside this module, one workgroup of :data:`WORKGROUP` invocations
 per receiver, which share out the direction cells around its ray and walk
 the nodes along it, each summing its blocked samples per band in a private
 array; the workgroup then sums those. Conventions: metres, y up, water
 surface y = 0, depth -y. The direction cells, their phase functions and
 the nodes along the ray are ``hit_rays``'s own
-(:meth:`~aquaspec.transport.lightfield.shadow._Context.hit_quadrature`, float64, then float32),
+(:meth:`~aquaspec.transport.lightfield.shadow.ShadowContext.hit_quadrature`, float64, then float32),
 and so is each receiver's frame (:func:`~aquaspec.transport.lightfield.shadow.ray_frames`).
-``tests/test_gpu_shadow.py`` holds the pass against ``hit_rays``.
+``tests/gpu/passes/test_shadow_passes.py`` holds the pass against ``hit_rays``.
 
 Bands are four to a vec4 (the last vec4 padded with zeros) in every
 per-band buffer. Bindings of shadow_hit.wgsl:
 
 ==  ==========================  ===============================================
-0   uniform ``HitParams``       the camera (:data:`~aquaspec.gpu.passes.deferred.CAMERA_FIELDS`),
+0   uniform ``HitParams``       the camera (:data:`~aquaspec.gpu.camera.CAMERA_FIELDS`),
                                 image and table sizes, counts
 1   ``array<Cell>``             per direction cell ``(cos theta, sin theta cos phi,
                                 sin theta sin phi, dw)`` and whether it is in
@@ -38,9 +38,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from aquaspec.gpu.passes.deferred import CAMERA_FIELDS, camera_fields
+from aquaspec.transport.lightfield.shadow import ray_frames
+from aquaspec.gpu.band_rays import BandRayPass, group_grid
+from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
 from aquaspec.gpu.layout import UniformLayout
-from aquaspec.gpu.passes.shadow_rays import BandRayPass, group_grid
 
 #: Invocations per workgroup (one workgroup per receiver).
 WORKGROUP = 64
@@ -56,7 +57,7 @@ PARAMS_LAYOUT = UniformLayout("HitParams", CAMERA_FIELDS + [
 
 
 class HitRayPass(BandRayPass):
-    """:meth:`~aquaspec.transport.lightfield.shadow._Context.hit_rays` on the GPU for ``n_bands`` bands (a compile-time
+    """:meth:`~aquaspec.transport.lightfield.shadow.ShadowContext.hit_rays` on the GPU for ``n_bands`` bands (a compile-time
     constant) on ``device`` (:func:`aquaspec.gpu.device.get_device`)."""
 
     RECORDS = 6
@@ -67,7 +68,7 @@ class HitRayPass(BandRayPass):
                          workgroup=WORKGROUP, chunk=chunk, shared_len=WORKGROUP * chunk)
 
     def prepare(self, ctx) -> None:
-        """Upload what every ray of ``ctx`` (:class:`aquaspec.transport.lightfield.shadow._Context`) reads:
+        """Upload what every ray of ``ctx`` (:class:`aquaspec.transport.lightfield.shadow.ShadowContext`) reads:
         the quadrature, the radiance table and the G-buffer. Once per context
         (by identity: the pass keeps it; a context is not changed after it is
         made); :meth:`hit_rays` calls it."""
@@ -91,7 +92,6 @@ class HitRayPass(BandRayPass):
 
     def _receivers(self, ctx, rows, cols) -> np.ndarray:
         """Receiver records (P, 16) float32: the rays' frames as ``hit_rays`` makes them."""
-        from aquaspec.transport.lightfield.shadow import ray_frames
         v, nrm, s = ctx.dirs[rows, cols], ctx.normal[rows, cols], ctx.distance[rows, cols]
         e1, e2 = ray_frames(v)
         cos_n = np.clip(-np.sum(v * nrm, axis=-1), 0.0, 1.0)

@@ -1,14 +1,14 @@
 """The scene's shadow along open-water rays, on the GPU.
 
-Twin of :meth:`aquaspec.transport.lightfield.shadow._Context._open_ray` (float64 NumPy; the
+Twin of :meth:`aquaspec.transport.lightfield.shadow.ShadowContext.open_ray` (float64 NumPy; the
 maths is in :mod:`aquaspec.transport.lightfield.shadow`'s docstring): the integrand at the nodes
 ``ctx.t`` along rays that end on no surface, summed over the context's
-source blocks. WGSL: ``shaders/shadow_open.wgsl``, one invocation per
+source blocks. WGSL: ``shadow_open.wgsl`` beside this module, one invocation per
 (ray, node), each looping over the sources and summing per band in a
 private array (bands four to a vec4). Conventions: metres, y up, water surface y = 0, depth -y.
 The cumulative integral along the rays stays on the host
-(:meth:`~aquaspec.transport.lightfield.shadow._Context.cumulative`).
-``tests/test_gpu_shadow.py`` holds the pass against ``_open_ray``.
+(:meth:`~aquaspec.transport.lightfield.shadow.ShadowContext.cumulative`).
+``tests/gpu/passes/test_shadow_passes.py`` holds the pass against ``open_ray``.
 
 Bands are four to a vec4 (the last padded with zeros) in every per-band
 buffer, band-contiguous. Bindings of shadow_open.wgsl (float32):
@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from aquaspec.gpu.layout import UniformLayout
-from aquaspec.gpu.passes.shadow_rays import BandRayPass, group_grid
+from aquaspec.gpu.band_rays import BandRayPass, group_grid
 
 #: Invocations per workgroup (consecutive nodes of a ray share one).
 WORKGROUP = 64
@@ -45,7 +45,7 @@ PARAMS_LAYOUT = UniformLayout("OpenParams", [
 
 
 class OpenRayPass(BandRayPass):
-    """:meth:`~aquaspec.transport.lightfield.shadow._Context._open_ray` on the GPU for ``n_bands`` bands (a compile-time
+    """:meth:`~aquaspec.transport.lightfield.shadow.ShadowContext.open_ray` on the GPU for ``n_bands`` bands (a compile-time
     constant) on ``device`` (:func:`aquaspec.gpu.device.get_device`)."""
 
     def __init__(self, device, n_bands: int):
@@ -53,7 +53,7 @@ class OpenRayPass(BandRayPass):
                          workgroup=WORKGROUP)
 
     def prepare(self, ctx) -> None:
-        """Upload what every ray of ``ctx`` (:class:`aquaspec.transport.lightfield.shadow._Context`) reads:
+        """Upload what every ray of ``ctx`` (:class:`aquaspec.transport.lightfield.shadow.ShadowContext`) reads:
         the sources, the cap-averaged phase table and the band constants. Once
         per context (by identity: the pass keeps it; a context is not changed
         after it is made); :meth:`integrand` calls it."""
@@ -78,7 +78,7 @@ class OpenRayPass(BandRayPass):
                  log_theta=np.log(th[-1] / th[1]), log_alpha=np.log(al[-1] / al[0])))
 
     def integrand(self, ctx, rays) -> np.ndarray:
-        """``np.stack([ctx._open_ray(v) for v in rays])`` (R, K, n) float64 for ray
+        """``np.stack([ctx.open_ray(v) for v in rays])`` (R, K, n) float64 for ray
         directions ``rays`` (R, 3), summed in float32 on the GPU."""
         rays = np.asarray(rays, dtype=float).reshape(-1, 3)
         self.prepare(ctx)

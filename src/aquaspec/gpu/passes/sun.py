@@ -1,28 +1,26 @@
 """The direct sun on the GPU: its shadow map and its light, added to a shading pass's image.
 
-Two passes (maths in :mod:`aquaspec.light.sun`, NumPy twin
-:func:`aquaspec.light.sun.sun_radiance`):
+Three steps (maths in :mod:`aquaspec.transport.sun_scattering` and
+:mod:`aquaspec.transport.froxels`, NumPy twin :func:`aquaspec.shading.sun.sun_radiance`):
 
-- the shadow map: the scene's draw calls (:meth:`aquaspec.gpu.passes.raster.RasterPass.draws`)
-  rasterised depth-only along the refracted beam (``shaders/sun_shadow.wgsl``,
-  :meth:`aquaspec.light.sun.ShadowMapSpec.clip_matrix`) into a ``depth32float``
-  texture of :data:`aquaspec.light.sun.DEFAULT_MAP_SIZE` texels a side;
-- the froxels (``shaders/sun.wgsl``, ``build_froxels``): the beam's single
+- the shadow map (:class:`aquaspec.gpu.passes.sun_shadow.SunShadowPass`): the
+  scene rasterised depth-only along the refracted beam;
+- the froxels (``sun.wgsl`` beside this module, ``build_froxels``): the beam's single
   scattering integrated front to back along each column of
-  :data:`aquaspec.light.sun.FROXEL_TILE` x ``FROXEL_TILE`` pixels, over
-  :data:`aquaspec.light.sun.FROXEL_SLICES` slices, in camera RGB;
+  :data:`aquaspec.transport.froxels.FROXEL_TILE` x ``FROXEL_TILE`` pixels, over
+  :data:`aquaspec.transport.froxels.FROXEL_SLICES` slices, in camera RGB;
 - the sun's radiance (``main``): per pixel the sun-lit surface's light and
   the single scattering read from the froxels at the pixel's distance, added
   in camera RGB to the shading pass's linear image (its ``rgb_buffer``), so
   :meth:`read_rgb` of that pass returns the whole image.
 
 Bindings of sun.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
-surface and sigmoid textures (:mod:`aquaspec.gpu.passes.deferred`); 3 material band
+surface and sigmoid textures (:mod:`aquaspec.gpu.gbuffer`); 3 material band
 reflectances (M * n f32); 4 two vec4 per band; 5 ``ln p`` per band
-(:func:`aquaspec.light.sun.phase_table`); 6 the shadow map; 7 the image (vec4 per
+(:func:`aquaspec.transport.sun_scattering.log_phase_table`); 6 the shadow map; 7 the image (vec4 per
 pixel, read and written); 8 the froxels (vec4 per column and slice
 boundary); 9 ``ln`` of the bands' mean phase function
-(:func:`aquaspec.light.sun.reference_phase`); 10 the caustic factor's slices
+(:func:`aquaspec.transport.sun_scattering.band_mean_log_phase`); 10 the caustic factor's slices
 (:class:`aquaspec.light.caustics.CausticMap`, an ``r16float`` 2-D array with its mip
 levels; a 1 x 1 x 2 stand-in without caustics) and 11 its repeating
 trilinear sampler.
@@ -31,15 +29,19 @@ trilinear sampler.
 from __future__ import annotations
 
 import numpy as np
+import wgpu
 
 from aquaspec.errors import AquaspecError
-from aquaspec.light.sun import (BIAS_TEXELS, CAUSTIC_SUBSAMPLES, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE,
-                   FROXEL_SLICES, FROXEL_TILE, NORMAL_OFFSET_TEXELS, TAIL, ShadowMapSpec,
-                   SunInputs, reference_phase, shadow_map_spec)
+from aquaspec.scene.shadowmap import (BIAS_TEXELS, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE,
+                                      NORMAL_OFFSET_TEXELS, ShadowMapSpec)
+from aquaspec.transport.froxels import CAUSTIC_SUBSAMPLES, FROXEL_SLICES, FROXEL_TILE
+from aquaspec.transport.sun_scattering import (PHASE_TABLE_SIZE, TAIL, SunInputs,
+                                               band_mean_log_phase)
 from aquaspec.gpu.buffers import create_storage_buffer, create_uniform_buffer, upload_buffer
-from aquaspec.gpu.passes.deferred import CAMERA_FIELDS, camera_fields
+from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.materials import UNIFORM_VEC4
+from aquaspec.gpu.passes.sun_shadow import SunShadowPass
 from aquaspec.gpu.shaders import load_wgsl
 
 PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
@@ -55,9 +57,7 @@ PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
 CAUSTIC_FORMAT = "r16float"
 #: Bound in place of the caustics when there are none (two 1 x 1 slices of 1).
 NO_CAUSTICS = (np.ones((2, 1, 1), np.float32),)
-CLIP_LAYOUT = UniformLayout("ShadowClip", [("clip", "mat4x4<f32>")])
 WORKGROUP = (8, 8)
-DEPTH_FORMAT = "depth32float"
 
 
 class SunPass:
@@ -73,8 +73,6 @@ class SunPass:
 
     def __init__(self, device, width: int, height: int, n_bands: int, *,
                  map_size: int = DEFAULT_MAP_SIZE):
-        import wgpu
-        from aquaspec.light.sun import PHASE_TABLE_SIZE
         self.device = device
         self.width, self.height, self.n_bands = int(width), int(height), int(n_bands)
         self.map_size = int(map_size)
@@ -87,7 +85,6 @@ class SunPass:
         self._ref_phase = create_storage_buffer(device, 4 * self.phase_size,
                                                 label="sun mean phase")
         self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="sun params")
-        self._clip = create_uniform_buffer(device, CLIP_LAYOUT, label="sun shadow clip")
         self._bands = device.create_buffer(
             label="sun bands", size=32 * self.n_bands,
             usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
@@ -96,25 +93,8 @@ class SunPass:
         self._materials = device.create_buffer(
             label="sun materials (uniform)", size=UNIFORM_VEC4 * 16,
             usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
-        self._map = device.create_texture(
-            label="sun shadow map", size=(self.map_size, self.map_size, 1), format=DEPTH_FORMAT,
-            usage=wgpu.TextureUsage.RENDER_ATTACHMENT | wgpu.TextureUsage.TEXTURE_BINDING
-            | wgpu.TextureUsage.COPY_SRC)
-        self._map_view = self._map.create_view()
-        shadow_src = load_wgsl("sun_shadow.wgsl")
-        self._shadow_module = device.create_shader_module(label="sun_shadow.wgsl",
-                                                          code=shadow_src)
-        self._shadow_pipelines = {}
-        # One layout for every vertex stride's pipeline (an "auto" layout is
-        # its own pipeline's only: a scene with several mesh modes needs one
-        # bind group that all of them accept).
-        clip_layout = device.create_bind_group_layout(entries=[
-            {"binding": 0, "visibility": wgpu.ShaderStage.VERTEX,
-             "buffer": {"type": wgpu.BufferBindingType.uniform}}])
-        self._shadow_layout = device.create_pipeline_layout(bind_group_layouts=[clip_layout])
-        self._clip_group = device.create_bind_group(layout=clip_layout, entries=[
-            {"binding": 0, "resource": {"buffer": self._clip, "offset": 0,
-                                        "size": CLIP_LAYOUT.size}}])
+        #: The shadow map (:class:`~aquaspec.gpu.passes.sun_shadow.SunShadowPass`).
+        self.shadow_map = SunShadowPass(device, self.map_size)
         self._caustic_sampler = device.create_sampler(
             address_mode_u=wgpu.AddressMode.repeat, address_mode_v=wgpu.AddressMode.repeat,
             mag_filter=wgpu.FilterMode.linear, min_filter=wgpu.FilterMode.linear,
@@ -123,8 +103,6 @@ class SunPass:
         self._caustic_tex = self._caustic_texture(NO_CAUSTICS)
         self._bind_key = None
         self._group = None
-        self.spec: ShadowMapSpec | None = None
-        self.shadowed = False
         self._inputs = None
 
     def _use_pipelines(self, materials_in_uniform: bool) -> None:
@@ -153,7 +131,6 @@ class SunPass:
 
     def _caustic_texture(self, levels):
         """An r16float 2-D array texture holding ``levels`` (K, n_m, n_m) as its mips."""
-        import wgpu
         k, n = levels[0].shape[0], levels[0].shape[-1]
         tex = self.device.create_texture(
             label="sun caustics", size=(n, n, k), format=CAUSTIC_FORMAT,
@@ -179,7 +156,6 @@ class SunPass:
     def set_inputs(self, sun: SunInputs, *, response_weights, material_bands,
                    sigmoid_centers_t) -> None:
         """Upload the per-band constants, the phase table and the materials."""
-        import wgpu
         n = self.n_bands
         w = np.asarray(response_weights, dtype=float)
         if sun.b.size != n or w.shape != (n, 3):
@@ -195,7 +171,7 @@ class SunPass:
         upload_buffer(self.device, self._bands, bands)
         upload_buffer(self.device, self._phase, np.asarray(sun.log_phase, np.float32))
         upload_buffer(self.device, self._ref_phase,
-                      reference_phase(sun.log_phase).astype(np.float32))
+                      band_mean_log_phase(sun.log_phase).astype(np.float32))
         mb = np.asarray(material_bands if material_bands is not None else np.zeros((0, n)),
                         np.float32).reshape(-1)
         mb = np.concatenate([mb, np.zeros(-mb.size % 4 or (4 if mb.size == 0 else 0),
@@ -214,56 +190,28 @@ class SunPass:
         self._inputs = sun
 
     # ---- the shadow map ---------------------------------------------------------
-    def _shadow_pipeline(self, stride: int):
-        import wgpu
-        if stride not in self._shadow_pipelines:
-            self._shadow_pipelines[stride] = self.device.create_render_pipeline(
-                label="sun shadow map", layout=self._shadow_layout,
-                vertex={"module": self._shadow_module, "entry_point": "vs_main", "buffers": [{
-                    "array_stride": stride, "step_mode": wgpu.VertexStepMode.vertex,
-                    "attributes": [{"format": wgpu.VertexFormat.float32x3, "offset": 0,
-                                    "shader_location": 0}]}]},
-                primitive={"topology": wgpu.PrimitiveTopology.triangle_list,
-                           "cull_mode": wgpu.CullMode.none},
-                depth_stencil={"format": DEPTH_FORMAT, "depth_write_enabled": True,
-                               "depth_compare": wgpu.CompareFunction.less},
-                multisample={"count": 1}, fragment=None)
-        return self._shadow_pipelines[stride]
+    @property
+    def spec(self) -> ShadowMapSpec | None:
+        """The shadow map's geometry (None: nothing shadowed)."""
+        return self.shadow_map.spec
+
+    @property
+    def shadowed(self) -> bool:
+        """Whether the shadow map is read (a scene was drawn into it)."""
+        return self.shadow_map.shadowed
 
     def encode_shadow_map(self, encoder, raster, scene, camera, *,
                           radius_m: float = DEFAULT_MAP_RADIUS_M) -> ShadowMapSpec | None:
-        """Record the shadow map of ``scene`` (None for no scene: nothing is shadowed)."""
-        import wgpu
-        from aquaspec.gpu.passes.raster import VERTEX_STRIDE
+        """Record the shadow map of ``scene`` (None for no scene: nothing is shadowed):
+        :meth:`aquaspec.gpu.passes.sun_shadow.SunShadowPass.encode` for this sun."""
         if self._inputs is None:
             raise AquaspecError("SunPass.set_inputs() first")
-        spec = None
-        if scene is not None and scene.meshes:
-            spec = shadow_map_spec(scene.bounds(), camera.position, self._inputs.to_sun,
-                                   size=self.map_size, radius_m=radius_m)
-        self.spec, self.shadowed = spec, spec is not None
-        if spec is None:
-            return None
-        upload_buffer(self.device, self._clip, CLIP_LAYOUT.pack(
-            clip=np.asarray(spec.clip_matrix().T, np.float32).reshape(-1)))
-        rp = encoder.begin_render_pass(
-            color_attachments=[],
-            depth_stencil_attachment={"view": self._map_view, "depth_clear_value": 1.0,
-                                      "depth_load_op": wgpu.LoadOp.clear,
-                                      "depth_store_op": wgpu.StoreOp.store})
-        for d in raster.draws(scene):
-            pipe = self._shadow_pipeline(VERTEX_STRIDE[d.mode])
-            rp.set_pipeline(pipe)
-            rp.set_bind_group(0, self._clip_group)
-            rp.set_vertex_buffer(0, d.vertex)
-            rp.set_index_buffer(d.index, d.index_format)
-            rp.draw_indexed(d.count)
-        rp.end()
-        return spec
+        return self.shadow_map.encode(encoder, raster, scene, camera, self._inputs.to_sun,
+                                      radius_m=radius_m)
 
     def no_shadows(self) -> None:
         """Nothing shadows the sun in the next :meth:`encode` (e.g. RGB-D images)."""
-        self.spec, self.shadowed = None, False
+        self.shadow_map.no_shadows()
 
     # ---- the sun's radiance -----------------------------------------------------
     def encode(self, encoder, camera, gbuffer_textures: dict, rgb_buffer) -> None:
@@ -305,13 +253,13 @@ class SunPass:
                     {"binding": 1, "resource": gbuffer_textures["surface"].create_view()},
                     {"binding": 2, "resource": gbuffer_textures["sigmoid"].create_view()},
                     buf(3, self._materials), buf(4, self._bands),
-                    {"binding": 6, "resource": self._map_view},
+                    {"binding": 6, "resource": self.shadow_map.view},
                     buf(7, rgb_buffer), buf(8, self._froxels), buf(9, self._ref_phase),
                     *caustic_entries])
             self._build_group = self.device.create_bind_group(
                 layout=self._build.get_bind_group_layout(0), entries=[
                     params, buf(4, self._bands), buf(5, self._phase),
-                    {"binding": 6, "resource": self._map_view},
+                    {"binding": 6, "resource": self.shadow_map.view},
                     buf(8, self._froxels), buf(9, self._ref_phase), *caustic_entries])
             self._bind_key = key
         cp = encoder.begin_compute_pass()
@@ -326,24 +274,5 @@ class SunPass:
         cp.end()
 
     def read_shadow_map(self) -> np.ndarray | None:
-        """The last shadow map as heights ``h`` (size, size) float64 (``-inf``
-        where no surface), for tests; None when nothing is shadowed."""
-        if not self.shadowed:
-            return None
-        import wgpu
-        n = self.map_size
-        row = -(-4 * n // 256) * 256
-        buf = self.device.create_buffer(size=row * n, usage=wgpu.BufferUsage.COPY_DST
-                                        | wgpu.BufferUsage.MAP_READ)
-        enc = self.device.create_command_encoder()
-        enc.copy_texture_to_buffer({"texture": self._map, "mip_level": 0, "origin": (0, 0, 0),
-                                    "aspect": wgpu.TextureAspect.depth_only},
-                                   {"buffer": buf, "offset": 0, "bytes_per_row": row,
-                                    "rows_per_image": n}, (n, n, 1))
-        self.device.queue.submit([enc.finish()])
-        buf.map_sync(wgpu.MapMode.READ)
-        z = np.frombuffer(buf.read_mapped(), np.float32).reshape(n, row // 4)[:, :n].copy()
-        buf.unmap()
-        spec = self.spec
-        h = spec.h_max - z.astype(float) * (spec.h_max - spec.h_min)
-        return np.where(z >= 1.0, -np.inf, h)
+        """:meth:`aquaspec.gpu.passes.sun_shadow.SunShadowPass.read` (tests)."""
+        return self.shadow_map.read()

@@ -1,8 +1,8 @@
 """The light-field model compiled for the GPU at one camera depth.
 
-:mod:`aquaspec.transport.lightfield.solve` gives per band the in-scattering prefactor
-``F(d, v_y)`` and the irradiance ``E(d, n_y)`` as tables; evaluating them per
-band and pixel (two table reads and three exponentials per band) made the
+:class:`aquaspec.transport.lightfield.tables.LightfieldTables` gives per band the
+in-scattering prefactor ``F(d, v_y)`` and the irradiance ``E(d, n_y)`` as tables;
+evaluating them per band and pixel (two table reads and three exponentials per band) made the
 light-field frame 1.6 times the seeds' on a CPU rasteriser. This module
 rewrites the same model so that the per-pixel cost is that of the seeds'
 model (SPEC: keep the per-pixel cost near the seeds'):
@@ -11,13 +11,13 @@ model (SPEC: keep the per-pixel cost near the seeds'):
   ray (direction ``v``, up component ``v_y``) ends on a surface at distance
   ``S``, in camera RGB, for the camera's depth ``d_o``. With the open-water
   field ``L_bg(d, v) = R(d, v) + u(d) L_top`` of
-  :func:`aquaspec.transport.lightfield.solve.lightfield_pixel_radiance`,
+  :meth:`aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance`,
   ``W = sum_i w_i [L_bg(d_o, v) - T'(S) L_bg(d_S, v)]`` (``T' = exp(-c' S)``,
   ``c' = c - f b`` the beam extinction with the forward cone, ``d_S = d_o - S
   v_y``): the radiance of a black target. It depends on the pixel only
   through ``(v_y, S)`` (horizontally uniform water), so a 2-D table for the
   camera's depth gives it for all bands at once (:func:`water_table`; the
-  GPU builds the same table, ``shaders/watertable.wgsl``). A last column
+  GPU builds the same table, ``gpu/passes/watertable.wgsl``). A last column
   holds open water (the ray hits nothing). With the cone spread a second layer holds the
   cone's share ``-(T' - T) L_bg(d_S, v)`` and the first uses ``T = exp(-c S)``.
 - **Factored irradiance**: the target's own light ``T'(S) rho E(d_S, n_y) / pi``
@@ -28,19 +28,24 @@ model (SPEC: keep the per-pixel cost near the seeds'):
   (alternating least squares, :func:`irradiance_factors`). With
   ``n <= rank`` bands the factorisation is exact.
 
-**Cone spread** (tables with ``cone_spread``): the pyramid of
+**Cone spread** (tables with ``cone_spread``;
+:mod:`aquaspec.transport.lightfield.spreadplan`): the pyramid of
 :mod:`aquaspec.transport.lightfield.conespread` (weights ``a_0 .. a_L``) starts at level ``L0`` =
-:data:`SPREAD_START_LEVEL` (:func:`spread_plan`). Its finer levels blur by a
+:data:`~aquaspec.transport.lightfield.spreadplan.SPREAD_START_LEVEL`
+(:func:`~aquaspec.transport.lightfield.spreadplan.spread_plan`). Its finer levels blur by a
 few pixels only and are taken as the pixel's own: the pixel keeps the share
 ``alpha = a_0 + .. + a_{L0-1}`` of its cone term (water table ``W0 + alpha
 W1``, the target's light times ``alpha + (1 - alpha) exp(-f b S)``, whose
-logarithm is taken linear in ``f_i b_i`` per pixel, :func:`kept_share`,
+logarithm is taken linear in ``f_i b_i`` per pixel,
+:func:`~aquaspec.transport.lightfield.spreadplan.kept_share`,
 so that a band costs one exponential and a multiply-add). Level
 ``L0`` itself (``2^L0`` times coarser) is estimated from the cone term at two
 pixels on the diagonal of each coarse pixel's block (offsets ``2^L0 / 4`` and
-``3 2^L0 / 4``, :func:`coarse_sample_pixels`), the pyramid runs from there
+``3 2^L0 / 4``, :func:`~aquaspec.transport.lightfield.spreadplan.coarse_sample_pixels`),
+the pyramid runs from there
 (:func:`aquaspec.transport.lightfield.conespread.spread`), and its result is added with one
-bilinear sample per group of four pixels of a row (:func:`upsample_groups`). On the GPU that is a
+bilinear sample per group of four pixels of a row
+(:func:`~aquaspec.transport.lightfield.spreadplan.upsample_groups`). On the GPU that is a
 coarse pass, a small pyramid, then the full-resolution pass with the display
 transform fused.
 
@@ -49,7 +54,7 @@ once (plus the spread's result with the spread), and per band evaluates one expo
 ``exp(K_i d_S - c'_i S + sum_r G_ir U_r)`` times the reflectance. The NumPy
 twin of the GPU pass is :func:`shade_compiled`; how far the compiled model is
 from :func:`aquaspec.shading.shade.shade_gbuffer` (the model itself) is measured
-by the tests (``tests/test_lightfield_compiled.py``) and by
+by the tests (``tests/transport/lightfield/test_compiled.py``) and by
 :attr:`Compiled.irradiance_error`.
 
 Table axes (texel units, texel ``k`` centred at ``k``, as a GPU sampler's
@@ -68,11 +73,21 @@ Table axes (texel units, texel ``k`` centred at ``k``, as a GPU sampler's
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 
+from aquaspec.cache import cached_arrays, code_digest
 from aquaspec.errors import AquaspecError
+from aquaspec.numerics import bilinear
+from aquaspec.scene.gbuffer import hit_reflectance
+from aquaspec.transport.lightfield.conespread import (interp_nodes, lambda_coordinate, spread,
+                                                      spread_nodes)
+from aquaspec.transport.lightfield.spreadplan import (coarse_sample_pixels, kept_projection,
+                                                      kept_share, multiple_plan, node_alpha,
+                                                      node_hats, spread_plan, upsample_groups)
+from aquaspec.transport.lightfield.tables import LightfieldTables, seeds_shape, table_lookup
 
 #: Functions U_r shared by all bands in the factored irradiance: four fill one
 #: texture read (RGBA). Measured on the tables' nodes (depth <= 30 m, phase
@@ -99,18 +114,8 @@ LENGTH_SCALE_M = 4.0
 ALS_SWEEPS = 40
 #: Depth up to which :func:`irradiance_factors` reports its error, m.
 ERROR_DEPTH_M = 30.0
-#: Coarsest pyramid level at which the cone spread starts (:func:`spread_plan`),
-#: and the largest angle its blocks may span, rad (0.77 degrees: level 3 at
-#: 1280x720 and 1920x1080 with the built-in camera; level 0, the whole
-#: pyramid, for the validation's 96x72 images). Measured on the built-in
-#: scene at 1280x720 (Jerlov IB / II / 7C), starting at level 3 instead of 0
-#: changed the image by 0.15-0.33 % on average, 2.6-5.5 % at the 99th
-#: percentile (pixels along silhouettes), level 2 by 0.07-0.14 % / 1.1-2.5 %.
-SPREAD_START_LEVEL = 3
-SPREAD_BLOCK_RAD = 0.0135
 
-
-def irradiance_factors(tables, rank: int = IRRADIANCE_RANK, sweeps: int = ALS_SWEEPS) -> dict:
+def irradiance_factors(tables: LightfieldTables, rank: int = IRRADIANCE_RANK, sweeps: int = ALS_SWEEPS) -> dict:
     """Fit ``ln(E_i(d, n_y)/E0_i) ~ C_i + K_i d + sum_r G_ir U_r(d, n_y)`` on the tables' nodes.
 
     Returns ``{"coef": (n, 2 + rank) [C, K, G_0 ..], "basis": (rank, n_depth,
@@ -120,11 +125,11 @@ def irradiance_factors(tables, rank: int = IRRADIANCE_RANK, sweeps: int = ALS_SW
     """
     if not (isinstance(rank, (int, np.integer)) and rank >= 1):
         raise AquaspecError(f"rank={rank!r}; accepted: an integer >= 1")
-    e = np.asarray(tables["irradiance_per_e0"], dtype=float)
+    e = np.asarray(tables.irradiance_per_e0, dtype=float)
     if not np.all(np.isfinite(e) & (e >= 0)):
         raise AquaspecError("irradiance table has negative or non-finite values")
     n, nd, nm = e.shape
-    depth = np.asarray(tables["depth_m"], dtype=float)
+    depth = np.asarray(tables.depth_m, dtype=float)
     m = np.log(np.maximum(e, 1e-30)).reshape(n, -1)
     dd = np.repeat(depth, nm)
     fixed = np.stack([np.ones_like(dd), dd])                  # (2, P)
@@ -150,17 +155,15 @@ def irradiance_factors(tables, rank: int = IRRADIANCE_RANK, sweeps: int = ALS_SW
             "max_error": float(np.abs(rel).max()), "rms_error": float(np.sqrt(np.mean(rel ** 2)))}
 
 
-def choose_irradiance_factors(tables) -> dict:
+def choose_irradiance_factors(tables: LightfieldTables) -> dict:
     """:func:`irradiance_factors` with the first rank of :data:`IRRADIANCE_RANKS`
     whose largest error is within :data:`IRRADIANCE_TOLERANCE` (else the last).
 
     Kept in aquaspec's cache, keyed by the irradiance table and this
     module's code and constants."""
-    import sys
-
-    from aquaspec.cache import cached_arrays, code_digest
-    key = code_digest([sys.modules[__name__]], *(np.asarray(tables[k], dtype=float).tobytes()
-                                                 for k in ("irradiance_per_e0", "depth_m")))
+    key = code_digest([sys.modules[__name__]], *(np.asarray(t, dtype=float).tobytes()
+                                                 for t in (tables.irradiance_per_e0,
+                                                           tables.depth_m)))
     fac = cached_arrays("irradiance-factors", key, lambda: {
         k: np.asarray(v) for k, v in _choose_irradiance_factors(tables).items()})
     return {"coef": fac["coef"], "basis": fac["basis"],
@@ -224,15 +227,15 @@ def distance_nodes():
         return np.where(x < 1.0, LENGTH_SCALE_M * x / np.where(x < 1.0, 1.0 - x, 1.0), np.inf)
 
 
-def water_table(tables, *, a, b, e0, response_weights, depth_o: float, split: bool,
-                alpha_nodes=None):
+def water_table(tables: LightfieldTables, *, a, b, e0, response_weights, depth_o: float,
+                split: bool, alpha_nodes=None):
     """The water table ``(layers, directions, DISTANCES, 3)`` in camera RGB, float64.
 
     Layer 0: ``sum_i w_i [L_bg(d_o, v) - T_i L_bg(d_S, v)]`` with ``T = T'``
     (``split=False``) or ``exp(-c S)`` (``split=True``); layer 1 (split only):
     the cone's share ``-sum_i w_i (T' - T) L_bg(d_S, v)``. Column
     ``DISTANCES - 1``: open water. The terms of
-    :func:`aquaspec.transport.lightfield.solve.lightfield_pixel_radiance` for a black target
+    :meth:`aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance` for a black target
     (deep water), evaluated directly on the nodes (the test compares the two).
 
     With ``alpha_nodes`` (K,) (the multiple-scattering spread: the share kept
@@ -245,28 +248,26 @@ def water_table(tables, *, a, b, e0, response_weights, depth_o: float, split: bo
     spread with node ``k``'s weights from the start level (which sum to ``1 -
     alpha_k``).
     """
-    from aquaspec.transport.lightfield.solve import _seeds_shape, bilinear
     a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
     w = np.asarray(response_weights, dtype=float)
     if alpha_nodes is not None and not split:
         raise AquaspecError("alpha_nodes (the multiple-scattering spread) need split=True")
-    if np.isfinite(float(tables["seabed_depth_m"][0])):
+    if tables.has_seabed:
         return _water_table_from_model(tables, a=a, b=b, e0=e0, w=w, depth_o=depth_o,
                                        split=split, alpha_nodes=alpha_nodes)
     c = a + b
-    f = np.asarray(tables.get("forward_fraction", np.zeros(a.size)), dtype=float)
+    f = np.asarray(tables.forward_fraction, dtype=float)
     c_beam = c - f * b
-    k1 = np.asarray(tables["k_inf"], dtype=float)
-    d_max = float(tables["max_depth_m"][0])
-    wc = float(tables["window_cos"][0])
-    sky = np.asarray(tables["sky_radiance_per_e0"], dtype=float) * e0
+    k1 = np.asarray(tables.k_inf, dtype=float)
+    wc = tables.window_cos
+    sky = np.asarray(tables.sky_radiance_per_e0, dtype=float) * e0
     v, inside = direction_nodes(wc)
     s_nodes = distance_nodes()                         # hit nodes, the last inf
 
     def r_at(depth, vv):
         """R(d, v) per band: (P, n)."""
-        pref = np.exp(bilinear(tables["ms_log_prefactor"], depth, vv, d_max))
-        return pref * e0 * _seeds_shape(b, c, k1, depth[:, None], vv[:, None], np.inf)
+        pref = tables.prefactor(depth, vv)
+        return pref * e0 * seeds_shape(b, c, k1, depth[:, None], vv[:, None], np.inf)
 
     # Up rays within 1e-30 of level reach the surface at a distance that
     # overflows: exp(-inf) = 0 is the limit.
@@ -309,7 +310,6 @@ def _layers(split: bool, alpha_nodes) -> int:
 def _fill_hit_columns(out, base, cone, s, fb, w, alpha_nodes, shape):
     """The hit columns of the water table ``out`` from per-band ``base`` and
     ``cone`` (P, n) at distances ``s`` (P,) (:func:`water_table`'s layers)."""
-    from aquaspec.transport.lightfield.conespread import interp_nodes, lambda_coordinate
     if alpha_nodes is not None:
         lam = np.asarray(fb)[None, :] * s[:, None]                        # (P, n)
         base = base + interp_nodes(alpha_nodes, lambda_coordinate(lam)) * cone
@@ -320,32 +320,21 @@ def _fill_hit_columns(out, base, cone, s, fb, w, alpha_nodes, shape):
         out[1, :, :DISTANCES - 1] = (cone @ w).reshape(shape + (3,))
 
 
-def node_hats(lam, nodes: int) -> np.ndarray:
-    """Hat weights ``(nodes, *lam.shape)`` of ``lambda = f b S`` on the first
-    ``nodes`` of :data:`aquaspec.transport.lightfield.conespread.LAMBDA_NODES`: the model's
-    :func:`aquaspec.transport.lightfield.conespread.lambda_node_weights`, which the GPU computes
-    as ``max(0, 1 - |z - k|)`` with ``z = log3(1 + 2 lambda)`` (the nodes sit
-    at ``z = 0 .. nodes - 1``, :func:`multiple_plan` checks)."""
-    from aquaspec.transport.lightfield.conespread import LAMBDA_NODES, lambda_node_weights
-    return lambda_node_weights(lam, LAMBDA_NODES[:nodes])
-
-
 def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool,
                             alpha_nodes=None):
     """:func:`water_table` for tables with a seabed: the model itself
-    (:func:`aquaspec.transport.lightfield.solve.lightfield_pixel_radiance`) on every node, a
+    (:meth:`aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance`) on every node, a
     black target at each finite distance and open water (the seabed seen
     below, the sky above) in the last column and at ``S = inf`` going down.
     The seabed's growing modes have no closed form along the ray in the deep
     water table's terms, so this is evaluated directly (NumPy; 0.13-1.0 s at
     8-64 bands)."""
-    from aquaspec.transport.lightfield.solve import lightfield_pixel_radiance
-    v, _ = direction_nodes(float(tables["window_cos"][0]))
+    v, _ = direction_nodes(tables.window_cos)
     s_nodes = distance_nodes()
     out = np.zeros((_layers(split, alpha_nodes), v.size, DISTANCES, 3))
     kw = dict(a=a, b=b, e0=e0, depth_o=float(depth_o))
     with np.errstate(over="ignore"):      # up rays within 1e-30 of level
-        open_l = lightfield_pixel_radiance(tables, **kw, v_y=v[:, None],
+        open_l = tables.pixel_radiance(**kw, v_y=v[:, None],
                                            s=np.full((v.size, 1), np.inf))
         out[0, :, DISTANCES - 1] = open_l @ w
         # (Nodes as a (directions, distances, 1) grid: what depends on the
@@ -356,16 +345,15 @@ def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool,
         ss = np.minimum(s_nodes[None, :, None],
                         np.where(up, depth_o / np.where(up, vv, 1.0), np.inf))
         sd = np.maximum(depth_o - np.where(np.isfinite(ss), ss, 0.0) * vv, 0.0)
-        hit = lightfield_pixel_radiance(tables, **kw, v_y=vv, s=ss, rho=np.zeros(a.size),
-                                        surface_depth=sd, n_y=np.ones_like(sd),
-                                        split_cone=split)
+        hit = tables.pixel_radiance(**kw, v_y=vv, s=ss, rho=np.zeros(a.size),
+                                    surface_depth=sd, n_y=np.ones_like(sd), split_cone=split)
         ss = ss.reshape(-1, 1)
         far = ~np.isfinite(ss[:, 0])
     base, cone = ((x.reshape(-1, a.size) for x in hit) if split
                   else (hit.reshape(-1, a.size), np.zeros((ss.shape[0], a.size))))
     base = np.where(far[:, None], np.repeat(open_l, s_nodes.size, axis=0), base)
     cone = np.where(far[:, None], 0.0, cone)
-    f = np.asarray(tables.get("forward_fraction", np.zeros(a.size)), dtype=float)
+    f = np.asarray(tables.forward_fraction, dtype=float)
     _fill_hit_columns(out, base, cone, np.where(far, 0.0, ss[:, 0]), f * b, w, alpha_nodes,
                       (v.size, s_nodes.size))
     if not np.all(np.isfinite(out)):
@@ -377,16 +365,8 @@ def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool,
 def lookup_water(table, v_y, s, hit, window_cos: float):
     """Bilinear lookup of the water table as the GPU sampler does: (..., layers, 3)."""
     t = np.asarray(table, dtype=float)
-    y = direction_coordinate(v_y, window_cos)
-    x = distance_coordinate(s, hit)
-    ny, nx = t.shape[1], t.shape[2]
-    j = np.clip(np.floor(y).astype(int), 0, ny - 2)
-    i = np.clip(np.floor(x).astype(int), 0, nx - 2)
-    fy = np.clip(y - j, 0.0, 1.0)[..., None, None]
-    fx = np.clip(x - i, 0.0, 1.0)[..., None, None]
-    tt = np.moveaxis(t, 0, -2)      # (ny, nx, layers, 3)
-    return ((1 - fy) * ((1 - fx) * tt[j, i] + fx * tt[j, i + 1])
-            + fy * ((1 - fx) * tt[j + 1, i] + fx * tt[j + 1, i + 1]))
+    return bilinear(np.moveaxis(t, 0, -2),      # (directions, distances, layers, 3)
+                    direction_coordinate(v_y, window_cos), distance_coordinate(s, hit))
 
 
 @dataclass
@@ -416,17 +396,18 @@ class Compiled:
     alpha_nodes: np.ndarray | None = None
 
 
-def compile_lightfield(tables, *, a, b, e0, response_weights, depth_o: float,
+def compile_lightfield(tables: LightfieldTables, *, a, b, e0, response_weights, depth_o: float,
                        factors: dict | None = None, alpha_nodes=None) -> Compiled:
     """Compile the model for the camera depth ``depth_o`` (``factors`` reused
     if given; ``alpha_nodes``: the multiple-scattering spread's kept shares
-    from :func:`multiple_plan`, for tables with ``cone_offset_cdf_nodes``)."""
+    from :func:`~aquaspec.transport.lightfield.spreadplan.multiple_plan`, for tables
+    whose cone spread is ``multiple``)."""
     a, b, e0 = (np.asarray(x, dtype=float) for x in (a, b, e0))
     w = np.asarray(response_weights, dtype=float)
     fac = factors if factors is not None else choose_irradiance_factors(tables)
-    f = np.asarray(tables.get("forward_fraction", np.zeros(a.size)), dtype=float)
-    split = "cone_offset_cdf" in tables
-    if ("cone_offset_cdf_nodes" in tables) != (alpha_nodes is not None):
+    f = np.asarray(tables.forward_fraction, dtype=float)
+    split = tables.cone is not None
+    if (split and tables.cone.multiple) != (alpha_nodes is not None):
         raise AquaspecError("tables with the multiple-scattering spread (cone_offset_cdf_nodes) "
                             "compile with alpha_nodes from multiple_plan(), other tables "
                             "without")
@@ -438,175 +419,10 @@ def compile_lightfield(tables, *, a, b, e0, response_weights, depth_o: float,
     return Compiled(depth_o=float(depth_o), split=split, water=water, basis=fac["basis"],
                     k_depth=coef[:, 1], c_beam=a + (1.0 - f) * b, fb=f * b, g=coef[:, 2:],
                     surface_weights=w * (e0 / np.pi * np.exp(coef[:, 0]))[:, None],
-                    window_cos=float(tables["window_cos"][0]),
-                    max_depth=float(tables["max_depth_m"][0]),
+                    window_cos=tables.window_cos, max_depth=tables.max_depth_m,
                     irradiance_error=(fac["max_error"], fac["rms_error"]),
                     alpha_nodes=alpha_nodes)
 
-
-def node_alpha(comp: "Compiled", s) -> np.ndarray:
-    """The multiple-scattering spread's share kept by a pixel at distance
-    ``s``: ``comp.alpha_nodes`` interpolated at ``z = log3(1 + 2 mean(f b) s)``
-    (:func:`surface_rgb`; the GPU's water table holds it in layer 0's fourth
-    channel)."""
-    from aquaspec.transport.lightfield.conespread import interp_nodes, lambda_coordinate
-    return interp_nodes(comp.alpha_nodes, lambda_coordinate(np.mean(comp.fb)
-                                                             * np.asarray(s, dtype=float)))
-
-
-def multiple_plan(node_weights, pixels_per_radian: float, start_level: int | None = None):
-    """``(L0, tables)`` of the multiple-scattering spread: the start level as
-    :func:`spread_plan` chooses it, and :func:`aquaspec.transport.lightfield.conespread.node_level_tables`
-    of the nodes' pyramid weights ``(K, L + 1)``
-    (:func:`aquaspec.transport.lightfield.conespread.node_pyramid_weights`) from there."""
-    from aquaspec.transport.lightfield.conespread import node_coordinates_are_integers, node_level_tables
-    w = np.asarray(node_weights, dtype=float)
-    if not node_coordinates_are_integers():
-        raise AquaspecError("the renderer's spread needs lambda nodes at z = 0, 1, 2, ..")
-    start = spread_plan(w[0], pixels_per_radian, start_level)[0]
-    return start, node_level_tables(w, start)
-
-
-def spread_plan(weights, pixels_per_radian: float, start_level: int | None = None) -> tuple:
-    """``(L0, alpha, coarse_weights)`` of the cone spread for pyramid weights
-    ``a_0 .. a_L``: ``L0`` the largest level up to :data:`SPREAD_START_LEVEL`
-    (and ``L``) whose blocks of ``2^L0`` pixels span at most
-    :data:`SPREAD_BLOCK_RAD` (or ``start_level``), ``alpha = a_0 + .. +
-    a_{L0-1}`` (kept by the pixel), the weights of levels ``L0 .. L``."""
-    w = np.asarray(weights, dtype=float)
-    if w.ndim != 1 or w.size < 2:
-        raise AquaspecError(f"{w.size} pyramid weights; accepted: at least 2")
-    if start_level is None:
-        start_level = 0
-        while (start_level < SPREAD_START_LEVEL
-               and 2 ** (start_level + 1) <= SPREAD_BLOCK_RAD * pixels_per_radian):
-            start_level += 1
-    start = min(int(start_level), w.size - 1)
-    return start, float(w[:start].sum()), w[start:]
-
-
-def coarse_sample_pixels(height: int, width: int, level: int):
-    """Pixels ``(ys, xs)`` (each (ch, cw, 2)) whose cone terms average to each
-    coarse pixel of level ``level``: offsets ``(F // 4, F // 4)`` and
-    ``(3 F // 4, 3 F // 4)`` in its ``F x F`` block (``F = 2^level``; the
-    block's diagonal), clamped to the image.
-
-    Two samples per block: at 1280x720 (start level 3, the built-in scene,
-    Jerlov IB / II / 7C) the image differed from the whole pyramid's by a mean
-    0.23 / 0.34 / 0.08 % with two samples and 0.23 / 0.33 / 0.08 % with the
-    four of a 2x2 grid, whose coarse pass cost twice as much.
-    """
-    from aquaspec.transport.lightfield.conespread import level_shapes
-    ch, cw = level_shapes(height, width, level)[-1]
-    f = 2 ** level
-    offs = np.array([f // 4, (3 * f) // 4])
-    ys = np.minimum(f * np.arange(ch)[:, None, None] + offs, height - 1)
-    xs = np.minimum(f * np.arange(cw)[None, :, None] + offs, width - 1)
-    return np.broadcast_to(ys, (ch, cw, 2)), np.broadcast_to(xs, (ch, cw, 2))
-
-
-def upsample_groups(coarse, factor: int, shape) -> np.ndarray:
-    """The spread's result at full resolution as the GPU adds it: one bilinear
-    value per group of four pixels of a row (columns ``4k .. 4k + 3``), at the
-    group's centre, coarse index coordinates ``((4k + 2) / F - 0.5, (y + 0.5) / F - 0.5)``;
-    with ``F < 4`` (small images) per pixel, :func:`aquaspec.transport.lightfield.conespread.upsample_by`."""
-    from aquaspec.transport.lightfield.conespread import bilinear_at
-    h, w = shape
-    centres = 4 * (np.arange(w) // 4) + 2.0 if factor >= 4 else np.arange(w) + 0.5
-    return bilinear_at(coarse, (np.arange(h) + 0.5) / factor - 0.5, centres / factor - 0.5)
-
-
-def kept_share(fb_mean: float, alpha: float, s):
-    """Per pixel ``(dk, slope)`` with ``alpha + (1 - alpha) exp(-x_i) ~ dk exp(slope
-    (x_i - x))``, ``x_i = f_i b_i S``, ``x = fb_mean S``: the tangent of the
-    share's logarithm at the bands' mean, ``dk`` the share there.
-
-    The pixel keeps ``alpha`` of its forward cone, ``T' (alpha + (1 - alpha)
-    exp(-f b S))`` of the target's light; one exponential per band remains
-    when the logarithm is linear in ``f_i b_i``: a multiply-add in the band's
-    exponent (``slope S (f_i b_i - fb_mean)``), and ``dk`` multiplies the
-    sum over bands once per pixel. Exact for ``alpha = 0`` and where all bands
-    have the same ``f b``; for the Jerlov waters (f b varies 2.4x over
-    400-700 nm) the kept light is off by at most 3.5-9 %, 1.5-3.6 % of the
-    cone term, which then goes to the pyramid instead (light is conserved:
-    the spread takes the complement).
-    """
-    xb = np.asarray(s, dtype=float) * float(fb_mean)
-    e = np.exp(-xb)
-    # (alpha = 0 and exp(-x) underflowing: the share is 0 either way; the
-    # floor keeps the slope finite, as the GPU's 1e-30 does in float32.)
-    d = np.maximum(alpha + (1.0 - alpha) * e, 1e-30)
-    return d, -(1.0 - alpha) * e / d
-
-
-#: Largest error (in the logarithm of the kept light) that :func:`kept_projection`
-#: may add to :func:`kept_share`'s tangent; beyond it the band keeps its
-#: multiply-add.
-KEPT_PROJECTION_TOLERANCE = 0.01
-#: Fewest bands for which :func:`kept_projection` is used: it saves a
-#: multiply-add per band and costs a shift of every pixel term and an
-#: exponential per pixel. Measured on lavapipe (1280x720, Jerlov IB, rank 4-5):
-#: 0.2 ms slower at 8 bands, 0.8-1.5 ms faster at 32.
-KEPT_PROJECTION_MIN_BANDS = 16
-
-
-def fb_projection(k_depth, c_beam, g, fb):
-    """``f_i b_i - mean(f b)`` as a combination of the band's other coefficients.
-
-    Least squares of ``delta_i = f_i b_i - mean(f b)`` on the columns ``[K_i,
-    c'_i, G_i0 .. G_i,rank-1, 1]`` (the coefficients of the band's exponent,
-    :class:`Compiled`). Returns ``(lam, delta_hat, residual)``: the
-    combination ``[lam_K, lam_c, lam_G.., mu]``, its values ``delta_hat``
-    (n,) and the largest ``|delta - delta_hat|``. Exact (to rounding) with
-    ``n <= rank + 3`` bands.
-    """
-    k_depth, c_beam, fb = (np.asarray(x, dtype=float) for x in (k_depth, c_beam, fb))
-    cols = np.column_stack([k_depth, c_beam, np.asarray(g, dtype=float), np.ones(fb.size)])
-    delta = fb - fb.mean()
-    lam = np.linalg.lstsq(cols, delta, rcond=None)[0]
-    hat = cols @ lam
-    return lam, hat, float(np.abs(delta - hat).max()) if fb.size else 0.0
-
-
-def kept_slope_bound(alpha: float) -> float:
-    """``max |slope(x)| x`` over ``x = fb_mean S >= 0`` (:func:`kept_share`):
-    how far an error in ``f_i b_i`` can move the kept share's logarithm,
-    per unit of ``fb_mean``. Infinite for ``alpha = 0`` (the slope stays -1)."""
-    if alpha <= 0.0:
-        return np.inf
-    x = np.linspace(0.0, 60.0, 6001)
-    e = np.exp(-x)
-    return float(np.max(x * (1.0 - alpha) * e / (alpha + (1.0 - alpha) * e)))
-
-
-def kept_projection(comp: "Compiled", alpha: float, projection=None):
-    """The kept share with no term per band, or None where it would err too much.
-
-    The band's multiply-add ``slope S delta_i`` (:func:`kept_share`) goes
-    into the pixel's other terms when ``delta`` is a combination of the
-    band's coefficients (:func:`fb_projection`): ``slope S delta_hat_i = K_i
-    lam_K kb + c'_i lam_c kb + sum_r G_ir lam_r kb + mu kb`` with ``kb =
-    slope S``, so the pixel shifts its depth, distance and basis values by
-    ``lam kb`` and multiplies by ``exp(mu kb)``, once for all bands. Used
-    when the residual moves the kept light's logarithm by at most
-    :data:`KEPT_PROJECTION_TOLERANCE` (``kept_slope_bound(alpha) residual /
-    fb_mean``); never with ``alpha = 0``, where the slope is -1 at every
-    distance, nor with fewer than :data:`KEPT_PROJECTION_MIN_BANDS` bands.
-    ``comp``: a :class:`Compiled` (or anything with its ``split``,
-    ``k_depth``, ``c_beam``, ``g`` and ``fb``); ``projection``: its
-    :func:`fb_projection`, if already made. Returns ``{"lam": (rank + 3,),
-    "fb_offset": delta_hat (n,), "error_bound": float}`` or None.
-    """
-    if (not comp.split or alpha <= 0.0 or np.size(comp.fb) < KEPT_PROJECTION_MIN_BANDS
-            or getattr(comp, "alpha_nodes", None) is not None):
-        return None
-    lam, hat, res = (projection if projection is not None
-                     else fb_projection(comp.k_depth, comp.c_beam, comp.g, comp.fb))
-    fbm = float(np.mean(comp.fb))
-    bound = 0.0 if res == 0.0 else (kept_slope_bound(alpha) * res / fbm if fbm > 0 else np.inf)
-    if not bound <= KEPT_PROJECTION_TOLERANCE:
-        return None
-    return {"lam": lam, "fb_offset": hat, "error_bound": bound}
 
 
 def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
@@ -633,14 +449,12 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
     level sum to ``1 - alpha_k``: the spread gives back exactly what the
     pixel does not keep.
     """
-    from aquaspec.transport.lightfield.solve import bilinear
     s = np.asarray(s, dtype=float)[:, None]
-    u = bilinear(comp.basis, surface_depth, n_y, comp.max_depth)         # (P, rank)
+    u = table_lookup(comp.basis, surface_depth, n_y, comp.max_depth)         # (P, rank)
     ln_e = comp.k_depth * np.asarray(surface_depth, dtype=float)[:, None] \
         - comp.c_beam * s + u @ comp.g.T
     l = np.asarray(rho, dtype=float) * np.exp(ln_e)
     if comp.alpha_nodes is not None:
-        from aquaspec.transport.lightfield.conespread import interp_nodes, lambda_coordinate
         z = lambda_coordinate(comp.fb[None, :] * s)
         dk, slope = kept_share(comp.fb.mean(), node_alpha(comp, s[:, 0]), s[:, 0])
         rest = l - l * dk[:, None] * np.exp(slope[:, None] * s * (comp.fb - comp.fb.mean()))
@@ -671,8 +485,6 @@ def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t
     with :func:`multiple_plan`'s ``alpha``, and one pyramid holds every node's image
     (:func:`aquaspec.transport.lightfield.conespread.spread_nodes`).
     """
-    from aquaspec.scene.gbuffer import PER_PIXEL
-    from aquaspec.colour.reflectance import sigmoid_at as sigmoid_reflectance
     cam = gbuffer.camera
     alpha = 0.0
     multiple = comp.alpha_nodes is not None
@@ -703,11 +515,8 @@ def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t
     if np.any(hit):
         mat = gbuffer.material.reshape(-1)[hit]
         mb = np.asarray(material_bands, dtype=float).reshape(-1, comp.c_beam.size)
-        pp = mat == PER_PIXEL
-        rho = np.zeros((mat.size, comp.c_beam.size))
-        rho[pp] = sigmoid_reflectance(gbuffer.sigmoid.reshape(-1, 3)[hit][pp],
-                                      np.asarray(sigmoid_centers_t, dtype=float))
-        rho[~pp] = mb[mat[~pp]]
+        rho = hit_reflectance(mat, gbuffer.sigmoid.reshape(-1, 3)[hit], mb,
+                              np.asarray(sigmoid_centers_t, dtype=float))
         sd = np.maximum(d_o - s[hit] * v_y[hit], 0.0)
         parts = surface_rgb(comp, rho, s[hit], sd,
                             gbuffer.normal[..., 1].reshape(-1)[hit].astype(float), alpha)
@@ -717,12 +526,10 @@ def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t
     h, w = cam.height, cam.width
     rgb = rgb.reshape(h, w, 3)
     if comp.split:
-        from aquaspec.transport.lightfield.conespread import spread
         cone = cone.reshape((h, w) + cone.shape[1:])
         ys, xs = coarse_sample_pixels(h, w, start)
         coarse = cone[ys, xs].mean(axis=2)
         if multiple:
-            from aquaspec.transport.lightfield.conespread import spread_nodes
             composite = spread_nodes(coarse, levels["a"])
         elif coarse_w.size > 1:
             composite = spread(coarse, coarse_w)

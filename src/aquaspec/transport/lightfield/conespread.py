@@ -3,17 +3,17 @@
 In forward-peaked water a camera ray towards a target also receives the
 target's light scattered by small angles on the way: light that left the
 target at an angular offset ``alpha`` from the pixel's own direction
-(:func:`aquaspec.medium.phase.band_cone_offset_cdf`). The light-field model first
-gives every pixel its own cone term (``lightfield_pixel_radiance(...,
+(:func:`aquaspec.medium.phase_bands.band_cone_offset_cdf`). The light-field model first
+gives every pixel its own cone term (``LightfieldTables.pixel_radiance(...,
 split_cone=True)``: what the cone adds if the target filled the whole cone);
 this module moves it to where it is seen, a convolution of the cone image
 with the radially symmetric kernel of ``alpha``
-(:func:`aquaspec.transport.lightfield.solve.cone_spread_kernel` is that kernel exactly,
-:func:`aquaspec.transport.lightfield.solve.spread_cone_light` the exact convolution).
+(:func:`aquaspec.transport.lightfield.cone.cone_spread_kernel` is that kernel exactly,
+:func:`aquaspec.transport.lightfield.cone.spread_cone_light` the exact convolution).
 
 The kernel reaches tens of degrees (hundreds of pixels) and its mass is
 spread over decades of radius, so the renderer convolves with a pyramid
-instead, the same on the GPU (``shaders/conespread.wgsl``) and here:
+instead, the same on the GPU (``gpu/passes/conespread.wgsl``) and here:
 
 - level 0 is the image; level ``l`` halves level ``l - 1`` (rounding up)
   with the weights ``[1, 3, 3, 1] / 8`` along each axis over the fine pixels
@@ -37,16 +37,21 @@ Each level on its own is a bump of width about ``2^l`` pixels; the weights
 ``alpha_l >= 0`` (summing to 1, so no light is made or lost) are fitted to
 the kernel's radial distribution (:func:`fit_weights`). Measured against the
 exact convolution on a blocky target: mean error about 1.3 % of the cone
-term on the target (``tests/test_conespread.py``).
+term on the target (``tests/transport/lightfield/test_conespread.py``).
 """
 
 from __future__ import annotations
 
+import sys
 from functools import lru_cache
+from math import lgamma
 
 import numpy as np
 
+from aquaspec.cache import cached_arrays, code_digest
 from aquaspec.errors import AquaspecError
+from aquaspec.numerics import bilinear_grid
+from aquaspec.transport.lightfield.tables import ConeTables
 
 #: Radius (pixels) of the responses measured per level before the scale law takes over.
 _MEASURED_LEVELS = 6
@@ -70,27 +75,12 @@ def upsample(x: np.ndarray, shape) -> np.ndarray:
     return upsample_by(x, 2, shape)
 
 
-def bilinear_at(x: np.ndarray, rows, cols) -> np.ndarray:
-    """Bilinear values of ``x`` (h, w, ...) at index coordinates ``rows`` (along
-    axis 0) x ``cols`` (axis 1), clamped to the edge: a GPU sampler's linear
-    filtering at ``(c + 0.5) / size``."""
-    out = np.asarray(x, dtype=float)
-    for ax, c in ((0, rows), (1, cols)):
-        m = out.shape[ax]
-        c = np.clip(np.asarray(c, dtype=float), 0.0, m - 1.0)
-        i0 = np.floor(c).astype(int)
-        i1 = np.minimum(i0 + 1, m - 1)
-        f = (c - i0).reshape([c.size if k == ax else 1 for k in range(out.ndim)])
-        out = np.take(out, i0, axis=ax) * (1.0 - f) + np.take(out, i1, axis=ax) * f
-    return out
-
-
 def upsample_by(x: np.ndarray, factor: int, shape) -> np.ndarray:
     """Bilinear interpolation of a level ``factor`` times coarser at the fine
     pixels of ``shape`` (h, w): coarse index coordinates ``(p + 0.5) / factor - 0.5``
     (clamped), one bilinear sample on the GPU (for ``factor`` 2, :func:`upsample`)."""
-    return bilinear_at(x, (np.arange(shape[0]) + 0.5) / factor - 0.5,
-                       (np.arange(shape[1]) + 0.5) / factor - 0.5)
+    return bilinear_grid(x, (np.arange(shape[0]) + 0.5) / factor - 0.5,
+                         (np.arange(shape[1]) + 0.5) / factor - 0.5)
 
 
 def level_count(height: int, width: int, radius_px: float) -> int:
@@ -232,20 +222,22 @@ def nnls(a, b) -> np.ndarray:
     raise AquaspecError(f"non-negative least squares did not converge for a {a.shape} matrix")
 
 
-def cone_cdf(tables) -> tuple:
-    """One kernel for all bands: ``(offsets_rad, cdf)`` from the tables, the
-    bands' CDFs weighted by their cone share ``f b`` (equal for every band
+def cone_cdf(cone: ConeTables) -> tuple:
+    """One kernel for all bands: ``(offsets_rad, cdf)`` from the cone's tables,
+    the bands' CDFs weighted by their cone share ``f b`` (equal for every band
     but with Petzold's water-particle mix)."""
-    cdf = np.asarray(tables["cone_offset_cdf"], dtype=float)
-    wgt = np.asarray(tables.get("cone_weight", np.ones(cdf.shape[0])), dtype=float)
+    cdf = np.asarray(cone.offset_cdf, dtype=float)
+    wgt = np.asarray(cone.weight, dtype=float)
     wgt = wgt / wgt.sum() if wgt.sum() > 0 else np.full(cdf.shape[0], 1.0 / cdf.shape[0])
-    return np.asarray(tables["cone_offset_rad"], dtype=float), wgt @ cdf
+    return np.asarray(cone.offset_rad, dtype=float), wgt @ cdf
 
 
-def pyramid_weights(tables, pixels_per_radian: float, height: int, width: int) -> np.ndarray:
+def pyramid_weights(cone: ConeTables, pixels_per_radian: float, height: int,
+                    width: int) -> np.ndarray:
     """The weights the renderer uses for an image of this size and camera
-    (levels up to the last with a weight above zero)."""
-    offsets, cdf = cone_cdf(tables)
+    (levels up to the last with a weight above zero); ``cone``: the light-field
+    tables' :attr:`~aquaspec.transport.lightfield.tables.LightfieldTables.cone`."""
+    offsets, cdf = cone_cdf(cone)
     levels = level_count(height, width, offsets[-1] * pixels_per_radian)
     w = fit_weights(offsets, cdf, pixels_per_radian, levels)
     # Coarsest levels the fit left at zero would cost work in the pyramid's
@@ -296,7 +288,7 @@ def multiple_scattering_cdf(offsets_rad, cdf, lam: float, *, samples: int = MULT
 
     ``N`` is Poisson with mean ``lam`` given ``N >= 1``; each scattering moves
     the light by an independent 2-D offset, isotropic in azimuth, with radial
-    CDF ``cdf`` (at ``offsets_rad``; :func:`aquaspec.medium.phase.band_cone_offset_cdf`),
+    CDF ``cdf`` (at ``offsets_rad``; :func:`aquaspec.medium.phase_bands.band_cone_offset_cdf`),
     and the offsets add as vectors. Monte Carlo with ``samples`` stratified
     single offsets (deterministic for a ``seed``); ``lam = 0`` returns ``cdf``.
     Offsets past the last one count at the last (the CDF ends at 1).
@@ -317,9 +309,6 @@ def multiple_scattering_cdf(offsets_rad, cdf, lam: float, *, samples: int = MULT
 
 @lru_cache(maxsize=64)
 def _multiple_cdf(off_bytes, f1_bytes, lam, samples, seed):
-    import sys
-
-    from aquaspec.cache import cached_arrays, code_digest
     # (The key holds the code that computes it: a changed module is not
     # answered from an old file; without its source, no file.)
     key = code_digest([sys.modules[__name__]], off_bytes, f1_bytes, lam, samples, seed)
@@ -330,7 +319,6 @@ def _multiple_cdf(off_bytes, f1_bytes, lam, samples, seed):
 def _multiple_cdf_monte_carlo(off_bytes, f1_bytes, lam, samples, seed):
     off = np.frombuffer(off_bytes, dtype=float)
     f1 = np.frombuffer(f1_bytes, dtype=float)
-    from math import lgamma
     rng = np.random.default_rng(seed)
     u = (np.arange(samples) + 0.5) / samples
     # The CDF's flat steps have many offsets for one value: the inverse takes
@@ -360,11 +348,12 @@ def _multiple_cdf_monte_carlo(off_bytes, f1_bytes, lam, samples, seed):
     return np.minimum(np.maximum.accumulate(out), 1.0)
 
 
-def node_pyramid_weights(tables, pixels_per_radian: float, height: int, width: int) -> list:
-    """Pyramid weights of each lambda node (``tables["cone_offset_cdf_nodes"]``),
+def node_pyramid_weights(cone: ConeTables, pixels_per_radian: float, height: int,
+                         width: int) -> list:
+    """Pyramid weights of each lambda node (``cone.offset_cdf_nodes``),
     all with the same number of levels (zeros where a node needs fewer)."""
-    offsets = np.asarray(tables["cone_offset_rad"], dtype=float)
-    cdfs = np.asarray(tables["cone_offset_cdf_nodes"], dtype=float)
+    offsets = np.asarray(cone.offset_rad, dtype=float)
+    cdfs = np.asarray(cone.offset_cdf_nodes, dtype=float)
     levels = level_count(height, width, offsets[-1] * pixels_per_radian)
     return [fit_weights(offsets, c, pixels_per_radian, levels) for c in cdfs]
 

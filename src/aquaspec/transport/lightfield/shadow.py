@@ -30,15 +30,15 @@ meets a surface point ``y`` (depth ``d_y``, camera ray ``v'``) at distance
 ``L_bg(d, w)`` the open water's radiance seen looking along ``w``,
 ``theta_c`` the forward cone of the tables, and ``k = c - f(15 deg) b``
 (light scattered within 15 degrees stays in the shadow's beam;
-:data:`SHADOW_CONE_DEG`). It is the first scattering of the blocked light;
-the blocked light's own multiple scattering is carried only by ``k``.
+:data:`aquaspec.transport.lightfield.shadowphase.SHADOW_CONE_DEG`). It is the first
+scattering of the blocked light; the blocked light's own multiple scattering is carried only by ``k``.
 
 Which directions are blocked is read from the G-buffer, so only surfaces
 the camera sees cast a shadow here, and only from their visible side.
 Rays are integrated on a grid of receiver pixels (every few pixels):
 
 - a ray that ends on a surface, over directions around the ray (the
-  phase function's forward peak resolved, :meth:`_Context.hit_rays`) from
+  phase function's forward peak resolved, :meth:`ShadowContext.hit_rays`) from
   points graded towards the hit: a direction meets the hit's tangent
   plane at ``q``, which blocks where the G-buffer sees a surface at ``q``'s
   distance (so a planar target's edges are the G-buffer's; a curved one is
@@ -47,17 +47,17 @@ Rays are integrated on a grid of receiver pixels (every few pixels):
   ``A`` and normal ``n``, subtending ``A |n . w| / r^2`` from a point it faces,
   at most the on-axis disc's ``2 pi (1 - r / sqrt(r^2 + A / pi))``), with the
   phase function averaged over each block's solid angle and the radiance
-  taken where that average puts its weight (:func:`disc_phase_table`), as
-  a cumulative integral along the ray, read at each pixel's own length.
+  taken where that average puts its weight
+  (:func:`aquaspec.transport.lightfield.shadowphase.disc_phase_table`), as a cumulative integral along the ray, read at each pixel's own length.
 
 Each pixel interpolates bilinearly between the receivers around it that
 are of its own kind (hit or open water), when those carry more than
 :data:`SERVE_WEIGHT` of its weights; the others go to a grid twice as fine,
 and so on down to their own ray, so that a thin structure costs receivers
-along it rather than a ray per pixel (tests/test_shadow.py: four poles 4
+along it rather than a ray per pixel (tests/transport/lightfield/test_shadow.py: four poles 4
 pixels wide, 122 hit rays for their 1312 pixels). Measured against a direct integration over directions and
 along the ray with the board's rectangle as the occluder
-(``tests/test_shadow.py``, 96x72, Jerlov II, Petzold): within 1 % of the
+(``tests/transport/lightfield/test_shadow.py``, 96x72, Jerlov II, Petzold): within 1 % of the
 term's size on the board's lower half, 2-4 % on its upper half and just
 below it; with twice the direction cells each way the board's rows came
 within 0.5 %, with 4x the source blocks and 2x the nodes along the ray the
@@ -78,14 +78,14 @@ from __future__ import annotations
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.medium.phase_bands import mix_with_pure_water
+from aquaspec.numerics import bilinear
 from aquaspec.parallel import in_threads
+from aquaspec.transport.lightfield.shadowphase import mixed_phase
+from aquaspec.transport.lightfield.tables import (LightfieldTables, band_last_table,
+                                                  table_cos_index, table_depth_index,
+                                                  table_lookup)
 
-#: Forward cone (degrees) whose scattering stays in the shadow's beam:
-#: ``k = c - f(SHADOW_CONE_DEG) b``. In the helper experiment 15 brought
-#: Petzold II / IB / 3C targets within +1.1 / -0.1 / +3.7 %; 40
-#: over-corrected 3C (-4.5 %); the full extinction ``c`` made the term 5x
-#: too small.
-SHADOW_CONE_DEG = 15.0
 #: Receivers (coarse pixels whose rays are integrated) at most along the
 #: image's longer side, and source blocks at most in the image.
 RECEIVERS_LONG_SIDE = 32
@@ -93,7 +93,7 @@ MAX_SOURCES = 1500
 #: A pixel is interpolated from the receivers around it when those of its
 #: own kind (hit or open water) carry more than this share of its bilinear
 #: weights; otherwise it goes to a grid twice as fine (down to its own ray).
-#: Against a direct integration at the board's edges (tests/test_shadow.py's
+#: Against a direct integration at the board's edges (test_shadow.py's
 #: scene, 96x72; the worst band) 0 / 0.5 / 0.75 left the worst pixels beside
 #: the board at 33 / 12 / 12 % of the term's size and its top row at 36 / 36
 #: / 5 %; 0.5 / 0.75 the rows above and below it at 21 / 11 % and 14 / 7 %.
@@ -104,14 +104,6 @@ MAX_SOURCES = 1500
 SERVE_WEIGHT = 0.75
 #: Nodes of the cumulative integral along the rays.
 T_NODES = 48
-#: Nodes of the phase functions' table in angle (geometric towards forward).
-PHASE_NODES = 512
-#: The cap-averaged phase table (:func:`disc_phase_table`): angles from
-#: forward (0, then geometric from 1 mrad) and cap radii (geometric from
-#: DISC_ALPHA_MIN rad to 90 degrees).
-DISC_THETA = 96
-DISC_ALPHA = 40
-DISC_ALPHA_MIN = 1e-3
 #: Rays that end on a surface are integrated over directions instead (the
 #: source blocks are too coarse where the forward peak of the phase
 #: function meets them): nodes along the ray; angles from the ray's
@@ -124,84 +116,6 @@ HIT_THETA_WIDE_CELLS = 24
 HIT_THETA_MIN = 1e-3
 HIT_THETA_KNEE = 0.2
 HIT_PHI_CELLS = 24
-
-
-def phase_table(method, b, wavelength_nm=None, **params):
-    """``(theta (m,), basis (2, m), mix (n,))``: the band phase functions at angles
-    geometric towards forward, ``p_i = basis[0] + mix_i (basis[1] - basis[0])``
-    (the particles' or the whole water's function, and pure water's, mixed by
-    band as :func:`aquaspec.medium.phase.band_cone_fraction` does)."""
-    from aquaspec.medium.phase import PhaseFunction, PureWaterPhase, get_phase, pure_water_fraction
-    phase = method if isinstance(method, PhaseFunction) else get_phase(method, **params)
-    theta = np.concatenate([[0.0], np.geomspace(1e-5, np.pi, PHASE_NODES - 1)])
-    mu = np.cos(theta)
-    basis = np.stack([phase.value(mu), PureWaterPhase().value(mu)])
-    return theta, basis, pure_water_fraction(phase, b, wavelength_nm)
-
-
-def _mixed(basis_values, mix):
-    """Band values ``(..., n)`` from the two basis functions' values ``(2, ...)``."""
-    p0, p1 = basis_values[0][..., None], basis_values[1][..., None]
-    return p0 + mix * (p1 - p0)
-
-
-def disc_phase_table(theta, values, theta_out, alpha):
-    """Phase functions averaged over discs on the sphere: ``(mean, shift)``, each
-    ``(k, len(theta_out), len(alpha))`` for ``values`` (k, m): the mean of ``p``
-    over a cap of angular radius ``alpha`` centred ``theta_out`` from forward,
-    and the p-weighted mean angular offset of the cap's points towards forward
-    (rad).
-
-    A source block seen from a point on the ray covers a range of scattering
-    angles over which a forward-peaked ``p`` changes by orders of magnitude;
-    its mean over the block's solid angle (a cap of the same area) is what the
-    sum over blocks needs, and the radiance is taken where ``p`` puts its
-    weight: the block's centre moved towards forward by ``shift``. ``values``
-    on ``theta`` (:func:`phase_table`); midpoint quadrature in the cap's polar
-    coordinates."""
-    n_rho, n_psi = 24, 32
-    out = np.empty((values.shape[0], theta_out.size, alpha.size))
-    shift = np.empty_like(out)
-    psi = (np.arange(n_psi) + 0.5) * 2 * np.pi / n_psi
-    for ia, a in enumerate(alpha):
-        edges = np.linspace(0.0, a, n_rho + 1)
-        rho = 0.5 * (edges[1:] + edges[:-1])
-        w = np.cos(edges[:-1]) - np.cos(edges[1:])            # cap area per ring / 2 pi
-        cos_g = (np.cos(theta_out)[:, None, None] * np.cos(rho)[None, :, None]
-                 + np.sin(theta_out)[:, None, None] * np.sin(rho)[None, :, None]
-                 * np.cos(psi)[None, None, :])
-        g = np.arccos(np.clip(cos_g, -1.0, 1.0)).reshape(-1)
-        for i in range(values.shape[0]):
-            pv = np.interp(g, theta, values[i]).reshape(theta_out.size, n_rho, n_psi)
-            mass = np.sum(pv.mean(axis=-1) * w, axis=-1)
-            out[i, :, ia] = mass / w.sum()
-            # The p-weighted mean offset towards forward (psi = 0 points there).
-            toward = np.sum(np.mean(pv * np.cos(psi), axis=-1) * rho * w, axis=-1)
-            shift[i, :, ia] = toward / np.maximum(mass, 1e-300)
-    return out, shift
-
-
-def shadow_tables(lf, depth, cosine, *, phase, b, wavelength_nm=None, **phase_params) -> dict:
-    """The tables :func:`ambient_shadow` reads, for ``lightfield_tables(ambient_shadow=True)``:
-    ``"radiance_per_e0"`` (n, n_depth, n_mu) the open water's radiance ``L_bg(d, w_y)/E0``
-    on the tables' axes, ``"shadow_theta"`` / ``"shadow_phase"`` / ``"shadow_phase_mix"``
-    (:func:`phase_table`),
-    ``"shadow_disc_theta"`` / ``"shadow_disc_alpha"`` / ``"shadow_disc_phase"`` /
-    ``"shadow_disc_shift"`` (:func:`disc_phase_table`) and ``"shadow_extinction"``
-    (n,) ``k = c - f(15 deg) b``."""
-    from aquaspec.medium.phase import band_cone_fraction
-    theta, basis, mix = phase_table(phase, b, wavelength_nm, **phase_params)
-    f = band_cone_fraction(phase, SHADOW_CONE_DEG, b, wavelength_nm, **phase_params)
-    th_disc = np.concatenate([[0.0], np.geomspace(1e-3, np.pi, DISC_THETA - 1)])
-    alpha = np.geomspace(DISC_ALPHA_MIN, np.pi / 2, DISC_ALPHA)
-    mean, shift = disc_phase_table(theta, basis, th_disc, alpha)
-    return {"radiance_per_e0": lf.radiance(np.asarray(depth)[:, None],
-                                           np.asarray(cosine)[None, :]),
-            "shadow_theta": theta, "shadow_phase": basis, "shadow_phase_mix": mix,
-            "shadow_disc_theta": th_disc, "shadow_disc_alpha": alpha,
-            # (The shift of the first function: the forward peak is the particles'.)
-            "shadow_disc_phase": mean, "shadow_disc_shift": shift[0],
-            "shadow_extinction": lf.c - f * np.asarray(b, dtype=float)}
 
 
 def _receiver_pixels(n_px: int, step: int) -> np.ndarray:
@@ -239,14 +153,14 @@ def _sources(cam, dirs, distance, normal, surface_radiance, hit):
     return a_sum[keep], pts, nrm, v_y, rad
 
 
-def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
+def ambient_shadow(tables: LightfieldTables, camera, distance, normal, surface_radiance, *, b, e0,
                    hit=None, progress=None, rays=None) -> np.ndarray:
     """The radiance the scene's surfaces take from the water's light field (module docstring).
 
     Parameters
     ----------
-    tables : dict
-        :func:`aquaspec.transport.lightfield.solve.lightfield_tables` with ``ambient_shadow=True``.
+    tables : LightfieldTables
+        :func:`aquaspec.transport.lightfield.bake.lightfield_tables` with ``ambient_shadow=True``.
     camera : Camera
     distance : (H, W) array
         Hit distance per pixel, m (``inf`` where the ray meets no surface
@@ -263,7 +177,7 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
         Called with a short message per grid of receivers.
     rays : optional
         Where the receivers' rays are integrated: ``None`` here in NumPy
-        (:meth:`_Context.hit_rays`, :meth:`_Context.open_integrand`), or an
+        (:meth:`ShadowContext.hit_rays`, :meth:`ShadowContext.open_integrand`), or an
         object with the same two methods taking the context first, such as
         :class:`aquaspec.gpu.passes.shadow_rays.ShadowRays` (WGSL, the same maths).
 
@@ -272,11 +186,9 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
     (H, W, n) float64
         ``dL`` per pixel and band, to subtract from the model's radiance.
     """
-    for key in ("radiance_per_e0", "shadow_phase", "shadow_phase_mix", "shadow_theta",
-                "shadow_extinction", "shadow_disc_phase", "shadow_disc_shift"):
-        if key not in tables:
-            raise AquaspecError(f"the light-field tables have no {key!r}; make them with "
-                                "lightfield_tables(..., ambient_shadow=True)")
+    if tables.shadow is None:
+        raise AquaspecError("the light-field tables have no shadow tables; make them with "
+                            "lightfield_tables(..., ambient_shadow=True)")
     cam = camera
     distance = np.asarray(distance, dtype=float)
     hgt, wid = distance.shape
@@ -289,9 +201,9 @@ def ambient_shadow(tables, camera, distance, normal, surface_radiance, *, b, e0,
     out = np.zeros((hgt, wid, n))
     if not np.any(hit):
         return out
-    ctx = _Context(tables, cam, distance, np.asarray(normal, dtype=float),
-                   np.asarray(surface_radiance, dtype=float), hit, b,
-                   np.asarray(e0, dtype=float))
+    ctx = ShadowContext(tables, cam, distance, np.asarray(normal, dtype=float),
+                        np.asarray(surface_radiance, dtype=float), hit, b,
+                        np.asarray(e0, dtype=float))
     # Receivers: every step-th pixel (and the last) of each axis; pixels with
     # no receiver of their own kind around them go to a grid twice as fine,
     # and so on down to their own ray (thin structures and the water between
@@ -364,30 +276,34 @@ def _neighbours(ry, rx, rec_kind, rows, cols, kind, serve=0.0):
     return idx, w / np.where(lonely, 1.0, total)[:, None], lonely
 
 
-class _Context:
-    """What both integrations read: the tables, the camera, the G-buffer and the sources."""
+class ShadowContext:
+    """What both integrations read: the tables, the camera, the G-buffer and the sources.
+
+    The GPU twins (:mod:`aquaspec.gpu.passes.shadow_hit`,
+    :mod:`aquaspec.gpu.passes.shadow_open`) upload its arrays (``lrad_e0``,
+    ``src_rows``, ``disc_all``, ``k``, ``mix``, ...) and integrate the same rays.
+    """
 
     def __init__(self, tables, cam, distance, normal, surface_radiance, hit, b, e0):
         self.cam, self.distance, self.normal, self.hit = cam, distance, normal, hit
         self.l_s_img = surface_radiance
         self.b, self.e0 = b, e0
         self.dirs = cam.ray_directions()
-        self.d_max = float(tables["max_depth_m"][0])
-        from aquaspec.transport.lightfield.solve import band_last_table, table_depth_index
+        self.d_max = tables.max_depth_m
+        sh = tables.shadow
         # (The radiance itself, each texel's bands together: most lookups are here.)
-        self.lrad_e0 = band_last_table(tables["radiance_per_e0"]) * e0
-        self.cone_cos = np.cos(np.radians(float(np.asarray(
-            tables.get("forward_cone_deg", [0.0]))[0])))
-        self.theta_nodes = np.asarray(tables["shadow_theta"], dtype=float)
-        self.phase = np.asarray(tables["shadow_phase"], dtype=float)
-        self.mix = np.asarray(tables["shadow_phase_mix"], dtype=float)
-        self.k = np.asarray(tables["shadow_extinction"], dtype=float)
-        self.disc_theta = np.asarray(tables["shadow_disc_theta"], dtype=float)
-        self.disc_alpha = np.asarray(tables["shadow_disc_alpha"], dtype=float)
+        self.lrad_e0 = band_last_table(sh.radiance_per_e0) * e0
+        self.cone_cos = np.cos(np.radians(tables.forward_cone_deg))
+        self.theta_nodes = np.asarray(sh.theta, dtype=float)
+        self.phase = np.asarray(sh.phase, dtype=float)
+        self.mix = np.asarray(sh.phase_mix, dtype=float)
+        self.k = np.asarray(sh.extinction, dtype=float)
+        self.disc_theta = np.asarray(sh.disc_theta, dtype=float)
+        self.disc_alpha = np.asarray(sh.disc_alpha, dtype=float)
         # Both phase functions' cap means and the shift, (theta, alpha, 3).
         self.disc_all = np.ascontiguousarray(np.stack(
-            [*np.asarray(tables["shadow_disc_phase"], dtype=float),
-             np.asarray(tables["shadow_disc_shift"], dtype=float)], -1))
+            [*np.asarray(sh.disc_phase, dtype=float),
+             np.asarray(sh.disc_shift, dtype=float)], -1))
         self.area, self.pts, self.nrm, vy_src, self.l_s = _sources(
             cam, self.dirs, distance, normal, surface_radiance, hit)
         self.d_src = np.clip(-self.pts[:, 1], 0.0, None)
@@ -404,12 +320,10 @@ class _Context:
 
     def l_bg(self, depth, look_y):
         """The open water's radiance looking along a direction of up component ``look_y``."""
-        from aquaspec.transport.lightfield.solve import bilinear
-        return bilinear(self.lrad_e0, depth, look_y, self.d_max, band_last=True)
+        return table_lookup(self.lrad_e0, depth, look_y, self.d_max, band_last=True)
 
     def l_src(self, look_y):
         """:meth:`l_bg` at the sources' depths, ``look_y`` (..., M): (..., M, n)."""
-        from aquaspec.transport.lightfield.solve import table_cos_index
         nm = self.src_rows.shape[1]
         j, fy = table_cos_index(look_y, nm)
         fy = fy[..., None]
@@ -443,7 +357,7 @@ class _Context:
         """The term's integrand at the nodes :attr:`t` along rays ``(R, 3)`` that end
         on no surface, summed over the source blocks: (R, K, n)."""
         g = np.zeros((rays.shape[0], T_NODES, self.b.size))
-        for q, gq in enumerate(in_threads(self._open_ray, rays)):
+        for q, gq in enumerate(in_threads(self.open_ray, rays)):
             g[q] = gq
         return g
 
@@ -453,7 +367,7 @@ class _Context:
         return np.concatenate([np.zeros((g.shape[0], 1, g.shape[2])),
                                np.cumsum(0.5 * (g[:, 1:] + g[:, :-1]) * steps, axis=1)], axis=1)
 
-    def _open_ray(self, v):
+    def open_ray(self, v):
         """The integrand of :meth:`open_integrand` along one ray ``v``: (K, n)."""
         o, t = self.cam.position, self.t
         x = o + t[:, None] * v                                  # (K, 3)
@@ -471,7 +385,7 @@ class _Context:
         cap = np.arccos(np.clip(1.0 - solid / (2 * np.pi), -1.0, 1.0))
         xi = np.interp(th, self.disc_theta, np.arange(self.disc_theta.size))
         yi = np.interp(cap, self.disc_alpha, np.arange(self.disc_alpha.size))
-        p0, p1, shift = np.moveaxis(_lookup2(self.disc_all, xi, yi), -1, 0)
+        p0, p1, shift = np.moveaxis(bilinear(self.disc_all, xi, yi), -1, 0)
         turn = np.minimum(shift, th)
         perp = v - mu[..., None] * u
         perp /= np.maximum(np.linalg.norm(perp, axis=-1, keepdims=True), 1e-12)
@@ -479,9 +393,9 @@ class _Context:
         dl = (self.l_src(look_y) - self.l_s
               - (mu > self.cone_cos)[..., None] * self.in_cone_dl)
         dl *= np.exp(-self.k * (t[:, None] + r)[..., None])
-        # The band's phase function p0 + mix (p1 - p0): two sums over the blocks.
-        return (np.einsum("km,kmn->kn", solid * p0, dl)
-                + self.mix * np.einsum("km,kmn->kn", solid * (p1 - p0), dl)) * self.b
+        # The band's phase function mixes p0 and p1: a sum over the blocks for each.
+        return mix_with_pure_water(np.einsum("km,kmn->kn", solid * p0, dl),
+                                   np.einsum("km,kmn->kn", solid * p1, dl), self.mix) * self.b
 
     def hit_quadrature(self):
         """The quadrature of :meth:`hit_rays` (its GPU twin uploads the same):
@@ -498,7 +412,7 @@ class _Context:
                        HIT_PHI_CELLS) * (2 * np.pi / HIT_PHI_CELLS)
         phi = np.tile((np.arange(HIT_PHI_CELLS) + 0.5) * 2 * np.pi / HIT_PHI_CELLS,
                       edges.size - 1)
-        p_dir = _mixed(np.stack([np.interp(th, self.theta_nodes, f) for f in self.phase]),
+        p_dir = mixed_phase(np.stack([np.interp(th, self.theta_nodes, f) for f in self.phase]),
                        self.mix)
         ct, st = np.cos(th), np.sin(th)
         return ((ct, st * np.cos(phi), st * np.sin(phi), dw, ct > self.cone_cos), p_dir,
@@ -572,7 +486,7 @@ class _Context:
 
 def ray_frames(v):
     """Unit vectors ``(e1, e2)`` (P, 3) across rays ``v`` (P, 3): the frame of
-    :meth:`_Context.hit_quadrature`'s azimuths."""
+    :meth:`ShadowContext.hit_quadrature`'s azimuths."""
     e1 = np.cross(v, np.where(np.abs(v[:, 1:2]) < 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]]))
     e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
     return e1, np.cross(v, e1)
@@ -588,19 +502,3 @@ def _weighted_rows(values, rows, weights) -> np.ndarray:
         for k in range(1, rows.shape[1]):
             o += w[:, k:k + 1] * np.take(values, r[:, k], axis=0)
     return out
-
-
-def _lookup2(table, x, y) -> np.ndarray:
-    """Bilinear values of ``table`` (X, Y, k) at fractional indices ``x``, ``y``: (..., k)."""
-    nx, ny = table.shape[:2]
-    i = np.clip(np.floor(x).astype(int), 0, nx - 2)
-    j = np.clip(np.floor(y).astype(int), 0, ny - 2)
-    fx = np.clip(x - i, 0.0, 1.0)[..., None]
-    fy = np.clip(y - j, 0.0, 1.0)[..., None]
-    flat = table.reshape(nx * ny, -1)
-    k = i * ny + j                                              # (flat indices: np.take)
-
-    def at(kk):
-        return np.take(flat, kk, axis=0)
-    return ((1 - fx) * ((1 - fy) * at(k) + fy * at(k + 1))
-            + fx * ((1 - fy) * at(k + ny) + fy * at(k + ny + 1)))

@@ -1,0 +1,205 @@
+// The light field's water table for the camera's depth, built on the GPU:
+// twin of aquaspec.transport.lightfield.compiled (water_table, float64 NumPy; its
+// module docstring has the axes and the formula). One invocation per texel
+// (distance column k, direction row j); per band group (four bands as vec4)
+//   R(d, v)  = F(d, v) b E0 / (4 pi) ms_path_integral(c, kappa_1, d, v, inf)
+//   L_bg(d)  = R(d, v) + u(d) L_top,  u(d) = exp(-c d / v) (up rays; 0 down)
+//   base     = L_bg(d_o) - T L_bg(d_S),  cone = -(T' - T) L_bg(d_S)
+// with T' = exp(-c' S), T = T' (not SPLIT) or exp(-c S) (SPLIT), summed over
+// bands in camera RGB. Layer 0 holds base + alpha cone (SPLIT) or base,
+// layer 1 (SPLIT) the cone's share; column DISTANCES - 1 is open water
+// (L_bg(d_o)). Output: a storage buffer copied into the table texture.
+// Two entry points, in this order: open_column (one invocation per row:
+// the open-water column), then main (the hit columns), which reads a row's
+// open water in camera RGB instead of evaluating L_bg(d_o) per texel
+// (sum_i w_i (L_bg,i(d_o) - T_i L_bg,i(d_S)) = W_open - sum_i w_i T_i L_bg,i(d_S)).
+// NODES > 0 (the multiple-scattering spread, lightfield_compiled.water_table
+// with alpha_nodes): a band's cone term C_i at z_i = log3(1 + 2 f_i b_i S)
+// is kept with alpha(z_i) in layer 0, and layers 1 .. NODES hold it split
+// between the nodes by the hat weights max(0, 1 - |z_i - k|); layer 0's
+// fourth channel holds the share a pixel keeps of its target's cone,
+// alpha at log3(1 + 2 mean(f b) S) (lightfield_compiled.node_alpha).
+
+#include "common.wgsl"
+#include "lftables.wgsl"
+
+{{ params_struct }}
+
+const N_GROUPS: u32 = {{ n_groups }}u;
+const N_DEPTH: u32 = {{ n_depth }}u;
+const N_MU: u32 = {{ n_mu }}u;
+const DISTANCES: u32 = {{ distances }}u;
+const LENGTH_SCALE: f32 = {{ length_scale }};
+const SPLIT: bool = {{ split }};
+const NODES: u32 = {{ nodes }}u;
+
+@group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
+// Per band group g, field f at [f N_GROUPS + g] (lightfield_pass.water_band_fields):
+// 0 c, 1 kappa_1, 2 c' = c - f b, 3 b E0 / (4 pi), 4 L_top (sky radiance
+// below the surface), 5 w_r, 6 w_g, 7 w_b.
+@group(0) @binding(1) var<uniform> bands: array<vec4<f32>, {{ band_len }}>;
+// ln F: layer g, texel (direction j, depth i) holds bands 4g .. 4g + 3.
+@group(0) @binding(2) var log_prefactor: texture_2d_array<f32>;
+@group(0) @binding(3) var<storage, read_write> out: array<vec4<f32>>;
+
+fn field(f: u32, g: u32) -> vec4<f32> {
+    return bands[f * N_GROUPS + g];
+}
+
+// lightfield.bilinear of ln F for bands 4g .. 4g + 3 at depth d, direction v.
+fn log_f(d: f32, v: f32, g: u32) -> vec4<f32> {
+    let y = table_cos_coord(vec4<f32>(v), N_MU).x;
+    let x = table_depth_coord(vec4<f32>(d), prm.max_depth, N_DEPTH).x;
+    let j = min(u32(max(y, 0.0)), N_MU - 2u);
+    let i = min(u32(max(x, 0.0)), N_DEPTH - 2u);
+    let fy = y - f32(j);
+    let fx = x - f32(i);
+    let lo = mix(textureLoad(log_prefactor, vec2<u32>(j, i), g, 0),
+                 textureLoad(log_prefactor, vec2<u32>(j + 1u, i), g, 0), fy);
+    let hi = mix(textureLoad(log_prefactor, vec2<u32>(j, i + 1u), g, 0),
+                 textureLoad(log_prefactor, vec2<u32>(j + 1u, i + 1u), g, 0), fy);
+    return mix(lo, hi, fx);
+}
+
+// R(d, v) of four bands: F b E0 / (4 pi) times the seeds' path integral to
+// infinity (up rays: to the surface, length d / v), written with
+// exponents <= 0 whatever the sign of k = c - kappa_1 v, and its series where
+// |k L| < 0.1 would cancel in f32 (model.ms_path_integral).
+fn r_at(d: f32, v: f32, g: u32) -> vec4<f32> {
+    let c = field(0u, g);
+    let k1 = field(1u, g);
+    let k = c - k1 * v;
+    let e1 = exp(-k1 * d);
+    var path: vec4<f32>;
+    if (v > 0.0) {
+        let len = d / v;
+        let x = k * len;
+        let series = e1 * len * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0
+                     - x * (1.0 / 120.0)))));
+        let k_safe = select(vec4<f32>(1.0), k, k != vec4<f32>(0.0));
+        path = select((e1 - exp(-c * (d / v))) / k_safe, series, abs(x) < vec4<f32>(0.1));
+    } else {
+        path = e1 / k;
+    }
+    return exp(log_f(d, v, g)) * field(3u, g) * path;
+}
+
+// Direction node j (lightfield_compiled.direction_nodes): (v, inside the window).
+fn node_direction(j: u32) -> vec2<f32> {
+    let q_w = sign(prm.window_cos) * sqrt(abs(prm.window_cos));
+    let inside = j >= prm.n_out;
+    let q = select(-1.0 + f32(j) * (q_w + 1.0) / f32(prm.n_out - 1u),
+                   q_w + f32(j - prm.n_out) * (1.0 - q_w) / f32(prm.n_in - 1u), inside);
+    let v = select(sign(q) * q * q, prm.window_cos, inside && j == prm.n_out);
+    return vec2<f32>(v, select(0.0, 1.0, inside));
+}
+
+fn rgb_of(l: vec4<f32>, g: u32) -> vec3<f32> {
+    return vec3<f32>(dot(l, field(5u, g)), dot(l, field(6u, g)), dot(l, field(7u, g)));
+}
+
+@compute @workgroup_size(64)
+fn open_column(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let j = gid.x;
+    let rows = prm.n_out + prm.n_in;
+    if (j >= rows) {
+        return;
+    }
+    let node = node_direction(j);
+    let v = node.x;
+    let up = v > 0.0;
+    var open = vec3<f32>(0.0);
+    for (var g = 0u; g < N_GROUPS; g = g + 1u) {
+        let l_top = select(vec4<f32>(0.0), field(4u, g), node.y > 0.5);
+        let u_o = select(vec4<f32>(0.0), exp(-field(0u, g) * (prm.depth_o / v)), up);
+        open = open + rgb_of(r_at(prm.depth_o, v, g) + u_o * l_top, g);
+    }
+    let texel = j * DISTANCES + DISTANCES - 1u;
+    out[texel] = vec4<f32>(open, 0.0);
+    if (SPLIT) {
+        for (var k = 1u; k <= max(NODES, 1u); k++) {
+            out[k * rows * DISTANCES + texel] = vec4<f32>(0.0);
+        }
+    }
+}
+
+// The kept share alpha_k of node k (prm.alpha_lo / alpha_hi).
+fn node_alpha(k: u32) -> f32 {
+    return select(prm.alpha_hi[k % 4u], prm.alpha_lo[k % 4u], k < 4u);
+}
+
+// Hat weight of node k at lambda coordinates z (clamped to the nodes).
+fn hat(z: vec4<f32>, k: u32) -> vec4<f32> {
+    let zc = clamp(z, vec4<f32>(0.0), vec4<f32>(f32(max(NODES, 1u) - 1u)));
+    return max(vec4<f32>(0.0), 1.0 - abs(zc - f32(k)));
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    let j = gid.y;
+    let rows = prm.n_out + prm.n_in;
+    if (k >= DISTANCES - 1u || j >= rows) {
+        return;
+    }
+    let node = node_direction(j);
+    let v = node.x;
+    let inside = node.y > 0.5;
+    let up = v > 0.0;
+    let d_o = prm.depth_o;
+    // Distance node (distance_nodes): S = length x / (1 - x), x = k / (DISTANCES - 2).
+    let inf_node = k == DISTANCES - 2u;
+    let xn = f32(k) / f32(DISTANCES - 2u);
+    let to_surface = select(0.0, d_o / v, up);
+    var s = LENGTH_SCALE * xn / max(1.0 - xn, 1e-30);
+    if (up) {
+        s = select(min(s, to_surface), to_surface, inf_node);
+    }
+    let d_s = max(d_o - s * v, 0.0);
+
+    // Open water seen past the hit, T L_bg(d_S), and the cone's share.
+    var behind = vec3<f32>(0.0);
+    var cone = vec3<f32>(0.0);
+    var kept = vec3<f32>(0.0);
+    var node_rgb: array<vec3<f32>, {{ node_array }}>;
+    if (up || !inf_node) {
+        for (var g = 0u; g < N_GROUPS; g = g + 1u) {
+            let c = field(0u, g);
+            let l_top = select(vec4<f32>(0.0), field(4u, g), inside);
+            let u_s = select(vec4<f32>(0.0), exp(-c * (d_s / v)), up);
+            let blocked = r_at(d_s, v, g) + u_s * l_top;
+            let t_beam = exp(-field(2u, g) * s);
+            let t = select(t_beam, exp(-c * s), SPLIT);
+            behind = behind + rgb_of(t * blocked, g);
+            cone = cone - rgb_of((t_beam - t) * blocked, g);
+            if (NODES > 0u) {
+                let cb = -(t_beam - t) * blocked;
+                // lambda = f b S, f b = c - c'.
+                let z = log(1.0 + 2.0 * (c - field(2u, g)) * s) / log(3.0);
+                for (var k = 0u; k < NODES; k++) {
+                    let h = hat(z, k);
+                    kept = kept + rgb_of(node_alpha(k) * h * cb, g);
+                    node_rgb[k] = node_rgb[k] + rgb_of(h * cb, g);
+                }
+            }
+        }
+    }
+    let base = out[j * DISTANCES + DISTANCES - 1u].xyz - behind;
+    let texel = j * DISTANCES + k;
+    if (NODES > 0u) {
+        let zm = log(1.0 + 2.0 * prm.fb_mean * s) / log(3.0);
+        var alpha_s = 0.0;
+        for (var k = 0u; k < NODES; k++) {
+            alpha_s = alpha_s + node_alpha(k) * hat(vec4<f32>(zm), k).x;
+        }
+        out[texel] = vec4<f32>(base + kept, alpha_s);
+        for (var k = 0u; k < NODES; k++) {
+            out[(k + 1u) * rows * DISTANCES + texel] = vec4<f32>(node_rgb[k], 0.0);
+        }
+    } else if (SPLIT) {
+        out[texel] = vec4<f32>(base + prm.alpha * cone, 0.0);
+        out[rows * DISTANCES + texel] = vec4<f32>(cone, 0.0);
+    } else {
+        out[texel] = vec4<f32>(base, 0.0);
+    }
+}

@@ -1,0 +1,66 @@
+"""The air-water interface: refractive index, Snell's law, Fresnel, Snell's window.
+
+Conventions as everywhere in aquaspec: y up, the water surface is the plane
+``y = 0``, unit directions. Light going down into the water crosses the
+interface from air (index 1) into water (index :data:`N_WATER`).
+
+- :func:`refract`: Snell's law for a direction through a facet of any
+  orientation (a flat surface has the normal ``(0, 1, 0)``).
+- :func:`fresnel_transmittance`: the share of unpolarised light that enters
+  the water.
+- :func:`snell_window_cos` and :func:`surface_from_below`: looking up from
+  below, the sky is seen only within the critical angle (Snell's window).
+
+The sun's direction under a flat surface, :func:`aquaspec.light.sun.refracted_to_sun`,
+is :func:`refract` of its ray in air.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Refractive index of sea water (for the interface and Snell's window).
+N_WATER = 1.33
+#: The normal of a flat water surface.
+FLAT_NORMAL = np.array([0.0, 1.0, 0.0])
+
+
+def refract(d, normal, n_water: float = N_WATER):
+    """Refract unit directions ``d`` (..., 3) travelling down through a surface
+    with unit upward normals (..., 3): ``(t, cos_i)``; ``cos_i <= 0`` where the
+    facet faces away from the ray (``t`` then is ``d``)."""
+    cos_i = -np.sum(d * normal, axis=-1)
+    eta = 1.0 / n_water
+    sin2_t = eta * eta * np.clip(1.0 - cos_i * cos_i, 0.0, 1.0)
+    cos_t = np.sqrt(1.0 - sin2_t)
+    t = eta * d + (eta * cos_i - cos_t)[..., None] * normal
+    return np.where((cos_i > 0)[..., None], t, d), cos_i
+
+
+def fresnel_transmittance(cos_i, n: float = N_WATER):
+    """Unpolarised Fresnel transmittance from air into water at incidence cosine ``cos_i``."""
+    cos_i = np.clip(np.asarray(cos_i, dtype=float), 0.0, 1.0)
+    sin_t = np.sqrt(1.0 - cos_i ** 2) / n
+    cos_t = np.sqrt(1.0 - sin_t ** 2)
+    rs = ((cos_i - n * cos_t) / (cos_i + n * cos_t)) ** 2
+    rp = ((cos_t - n * cos_i) / (cos_t + n * cos_i)) ** 2
+    return 1.0 - 0.5 * (rs + rp)
+
+
+def snell_window_cos(n_water: float = N_WATER) -> float:
+    """Cosine of the critical angle: up-rays with ``v_y`` above it see the sky."""
+    return float(np.sqrt(1.0 - 1.0 / n_water ** 2))
+
+
+def surface_from_below(e0, v_y, n_water: float = N_WATER):
+    """Radiance of the water surface seen from below along an up-going ray.
+
+    Inside Snell's window the sky is seen; for a uniform (overcast) sky the
+    radiance there is uniform, and integrating it over the window (half-angle
+    ``theta_c``, ``sin theta_c = 1/n``) must give the downwelling irradiance
+    just below the surface, so ``L = E0 n^2 / pi``. Outside the window the
+    surface totally reflects the (much dimmer) water below; that reflection is
+    neglected (radiance 0), so the surface is the window disc on black.
+    """
+    inside = np.asarray(v_y, dtype=float) > snell_window_cos(n_water)
+    return np.where(inside, np.asarray(e0, dtype=float) * n_water ** 2 / np.pi, 0.0)

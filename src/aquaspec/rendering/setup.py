@@ -1,0 +1,193 @@
+"""The spectral setup of a render: water, light, sensor and model on a set of bands.
+
+:class:`SpectralSetup` names what a frame's shading depends on besides the
+geometry, and derives per band what the shading passes need: the medium's
+coefficients and the sensor's weights (:meth:`SpectralSetup.medium`), the
+light field's tables (:meth:`SpectralSetup.lightfield_tables`) and the sun's
+inputs (:meth:`SpectralSetup.sun_inputs`). The two latter cost up to
+seconds, so a setup computes them once and keeps them in its
+:class:`SetupCache`, the one mutable part of an otherwise frozen object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from aquaspec.colour.bands import Bands
+from aquaspec.colour.reflectance import normalised_wavelength
+from aquaspec.colour.sensors import Sensor
+from aquaspec.errors import AquaspecError
+from aquaspec.light.caustics import cached_caustic_map
+from aquaspec.light.sky import SurfaceLight
+from aquaspec.medium.water import Water
+from aquaspec.transport import monzon2022 as model
+from aquaspec.transport.lightfield.bake import lightfield_tables
+from aquaspec.transport.lightfield.cone import forward_cone
+from aquaspec.transport.lightfield.tables import LightfieldTables
+from aquaspec.transport.models import DEFAULT_MS_MODEL, MONZON2022, cone_spread_for, ms_model_name
+from aquaspec.transport.sun_scattering import SunInputs, log_phase_table
+
+
+@dataclass
+class SetupCache:
+    """What a :class:`SpectralSetup` derived from its fields, kept for its
+    next frames: the light field's tables and the sun's inputs (None until
+    first asked for).
+
+    A setup's fields never change, so neither does what they give; the cache
+    only saves recomputing it. It is not a parameter: it takes no part in
+    comparisons, and ``dataclasses.replace`` gives the new setup an empty one.
+    """
+
+    lightfield_tables: LightfieldTables | None = None
+    sun_inputs: SunInputs | None = None
+
+
+@dataclass(frozen=True)
+class SpectralSetup:
+    """Everything per band the shading needs: water, light, sensor on ``bands``."""
+
+    water: Water
+    sensor: Sensor
+    light: SurfaceLight
+    bands: Bands
+    ambient: str = model.DEFAULT_AMBIENT
+    outside: str = "error"
+    ms_model: str = DEFAULT_MS_MODEL
+    phase: str = "petzold"
+    #: Parameters of the phase function, e.g. ``(("g", 0.92),)`` for ``hg``.
+    phase_params: tuple = ()
+    #: Forward cone counted as unscattered towards targets (light field),
+    #: degrees; None: the model's default (:func:`aquaspec.transport.lightfield.cone.forward_cone`:
+    #: 15, or 40 with ``cone_spread``).
+    forward_cone_deg: float | None = None
+    #: Spread the cone's light over the image from where the cone points
+    #: (:mod:`aquaspec.transport.lightfield.conespread`, an image pyramid; GPU and NumPy); None:
+    #: the model's default (:func:`aquaspec.transport.models.cone_spread_for`: on for the
+    #: light field). Resolved to a bool when the setup is made.
+    cone_spread: bool | None = None
+    #: With ``cone_spread``: the cone's light scattered once (``"single"``) or
+    #: a Poisson number of times (``"multiple"``; :mod:`aquaspec.transport.lightfield.conespread`).
+    spread_scattering: str = "single"
+    #: The scene's first-order shadow in the light field (:mod:`aquaspec.transport.lightfield.shadow`;
+    #: planned in NumPy from the G-buffer, seconds per image; the GPU renderer
+    #: integrates its rays on its device:
+    #: :meth:`aquaspec.rendering.renderer.Renderer.subtract_shadow`).
+    ambient_shadow: bool = False
+    #: The light field's lower boundary (:class:`aquaspec.scene.seabed.Seabed`);
+    #: None: deep water. The seeds' model has none.
+    seabed: object = None
+    #: A wind-roughened surface (:class:`aquaspec.light.waves.Waves`) focusing the
+    #: sun's beam into caustics; None: a flat surface. Needs a sun.
+    waves: object = None
+    #: What the setup derived and keeps (:class:`SetupCache`); not a parameter.
+    cache: SetupCache = field(default_factory=SetupCache, init=False, repr=False,
+                              compare=False)
+
+    def __post_init__(self):
+        # Resolving the default is part of making the setup, as validating is.
+        # (The model by its canonical name, once the cone's check has named it as given.)
+        canonical = ms_model_name(self.ms_model)
+        object.__setattr__(self, "cone_spread",
+                           cone_spread_for(self.ms_model, self.cone_spread))
+        object.__setattr__(self, "ms_model", canonical)
+        if self.waves is not None and self.light.sun is None:
+            raise AquaspecError("waves focus the sun's beam into caustics: they need a light "
+                                "with a sun (light 'sun-sky')")
+        if self.ambient_shadow and self.ms_model != "lightfield":
+            raise AquaspecError(f"ambient_shadow is part of the light-field model; ms_model="
+                                f"{self.ms_model!r}; accepted: 'lightfield'")
+
+    @property
+    def cone_deg(self) -> float:
+        """The forward cone in degrees, ``forward_cone_deg`` or the model's default."""
+        return forward_cone(self.forward_cone_deg, self.cone_spread)
+
+    def lightfield_tables(self) -> LightfieldTables | None:
+        """Light-field tables for ``ms_model="lightfield"`` (None for the seeds' model).
+
+        With a sun (``light.sun``) the field is the sky's and the sun's
+        diffuse light, still per unit of the whole ``E0``. Computed on the
+        first call and kept in :attr:`cache`.
+        """
+        if self.ms_model != "lightfield":
+            return None
+        if self.cache.lightfield_tables is None:
+            bed = ({} if self.seabed is None else
+                   {"seabed_depth_m": float(self.seabed.depth_m),
+                    "seabed_albedo": self.seabed.albedo_on(self.bands)})
+            if self.light.sun is not None:
+                e0 = self.light.on_bands(self.bands)
+                bed = {**bed, "sun_mu0": self.light.sun.mu0,
+                       "sun_fraction": np.clip(self.light.sun_horizontal_on(self.bands)
+                                               / np.where(e0 > 0, e0, 1.0), 0.0, 1.0)}
+            self.cache.lightfield_tables = lightfield_tables(
+                self.water.on_bands(self.bands), phase=self.phase,
+                forward_cone_deg=self.cone_deg, cone_spread=self.cone_spread,
+                spread_scattering=self.spread_scattering, ambient_shadow=self.ambient_shadow,
+                **bed, **dict(self.phase_params))
+        return self.cache.lightfield_tables
+
+    def sun_inputs(self) -> SunInputs | None:
+        """What the sun's terms need per band (:class:`aquaspec.transport.sun_scattering.SunInputs`),
+        or None without a sun. Computed on the first call and kept in :attr:`cache`.
+
+        The beam's extinction is the light field's delta-M ``c*`` (its diffuse
+        field complements that beam) or ``c`` for the seeds' model; on the way
+        to the camera the sun's light has the extinction the surfaces' light
+        has (``c - f b`` with the light field's forward cone, else ``c``).
+        """
+        sun = self.light.sun
+        if sun is None:
+            return None
+        if self.cache.sun_inputs is None:
+            bw = self.water.on_bands(self.bands)
+            a, b = np.asarray(bw.a, dtype=float), np.asarray(bw.b, dtype=float)
+            c = a + b
+            tables = self.lightfield_tables()
+            if tables is None:
+                c_sun = c_view = c
+            else:
+                c_sun = np.asarray(tables.beam_extinction, dtype=float)
+                c_view = tables.ray_extinction(a, b)
+            caustics = None
+            if self.waves is not None:
+                caustics = cached_caustic_map(self.waves, sun.elevation_deg, sun.azimuth_deg,
+                                              n_water=sun.n_water)
+            self.cache.sun_inputs = SunInputs(
+                beam0=sun.beam_on(self.bands), c_sun=c_sun, c_view=c_view, b=b,
+                log_phase=log_phase_table(self.phase, b=b, wavelength_nm=self.bands.centers_nm,
+                                          **dict(self.phase_params)),
+                to_sun=sun.to_sun, caustics=caustics)
+        return self.cache.sun_inputs
+
+    def medium(self, materials) -> dict:
+        """Keyword arguments of :func:`aquaspec.shading.shade.shade_gbuffer` and the
+        shading passes' ``set_medium`` for a scene of ``materials``."""
+        bw = self.water.on_bands(self.bands)
+        mb = (np.stack([m.on_bands(self.bands) for m in materials]) if materials
+              else np.zeros((0, self.bands.n)))
+        return dict(a=bw.a, b=bw.b, kd=bw.kd, e0=self.light.on_bands(self.bands),
+                    response_weights=self.sensor.band_weights(self.bands, outside=self.outside),
+                    material_bands=mb,
+                    sigmoid_centers_t=normalised_wavelength(self.bands.centers_nm),
+                    ambient=self.ambient)
+
+    def describe(self) -> dict:
+        """The setup's parameters, JSON-ready (for a render's metadata)."""
+        model_params = ({"ambient_model": self.ambient} if self.ms_model == MONZON2022
+                        else {"phase": self.phase, **dict(self.phase_params),
+                              "forward_cone_deg": self.cone_deg,
+                              "cone_spread": self.cone_spread,
+                              "spread_scattering": self.spread_scattering,
+                              "ambient_shadow": self.ambient_shadow,
+                              "seabed": None if self.seabed is None
+                              else self.seabed.describe()})
+        return {"water": self.water.describe(), "sensor": self.sensor.describe(),
+                "light": self.light.describe(), "bands": self.bands.describe(),
+                "ms_model": self.ms_model, **model_params,
+                "sensor_outside_range": self.outside,
+                **({} if self.waves is None else {"caustics": self.sun_inputs().caustics
+                                                  .describe()})}

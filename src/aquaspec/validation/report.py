@@ -1,0 +1,236 @@
+"""The validation study's results for people: tables, CSV and JSON, plots.
+
+What :func:`aquaspec.validation.study.run_study` returns, summarised per
+scene and region (:func:`summarise`, :func:`converged_means`), printed
+(:func:`format_summary`, :func:`format_converged`, :func:`format_attenuation`,
+:func:`format_timing`) and written with its figures (:func:`write_results`).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+
+from aquaspec.io.atomic import write_file_atomically
+from aquaspec.validation.reference import REFERENCE_BANDS
+from aquaspec.validation.study import CONVERGED_STDERR, KD_DEPTHS_M, REGIONS
+
+
+def format_attenuation(waters: dict, wavelengths_nm=(450.0, 550.0, 650.0)) -> str:
+    """Table of database, path-traced and light-field Kd per water (1/m) at a few wavelengths.
+
+    ``waters`` maps a water name to its ``attenuation`` record (study result
+    ``"waters"``): ``kd_database``, ``kd_measured``, ``kd_lightfield``,
+    ``k_inf_lightfield`` on the reference bands.
+    """
+    c = REFERENCE_BANDS.centers_nm
+    cols = ("kd_database", "kd_measured", "kd_lightfield", "k_inf_lightfield")
+    lines = ["diffuse attenuation (1/m): database Kd, Kd measured in the path tracer, the "
+             f"light-field model's Kd over the meters' depths {KD_DEPTHS_M[0]:g}-"
+             f"{KD_DEPTHS_M[-1]:g} m and its kappa_1",
+             f"{'water':>5s} {'nm':>5s} " + " ".join(f"{k:>16s}" for k in cols)]
+    for name, rec in waters.items():
+        for wl in wavelengths_nm:
+            lines.append(f"{name:>5s} {wl:5.0f} " + " ".join(
+                f"{np.interp(wl, c, rec[k]):16.4f}" for k in cols))
+    return "\n".join(lines)
+
+
+def summarise(rows, *, region="image") -> list[dict]:
+    """Mean over cameras per (water, depth, method, kd) for one region."""
+    groups = {}
+    for r in rows:
+        if r["region"] != region:
+            continue
+        groups.setdefault((r["water"], r["depth_m"], r["method"], r["kd"]), []).append(r)
+    out = []
+    for (w, d, mth, kd), rs in groups.items():
+        out.append({"water": w, "depth_m": d, "method": mth, "kd": kd, "cameras": len(rs),
+                    **{k: float(np.mean([r[k] for r in rs]))
+                       for k in ("rmse_rel", "hsv", "hue_deg", "ciede2000", "mean_ratio")
+                       + (("ssim",) if region == "image" else ())}})
+    return out
+
+
+def converged_means(rows, scenes, *, region) -> list[dict]:
+    """Mean over the converged scenes (and cameras) per (method, kd) for one region.
+
+    ``scenes`` are the study's scene records (``converged`` from
+    :func:`reference_stderr`); an error in a scene whose reference is
+    mostly Monte Carlo noise says nothing about the model.
+    """
+    ok = {(sc["water"], sc["depth_m"]) for sc in scenes if sc.get("converged")}
+    per_scene = [r for r in summarise(rows, region=region) if (r["water"], r["depth_m"]) in ok]
+    groups = {}
+    for r in per_scene:
+        groups.setdefault((r["method"], r["kd"]), []).append(r)
+    return [{"method": m, "kd": kd, "scenes": len(rs),
+             **{k: float(np.mean([r[k] for r in rs]))
+                for k in ("rmse_rel", "hsv", "hue_deg", "ciede2000", "mean_ratio")}}
+            for (m, kd), rs in sorted(groups.items())]
+
+
+def format_converged(rows, scenes, regions=("grey", "patch_means", "background")) -> str:
+    """Table of :func:`converged_means` for ``regions``, with the scenes left out."""
+    left_out = [f"{sc['water']} {sc['depth_m']:g} m" for sc in scenes if not sc.get("converged")]
+    lines = [f"mean over scenes whose reference converged (standard error of the grey and "
+             f"background means <= {CONVERGED_STDERR:.0%}); left out: "
+             + (", ".join(left_out) or "none")]
+    cols = ["rmse_rel", "hue_deg", "mean_ratio", "hsv", "ciede2000"]
+    for region in regions:
+        lines.append(f"region: {region}")
+        lines.append(f"{'method':>20s} {'Kd':>9s} {'scenes':>6s} "
+                     + " ".join(f"{c:>10s}" for c in cols))
+        for r in converged_means(rows, scenes, region=region):
+            lines.append(f"{r['method']:>20s} {r['kd']:>9s} {r['scenes']:6d} "
+                         + " ".join(f"{r[c]:10.4f}" for c in cols))
+    return "\n".join(lines)
+
+
+def format_summary(rows, region="image") -> str:
+    s = summarise(rows, region=region)
+    cols = ["rmse_rel", "hsv", "hue_deg", "ciede2000", "mean_ratio"]
+    lines = [f"region: {region} (mean over cameras)",
+             f"{'water':>5s} {'depth':>5s} {'method':>20s} {'Kd':>9s} "
+             + " ".join(f"{c:>10s}" for c in cols)]
+    for r in sorted(s, key=lambda r: (r["water"], r["depth_m"], r["method"], r["kd"])):
+        lines.append(f"{r['water']:>5s} {r['depth_m']:5.1f} {r['method']:>20s} {r['kd']:>9s} "
+                     + " ".join(f"{r[c]:10.4f}" for c in cols))
+    return "\n".join(lines)
+
+
+def format_timing(scenes) -> str:
+    """Reference vs aquaspec time per scene at equal pixel count (and speed-ups)."""
+    lines = ["time per image at equal pixel count (reference: Mitsuba; NumPy: shade_gbuffer "
+             "in float64 at the largest n; GPU: one frame at the largest n)",
+             f"{'water':>5s} {'depth':>5s} {'pixels':>7s} {'spp':>5s} {'reference s':>11s} "
+             f"{'NumPy s':>11s} {'speed-up':>9s} {'GPU ms':>8s} {'speed-up':>9s}"]
+    for sc in scenes:
+        ref = sc["reference_seconds"]
+        np_s = sc["numpy_shading_seconds"]
+        key = max((k for k in np_s if not k.startswith("rgb")), default=None,
+                  key=lambda k: int(k.rsplit("n", 1)[-1]))
+        t_np = np_s.get(key, np.nan) if key else np.nan
+        gpu = sc.get("gpu_frame_seconds")
+        gpu_txt = (f"{gpu * 1e3:8.1f} {ref / gpu:9.0f}" if gpu else f"{'-':>8s} {'-':>9s}")
+        lines.append(f"{sc['water']:>5s} {sc['depth_m']:5.1f} {sc['pixels']:7d} {sc['spp']:5d} "
+                     f"{ref:11.2f} {t_np:11.3f} {ref / t_np:9.0f} {gpu_txt}")
+    return "\n".join(lines)
+
+
+def write_results(result, out_dir) -> dict:
+    """CSV and JSON of every row, the per-scene summary, and the plots; returns paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = result["rows"]
+    buf = io.StringIO()
+    # Every row's keys in first-seen order (only the whole-image rows have SSIM).
+    fields = list(dict.fromkeys(k for r in rows for k in r))
+    w = csv.DictWriter(buf, fieldnames=fields, restval="")
+    w.writeheader()
+    for r in rows:
+        w.writerow(r)
+    text = buf.getvalue()
+    paths = {"csv": out / "validation.csv", "json": out / "validation.json",
+             "figure": out / "error_per_scene.png",
+             "figure_measured_kd": out / "error_per_scene_measured_kd.png",
+             "panels": out / "panels.png"}
+    write_file_atomically(paths["csv"], lambda t: Path(t).write_text(text))
+    doc = json.dumps({"params": result["params"], "scenes": result["scenes"],
+                      "waters": result.get("waters", {}),
+                      "summary": {reg: summarise(rows, region=reg) for reg in REGIONS},
+                      "rows": rows}, indent=1)
+    write_file_atomically(paths["json"], lambda t: Path(t).write_text(doc))
+    order = result["params"]["waters"]
+    plot_errors(rows, paths["figure"], kd="database", order=order)
+    if any(r["kd"] == "measured" for r in rows):
+        plot_errors(rows, paths["figure_measured_kd"], kd="measured", order=order)
+    else:
+        del paths["figure_measured_kd"]
+    plot_panels(result["images"], paths["panels"])
+    return {k: str(v) for k, v in paths.items()}
+
+
+def plot_errors(rows, path, *, region="patch_means", kd="database", order=None):
+    """The thesis's Figure 6.5: error per scene (mean over cameras), spectral vs RGB.
+
+    One row per metric (HSV distance, relative RMSE on a log axis,
+    CIEDE2000), one group of bars per scene in the study's order, one bar
+    per method with Kd mode ``kd`` (Unreal's water does not use Kd: always shown).
+    ``region`` defaults to the patch means, the low-noise comparison.
+    """
+    import matplotlib  # deferred: matplotlib takes 0.3 s to import; only the plots need it
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # deferred: as matplotlib
+    s = [r for r in summarise(rows, region=region)
+         if r["kd"] == kd or r["method"] == "unreal"]
+    order = list(order or [])
+    scenes = sorted({(r["water"], r["depth_m"]) for r in s},
+                    key=lambda x: (order.index(x[0]) if x[0] in order else len(order), x[0], x[1]))
+
+    def method_key(m):
+        # Spectral then RGB per model, baselines last.
+        base = m.replace("rgb-", "").rsplit("-n", 1)[0]
+        rank = 2 if m in ("unreal", "ifm") else (1 if m.startswith("rgb-") else 0)
+        return (m in ("unreal", "ifm"), base, rank, m)
+    methods = sorted({r["method"] for r in s}, key=method_key)
+    # The same colour for a method in every figure of the study.
+    colour_of = {m: i for i, m in enumerate(sorted({r["method"] for r in rows}, key=method_key))}
+    metrics_ = (("hsv", "HSV distance", False), ("rmse_rel", "relative RMSE", True),
+                ("ciede2000", "CIEDE2000", False))
+    fig, axes = plt.subplots(len(metrics_), 1, figsize=(max(7, len(scenes) * 0.8), 8),
+                             sharex=True)
+    x = np.arange(len(scenes))
+    width = 0.8 / max(1, len(methods))
+    cmap = plt.get_cmap("tab10")
+    for i, mth in enumerate(methods):
+        for ax, (key, _, _) in zip(axes, metrics_):
+            vals = [next((r[key] for r in s if (r["water"], r["depth_m"]) == sc
+                          and r["method"] == mth), np.nan) for sc in scenes]
+            ax.bar(x + i * width, vals, width, label=mth, color=cmap(colour_of[mth] % 10))
+    for ax, (_, label, log) in zip(axes, metrics_):
+        ax.set_ylabel(label)
+        if log:
+            ax.set_yscale("log")
+    axes[-1].set_xticks(x + 0.4 - width / 2, [f"{w} {d:g} m" for w, d in scenes], rotation=45)
+    axes[0].legend(fontsize=7, ncol=4)
+    axes[0].set_title(f"error per scene, {region.replace('_', ' ')} (mean over cameras, "
+                      f"{kd} Kd)")
+    fig.tight_layout()
+    try:
+        write_file_atomically(path, lambda t: fig.savefig(t, format="png", dpi=100))
+    finally:
+        plt.close(fig)
+
+
+def plot_panels(images, path):
+    """Reference / ours (largest n, seeds) / RGB / difference, per scene (first camera)."""
+    import matplotlib  # deferred: matplotlib takes 0.3 s to import; only the plots need it
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # deferred: as matplotlib
+    scenes = sorted({(w, d) for (w, d, m, k) in images}, key=lambda x: (x[0], x[1]))
+    ours = sorted({m for (_, _, m, k) in images if m.startswith("seeds-n")},
+                  key=lambda m: int(m.split("n")[-1]))[-1:]
+    fig, axes = plt.subplots(len(scenes), 4, figsize=(10, 2.2 * len(scenes)), squeeze=False)
+    for i, (w, d) in enumerate(scenes):
+        ref = images[(w, d, "reference", "-")]
+        scale = 0.8 / max(float(np.percentile(ref, 99)), 1e-300)
+        ours_img = images.get((w, d, ours[0], "database")) if ours else None
+        rgb_img = images.get((w, d, "rgb-seeds-n3", "database"))
+        panels = [("reference", ref), (ours[0] if ours else "ours", ours_img),
+                  ("RGB n=3", rgb_img),
+                  ("|ours - ref|", None if ours_img is None else np.abs(ours_img - ref) * 4)]
+        for ax, (title, img) in zip(axes[i], panels):
+            ax.set_axis_off()
+            if img is not None:
+                ax.imshow(np.clip(img * scale, 0, 1) ** (1 / 2.2))
+            ax.set_title(f"{w} {d:g} m: {title}" if ax is axes[i][0] else title, fontsize=8)
+    fig.tight_layout()
+    try:
+        write_file_atomically(path, lambda t: fig.savefig(t, format="png", dpi=100))
+    finally:
+        plt.close(fig)

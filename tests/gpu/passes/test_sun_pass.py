@@ -1,0 +1,66 @@
+"""The sun's GPU pass (aquaspec.gpu.passes.sun): its shadow map against the NumPy one."""
+
+import numpy as np
+
+from aquaspec.light.sun import refracted_to_sun
+from aquaspec.scene.camera import Camera
+from aquaspec.scene.mesh import Mesh
+from aquaspec.scene.shadowmap import shadow_map_numpy
+from aquaspec.transport.sun_scattering import PHASE_TABLE_SIZE, SunInputs
+from support.plates import plate_scene
+
+
+def _shadow_pass(device, width, height, to_sun, map_size):
+    """A three-band sun pass with unit inputs, ready to draw a shadow map."""
+    from aquaspec.gpu.passes.sun import SunPass
+    sp = SunPass(device, width, height, 3, map_size=map_size)
+    sp.set_inputs(SunInputs(beam0=np.ones(3), c_sun=np.ones(3), c_view=np.ones(3),
+                              b=np.ones(3), to_sun=to_sun,
+                              log_phase=np.zeros((3, PHASE_TABLE_SIZE))),
+                  response_weights=np.ones((3, 3)), material_bands=np.ones((1, 3)),
+                  sigmoid_centers_t=np.zeros(3))
+    return sp
+
+
+def test_gpu_shadow_map_matches_numpy(device):
+    from aquaspec.gpu.passes.raster import RasterPass
+    from aquaspec.scene.builtin import builtin_scene
+    scene, cam = builtin_scene(4.0, width=64, height=36)
+    to_sun = refracted_to_sun(45.0, 60.0)
+    dev = device
+    sp = _shadow_pass(dev, 64, 36, to_sun, 512)
+    enc = dev.create_command_encoder()
+    spec = sp.encode_shadow_map(enc, RasterPass(dev), scene, cam)
+    dev.queue.submit([enc.finish()])
+    gpu = sp.read_shadow_map()
+    ref = shadow_map_numpy(scene, spec)
+    both = np.isfinite(gpu) & np.isfinite(ref)
+    assert np.array_equal(np.isfinite(gpu), np.isfinite(ref)) or \
+        np.mean(np.isfinite(gpu) != np.isfinite(ref)) < 2e-3
+    close = np.abs(gpu[both] - ref[both]) < 1e-3
+    assert close.mean() > 0.995
+
+
+def test_gpu_shadow_map_with_several_mesh_modes(device):
+    """Meshes of different vertex layouts (a material, vertex colours) draw
+    into one shadow map through pipelines that share their bind group."""
+    from aquaspec.gpu.passes.raster import RasterPass
+    scene = plate_scene()
+    v = np.array([[2.0, -2.0, -6.0], [5.0, -2.0, -6.0], [5.0, -2.0, -2.0], [2.0, -2.0, -2.0]])
+    scene.add(Mesh.flat(v, np.array([[0, 1, 2], [0, 2, 3]]), name="coloured",
+                        vertex_rgb=np.full((4, 3), 0.5)))
+    cam = Camera.look_at([0.0, -3.0, 0.0], [0.0, -3.0, -1.0], width=32, height=18)
+    to_sun = refracted_to_sun(50.0, 120.0)
+    sp = _shadow_pass(device, 32, 18, to_sun, 256)
+    enc = device.create_command_encoder()
+    spec = sp.encode_shadow_map(enc, RasterPass(device), scene, cam)
+    device.queue.submit([enc.finish()])
+    gpu, ref = sp.read_shadow_map(), shadow_map_numpy(scene, spec)
+    both = np.isfinite(gpu) & np.isfinite(ref)
+    assert np.mean(np.isfinite(gpu) != np.isfinite(ref)) < 2e-3
+    assert np.mean(np.abs(gpu[both] - ref[both]) < 1e-3) > 0.995
+    # The coloured plate is in both maps (its height there, not the seabed's).
+    x, y, h = spec.texel_coords(np.array([3.5, -2.0, -4.0]))
+    i, j = int(round(y)), int(round(x))
+    assert np.isclose(gpu[i, j], ref[i, j], atol=1e-3)
+    assert abs(gpu[i, j] - h) < 2 * spec.texel
