@@ -9,6 +9,9 @@ from pathlib import Path
 
 import pytest
 
+# Each distinct data warning once in the warnings summary, not once per test.
+pytest_plugins = ["support.warnings_once"]
+
 # What aquaspec caches per machine goes to a directory of this test run, CLI
 # subprocesses included, not to the user's cache; the directories this run made
 # are removed when it ends.

@@ -73,3 +73,10 @@ def test_legendre_table_matches_numpy():
     table = legendre_table(12, x)
     for l in range(13):
         np.testing.assert_allclose(table[l], legendre.legval(x, [0] * l + [1]), atol=1e-13)
+
+
+def test_decay_integral_without_the_small_cut_is_exact_near_zero():
+    """``small=0`` (the monzon2022 path integral) keeps ``-expm1(-x)/k`` for tiny ``k L``."""
+    for k, length in ((0.5, 1e-8), (1e-12, 2.5), (3e-9, 1.0)):
+        exact = length * (1 - k * length / 2 + (k * length) ** 2 / 6)
+        assert decay_integral(k, length, small=0.0) == pytest.approx(exact, rel=1e-15)

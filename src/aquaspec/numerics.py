@@ -12,20 +12,22 @@ import numpy as np
 DECAY_SMALL = 1e-8
 
 
-def decay_integral(k, length):
+def decay_integral(k, length, small: float = DECAY_SMALL):
     """``int_0^L exp(-k t) dt``, elementwise (arrays broadcast).
 
     In closed form ``(1 - e^-x) / k = L (1 - e^-x) / x`` with ``x = k L``,
     computed as ``-expm1(-x) / k`` (no cancellation for small ``x``) and taken
-    as ``L`` where ``|x| <`` :data:`DECAY_SMALL` (the limit at ``k = 0``).
+    as ``L`` where ``|x| < small`` (the limit at ``k = 0``; relative error
+    ``|x| / 2``). ``small=0`` keeps the closed form wherever ``k != 0``
+    (the caller then keeps ``k`` away from 0).
     Valid for either sign of ``k``; the caller keeps ``-x`` small enough not
     to overflow (for ``k < 0`` in log space, see :func:`log_exprel`).
     """
     k = np.asarray(k, dtype=float)
     length = np.asarray(length, dtype=float)
     x = k * length
-    small = np.abs(x) < DECAY_SMALL
-    return np.where(small, length, -np.expm1(-x) / np.where(small, 1.0, k))
+    tiny = np.abs(x) < small
+    return np.where(tiny, length, -np.expm1(-x) / np.where(tiny, 1.0, k))
 
 
 def log_exprel(y):

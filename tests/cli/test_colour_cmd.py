@@ -34,14 +34,18 @@ class TestCli:
         (["--water", "IB", "--depth", "-2"], "depth -2.0 m is not accepted; give metres below"),
         (["--water", "IB", "--depth", "5", "--distance", "-1"],
          "distance -1.0 m is not accepted; give metres from the camera"),
-        (["--water", "IB", "--depth", "5", "--bands", "0"], "n=0 is out of range"),
+        (["--water", "IB", "--depth", "5", "--bands", "0"], "'0' bands; accepted: 1 to 1024"),
         (["--water", "IB", "--depth", "5", "--sensor", "leica"], "unknown sensor 'leica'"),
         (["--water", "IB", "--depth", "5", "--range", "350-700"], "sensor 'human' covers 360-830"),
         (["--water", "IB", "--depth", "5", "--range", "400-800"], "covers 300-700 nm"),
     ])
     def test_errors(self, capsys, argv, match):
-        assert main(["colour", *argv]) == 2
+        try:
+            code = main(["colour", *argv])
+        except SystemExit as exc:      # refused by the parser
+            code = exc.code
         err = capsys.readouterr().err
+        assert code == 2 and len(err.strip().splitlines()) == 1, err
         assert "error:" in err
         import re
         assert re.search(match, err), err

@@ -7,8 +7,8 @@ import pytest
 
 from aquaspec.colour.bands import Bands
 from aquaspec.errors import AquaspecError, DataRangeError
-from aquaspec.colour.sensors import (builtin_sensors, get_sensor, load_camspec, sensor_from_csv,
-                              human_sensor)
+from aquaspec.colour.sensors import (Sensor, builtin_sensors, get_sensor, human_sensor,
+                                    load_camspec, sensor_from_csv)
 
 
 class TestBuiltin:
@@ -61,6 +61,33 @@ class TestCamspec:
         with pytest.raises(AquaspecError, match="no cameras found.*camspec format"):
             load_camspec(p)
 
+    def test_truncated_in_a_camera(self, tmp_path):
+        # Item 4: the file ends after the name and one response line of the
+        # last camera; that camera was dropped without a word.
+        row = " ".join(["0.5"] * 33)
+        p = tmp_path / "cams.txt"
+        p.write_text(f"400nm-720nm, step 10nm\n\nCamA\n{row}\n{row}\n{row}\nCamB\n{row}\n")
+        with pytest.raises(AquaspecError, match=r"camera 'CamB' \(line 7\) has 1 of its 3 "
+                                                r"response lines \(R, G, B\) before the end of "
+                                                "the file; is the file truncated"):
+            load_camspec(p)
+
+    def test_camera_cut_short_before_the_next(self, tmp_path):
+        row = " ".join(["0.5"] * 33)
+        p = tmp_path / "cams.txt"
+        p.write_text(f"CamA\n{row}\n{row}\nCamB\n{row}\n{row}\n{row}\n")
+        with pytest.raises(AquaspecError, match=r"camera 'CamA' \(line 1\) has 2 of its 3 "
+                                                r"response lines \(R, G, B\) before line 4"):
+            load_camspec(p)
+
+    def test_real_file_loads_whole(self, camspec_path, tmp_path):
+        # Cut the real database inside its last camera: refused, not 27 cameras.
+        lines = camspec_path.read_text().splitlines()
+        p = tmp_path / "cut.txt"
+        p.write_text("\n".join(lines[:-2]) + "\n")
+        with pytest.raises(AquaspecError, match="has 1 of its 3 response lines"):
+            load_camspec(p)
+
     def test_wrong_count(self, tmp_path):
         p = tmp_path / "cams.txt"
         p.write_text("400nm-720nm, step 10nm\nCam\n1 2 3\n1 2 3\n1 2 3\n")
@@ -78,6 +105,28 @@ class TestCsv:
         q.write_text("wavelength_nm,r,g\n400,0,0\n700,1,0\n")
         with pytest.raises(AquaspecError, match="missing column.*b"):
             get_sensor(str(q))
+
+
+class TestZeroChannels:
+    """Item 12: an all-zero sensor is refused at load, naming it and the channels."""
+
+    def test_all_zero_csv(self, tmp_path):
+        p = tmp_path / "dead.csv"
+        p.write_text("wavelength_nm,r,g,b\n400,0,0,0\n700,0,0,0\n")
+        with pytest.raises(AquaspecError, match=r"sensor 'dead' \(csv:.*dead\.csv\): channel\(s\) "
+                                                "r, g, b are zero at every wavelength"):
+            get_sensor(str(p))
+
+    def test_one_dead_channel(self):
+        with pytest.raises(AquaspecError, match=r"sensor 'x': channel\(s\) g are zero"):
+            Sensor("x", [400, 700], [[1, 1], [0, 0], [0, 1]])
+
+    def test_blind_where_the_matrix_is_fitted(self):
+        # Responds, but only beyond 700 nm: the colour matrix cannot be fitted.
+        s = Sensor("ir", [400, 700, 710, 800], [[0, 0, 1, 1], [0, 0, 1, 1], [0, 0, 1, 1]])
+        with pytest.raises(AquaspecError, match=r"sensor 'ir': channel\(s\) r, g, b see nothing "
+                                                "over 400-700 nm.*--colour-matrix none"):
+            s.srgb_matrix()
 
 
 class TestSrgbMatrix:

@@ -119,3 +119,54 @@ class TestCsv:
     def test_missing_file(self, tmp_path):
         with pytest.raises(AquaspecError, match="does not exist"):
             water_from_csv(tmp_path / "nope.csv")
+
+    def test_binary_file(self, tmp_path):
+        # Item 8: a UnicodeDecodeError traceback before.
+        p = tmp_path / "water.csv"
+        p.write_bytes(b"wavelength_nm,a,b\n\x89PNG\r\n\x1a\n\xff\xd8")
+        with pytest.raises(AquaspecError, match=r"water file '.*water\.csv' is not UTF-8 text"):
+            water_from_csv(p)
+
+
+class TestNonScattering:
+    """Item 13: b = 0 is a valid water; the seeds' model renders it, the light
+    field refuses it up front saying why and what works."""
+
+    KW = dict(phase="petzold", forward_cone_deg=40.0, cone_spread=True)
+
+    def water(self, tmp_path):
+        p = tmp_path / "clear.csv"
+        p.write_text("wavelength_nm,a,b\n400,0.02,0\n700,0.6,0\n")
+        return water_from_csv(p)
+
+    def test_loads(self, tmp_path):
+        w = self.water(tmp_path)
+        assert np.all(w.b == 0) and np.all(w.kd > 0)
+
+    def test_light_field_refuses_with_the_way_out(self, tmp_path):
+        from aquaspec.transport.lightfield.bake import lightfield_tables
+        bw = self.water(tmp_path).on_bands(Bands(4))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")   # no RuntimeWarning leaks
+            with pytest.raises(AquaspecError, match=r"water 'clear' has scattering b = 0 at "
+                                                    r"437\.5 nm, 512\.5 nm, 587\.5 nm, 662\.5 nm "
+                                                    r"\(4 of 4 bands\).*--ms-model seeds"):
+                lightfield_tables(bw, **self.KW)
+
+    def test_seeds_render_it(self, tmp_path):
+        from aquaspec.rendering.api import render
+        res = render(water=self.water(tmp_path), bands=4, size=(32, 18), ms_model="seeds",
+                     backend="numpy")
+        assert np.all(np.isfinite(res.linear_rgb)) and res.linear_rgb.max() > 0
+
+    def test_too_deep_for_the_light_field(self):
+        # A seabed at 3000 m in IB: exp(-1259) at 662.5 nm underflows; the
+        # message said "check a, b and the phase" (and leaked a RuntimeWarning).
+        from aquaspec.transport.lightfield.bake import lightfield_tables
+        bw = quiet_load("IB").on_bands(Bands(4))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(AquaspecError, match=r"depth axis reaches 3000 m .* water 'IB' "
+                                                    r"has dimmed the light by exp\(-1258\) at "
+                                                    r"662\.5 nm.*above about 1670 m"):
+                lightfield_tables(bw, seabed_depth_m=3000.0, seabed_albedo=0.2, **self.KW)

@@ -164,6 +164,31 @@ class TestLoadRgbd:
         with pytest.raises(AquaspecError, match="accepted"):
             load_rgbd(p, tmp_path / "d.tiff")
 
+    @pytest.mark.parametrize("array", [np.float64(2.0), np.ones(W), np.ones((H, W, 3))],
+                             ids=["0-d", "1-d", "3 channels"])
+    def test_npy_of_the_wrong_shape(self, tmp_path, array):
+        # A 0-d or 1-d array raised IndexError (found by tests/io/test_fuzz_readers.py).
+        _, p = self.write_rgb(tmp_path)
+        np.save(tmp_path / "d.npy", array)
+        with pytest.raises(AquaspecError, match=r"d\.npy' has shape .*; expected \(H, W\)"):
+            load_rgbd(p, tmp_path / "d.npy")
+
+    def test_npy_header_larger_than_file(self, tmp_path):
+        _, p = self.write_rgb(tmp_path)
+        np.save(tmp_path / "d.npy", np.ones((H, W)))
+        data = (tmp_path / "d.npy").read_bytes()
+        (tmp_path / "d.npy").write_bytes(data[:len(data) // 2])
+        with pytest.raises(AquaspecError, match=r"could not read depth file .*d\.npy' as \.npy"):
+            load_rgbd(p, tmp_path / "d.npy")
+
+    def test_files_over_the_size_limit(self, tmp_path, monkeypatch):
+        _, p = self.write_rgb(tmp_path)
+        np.save(tmp_path / "d.npy", np.ones((700, 400)))          # 2.1 MB
+        monkeypatch.setenv("AQUASPEC_MAX_FILE_MB", "2")
+        with pytest.raises(AquaspecError, match=r"depth file .*d\.npy' is 2.14 MB, above the "
+                                                "limit of 2 MB for depth files"):
+            load_rgbd(p, tmp_path / "d.npy")
+
     def test_corrupt_image(self, tmp_path):
         (tmp_path / "bad.png").write_bytes(b"not a png")
         np.save(tmp_path / "d.npy", np.ones((H, W)))

@@ -199,6 +199,14 @@ class TestLoadMesh:
         with pytest.raises(AquaspecError, match=r"points\.obj.*no triangles"):
             load_mesh(points)
 
+    def test_size_limit_before_parsing(self, tmp_path, monkeypatch):
+        big = tmp_path / "big.obj"
+        big.write_bytes(b"v 0 0 0\n" * 300_000)                   # 2.3 MB
+        monkeypatch.setenv("AQUASPEC_MAX_FILE_MB", "2")
+        with pytest.raises(AquaspecError, match=r"mesh file '.*big\.obj' is 2.29 MB, above the "
+                                                "limit of 2 MB for mesh files"):
+            load_mesh(big)
+
 
 class TestPlaceInFront:
     def test_scaled_and_centred(self):

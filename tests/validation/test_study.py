@@ -374,12 +374,75 @@ def test_small_study_with_fournier_forand(tmp_path):
                   ms_models=("seeds",), cone_spread=True, cache_dir=tmp_path)
 
 
-def test_study_with_a_seabed(tmp_path, capsys):
+def panel_strips(path, columns):
+    """Share of non-white pixels in each of ``columns`` vertical strips of a PNG."""
+    import matplotlib.image
+    img = matplotlib.image.imread(path)[..., :3]
+    ink = (img < 0.9).any(axis=-1)
+    return [float(strip.mean()) for strip in np.array_split(ink, columns, axis=1)]
+
+
+#: A panel showing an image is mostly ink; a blank one holds only its title.
+PANEL_INK = 0.25
+
+
+class TestPanels:
+    """panels.png shows the models that were run, titled with what was run."""
+
+    def images(self, methods, scenes=(("I", 3.0), ("IB", 5.0))):
+        rng = np.random.default_rng(0)
+        out = {}
+        for w, d in scenes:
+            out[(w, d, "reference", "-")] = rng.random((6, 8, 3))
+            for m in methods:
+                out[(w, d, m, "database")] = rng.random((6, 8, 3))
+        return out
+
+    def test_the_default_models(self):
+        from aquaspec.validation.report import panel_columns
+        images = self.images(["seeds-n8", "seeds-n16", "rgb-seeds-n3", "lightfield-n8",
+                              "lightfield-n16", "rgb-lightfield-n3", "unreal", "ifm"])
+        cols = panel_columns(images, {"ms_models": ["seeds", "lightfield"],
+                                      "band_counts": [8, 16]})
+        # The renderer's default model is the one compared in RGB and in
+        # the difference; the thesis's is titled with its canonical name.
+        assert [c.title for c in cols] == [
+            "reference", "seeds-n16 (monzon2022)", "lightfield-n16", "rgb-lightfield-n3",
+            "|lightfield-n16 - ref| x4"]
+        assert cols[-1].difference and cols[-1].method == "lightfield-n16"
+
+    @pytest.mark.parametrize("models, methods, titles", [
+        (["lightfield"], ["lightfield-n8", "rgb-lightfield-n3"],
+         ["reference", "lightfield-n8", "rgb-lightfield-n3", "|lightfield-n8 - ref| x4"]),
+        (["lightfield"], ["lightfield-n8", "lightfield-deep-n8", "rgb-lightfield-n3"],
+         ["reference", "lightfield-n8", "lightfield-deep-n8 (no seabed)", "rgb-lightfield-n3",
+          "|lightfield-n8 - ref| x4"]),
+        (["monzon2022"], ["monzon2022-n8", "rgb-monzon2022-n3"],
+         ["reference", "monzon2022-n8", "rgb-monzon2022-n3", "|monzon2022-n8 - ref| x4"]),
+    ])
+    def test_every_panel_shows_an_image(self, models, methods, titles, tmp_path):
+        """(Before: the seeds' model only, blank panels when it was not run.)"""
+        from aquaspec.validation.report import panel_columns, plot_panels
+        images = self.images(methods)
+        params = {"ms_models": models, "band_counts": [8]}
+        assert [c.title for c in panel_columns(images, params)] == titles
+        plot_panels(images, tmp_path / "panels.png", params)
+        ink = panel_strips(tmp_path / "panels.png", len(titles))
+        assert min(ink) > PANEL_INK, ink
+
+
+def test_study_with_a_seabed(tmp_path, capsys, monkeypatch):
     """--seabed-below: a grey seabed in the reference and in the light field,
     which also runs without it (lightfield-deep-n*); the reference is another
-    render (its geometry is in the cache key)."""
+    render (its geometry is in the cache key). The panels show the light
+    field with and without the seabed, every one an image."""
     mitsuba()
+    import aquaspec.validation.report as report
     from aquaspec.validation.scenes import board_scene
+    shown = []
+    columns = report.panel_columns
+    monkeypatch.setattr(report, "panel_columns",
+                        lambda *a: shown.append(columns(*a)) or shown[-1])
     code = main(["validate", "--waters", "I", "--depths", "4", "--size", "24x18", "--spp", "8",
                  "--kd-spp", "2000", "--ms-models", "lightfield", "--no-cone-spread",
                  "--seabed-below", "1.5,0.3", "--cache", str(tmp_path / "cache"),
@@ -394,6 +457,11 @@ def test_study_with_a_seabed(tmp_path, capsys):
              if r["region"] == "image" and r["camera"] == "human"}
     # The seabed's light makes the light field brighter than over deep water.
     assert ratio["lightfield-n16"] > ratio["lightfield-deep-n16"]
+    (cols,) = shown
+    assert [c.title for c in cols] == ["reference", "lightfield-n16",
+                                       "lightfield-deep-n16 (no seabed)", "rgb-lightfield-n3",
+                                       "|lightfield-n16 - ref| x4"]
+    assert min(panel_strips(tmp_path / "out" / "panels.png", len(cols))) > PANEL_INK
     scene, _ = board_scene(4.0, seabed_below_m=1.5, seabed_albedo=0.3)
     assert scene.seabed.depth_m == 5.5 and scene.meshes[-1].name == "seabed"
     assert main(["validate", "--seabed-below", "0", "--no-cache"]) == 2
@@ -461,7 +529,7 @@ def test_reference_and_light_field_share_the_table():
 class TestBadInput:
     @pytest.mark.parametrize("argv, match", [
         (["--phase", "ff", "--backscatter", "0.9"], "B=0.9 is not accepted"),
-        (["--phase", "ff", "--backscatter", "nan"], "B=nan is not accepted"),
+        (["--phase", "ff", "--backscatter", "nan"], "--backscatter: 'nan' is not accepted"),
         (["--phase", "ff", "--backscatter", "-0.01"], "B=-0.01 is not accepted"),
         (["--phase", "petzold", "--backscatter", "0.02"], "--backscatter .* needs --phase ff"),
         (["--phase", "hg", "--g", "1.5"], "g=1.5 is not accepted"),
@@ -471,7 +539,11 @@ class TestBadInput:
         # Refused before Mitsuba is even imported, and before anything is rendered.
         import aquaspec.validation.study as study
         monkeypatch.setattr(study, "run_study", lambda **kw: pytest.fail("study ran"))
-        assert main(["validate", *argv, "-o", str(tmp_path)]) == 2
+        try:
+            code = main(["validate", *argv, "-o", str(tmp_path)])
+        except SystemExit as exc:       # argparse's own refusals (not finite)
+            code = exc.code
+        assert code == 2
         err = capsys.readouterr().err
         assert "error:" in err
         import re

@@ -1,7 +1,10 @@
 """The ``aquaspec`` command line: a thin layer over the Python API.
 
 One module per command; each has ``register(subparsers)`` adding its parser
-and a ``run(args)`` that calls importable functions.
+and a ``run(args)`` that calls importable functions. Errors the user can fix
+are one line on stderr with exit status 2; Ctrl-C is "aquaspec: interrupted"
+with status 130 (128 + SIGINT, the shell's convention), and every file is
+written atomically, so an interrupted command leaves nothing half-written.
 """
 
 from __future__ import annotations
@@ -11,9 +14,13 @@ import importlib
 import sys
 import warnings
 
+from aquaspec.cli.common import Parser
 from aquaspec.errors import AquaspecError, GPUUnavailableError
 
-COMMANDS = ("list", "spectra", "colour", "render", "view", "bench", "validate")
+#: Exit status after Ctrl-C: 128 + SIGINT.
+EXIT_INTERRUPTED = 130
+
+COMMANDS = ("list", "spectra", "colour", "render", "view", "bench", "validate", "cache")
 
 DESCRIPTION = """\
 aquaspec renders underwater scenes spectrally: light is carried in n
@@ -28,7 +35,7 @@ Start with:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="aquaspec", description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -48,6 +55,14 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 
 def main(argv=None) -> int:
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        print("aquaspec: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _main(argv) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):

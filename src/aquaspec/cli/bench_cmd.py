@@ -7,8 +7,9 @@ import json
 import sys
 from pathlib import Path
 
-from aquaspec.cli.common import (add_spread_scattering_option, add_sun_options, add_sun_rendering_options,
-                     waves_from)
+from aquaspec.cli.common import (MAX_OCEAN_DEPTH_M, add_spread_scattering_option,
+                                add_sun_options, add_sun_rendering_options, depth_metres,
+                                shadow_map_from, sun_from, waves_from)
 from aquaspec.errors import AquaspecError
 from aquaspec.io.atomic import check_writable, write_file_atomically
 from aquaspec.scene.camera import parse_size
@@ -25,15 +26,23 @@ def register(sub):
                     "caustics / flat sun).",
         epilog="example: aquaspec bench --light sun-sky --wind 3 --sizes 1280x720 --bands 8,16 "
                "--no-numpy")
-    p.add_argument("--sizes", default="1280x720,1920x1080", metavar="WxH,...")
-    p.add_argument("--bands", default="3,8,16,32,64", metavar="N,...")
-    p.add_argument("--frames", type=int, default=20, help="timed frames per point (default 20)")
-    p.add_argument("--warmup", type=int, default=3, help="untimed frames first (default 3)")
-    p.add_argument("--water", default="IB")
-    p.add_argument("--depth", type=float, default=5.0)
+    p.add_argument("--sizes", default="1280x720,1920x1080", metavar="WxH,...",
+                   help="image sizes to time (default 1280x720,1920x1080)")
+    p.add_argument("--bands", default="3,8,16,32,64", metavar="N,...",
+                   help="band counts to time, fitted as t(n) = t0 + n t1 (default 3,8,16,32,64)")
+    p.add_argument("--frames", type=int, default=20, metavar="N",
+                   help="timed frames per point (default 20)")
+    p.add_argument("--warmup", type=int, default=3, metavar="N",
+                   help="untimed frames first (default 3)")
+    p.add_argument("--water", default="IB", metavar="TYPE|FILE.csv",
+                   help="Jerlov water type or a CSV wavelength_nm,a,b[,Kd] (default IB)")
+    p.add_argument("--depth", type=depth_metres, default=5.0, metavar="M",
+                   help=f"camera depth below the surface, 0 to {MAX_OCEAN_DEPTH_M:g} metres "
+                        "(default 5)")
     p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODEL_CHOICES),
                    help=f"multiple-scattering model to time (default {DEFAULT_MS_MODEL})")
-    p.add_argument("--phase", default="petzold", help="phase function for --ms-model lightfield")
+    p.add_argument("--phase", default="petzold", choices=("petzold", "ff", "hg", "isotropic"),
+                   help="phase function for --ms-model lightfield (default petzold)")
     p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
                    help="--ms-model lightfield: with the forward cone spread over the image "
                         "(the pyramid passes; forward cone 40 degrees; default: on)")
@@ -68,13 +77,18 @@ def run(args):
         bands = [int(b) for b in args.bands.split(",") if b]
     except ValueError:
         raise AquaspecError(f"--bands {args.bands!r} must be comma-separated integers") from None
+    sun_elevation, sun_azimuth = sun_from(args)
     waves = waves_from(args)
+    if args.sun_shadow_map is not None:
+        # deferred: loads wgpu; only a shadow map size is checked against the device
+        from aquaspec.gpu.device import max_texture_size
+        shadow_map_from(args, max_texture_size())
     result = run_bench(sizes=sizes, bands=bands, frames=args.frames, warmup=args.warmup,
                        water=args.water, depth_m=args.depth, numpy_reference=not args.no_numpy,
                        ms_model=args.ms_model, phase=args.phase, compare_seeds=args.compare_seeds,
                        cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
-                       light=args.light, sun_elevation_deg=args.sun_elevation,
-                       sun_azimuth_deg=args.sun_azimuth, sun_shadow_map=args.sun_shadow_map,
+                       light=args.light, sun_elevation_deg=sun_elevation,
+                       sun_azimuth_deg=sun_azimuth, sun_shadow_map=args.sun_shadow_map,
                        waves=waves, progress=lambda m: print(m, file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import json
 
-from aquaspec.cli.common import (add_band_options, add_light_options, add_sensor_options,
-                     add_water_options, bands_from, light_from, sensor_from, water_from)
+from aquaspec.cli.common import (MAX_OCEAN_DEPTH_M, add_band_options, add_light_options,
+                                add_sensor_options, add_water_options, bands_from, depth_metres,
+                                finite_float, light_from, sensor_from, water_from)
 from aquaspec.rendering.appearance import view_from_elevation, water_colour
 from aquaspec.transport.lightfield.cone import forward_cone
 from aquaspec.transport.models import MONZON2022
@@ -15,16 +16,16 @@ def register(sub):
     p = sub.add_parser(
         "colour", aliases=["color"], help="camera RGB of open water and of a grey card",
         description="What colour is water X at depth Y for camera Z? Prints the linear camera "
-                    "RGB of open water (water_rgb) and of an 18%% grey card facing the camera "
+                    "RGB of open water (water_rgb) and of an 18 % grey card facing the camera "
                     "at --distance (grey_card_rgb), seen horizontally or --view-elevation "
                     "degrees up. With --light sun-sky the sun's beam is what the renderer "
                     "makes of it: scattered once along the view, and on the card.")
     add_water_options(p)
-    p.add_argument("--depth", type=float, required=True, metavar="M",
-                   help="camera depth below the surface, metres")
-    p.add_argument("--distance", type=float, default=3.0, metavar="M",
+    p.add_argument("--depth", type=depth_metres, required=True, metavar="M",
+                   help=f"camera depth below the surface, 0 to {MAX_OCEAN_DEPTH_M:g} metres")
+    p.add_argument("--distance", type=finite_float, default=3.0, metavar="M",
                    help="distance to the grey card, metres (default 3)")
-    p.add_argument("--view-elevation", type=float, default=0.0, metavar="DEG",
+    p.add_argument("--view-elevation", type=finite_float, default=0.0, metavar="DEG",
                    help="view direction above the horizontal, -90 (down) to 90 (up), in the "
                         "vertical plane of -z, the direction --sun-azimuth is measured from "
                         "(default 0)")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import jerlov
 
+from aquaspec.cli.common import check_camspec
 from aquaspec.colour.sensors import builtin_sensors, load_camspec
 from aquaspec.medium.water import DEFAULT_SOURCE, list_waters
 
@@ -11,8 +12,10 @@ from aquaspec.medium.water import DEFAULT_SOURCE, list_waters
 def register(sub):
     p = sub.add_parser("list", help="list water types or sensors",
                        description="List the built-in water types (by data source) or sensors.")
-    p.add_argument("what", choices=("waters", "sensors"))
-    p.add_argument("--camspec", metavar="PATH", help="also list the cameras of this camspec file")
+    p.add_argument("what", choices=("waters", "sensors"), help="what to list")
+    p.add_argument("--camspec", metavar="PATH",
+                   help="also list the cameras of this camspec_database.txt (Jiang et al. "
+                        "2013; not shipped with aquaspec)")
     p.set_defaults(func=run)
 
 
@@ -30,7 +33,7 @@ def run(args):
         for name, s in builtin_sensors().items():
             print(f"{name:24s} {s.range_nm[0]:g}-{s.range_nm[1]:g} nm  {s.source}")
         if args.camspec:
-            for name, s in load_camspec(args.camspec).items():
+            for name, s in load_camspec(check_camspec(args.camspec)).items():
                 print(f"{name:24s} {s.range_nm[0]:g}-{s.range_nm[1]:g} nm  {s.source}")
         else:
             print("(add --camspec PATH to list the cameras of a camspec_database.txt)")

@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
 
-from aquaspec.cli.common import (add_band_options, add_light_options, add_sensor_options,
-                     add_spread_scattering_option, add_sun_rendering_options, add_water_options,
-                     parse_depth_albedo, parse_range, waves_from)
+from aquaspec.cli.common import (MAX_OCEAN_DEPTH_M, add_band_options, add_light_options,
+                                add_sensor_options, add_spread_scattering_option,
+                                add_sun_rendering_options, add_water_options, check_camspec,
+                                depth_metres, exposure_value, parse_depth_albedo, parse_range,
+                                shadow_map_from, sun_from, waves_from)
 from aquaspec.colour.display import TONEMAPS, WHITE_BALANCE_METHODS
 from aquaspec.errors import AquaspecError
 from aquaspec.io.atomic import check_writable
@@ -15,6 +19,7 @@ from aquaspec.io.layers_file import check_layers_path
 from aquaspec.io.linear import LINEAR_SUFFIXES
 from aquaspec.io.png import PNG_SUFFIXES
 from aquaspec.io.save import save_image
+from aquaspec.io.sidecar import sidecar_path
 from aquaspec.scene.camera import parse_size
 from aquaspec.scene.seabed import Seabed
 
@@ -27,14 +32,16 @@ def register(sub):
         epilog="example: aquaspec render --water IB --depth 5 --size 320x180 --bands 8 -o x.png")
     add_water_options(p, required=False)
     p.set_defaults(water="IB")
-    p.add_argument("--depth", type=float, default=5.0, metavar="M",
-                   help="camera depth below the surface, metres (default 5)")
+    p.add_argument("--depth", type=depth_metres, default=5.0, metavar="M",
+                   help=f"camera depth below the surface, 0 to {MAX_OCEAN_DEPTH_M:g} metres "
+                        "(default 5); deep down, where auto exposure has to brighten the "
+                        "image by more than 20 EV, or the image is black, a warning says so")
     add_sensor_options(p)
     add_band_options(p)
     add_light_options(p)
     p.add_argument("--size", default="1280x720", metavar="WxH", help="image size (default 1280x720)")
-    p.add_argument("--exposure", default="auto", metavar="auto|EV",
-                   help="exposure: 'auto' or a value in stops (default auto)")
+    p.add_argument("--exposure", type=exposure_value, default="auto", metavar="auto|EV",
+                   help="exposure: 'auto' or a value in stops, -64 to 64 (default auto)")
     p.add_argument("--tonemap", default="filmic", choices=list(TONEMAPS),
                    help="tone curve (default filmic)")
     p.add_argument("--white-balance", default="none", choices=list(WHITE_BALANCE_METHODS),
@@ -62,7 +69,10 @@ def register(sub):
     p.add_argument("--seabed", default="scene", metavar="scene|none|DEPTH[,ALBEDO]",
                    help="the light field's lower boundary: the scene's (default; the "
                         "built-in scene's sand), none (deep water), or a flat Lambertian "
-                        "seabed DEPTH m below the surface with a grey ALBEDO (default 0.2)")
+                        "seabed DEPTH m below the surface with a grey ALBEDO (default 0.2); "
+                        "a --mesh also stands on that seabed, a plane the camera sees out to "
+                        "where the water hides it (the built-in scene keeps its sand, an "
+                        "RGB-D photograph its own surfaces)")
     add_sun_rendering_options(
         p, wind_help="--light sun-sky: a wind sea on the surface (wind speed in m/s at 19.5 m, "
                      "Pierson-Moskowitz spectrum) whose waves focus the sun into caustics on "
@@ -84,8 +94,8 @@ def _floats(text, n, what):
         vals = tuple(float(x) for x in str(text).split(","))
     except ValueError:
         vals = ()
-    if len(vals) != n:
-        raise AquaspecError(f"{what} {text!r} must be {n} comma-separated numbers")
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise AquaspecError(f"{what} {text!r} must be {n} comma-separated finite numbers")
     return vals
 
 
@@ -97,14 +107,11 @@ def run(args):
         check_writable(args.linear, suffixes=LINEAR_SUFFIXES)
     if args.layers:
         check_layers_path(args.layers)
+    _check_distinct_outputs(args)
     size = parse_size(args.size)
-    exposure = args.exposure
-    if exposure != "auto":
-        try:
-            exposure = float(exposure)
-        except ValueError:
-            raise AquaspecError(f"exposure {args.exposure!r} must be 'auto' or a number of "
-                                "stops (EV)") from None
+    check_camspec(args.camspec)
+    sun_elevation, sun_azimuth = sun_from(args)
+    shadow_map = shadow_map_from(args, _max_texture(args.backend, args.sun_shadow_map))
     rgbd = None
     if args.rgbd:
         if not args.intrinsics:
@@ -124,26 +131,52 @@ def run(args):
     res = render(water=args.water, source=args.source, depth_m=args.depth, sensor=args.sensor,
                  camspec=args.camspec, bands=args.bands, wavelength_range=parse_range(args.range),
                  size=size, mesh=args.mesh, albedo=albedo, rgbd=rgbd, light=args.light,
-                 irradiance_w_m2=args.irradiance, sun_elevation_deg=args.sun_elevation,
-                 sun_azimuth_deg=args.sun_azimuth, sun_shadow_map=args.sun_shadow_map,
+                 irradiance_w_m2=args.irradiance, sun_elevation_deg=sun_elevation,
+                 sun_azimuth_deg=sun_azimuth, sun_shadow_map=shadow_map,
                  waves=waves, ambient=args.ambient, outside="zero" if args.outside_zero else "error",
                  ms_model=args.ms_model, phase=args.phase,
                  forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
                  spread_scattering=args.spread_scattering, ambient_shadow=args.ambient_shadow,
                  seabed=seabed,
-                 exposure=exposure, white_balance=args.white_balance, tonemap=args.tonemap,
+                 exposure=args.exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
                  layers=bool(args.layers), backend=args.backend, progress=progress)
     files = save_image(args.output, res.display, res.linear_rgb if args.linear else None,
                        res.params, linear_path=args.linear, layers=res.layers,
                        layers_path=args.layers)
-    for w in files.get("warnings", []):
+    for w in [*res.warnings(), *files.get("warnings", [])]:
         progress(f"warning: {w}")
     print(f"wrote {files['png']} and {files['sidecar']}"
           + (f" and {files['linear']}" if files.get("linear") else "")
           + (f" and {files['layers']}" if files.get("layers") else "")
           + f" ({res.params['render_seconds']:.2f} s)")
     return 0
+
+
+def _check_distinct_outputs(args):
+    """Two outputs naming one file (-o's sidecar included) would overwrite
+    each other: refused before rendering."""
+    named = [("-o", args.output), ("-o's sidecar", sidecar_path(args.output)),
+             ("--linear", args.linear), ("--layers", args.layers)]
+    seen = {}
+    for opt, path in named:
+        if path is None:
+            continue
+        key = os.path.realpath(os.path.expanduser(os.fspath(path)))
+        if key in seen:
+            raise AquaspecError(f"{seen[key]} and {opt} both name {str(path)!r}; accepted: a "
+                                "different file for each output")
+        seen[key] = opt
+
+
+def _max_texture(backend, shadow_map):
+    """The GPU's largest texture side when a shadow map size is to be checked
+    against it (None for the NumPy backend)."""
+    if backend != "gpu" or shadow_map is None:
+        return None
+    # deferred: loads wgpu; only a GPU render with --sun-shadow-map needs the limit
+    from aquaspec.gpu.device import max_texture_size
+    return max_texture_size()
 
 
 def _seabed(text):

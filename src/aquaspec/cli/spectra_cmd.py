@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from aquaspec.cli.common import add_band_options, add_water_options, bands_from, water_from
+from aquaspec.cli.common import (add_band_options, add_water_options, bands_from, check_camspec,
+                                water_from)
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.io.atomic import check_writable, write_file_atomically
 
@@ -16,7 +17,9 @@ def register(sub):
     add_water_options(p)
     p.add_argument("--sensor", default=None, metavar="NAME|FILE.csv",
                    help="also show this sensor's response curves (see `aquaspec list sensors`)")
-    p.add_argument("--camspec", metavar="PATH", help="camspec_database.txt whose cameras --sensor can name")
+    p.add_argument("--camspec", metavar="PATH",
+                   help="camspec_database.txt (Jiang et al. 2013; not shipped) whose cameras "
+                        "--sensor can name")
     add_band_options(p, default=31)
     p.add_argument("--plot", metavar="OUT.png", help="write a plot (PNG)")
     p.set_defaults(func=run, command="spectra")
@@ -70,7 +73,7 @@ def run(args):
     if args.plot:
         check_writable(args.plot, suffixes=(".png",))
     water, bands = water_from(args), bands_from(args)
-    sensor = get_sensor(args.sensor, args.camspec) if args.sensor else None
+    sensor = get_sensor(args.sensor, check_camspec(args.camspec)) if args.sensor else None
     print(f"water {water.name}, source {water.source}" + (" (Kd derived)" if water.kd_derived else ""))
     print(f"  {water.citation}")
     for line in water.filled:

@@ -7,7 +7,8 @@ import json
 import sys
 from pathlib import Path
 
-from aquaspec.cli.common import add_spread_scattering_option, parse_depth_albedo
+from aquaspec.cli.common import (add_spread_scattering_option, check_camspec, finite_float,
+                                parse_depth_albedo)
 from aquaspec.colour.sensors import builtin_sensors, get_sensor, load_camspec
 from aquaspec.errors import AquaspecError
 from aquaspec.io.atomic import check_writable, write_file_atomically
@@ -27,30 +28,39 @@ def register(sub):
                     "model), for every water, depth and camera, and report RMSE, HSV distance, "
                     "hue, CIEDE2000 and SSIM as CSV, JSON and plots. Needs the 'validation' "
                     "extra (pip install 'aquaspec[validation]'). Reference renders are cached.")
-    p.add_argument("--waters", default="I,IA,IB,II,3C", metavar="T,...")
-    p.add_argument("--source", default="solonenko2015")
-    p.add_argument("--depths", default="3,5,9", metavar="M,...")
+    p.add_argument("--waters", default="I,IA,IB,II,3C", metavar="T,...",
+                   help="Jerlov water types or CSV files to study (default I,IA,IB,II,3C)")
+    p.add_argument("--source", default="solonenko2015", metavar="NAME",
+                   help="published data set for Jerlov types (default solonenko2015; see "
+                        "aquaspec list waters)")
+    p.add_argument("--depths", default="3,5,9", metavar="M,...",
+                   help="camera depths below the surface, metres (default 3,5,9)")
     p.add_argument("--camspec", metavar="PATH",
-                   help="camspec_database.txt: every camera in it (default: the built-in sensors)")
-    p.add_argument("--sensors", metavar="NAME,...", help="only these sensors")
-    p.add_argument("--size", default="96x72", metavar="WxH")
-    p.add_argument("--spp", type=int, default=512, help="reference samples per pixel")
-    p.add_argument("--kd-spp", type=int, default=50000, help="samples per irradiance meter")
+                   help="camspec_database.txt (Jiang et al. 2013; not shipped): every camera "
+                        "in it (default: the built-in sensors)")
+    p.add_argument("--sensors", metavar="NAME,...",
+                   help="only these sensors (built-in, or cameras of --camspec)")
+    p.add_argument("--size", default="96x72", metavar="WxH",
+                   help="image size of each render, reference and aquaspec (default 96x72)")
+    p.add_argument("--spp", type=int, default=512, metavar="N",
+                   help="reference samples per pixel (default 512)")
+    p.add_argument("--kd-spp", type=int, default=50000, metavar="N",
+                   help="samples per irradiance meter of the reference's Kd (default 50000)")
     p.add_argument("--phase", default="isotropic", choices=("isotropic", "hg", "ff", "petzold"),
                    help="phase function of the path-traced water, also given to aquaspec's "
                         "light-field model: isotropic, Henyey-Greenstein (--g), Fournier-Forand "
                         "(--backscatter) or Petzold's average particle phase function (alone, "
                         "not mixed with pure water); ff and petzold are tabulated in cos(theta) "
                         "(Mitsuba's tabphase), the same table on both sides")
-    p.add_argument("--g", type=float, default=None,
+    p.add_argument("--g", type=finite_float, default=None,
                    help="Henyey-Greenstein g for --phase hg (default 0.92)")
-    p.add_argument("--backscatter", type=float, default=None, metavar="B",
+    p.add_argument("--backscatter", type=finite_float, default=None, metavar="B",
                    help="backscatter fraction of Fournier-Forand for --phase ff (default 0.0183, "
                         "Petzold's average particle phase function)")
     p.add_argument("--ms-models", default="seeds,lightfield", metavar="M,...",
                    help="aquaspec multiple-scattering models to compare (default "
                         "seeds,lightfield)")
-    p.add_argument("--forward-cone", type=float, default=None, metavar="DEG",
+    p.add_argument("--forward-cone", type=finite_float, default=None, metavar="DEG",
                    help="light-field model: scattering within DEG of forward stays in the beam "
                         "towards targets (default 15, or 40 with --cone-spread; 0 = off)")
     p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
@@ -75,10 +85,10 @@ def register(sub):
                         "thesis's setting) or sun-sky (SPECTRL2 sun and sky; the reference "
                         "gets the refracted sun as a directional emitter and the rest as a "
                         "uniform sky)")
-    p.add_argument("--sun-elevation", type=float, default=None, metavar="DEG",
+    p.add_argument("--sun-elevation", type=finite_float, default=None, metavar="DEG",
                    help="for --light sun-sky: the sun's elevation above the horizon, 1-90 "
                         "(default 60)")
-    p.add_argument("--sun-azimuth", type=float, default=None, metavar="DEG",
+    p.add_argument("--sun-azimuth", type=finite_float, default=None, metavar="DEG",
                    help="for --light sun-sky: the sun's compass angle from -z (the camera's "
                         f"view) towards +x (default {DEFAULT_SUN_AZIMUTH_DEG:g}: behind the "
                         "camera's right shoulder)")
@@ -91,7 +101,8 @@ def register(sub):
                         "phase functions; needs no path tracer; writes tyler.json and tyler.png")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default: reference/ in $AQUASPEC_CACHE, or "
                    "~/.cache/aquaspec/reference)")
-    p.add_argument("--no-cache", action="store_true")
+    p.add_argument("--no-cache", action="store_true",
+                   help="render every reference again, neither reading nor writing the cache")
     p.add_argument("-o", "--out", default="validation", metavar="DIR",
                    help="output directory (default ./validation)")
     p.set_defaults(func=run, command="validate")
@@ -131,14 +142,14 @@ def run(args):
         depths = tuple(float(x) for x in args.depths.split(","))
     except ValueError:
         raise AquaspecError(f"--depths {args.depths!r} must be comma-separated metres") from None
-    if any(d < 0 for d in depths):
-        raise AquaspecError(f"--depths {args.depths!r}: depths must be >= 0")
+    if not all(0 <= d < float("inf") for d in depths):
+        raise AquaspecError(f"--depths {args.depths!r}: depths must be finite and >= 0")
     waters = tuple(w.strip() for w in args.waters.split(",") if w.strip())
     ms_models = tuple(m.strip() for m in args.ms_models.split(",") if m.strip())
     for m in ms_models:
         ms_model_name(m)
     if args.camspec:
-        sensors = load_camspec(args.camspec)
+        sensors = load_camspec(check_camspec(args.camspec))
     else:
         sensors = builtin_sensors()
     if args.sensors:

@@ -36,6 +36,7 @@ from aquaspec.colour.reflectance import colorchecker
 from aquaspec.colour.srgb import XYZ_TO_SRGB
 from aquaspec.errors import AquaspecError, DataRangeError
 from aquaspec.io.csv import read_csv_columns
+from aquaspec.io.limits import read_text
 
 #: XYZ to the sharpened cone responses of CAT02, CIECAM02's chromatic
 #: adaptation transform (CIE 159:2004; Moroney et al. 2002, "The CIECAM02
@@ -74,6 +75,12 @@ class Sensor:
             raise AquaspecError(f"sensor {self.name!r}: response contains NaN or infinity")
         if wl.size < 2 or np.any(np.diff(wl) <= 0):
             raise AquaspecError(f"sensor {self.name!r}: wavelengths must strictly ascend")
+        dead = [c for c, curve in zip("rgb", r) if not np.any(curve != 0)]
+        if dead:
+            where = f" ({self.source})" if self.source else ""
+            raise AquaspecError(f"sensor {self.name!r}{where}: channel(s) {', '.join(dead)} "
+                                "are zero at every wavelength; accepted: three response "
+                                "curves, each non-zero somewhere")
         object.__setattr__(self, "wavelength_nm", wl)
         object.__setattr__(self, "response", r)
 
@@ -143,6 +150,12 @@ def _fit_srgb_matrix(sensor: Sensor) -> np.ndarray:
     e = bands.average(*colourdata.d65())
     refl = np.stack([r.on_bands(bands) for r in colorchecker()])        # (24, n)
     cam = (refl * e) @ sensor.band_weights(bands)                         # (24, 3)
+    blind = [c for c, col in zip("rgb", cam.T) if not np.any(col != 0)]
+    if blind:
+        raise AquaspecError(f"sensor {sensor.name!r}: channel(s) {', '.join(blind)} see "
+                            f"nothing over {lo:g}-{hi:g} nm, where the colour matrix is "
+                            "fitted on the ColorChecker; accepted: a response there in each "
+                            "channel, or no colour matrix (--colour-matrix none)")
     ref = (refl * e) @ human_sensor().band_weights(bands)
     m, *_ = np.linalg.lstsq(cam, ref, rcond=None)
     m = m.T
@@ -197,11 +210,17 @@ def load_camspec(path) -> dict:
 
     Returns name -> Sensor. The header line ``400nm-720nm, step 10nm`` gives
     the wavelengths when present (otherwise 400-720 nm in 10 nm steps).
+
+    Raises
+    ------
+    AquaspecError
+        A missing, binary or oversized file (:func:`aquaspec.io.limits.read_text`),
+        no camera in it, a response line of the wrong length, or a camera
+        cut short (a name followed by fewer than three response lines: a
+        truncated file, refused rather than losing that camera unnoticed).
     """
     p = Path(path)
-    if not p.is_file():
-        raise AquaspecError(f"camspec file {str(path)!r} does not exist")
-    lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
+    lines = read_text(p, "camspec", "camspec file", errors="replace").splitlines()
     lo, hi, step = 400.0, 720.0, 10.0
     for line in lines[:10]:
         m = _HEADER_RANGE.search(line)
@@ -216,6 +235,13 @@ def load_camspec(path) -> dict:
             i += 1
             continue
         rows = [_numeric(lines[i + k]) if i + k < len(lines) else None for k in (1, 2, 3)]
+        if rows[0] is not None and None in rows:
+            got = rows.index(None)
+            end = "the end of the file" if i + got + 1 >= len(lines) else f"line {i + got + 2}"
+            raise AquaspecError(
+                f"{path}: camera {line!r} (line {i + 1}) has {got} of its 3 response lines "
+                f"(R, G, B) before {end}; is the file truncated? Expected the camspec format "
+                "(Jiang et al. 2013): a name line followed by three lines of numbers")
         if all(r is not None for r in rows):
             for k, r in enumerate(rows):
                 if len(r) != wl.size:

@@ -4,6 +4,11 @@ A real GPU is used when present; on machines without one, Mesa's lavapipe
 Vulkan driver runs the same WGSL on the CPU. ``AQUASPEC_ADAPTER`` forces a
 choice: ``gpu`` (a discrete or integrated GPU), ``cpu`` (a software adapter
 such as lavapipe), or a substring of the adapter's device name.
+
+wgpu falls back to OpenGL when no Vulkan driver is installed; its OpenGL
+backend is a "downlevel" one without the float storage textures the passes
+write (Rgba32Float), so OpenGL adapters are never chosen and, when they are
+all there is, the error says which driver to install.
 """
 
 from __future__ import annotations
@@ -18,8 +23,11 @@ from aquaspec.errors import GPUUnavailableError
 from aquaspec.gpu import ffi_types
 
 ADAPTER_ENV = "AQUASPEC_ADAPTER"
-_DEBIAN_HINT = ("install a Vulkan driver; on Debian/Ubuntu without a GPU: "
-                "sudo apt-get install -y mesa-vulkan-drivers libvulkan1")
+_DEBIAN_HINT = ("install a Vulkan driver (on Debian/Ubuntu without a GPU: "
+                "sudo apt-get install -y mesa-vulkan-drivers libvulkan1), or render with "
+                "--backend numpy (backend='numpy'), the slower reference")
+#: wgpu backends whose adapters lack what the passes need (downlevel).
+UNSUPPORTED_BACKENDS = ("OpenGL",)
 
 
 def _ensure_runtime_dir():
@@ -32,6 +40,14 @@ def _ensure_runtime_dir():
 
 
 def _choose(adapters, want: str | None):
+    usable = [a for a in adapters if a.info.get("backend_type") not in UNSUPPORTED_BACKENDS]
+    if adapters and not usable:
+        names = ", ".join(f"{a.info.get('device')} ({a.info.get('backend_type')})"
+                          for a in adapters)
+        raise GPUUnavailableError(
+            f"no Vulkan adapter found, only {names}, whose limits aquaspec's passes exceed "
+            f"(no float storage textures); {_DEBIAN_HINT}")
+    adapters = usable
     vulkan_first = sorted(adapters, key=lambda a: a.info.get("backend_type") != "Vulkan")
     if not want:
         hw = [a for a in vulkan_first if a.info.get("adapter_type") in
@@ -78,6 +94,12 @@ def get_device():
     device = adapter.request_device_sync(required_limits=limits,
                                          required_features=features)
     return adapter, device
+
+
+def max_texture_size() -> int:
+    """The device's largest 2-D texture side, texels."""
+    _, device = get_device()
+    return int(device.limits["max-texture-dimension-2d"])
 
 
 def adapter_info() -> dict:

@@ -5,18 +5,18 @@ One reader for every spectrum a user gives as a file: water
 sensors (``wavelength_nm,r,g,b``, :func:`aquaspec.colour.sensors.sensor_from_csv`)
 and reflectances (``wavelength_nm,reflectance``,
 :func:`aquaspec.colour.reflectance.reflectance_from_csv`). Errors name the
-file, line and column.
+file, line and column; a binary file, or one over the size ceiling of
+:mod:`aquaspec.io.limits`, is refused before parsing.
 """
 
 from __future__ import annotations
 
 import csv
 import io
-from pathlib import Path
-
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.io.limits import read_text
 
 
 def _number(text, path, line, column):
@@ -37,13 +37,12 @@ def read_csv_columns(path, required, optional=(), *, what="spectrum"):
     Returns a dict of column -> ndarray. Errors name the file, line and
     column. Wavelengths (the first required column) must strictly ascend.
     """
-    p = Path(path)
-    if not p.is_file():
-        raise AquaspecError(f"{what} file {str(path)!r} does not exist")
-    text = p.read_text(encoding="utf-8-sig")
-    reader = csv.reader(io.StringIO(text))
-    rows = [r for r in reader if r and any(c.strip() for c in r)
-            and not r[0].lstrip().startswith("#")]
+    text = read_text(path, "csv", f"{what} file")
+    try:
+        rows = [r for r in csv.reader(io.StringIO(text)) if r and any(c.strip() for c in r)
+                and not r[0].lstrip().startswith("#")]
+    except csv.Error as exc:
+        raise AquaspecError(f"{path}: not a readable CSV ({exc})") from None
     if not rows:
         raise AquaspecError(f"{path}: empty file; expected a header "
                             f"{','.join(required + tuple(optional))} and rows of numbers")

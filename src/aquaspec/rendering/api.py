@@ -9,9 +9,11 @@ reads as those steps, each a function of this module:
    (:class:`aquaspec.rendering.setup.SpectralSetup`), checked before any
    geometry work; the waves' caustics are computed here.
 2. ``_view``: what the camera sees (the built-in scene, a mesh, the
-   caller's scene, or an RGB-D photograph's G-buffer), then ``_with_seabed``
-   (the light field's lower boundary) and ``_white_patch_reference`` (the
-   grey card a white-patch balance needs, checked before any shading).
+   caller's scene, or an RGB-D photograph's G-buffer), then
+   ``_with_seabed_plane`` (a mesh stands on the seabed it is given, a plane
+   the camera sees), ``_with_seabed`` (the light field's lower boundary)
+   and ``_white_patch_reference`` (the grey card a white-patch balance
+   needs, checked before any shading).
 3. Shading, with the sun: ``_shade_on_gpu`` (a
    :class:`aquaspec.rendering.renderer.Renderer` rasterises, shades and adds
    the sun) or ``_shade_in_numpy`` (ray cast, the sun's NumPy shadow map,
@@ -47,6 +49,7 @@ from aquaspec.light.waves import Waves
 from aquaspec.medium.water import DEFAULT_SOURCE, Water, get_water
 from aquaspec.rendering.appearance import check_depth, colour_of_setup
 from aquaspec.rendering.layers import black_gbuffer, image_layers
+from aquaspec.rendering.limits import check_render_memory
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.result import RenderResult
 from aquaspec.rendering.setup import SpectralSetup
@@ -55,6 +58,7 @@ from aquaspec.scene.camera import Camera, camera_depth, parse_size
 from aquaspec.scene.gbuffer import GBuffer
 from aquaspec.scene.load import load_mesh, place_in_front
 from aquaspec.scene.rgbd import gbuffer_from_rgbd, load_rgbd
+from aquaspec.scene.seabed import plane_radius_m, with_seabed_plane
 from aquaspec.scene.shadowmap import DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, numpy_shadow_map
 from aquaspec.shading.shade import shade_gbuffer
 from aquaspec.shading.sun import surface_visibility
@@ -173,7 +177,13 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         The light field's lower boundary (:class:`aquaspec.scene.seabed.Seabed`):
         ``"scene"`` takes the scene's (the built-in scene's sand; none for
         meshes, RGB-D images and scenes without one), None is deep water.
-        It must lie below the camera.
+        It must lie below the camera. A ``mesh`` given a Seabed also stands
+        on it: a flat plane of its reflectance that the camera sees, out to
+        where the water hides it
+        (:func:`aquaspec.scene.seabed.with_seabed_plane`), with either
+        multiple-scattering model. The built-in scene keeps its sand as the
+        geometry, an RGB-D photograph its own surfaces, and a ``scene`` of
+        yours its own meshes: for them the Seabed is the boundary alone.
     outside : {"error", "zero"}
         Sensor response outside its range.
     exposure : "auto" or float EV; white_balance, tonemap : str
@@ -205,6 +215,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         raise AquaspecError(f"backend {backend!r} is unknown; accepted: {', '.join(BACKENDS)}")
     depth = check_depth(depth_m)
     width, height = parse_size(size)
+    if rgbd is None:
+        check_render_memory(bands, width, height, ms_model=ms_model, backend=backend)
     t0 = time.perf_counter()
     setup, map_size = _spectral_setup(
         water=water, source=source, sensor=sensor, camspec=camspec, bands=bands,
@@ -216,6 +228,10 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         ambient_shadow=ambient_shadow, say=say)
     view = _view(scene=scene, camera=camera, mesh=mesh, albedo=albedo, rgbd=rgbd,
                  depth_m=depth, width=width, height=height, say=say)
+    if rgbd is not None:
+        check_render_memory(bands, view.camera.width, view.camera.height, ms_model=ms_model,
+                            backend=backend)
+    view = _with_seabed_plane(view, seabed, setup)
     setup = _with_seabed(setup, seabed, view)
     reference, white_card_info = _white_patch_reference(setup, view.camera, white_balance)
     if backend == "gpu":
@@ -315,13 +331,40 @@ def _with_seabed(setup: SpectralSetup, seabed, view: _View) -> SpectralSetup:
         raise AquaspecError(f"seabed={seabed!r}; accepted: 'scene', None or an "
                             "aquaspec.scene.seabed.Seabed")
     if bed is not None and setup.ms_model == "lightfield":
-        d_cam = camera_depth(view.camera)
-        if float(bed.depth_m) <= d_cam:
-            raise AquaspecError(f"the seabed at {float(bed.depth_m):g} m is not below the "
-                                f"camera at {d_cam:g} m; accepted: a seabed deeper than "
-                                "the camera, or seabed=None")
+        _check_below_camera(bed, view.camera)
         setup = dataclasses.replace(setup, seabed=bed)
     return setup
+
+
+def _check_below_camera(bed, camera) -> float:
+    """How far the seabed ``bed`` lies below ``camera``, m (> 0, else an error)."""
+    d_cam = camera_depth(camera)
+    if float(bed.depth_m) <= d_cam:
+        raise AquaspecError(f"the seabed at {float(bed.depth_m):g} m is not below the "
+                            f"camera at {d_cam:g} m; accepted: a seabed deeper than "
+                            "the camera, or seabed=None")
+    return float(bed.depth_m) - d_cam
+
+
+def _with_seabed_plane(view: _View, seabed, setup: SpectralSetup) -> _View:
+    """A mesh given a seabed (a Seabed, not ``"scene"`` or None) stands on it:
+    the plane the camera sees (:func:`aquaspec.scene.seabed.with_seabed_plane`)
+    where the light field has its lower boundary, reaching under the whole
+    mesh and out to where the water hides it. Other views are returned as
+    they are (the built-in scene has its sand, an RGB-D photograph its own
+    surfaces, a caller's scene its own geometry)."""
+    if view.description["kind"] != "mesh" or not hasattr(seabed, "albedo_on"):
+        return view
+    camera = view.camera
+    below = _check_below_camera(seabed, camera)
+    # The farthest corner of the scene's bounding box, across the water.
+    dx, dz = np.abs(view.scene.bounds()[:, [0, 2]] - camera.position[[0, 2]]).max(axis=0)
+    reach = float(np.hypot(dx, dz))
+    radius = plane_radius_m(setup.water.on_bands(setup.bands).a, below_camera_m=below,
+                            far_m=camera.far, reach_m=reach + 1.0)
+    scene = with_seabed_plane(view.scene, seabed, camera, radius)
+    return dataclasses.replace(view, scene=scene, description={
+        **view.description, "seabed_plane": {**seabed.describe(), "radius_m": radius}})
 
 
 def _white_patch_reference(setup: SpectralSetup, camera: Camera, white_balance):

@@ -23,6 +23,7 @@ import numpy as np
 from aquaspec.colour.reflectance import Reflectance
 from aquaspec.colour.srgb import srgb_decode
 from aquaspec.errors import AquaspecError
+from aquaspec.io.limits import check_file_size
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.mesh import Mesh, Scene, image_to_linear_rgb
 
@@ -130,8 +131,9 @@ def load_mesh(path, *, albedo=None) -> Scene:
     Raises
     ------
     AquaspecError
-        Missing file, unsupported suffix, unreadable or corrupt file, or a
-        file without triangles; the message names the path and the formats.
+        Missing file, unsupported suffix, a file over the size ceiling of
+        :mod:`aquaspec.io.limits`, unreadable or corrupt file, or a file
+        without triangles; the message names the path and the formats.
     """
     import trimesh  # deferred: trimesh takes about 0.9 s to import; only loading a mesh needs it
 
@@ -145,6 +147,7 @@ def load_mesh(path, *, albedo=None) -> Scene:
     if not os.path.isfile(path):
         raise AquaspecError(f"mesh file {path!r} does not exist; accepted formats: "
                             f"{_formats_text()}")
+    check_file_size(path, "mesh", "mesh file")
     try:
         # process=False keeps the file's vertex split (hard edges keep their
         # own normals) instead of merging duplicate vertices.

@@ -35,6 +35,7 @@ from PIL import Image
 from aquaspec.colour.reflectance import fit_sigmoid_image
 from aquaspec.errors import AquaspecError
 from aquaspec.io.exr import openexr
+from aquaspec.io.limits import check_file_size
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
 from aquaspec.scene.mesh import image_to_linear_rgb
@@ -174,7 +175,7 @@ def gbuffer_from_rgbd(rgb, depth_m, intrinsics, *, camera_depth_m: float,
                    np.full((h, w), PER_PIXEL, dtype=np.uint32), sigmoid, [])
 
 
-def _check_file(path, formats, what):
+def _check_file(path, formats, what, kind):
     path = os.fspath(path)
     suffix = os.path.splitext(path)[1].lower()
     if suffix not in formats:
@@ -182,13 +183,16 @@ def _check_file(path, formats, what):
                             f"{', '.join(formats)}")
     if not os.path.isfile(path):
         raise AquaspecError(f"{what} {path!r} does not exist")
+    check_file_size(path, kind, what)
     return path, suffix
 
 
 def _read_depth(path, suffix):
     if suffix == ".npy":
         try:
-            return np.load(path, allow_pickle=False)
+            # Memory-mapped first: a header claiming more data than the file
+            # holds fails here instead of allocating it.
+            return np.array(np.load(path, mmap_mode="r", allow_pickle=False))
         except Exception as exc:
             raise AquaspecError(f"could not read depth file {path!r} as .npy ({exc})") from exc
     if suffix == ".exr":
@@ -239,17 +243,17 @@ def load_rgbd(image_path, depth_path):
     depth_m : (H, W) float64 array, metres
         Checked: same size as the image, every value finite and > 0.
     """
-    image_path, _ = _check_file(image_path, IMAGE_FORMATS, "image file")
-    depth_path, suffix = _check_file(depth_path, DEPTH_FORMATS, "depth file")
+    image_path, _ = _check_file(image_path, IMAGE_FORMATS, "image file", "image")
+    depth_path, suffix = _check_file(depth_path, DEPTH_FORMATS, "depth file", "depth")
     try:
         with Image.open(image_path) as im:
             rgb = np.array(im.convert("RGB") if im.mode not in ("RGB", "I;16") else im)
     except Exception as exc:
         raise AquaspecError(f"could not read image file {image_path!r} ({exc}); accepted: "
                             f"{', '.join(IMAGE_FORMATS)}") from exc
-    depth = _read_depth(depth_path, suffix)
-    if np.asarray(depth).shape[:2] != rgb.shape[:2]:
+    depth = check_depth_map(_read_depth(depth_path, suffix), what=f"depth map {depth_path!r}")
+    if depth.shape != rgb.shape[:2]:
         raise AquaspecError(f"image {image_path!r} is {rgb.shape[1]}x{rgb.shape[0]} but depth "
-                            f"{depth_path!r} is {depth.shape[1] if depth.ndim > 1 else '?'}x"
-                            f"{depth.shape[0]}; they must be the same size")
-    return rgb, check_depth_map(depth, what=f"depth map {depth_path!r}")
+                            f"{depth_path!r} is {depth.shape[1]}x{depth.shape[0]}; they must "
+                            "be the same size")
+    return rgb, depth

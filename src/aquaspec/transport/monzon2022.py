@@ -97,7 +97,7 @@ def ms_path_integral(c, kd, depth_o, v_y, s):
     # x >= 0: exp(-Kd d_o) * (1 - e^-x) / k, i.e. S (1 - e^-x) / x, which is S at k = 0.
     k_safe = np.where(k > 0, k, 1.0)
     with np.errstate(over="ignore"):
-        finite_part = np.exp(base) * np.where(k > 0, decay_integral(k_safe, s_f), s_f)
+        finite_part = np.exp(base) * np.where(k > 0, decay_integral(k_safe, s_f, small=0.0), s_f)
     # x < 0: exp(-Kd d_o) * S * (e^y - 1)/y with y = -x; the exponent
     # -Kd d_o + y = -Kd d(S) - c S stays <= 0 for rays that stay under water.
     # (Evaluated only there: few rays, and most of the cost when done everywhere.)

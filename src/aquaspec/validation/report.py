@@ -12,10 +12,12 @@ import csv
 import io
 import json
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from aquaspec.io.atomic import write_file_atomically
+from aquaspec.transport.models import DEFAULT_MS_MODEL, ms_model_name
 from aquaspec.validation.reference import REFERENCE_BANDS
 from aquaspec.validation.study import CONVERGED_STDERR, KD_DEPTHS_M, REGIONS
 
@@ -151,7 +153,7 @@ def write_results(result, out_dir) -> dict:
         plot_errors(rows, paths["figure_measured_kd"], kd="measured", order=order)
     else:
         del paths["figure_measured_kd"]
-    plot_panels(result["images"], paths["panels"])
+    plot_panels(result["images"], paths["panels"], result["params"])
     return {k: str(v) for k, v in paths.items()}
 
 
@@ -207,28 +209,73 @@ def plot_errors(rows, path, *, region="patch_means", kd="database", order=None):
         plt.close(fig)
 
 
-def plot_panels(images, path):
-    """Reference / ours (largest n, seeds) / RGB / difference, per scene (first camera)."""
+class Panel(NamedTuple):
+    """A column of :func:`plot_panels`: the image of ``method`` with Kd mode
+    ``kd`` (the study's image keys), or with ``difference`` its absolute
+    difference from the reference, times :data:`DIFFERENCE_GAIN`."""
+
+    title: str
+    method: str
+    kd: str = "database"
+    difference: bool = False
+
+
+#: The panels' difference images are this many times brighter than the error.
+DIFFERENCE_GAIN = 4.0
+
+
+def panel_columns(images, params) -> list[Panel]:
+    """The columns of :func:`plot_panels` for a study's ``images`` and ``params``.
+
+    The reference; each multiple-scattering model that was run
+    (``params["ms_models"]``, in its order) at the largest band count, and
+    the light field also without its seabed where it ran so; then the RGB
+    n = 3 render and the difference from the reference of the main model:
+    the renderer's default (:data:`aquaspec.transport.models.DEFAULT_MS_MODEL`)
+    when it ran, else the first (without models, Unreal's water). A model
+    given by an alias is titled with its canonical name too. Database Kd.
+    """
+    n = max(params["band_counts"])
+    models = list(params["ms_models"])
+    cols = [Panel("reference", "reference", "-")]
+    for m in models:
+        canonical = ms_model_name(m)
+        cols.append(Panel(f"{m}-n{n}" + (f" ({canonical})" if canonical != m else ""),
+                          f"{m}-n{n}"))
+        deep = f"lightfield-deep-n{n}"
+        if m == "lightfield" and any(k[2] == deep for k in images):
+            cols.append(Panel(f"{deep} (no seabed)", deep))
+    if models:
+        main = next((m for m in models if ms_model_name(m) == DEFAULT_MS_MODEL), models[0])
+        cols.append(Panel(f"rgb-{main}-n3", f"rgb-{main}-n3"))
+        ours = f"{main}-n{n}"
+    else:
+        ours = "unreal"
+        cols.append(Panel(ours, ours))
+    cols.append(Panel(f"|{ours} - ref| x{DIFFERENCE_GAIN:g}", ours, difference=True))
+    return cols
+
+
+def plot_panels(images, path, params):
+    """One row per scene (first camera), the columns of :func:`panel_columns`."""
     import matplotlib  # deferred: matplotlib takes 0.3 s to import; only the plots need it
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # deferred: as matplotlib
     scenes = sorted({(w, d) for (w, d, m, k) in images}, key=lambda x: (x[0], x[1]))
-    ours = sorted({m for (_, _, m, k) in images if m.startswith("seeds-n")},
-                  key=lambda m: int(m.split("n")[-1]))[-1:]
-    fig, axes = plt.subplots(len(scenes), 4, figsize=(10, 2.2 * len(scenes)), squeeze=False)
+    cols = panel_columns(images, params)
+    fig, axes = plt.subplots(len(scenes), len(cols),
+                             figsize=(2.5 * len(cols), 2.2 * len(scenes)), squeeze=False)
     for i, (w, d) in enumerate(scenes):
         ref = images[(w, d, "reference", "-")]
         scale = 0.8 / max(float(np.percentile(ref, 99)), 1e-300)
-        ours_img = images.get((w, d, ours[0], "database")) if ours else None
-        rgb_img = images.get((w, d, "rgb-seeds-n3", "database"))
-        panels = [("reference", ref), (ours[0] if ours else "ours", ours_img),
-                  ("RGB n=3", rgb_img),
-                  ("|ours - ref|", None if ours_img is None else np.abs(ours_img - ref) * 4)]
-        for ax, (title, img) in zip(axes[i], panels):
+        for j, col in enumerate(cols):
+            img = images[(w, d, col.method, col.kd)]
+            if col.difference:
+                img = np.abs(img - ref) * DIFFERENCE_GAIN
+            ax = axes[i][j]
             ax.set_axis_off()
-            if img is not None:
-                ax.imshow(np.clip(img * scale, 0, 1) ** (1 / 2.2))
-            ax.set_title(f"{w} {d:g} m: {title}" if ax is axes[i][0] else title, fontsize=8)
+            ax.imshow(np.clip(img * scale, 0, 1) ** (1 / 2.2))
+            ax.set_title(f"{w} {d:g} m: {col.title}" if j == 0 else col.title, fontsize=8)
     fig.tight_layout()
     try:
         write_file_atomically(path, lambda t: fig.savefig(t, format="png", dpi=100))

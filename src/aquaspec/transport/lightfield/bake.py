@@ -145,8 +145,59 @@ def tables_key(band_water, args: dict) -> str | None:
         value = args[name]
         parts.append(name)
         parts.append(np.asarray(value, dtype=float).tobytes()
-                     if isinstance(value, np.ndarray) else repr(value))
+                     if isinstance(value, np.ndarray) else value)
     return cache.digest(*parts)
+
+
+#: Optical depth ``K_inf d`` beyond which the light field's scaled modes
+#: underflow float64 (``exp(-745)``): measured on Jerlov IB and 9C, the tables
+#: are finite up to about 710 and not beyond 730.
+MAX_OPTICAL_DEPTH = 700.0
+
+
+def _water_label(band_water) -> str:
+    water = getattr(band_water, "water", None)
+    return f"water {water.name!r}" if getattr(water, "name", None) else "the water"
+
+
+def _band_label(i, wl) -> str:
+    return f"{float(np.asarray(wl)[i]):g} nm" if wl is not None else f"band {i + 1}"
+
+
+def _check_scattering(band_water, b, wl) -> None:
+    """The light field is the diffuse light of scattering: refuse b = 0 up
+    front, saying what renders a water that does not scatter."""
+    none = np.flatnonzero(~(b > 0))
+    if none.size:
+        where = ", ".join(_band_label(i, wl) for i in none[:4]) + (", ..." if none.size > 4
+                                                                   else "")
+        raise AquaspecError(
+            f"{_water_label(band_water)} has scattering b = 0 at {where} ({none.size} of "
+            f"{b.size} bands): the light-field model tabulates the light that scattering "
+            "spreads through the water, and without scattering there is none; accepted: "
+            "b > 0 in every band, or the seeds' model (--ms-model seeds, "
+            "ms_model='seeds'), which renders a water that does not scatter")
+
+
+def _not_finite_error(band_water, k_inf, d_max, wl, phase) -> AquaspecError:
+    """Why the tables came out non-finite: too deep for float64, else (a bug
+    or an extreme input) the water and phase named."""
+    k = np.asarray(k_inf, dtype=float)
+    tau = k * d_max
+    if np.nanmax(tau) > MAX_OPTICAL_DEPTH:
+        i = int(np.nanargmax(tau))
+        reach = MAX_OPTICAL_DEPTH / float(np.nanmax(k))
+        return AquaspecError(
+            f"the light field's depth axis reaches {d_max:g} m (the seabed, or the deepest "
+            f"point asked for), where {_water_label(band_water)} has dimmed the light by "
+            f"exp(-{tau[i]:.0f}) at {_band_label(i, wl)} (K = {k[i]:.3g} /m), beyond what "
+            f"float64 holds; accepted: a camera and seabed above about {reach:.0f} m in this "
+            "water (deeper, the light is far below anything a camera records)")
+    return AquaspecError(
+        f"light-field tables came out non-finite for {_water_label(band_water)} (a from "
+        f"{np.min(band_water.a):g} to {np.max(band_water.a):g} /m, b from "
+        f"{np.min(band_water.b):g} to {np.max(band_water.b):g} /m) with phase {phase!r}; "
+        "please report these inputs, or use the seeds' model (--ms-model seeds)")
 
 
 def bake_tables(band_water, *, phase, seabed_depth_m, seabed_albedo, n_depth, n_mu,
@@ -166,6 +217,7 @@ def bake_tables(band_water, *, phase, seabed_depth_m, seabed_albedo, n_depth, n_
     for name, val in (("n_depth", n_depth), ("n_mu", n_mu)):
         if not (isinstance(val, (int, np.integer)) and val >= 2):
             raise AquaspecError(f"{name}={val!r}; accepted: an integer >= 2")
+    _check_scattering(band_water, b, wl)
     if (sun_mu0 is None) != (sun_fraction is None):
         raise AquaspecError("sun_mu0 and sun_fraction go together: give both (a sun) or "
                             f"neither; got sun_mu0={sun_mu0!r}, sun_fraction={sun_fraction!r}")
@@ -201,10 +253,12 @@ def bake_tables(band_water, *, phase, seabed_depth_m, seabed_albedo, n_depth, n_
     # so that F stays smooth near both boundaries.
     ref = seeds_shape(b[:, None, None], lf.c[:, None, None], k1[:, None, None], dd, vv,
                       cut_at_seabed(np.inf, dd, vv, lf.seabed_depth_m))
-    pref = r_inf / ref
-    irr = lf.irradiance(depth[:, None], cos[None, :])
+    # Checked below, where the failure is explained (_not_finite_error).
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
+        pref = r_inf / ref
+        irr = lf.irradiance(depth[:, None], cos[None, :])
     if not (np.all(np.isfinite(pref)) and np.all(pref > 0) and np.all(np.isfinite(irr))):
-        raise AquaspecError("light-field tables came out non-finite; check a, b and the phase")
+        raise _not_finite_error(band_water, lf.k_inf, d_max, wl, phase)
     f_cone = band_cone_fraction(phase, forward_cone_deg, b, wl, **phase_params)
     f32 = np.float32
     cone = None
