@@ -184,6 +184,12 @@ class TestCamspecOrigin:
         assert re.search(r"camspec file '.*camspec_database.txt' does not exist; .*Jiang et "
                          r"al\. 2013.*not shipped with aquaspec", err), err
 
+    def test_list_prints_nothing_before_the_error(self, tmp_path, capsys):
+        """A bad camspec file is one error, not the built-in sensors and then an error."""
+        code = main(["list", "sensors", "--camspec", str(tmp_path / "nope.txt")])
+        out = capsys.readouterr().out
+        assert code == 2 and out == "", out
+
 
 class TestHelp:
     def subparsers(self):

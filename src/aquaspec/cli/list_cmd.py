@@ -30,11 +30,11 @@ def run(args):
             print(f"    {jerlov.get_source(source).citation}")
         print("or your own: --water FILE.csv with columns wavelength_nm,a,b[,Kd]")
     else:
-        for name, s in builtin_sensors().items():
+        # The camspec file is read before anything is printed: a bad file is
+        # one error, not half a list.
+        cameras = load_camspec(check_camspec(args.camspec)) if args.camspec else {}
+        for name, s in {**builtin_sensors(), **cameras}.items():
             print(f"{name:24s} {s.range_nm[0]:g}-{s.range_nm[1]:g} nm  {s.source}")
-        if args.camspec:
-            for name, s in load_camspec(check_camspec(args.camspec)).items():
-                print(f"{name:24s} {s.range_nm[0]:g}-{s.range_nm[1]:g} nm  {s.source}")
-        else:
+        if not args.camspec:
             print("(add --camspec PATH to list the cameras of a camspec_database.txt)")
     return 0
