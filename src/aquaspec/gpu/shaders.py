@@ -2,8 +2,9 @@
 
 A pass's shader lives beside its Python module, ``aquaspec/gpu/passes/<name>.wgsl``;
 the pieces several shaders include (``common.wgsl``, ``tonemap.wgsl``,
-``materials.wgsl``, ``lftables.wgsl``) live in ``aquaspec/gpu/wgsl/``. A name
-is looked up in both folders and must be in exactly one. Two mechanisms
+``materials.wgsl``, ``lftables.wgsl``, ``shading4.wgsl``) live in
+``aquaspec/gpu/wgsl/``. A name is looked up in both folders and must be in
+exactly one. Two mechanisms
 compose them:
 
 - ``#include "name.wgsl"`` on a line of its own pastes that file (once).

@@ -1,7 +1,7 @@
 """The GPU light-field pass against its NumPy twin (lightfield_compiled.shade_compiled).
 
 How far the compiled model is from the model itself (shade_gbuffer with
-tables) is tests/test_lightfield_compiled.py's subject."""
+tables) is tests/transport/lightfield/test_compiled.py's subject."""
 
 from __future__ import annotations
 
@@ -18,6 +18,8 @@ from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.shading.shade import shade_gbuffer
 from aquaspec.medium.water import load_water
+
+from support.lightfield_passes import gpu_pass, setup_of
 
 pytestmark = pytest.mark.gpu
 
@@ -37,31 +39,12 @@ def with_per_pixel_materials(gb):
     return dataclasses.replace(gb, material=material, sigmoid=sigmoid)
 
 
-def setup_of(water, n, phase, cone=0.0, sensor="nikon-5100-npl", cone_spread=False):
-    return SpectralSetup(load_water(water), get_sensor(sensor), surface_light("overcast"),
-                         Bands(n), ms_model="lightfield", phase=phase, forward_cone_deg=cone,
-                         cone_spread=cone_spread)
-
-
 def assert_fused_display_matches(lp, gb, fused_and_two_pass):
     """The pass's fused display image is the display pass's on its linear output (1 step)."""
     fused, expected = fused_and_two_pass(lp, gb.camera.width, gb.camera.height,
                                          exposure_ev=2.0, tonemap="filmic")
     diff = np.abs(fused.astype(int) - expected.astype(int))
     assert diff.max() <= 1 and np.mean(diff == 0) > 0.99
-
-
-def gpu_pass(gb, setup, e0_scale=1.0, filtering=None, tables=None):
-    from aquaspec.gpu.device import get_device
-    from aquaspec.gpu.gbuffer import GBufferTextures
-    from aquaspec.gpu.passes.lightfield import LightfieldPass
-    g = GBufferTextures(get_device()[1], gb.camera.width, gb.camera.height)
-    g.upload(gb)
-    lp = LightfieldPass(g, filtering=filtering)
-    medium = setup.medium(gb.materials)
-    medium["e0"] = medium["e0"] * e0_scale
-    lp.set_medium(**medium, tables=setup.lightfield_tables() if tables is None else tables)
-    return lp
 
 
 def assert_matches(got, ref, rtol=1e-3):
@@ -259,7 +242,7 @@ def test_render_api_uses_the_lightfield_pass():
                  phase="isotropic", backend="numpy")
     assert gpu.params["ms_model"] == "lightfield" and gpu.params["phase"] == "isotropic"
     # Different rasterisers (GPU vs ray casting) agree away from silhouettes;
-    # the GPU shades with the compiled model (tests/test_lightfield_compiled.py:
+    # the GPU shades with the compiled model (tests/transport/lightfield/test_compiled.py:
     # within a few 1e-3 of the model on most pixels).
     close = np.isclose(gpu.linear_rgb, cpu.linear_rgb, rtol=5e-3).all(axis=-1)
     assert close.mean() > 0.9
@@ -358,47 +341,6 @@ def test_read_display_errors(lightfield_gbuffer):
     lp.run(display=True)
     with pytest.raises(AquaspecError, match="material index >= "):
         lp.read_display()
-
-
-@pytest.mark.parametrize("water,n,phase,depth,cone,spread", [
-    ("IB", 8, "petzold", 5.0, 15.0, False),
-    ("I", 5, "hg", 0.3, 15.0, False),       # just below the surface: fast change at the horizon
-    ("7C", 16, "isotropic", 12.0, 0.0, False),
-    ("II", 6, "ff", 4.0, 40.0, True),
-])
-def test_water_table_built_on_the_gpu_matches_numpy(water, n, phase, depth, cone, spread,
-                                                    lightfield_gbuffer):
-    """watertable.wgsl against lightfield_compiled.water_table (float64), both
-    layers, and the table is rebuilt when the camera's depth changes."""
-    from aquaspec.transport.lightfield.conespread import pyramid_weights
-    from aquaspec.transport.lightfield.compiled import water_table
-    from aquaspec.transport.lightfield.spreadplan import spread_plan
-    gb = lightfield_gbuffer("up", depth)
-    params = (("backscatter", 0.0183),) if phase == "ff" else ()
-    setup = dataclasses.replace(setup_of(water, n, phase, cone=cone), phase_params=params,
-                                cone_spread=spread)
-    lp = gpu_pass(gb, setup)
-    lp.run()
-    got = lp.water.read()
-    med = setup.medium(gb.materials)
-    ref = water_table(setup.lightfield_tables(), a=med["a"], b=med["b"], e0=med["e0"],
-                      response_weights=med["response_weights"], depth_o=depth, split=spread)
-    if spread:
-        alpha = lp.spread_plan[1]
-        cam = gb.camera
-        weights = pyramid_weights(setup.lightfield_tables().cone, cam.fy, cam.height, cam.width)
-        assert alpha == spread_plan(weights, cam.fy)[1]
-        ref = np.stack([ref[0] + alpha * ref[1], ref[1]])
-    assert got.shape == ref.shape
-    scale = np.abs(ref).max()
-    np.testing.assert_allclose(got, ref, rtol=2e-4, atol=2e-6 * scale)
-    # A new depth, a new table.
-    key = lp.water.key
-    gb2 = lightfield_gbuffer("up", depth + 1.0)
-    lp.gbuffer.upload(gb2)
-    lp.run()
-    assert lp.water.key != key
-    assert np.abs(lp.water.read() - got).max() > 1e-3 * scale
 
 
 @pytest.mark.parametrize("water,n,kind,start,filtering", [

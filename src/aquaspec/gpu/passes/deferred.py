@@ -47,6 +47,7 @@ from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.materials import MaterialTable
 from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.gpu.shading_output import ShadingOutput
+from aquaspec.gpu.shading_pass import WORKGROUP, ShadingPass
 
 #: Ambient models of :data:`aquaspec.transport.monzon2022.AMBIENT_MODELS` by WGSL id
 #: (``ambient_factor`` in ``gpu/wgsl/common.wgsl``).
@@ -63,11 +64,6 @@ PARAMS_LAYOUT = UniformLayout("DeferredCamera", CAMERA_FIELDS + [
     ("snell_cos", "f32"), ("window_factor", "f32"),
     ("per_pixel", "u32"), ("open_table", "u32"),
 ])
-
-#: Compute workgroup size (x, y) of deferred.wgsl, in invocations.
-WORKGROUP = (8, 8)
-#: Adjacent pixels of a row shaded by one invocation of deferred.wgsl.
-PIXELS_PER_INVOCATION = 4
 
 # Binding numbers (also in deferred.wgsl). (1 and 2: the G-buffer,
 # aquaspec.gpu.gbuffer; 3 and 5: the material table, aquaspec.gpu.materials;
@@ -148,7 +144,7 @@ def band_table(a, b, kd, e0, response_weights, sigmoid_centers_t, depth_o) -> np
                      be0, base, e0 * N_WATER ** 2 / np.pi, np.zeros_like(a)], axis=1)
 
 
-class DeferredPass:
+class DeferredPass(ShadingPass):
     """Deferred spectral shading of a ``width`` x ``height`` G-buffer with ``n_bands`` bands.
 
     Create it once per image size and band count; then per frame fill
@@ -171,6 +167,8 @@ class DeferredPass:
     gbuffer : GBufferTextures, optional
         The G-buffer to shade (of this size); default: a new one.
     """
+
+    label = "deferred shading"
 
     def __init__(self, width: int, height: int, n_bands: int, *, device=None,
                  debug_radiance: bool = False, gbuffer: GBufferTextures | None = None):
@@ -238,10 +236,9 @@ class DeferredPass:
         self._medium_version = 0
 
     @property
-    def rgb_buffer(self):
-        """Linear camera RGB of the last frame, ``width * height`` vec4<f32> (read by
-        the display and sun passes)."""
-        return self.output.rgb_buffer
+    def n_materials(self) -> int | None:
+        """Rows of the material table of the last :meth:`set_medium` (None before)."""
+        return self._n_materials
 
     # ---------------------------------------------------------------- inputs
     def set_medium(self, a, b, kd, e0, response_weights, material_bands, sigmoid_centers_t,
@@ -268,16 +265,6 @@ class DeferredPass:
         self._n_materials = mb.shape[0]
         self._ambient_id = AMBIENT_MODEL_IDS[ambient]
         self._medium_version += 1
-
-    def set_display(self, **settings) -> None:
-        """Settings of the fused display transform (``encode(display=True)``):
-        :meth:`aquaspec.gpu.shading_output.ShadingOutput.set_display`."""
-        self.output.set_display(**settings)
-
-    @property
-    def display_settings(self) -> dict | None:
-        """The settings of :meth:`set_display` (None before)."""
-        return self.output.display_settings
 
     # ------------------------------------------------------------- dispatch
     def upload_uniforms(self) -> None:
@@ -335,11 +322,6 @@ class DeferredPass:
                                                     "deferred.wgsl")
         return self._pipelines[key]
 
-    def workgroups(self) -> tuple[int, int, int]:
-        """Dispatch size covering the image."""
-        per_x = WORKGROUP[0] * PIXELS_PER_INVOCATION
-        return (-(-self.width // per_x), -(-self.height // WORKGROUP[1]), 1)
-
     def encode(self, encoder, timestamp_writes=None, *, display: bool = False) -> None:
         """Record the shading into ``encoder`` (uniforms are uploaded first).
 
@@ -354,32 +336,7 @@ class DeferredPass:
         record_dispatch(encoder, self.pipeline(tonemap), self.bind_group(),
                         self.workgroups(), timestamp_writes)
 
-    def run(self, *, display: bool = False) -> None:
-        """Shade the current G-buffer (submits; does not wait); ``display`` as in :meth:`encode`."""
-        encoder = self.device.create_command_encoder()
-        self.encode(encoder, display=display)
-        self.device.queue.submit([encoder.finish()])
-
     # ------------------------------------------------------------- outputs
-    def read_display(self) -> np.ndarray:
-        """The display image of the last ``run(display=True)``, (H, W, 3) uint8
-        (:meth:`aquaspec.gpu.shading_output.ShadingOutput.read_display`)."""
-        return self.output.read_display(self._n_materials)
-
-    def read_rgb(self) -> np.ndarray:
-        """Linear camera RGB of the last run, (H, W, 3) float32.
-
-        Raises :class:`AquaspecError` if a pixel referenced an undefined
-        material or a value is not finite, or if the last run wrote the
-        display image instead.
-        """
-        rgb = self.output.read_rgb(self._n_materials)
-        if not np.all(np.isfinite(rgb)):
-            i, j = np.argwhere(~np.all(np.isfinite(rgb), axis=-1))[0]
-            raise AquaspecError(f"deferred shading produced a non-finite value at pixel "
-                                f"({i}, {j}); check the water coefficients and G-buffer")
-        return rgb
-
     def read_radiance(self) -> np.ndarray:
         """Band radiance of the last run, (H, W, n) float32 (debug mode only)."""
         if not self.debug_radiance:

@@ -24,9 +24,7 @@
 //   faster than a band per iteration), below it a loop over each vec4's
 //   bands sits in a loop over the vec4s (1-1.4 ms faster with 3 or 8).
 
-#include "common.wgsl"
-#include "tonemap.wgsl"
-#include "materials.wgsl"
+#include "shading4.wgsl"
 
 {{ camera_struct }}
 
@@ -43,29 +41,15 @@ const TONEMAP: u32 = {{ tonemap_id }}u;
 // sigmoid texture is not read and no sigmoid is evaluated.
 const PER_PIXEL_MATERIALS: bool = {{ per_pixel }};
 
-// Material index meaning "use this pixel's sigmoid coefficients" (gbuffer.PER_PIXEL).
-const PER_PIXEL: u32 = 0xffffffffu;
-
 @group(0) @binding(0) var<uniform> cam: {{ camera_struct_name }};
-// G-buffer: the geometry pass's render targets (aquaspec.gpu.gbuffer):
-// surface (S bits, n_y bits, octahedral normal, material index) and sigmoid
-// (c0, c1, c2, unused).
-@group(0) @binding(1) var gb_surface: texture_2d<u32>;
-@group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
+// (Bindings 1 and 2, the G-buffer, and 6, 8, 9, 10, the outputs: shading4.wgsl.)
 // Three vec4 per band i (aquaspec.gpu.passes.deferred.BAND_FIELDS):
 //   [3i]     c, kd, t, ms_scale = b E0 / (4 pi) exp(-Kd d_o)
 //   [3i + 1] w_r, w_g, w_b, e0_over_pi = E0 / pi
 //   [3i + 2] be0 = b E0 / (4 pi), base = -Kd d_o, e0_window = E0 n^2 / pi, 0
 @group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
 // (Bindings 3 and 5: the material table, materials.wgsl.)
-@group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> radiance_out: array<f32>;
-// status[0]: pixels with a material index out of range; with DISPLAY,
-// status[2]: pixels with a non-finite value (written black) and status[3]
-// the smallest such pixel index.
-@group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
-@group(0) @binding(9) var<uniform> disp: {{ display_struct_name }};
-@group(0) @binding(10) var<storage, read_write> rgba_out: array<u32>;
 // Open-water table (aquaspec.gpu.passes.deferred.open_water_table): camera RGB of a
 // ray that hits nothing, two vec4 per sample of v_y over [-1, 1]: [2j] the
 // scattering term, [2j + 1] the sky through Snell's window (added inside it).
@@ -83,8 +67,8 @@ fn ray_direction_y(j0: u32, i: u32) -> vec4<f32> {
     return dy * inverseSqrt(dx * dx + dy * dy + dz * dz);
 }
 
-// What the band loop needs of the four pixels (vec4 lanes).
-struct SeedsPixels {
+// What the band loop (shading4.wgsl) needs of the four pixels (vec4 lanes).
+struct BandPixels {
     s: vec4<f32>,
     s_finite: vec4<bool>,
     v_y: vec4<f32>,
@@ -103,7 +87,7 @@ struct SeedsPixels {
 
 // Band i of the four pixels (material reflectance rho_m, 0 where none) added
 // to acc, and with WRITE_RADIANCE written out.
-fn shade_band(i: u32, rho_m: vec4<f32>, p: SeedsPixels, acc: ptr<function, Rgb4>) {
+fn shade_band(i: u32, rho_m: vec4<f32>, p: BandPixels, acc: ptr<function, Rgb4>) {
     let q0 = band_table[3u * i];
     let q1 = band_table[3u * i + 1u];
     let q2 = band_table[3u * i + 2u];
@@ -138,13 +122,8 @@ fn shade_band(i: u32, rho_m: vec4<f32>, p: SeedsPixels, acc: ptr<function, Rgb4>
 @compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>,
         @builtin(num_workgroups) nwg: vec3<u32>) {
-    // Rows of workgroups are interleaved, top half / bottom half: lavapipe
-    // gives each CPU thread a contiguous part of the dispatch, and the two
-    // halves of a typical frame (water above, seabed below) cost differently
-    // once open water takes the table path below.
-    let half = (nwg.y + 1u) / 2u;
-    let block = select(half + wg.y / 2u, wg.y / 2u, wg.y % 2u == 0u);
-    let row = block * {{ workgroup_y }}u + lid.y;
+    // Rows of workgroups interleaved, top half / bottom half (shading4.wgsl).
+    let row = interleaved_row(wg.y, lid.y, nwg.y);
     let j0 = 4u * (wg.x * {{ workgroup_x }}u + lid.x);
     if (j0 >= cam.width || row >= cam.height) {
         return;
@@ -153,25 +132,12 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     let v_y = ray_direction_y(j0, row);
     let depth_o = -cam.position.y;
 
-    var s_gb: vec4<f32>;
-    var n_y: vec4<f32>;
-    var material: vec4<u32>;
-    var sig: array<vec3<f32>, 4>;
-    for (var k = 0u; k < 4u; k = k + 1u) {
-        let xy = vec2<u32>(min(j0 + k, cam.width - 1u), row);
-        let surf = textureLoad(gb_surface, xy, 0);
-        s_gb[k] = bitcast<f32>(surf.x);
-        n_y[k] = bitcast<f32>(surf.y);
-        material[k] = surf.w;
-        if (PER_PIXEL_MATERIALS) {
-            sig[k] = textureLoad(gb_sigmoid, xy, 0).xyz;
-        }
-    }
+    let cols = vec4<u32>(j0) + vec4<u32>(0u, 1u, 2u, 3u);
+    let px = min(cols, vec4<u32>(cam.width - 1u));
+    let gb = load_gbuffer(px, vec4<u32>(row));
     // A hit counts only if the ray reaches it before the water surface.
-    let up = v_y > vec4<f32>(0.0);
-    let hit = (s_gb >= vec4<f32>(0.0))
-        & (!up | (s_gb <= depth_o / select(vec4<f32>(1.0), v_y, up)));
-    let rl = ray_length(s_gb, hit, depth_o, v_y);
+    let hit = hit_before_surface(gb.s, v_y, depth_o);
+    let rl = ray_length(gb.s, hit, depth_o, v_y);
     let s = rl.s;
     let s_finite = rl.finite;
 
@@ -179,35 +145,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     // factor g(n_y), its reflectance source, and Snell's window.
     // Depth where the ray ends (the surface point, or 0 at the water surface).
     let end_depth = max(depth_o - s * v_y, vec4<f32>(0.0));
-    let g = select(vec4<f32>(0.0), ambient_factor(cam.ambient_model, n_y), hit);
-    let use_sigmoid = hit & (material == vec4<u32>(PER_PIXEL)) & vec4<bool>(PER_PIXEL_MATERIALS);
-    let use_material = hit & !use_sigmoid & (material < vec4<u32>(cam.n_materials));
-    var c0 = vec4<f32>(0.0);
-    var c1 = vec4<f32>(0.0);
-    var c2 = vec4<f32>(0.0);
-    var bad = 0u;
-    for (var k = 0u; k < 4u; k = k + 1u) {
-        let valid = j0 + k < cam.width;
-        if (valid && use_sigmoid[k]) {
-            let c = sig[k];
-            c0[k] = c.x;
-            c1[k] = c.y;
-            c2[k] = c.z;
-        }
-        if (valid && hit[k] && !use_sigmoid[k] && !use_material[k]) {
-            // Out-of-range material index (or PER_PIXEL in a G-buffer declared
-            // without per-pixel materials).
-            bad = bad + 1u;
-        }
-    }
-    if (bad > 0u) {
-        // Reported to the host, which raises; those pixels get rho = 0.
-        atomicAdd(&status[0], bad);
-    }
+    let g = select(vec4<f32>(0.0), ambient_factor(cam.ambient_model, gb.n_y), hit);
+    let mat = pixel_materials(gb, hit, cam.n_materials, cols < vec4<u32>(cam.width));
     let in_window = !hit & s_finite & (v_y > vec4<f32>(cam.snell_cos));
-    // Each pixel's first vec4 in the material table (0 where unused: it
-    // exists, and material_group zeroes it).
-    let mrow = select(vec4<u32>(0u), material * MATERIAL_GROUPS, use_material);
 
     var r = vec4<f32>(0.0);
     var gr = vec4<f32>(0.0);
@@ -237,84 +177,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     // (The table's loop indexes r, gr, b per pixel: the band loop's sums
     // start from them in a variable of their own, which stays in registers.)
     var acc = Rgb4(r, gr, b);
-    let px = SeedsPixels(s, s_finite, v_y, end_depth, g, hit, in_window, use_sigmoid, c0, c1, c2,
-                         row_start + j0, min(cam.width - j0, 4u));
-    // One material vec4 per pixel for four bands (aquaspec.gpu.materials):
-    // below GROUPED_MIN_BANDS nested loops, from it four band bodies per
-    // iteration, then N_BANDS % 4.
-    if (!GROUPED_BANDS) {
-        // A material vec4 per outer iteration, a band per inner one (trip
-        // counts per invocation: the loops stay loops, as materials.wgsl says).
-        if (N_BANDS < 4u) {
-            // (One vec4, read outside any loop: with 3 bands the outer loop's
-            // single iteration cost 1.1-1.3 ms per 1280x720 frame.)
-            let m = material_group(mrow, 0u, use_material);
-            let n_in = select(N_BANDS, 0u, from_table);
-            for (var j = 0u; j < n_in; j = j + 1u) {
-                shade_band(j, group_band(m, j), px, &acc);
-            }
-        } else {
-            let n_outer = select(MATERIAL_GROUPS, 0u, from_table);
-            for (var q = 0u; q < n_outer; q = q + 1u) {
-                let m = material_group(mrow, q, use_material);
-                let n_in = min(4u, N_BANDS - 4u * q);
-                for (var j = 0u; j < n_in; j = j + 1u) {
-                    shade_band(4u * q + j, group_band(m, j), px, &acc);
-                }
-            }
-        }
-    }
-    let n_groups = select(0u, select(FULL_GROUPS, 0u, from_table), GROUPED_BANDS);
-    for (var q = 0u; q < n_groups; q = q + 1u) {
-        let m = material_group(mrow, q, use_material);
-        shade_band(4u * q, group_band(m, 0u), px, &acc);
-        shade_band(4u * q + 1u, group_band(m, 1u), px, &acc);
-        shade_band(4u * q + 2u, group_band(m, 2u), px, &acc);
-        shade_band(4u * q + 3u, group_band(m, 3u), px, &acc);
-    }
-    let n_rest = select(select(0u, 1u, GROUPED_BANDS && REST_BANDS > 0u), 0u, from_table);
-    for (var t = 0u; t < n_rest; t = t + 1u) {
-        let m = material_group(mrow, FULL_GROUPS, use_material);
-        let i = 4u * FULL_GROUPS;
-        shade_band(i, group_band(m, 0u), px, &acc);
-        if (REST_BANDS > 1u) {
-            shade_band(i + 1u, group_band(m, 1u), px, &acc);
-        }
-        if (REST_BANDS > 2u) {
-            shade_band(i + 2u, group_band(m, 2u), px, &acc);
-        }
-    }
-    r = acc.r;
-    gr = acc.g;
-    b = acc.b;
-    if (DISPLAY) {
-        // display.wgsl's main for the four pixels; non-finite ones (or ones
-        // that overflow after exposure) are written black and reported once
-        // per invocation (atomics in a per-pixel branch cost a millisecond
-        // per 1280x720 frame on lavapipe, masked for every lane).
-        var n_bad = 0u;
-        var first_bad = 0xffffffffu;
-        for (var k = 0u; k < 4u; k = k + 1u) {
-            if (j0 + k < cam.width) {
-                let p = row_start + j0 + k;
-                let lin = vec3<f32>(r[k], gr[k], b[k]);
-                let c = max(lin, vec3<f32>(0.0));
-                let x = vec3<f32>(dot(disp.m0, c), dot(disp.m1, c), dot(disp.m2, c));
-                let bad = any_non_finite(lin) || any_non_finite(x);
-                n_bad = n_bad + select(0u, 1u, bad);
-                first_bad = select(first_bad, min(first_bad, p), bad);
-                rgba_out[p] = select(display_rgba8(x), 0xff000000u, bad);
-            }
-        }
-        if (n_bad > 0u) {
-            atomicAdd(&status[2], n_bad);
-            atomicMin(&status[3], first_bad);
-        }
-    } else {
-        for (var k = 0u; k < 4u; k = k + 1u) {
-            if (j0 + k < cam.width) {
-                rgb_out[row_start + j0 + k] = vec4<f32>(r[k], gr[k], b[k], 1.0);
-            }
-        }
-    }
+    let pix = BandPixels(s, s_finite, v_y, end_depth, g, hit, in_window, mat.use_sigmoid, mat.c0,
+                         mat.c1, mat.c2, row_start + j0, min(cam.width - j0, 4u));
+    band_loop(mat, !from_table, pix, &acc);
+    // (display.wgsl's main with DISPLAY.)
+    write_pixels(row, j0, cam.width, acc.r, acc.g, acc.b);
 }

@@ -77,6 +77,7 @@ from aquaspec.gpu.passes.conespread import ConeSpreadPass
 from aquaspec.gpu.passes.watertable import MAX_NODES, WaterTablePass, alpha_vec4s
 from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.gpu.shading_output import ShadingOutput
+from aquaspec.gpu.shading_pass import WORKGROUP, ShadingPass
 
 PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_materials", "u32"), ("depth_o", "f32"),
@@ -87,11 +88,6 @@ PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
     # The multiple-scattering spread: the share kept at each lambda node (up to 8).
     ("alpha_lo", "vec4<f32>"), ("alpha_hi", "vec4<f32>"),
 ])
-
-#: Compute workgroup size (x, y) of lightfield.wgsl, in invocations.
-WORKGROUP = (8, 8)
-#: Adjacent pixels of a row shaded by one invocation.
-PIXELS_PER_INVOCATION = 4
 
 # (Bindings 1 and 2: the G-buffer, aquaspec.gpu.gbuffer; 3 and 5: the material
 # table, aquaspec.gpu.materials; 6-10: the outputs, aquaspec.gpu.shading_output.)
@@ -137,7 +133,7 @@ def band_table(factors, *, a, b, e0, response_weights, sigmoid_centers_t,
     return out
 
 
-class LightfieldPass:
+class LightfieldPass(ShadingPass):
     """Light-field shading of ``gbuffer`` (a :class:`~aquaspec.gpu.gbuffer.GBufferTextures`).
 
     Per frame, after the G-buffer and its camera are set: :meth:`run` then
@@ -145,6 +141,8 @@ class LightfieldPass:
     then :meth:`read_display`. :meth:`set_medium` when the water, light,
     sensor or tables change.
     """
+
+    label = "light-field shading"
 
     def __init__(self, gbuffer: GBufferTextures, *, filtering: bool | None = None):
         #: The G-buffer read (shared with the deferred and geometry passes).
@@ -210,9 +208,9 @@ class LightfieldPass:
         return self._shape["rank"]
 
     @property
-    def rgb_buffer(self):
-        """Linear camera RGB of the last frame, ``width * height`` vec4<f32>."""
-        return self.output.rgb_buffer
+    def n_materials(self) -> int:
+        """Rows of the material table of the last :meth:`set_medium`."""
+        return self._shape["n_materials"]
 
     def set_medium(self, *, a, b, e0, response_weights, material_bands, sigmoid_centers_t,
                    tables, **_ignored):
@@ -302,16 +300,6 @@ class LightfieldPass:
                                   log_prefactor=band_group_texture(lp), shape=self._shape,
                                   spread=self.spread, nodes=self.nodes, seabed=self.seabed)
         self._groups = {}
-
-    def set_display(self, **settings) -> None:
-        """Settings of the fused display transform (``encode(display=True)``):
-        :meth:`aquaspec.gpu.shading_output.ShadingOutput.set_display`."""
-        self.output.set_display(**settings)
-
-    @property
-    def display_settings(self) -> dict | None:
-        """The settings of :meth:`set_display` (None before)."""
-        return self.output.display_settings
 
     # ------------------------------------------------------------- dispatch
     def pipeline(self, per_pixel, tonemap, coarse=False, projected=False):
@@ -406,11 +394,6 @@ class LightfieldPass:
                                                           self._fb_projection)
         return self._kept_cache[alpha]
 
-    def workgroups(self) -> tuple[int, int, int]:
-        """Dispatch size covering the image."""
-        per_x = WORKGROUP[0] * PIXELS_PER_INVOCATION
-        return (-(-self.width // per_x), -(-self.height // WORKGROUP[1]), 1)
-
     def encode(self, encoder, timestamp_writes=None, *, display: bool = False) -> None:
         """Record the shading into ``encoder`` (uniforms and tables are uploaded first).
 
@@ -458,27 +441,3 @@ class LightfieldPass:
                       self.bind_group(), self.workgroups()))
         # One compute pass (the timestamps, if any, bracket all of it).
         record_dispatches(encoder, steps, timestamp_writes)
-
-    def run(self, display: bool = False) -> None:
-        """Shade the current G-buffer (submits; does not wait); ``display`` as in :meth:`encode`."""
-        encoder = self.device.create_command_encoder()
-        self.encode(encoder, display=display)
-        self.device.queue.submit([encoder.finish()])
-
-    # ------------------------------------------------------------- outputs
-    def read_display(self) -> np.ndarray:
-        """The display image of the last ``run(display=True)``, (H, W, 3) uint8
-        (:meth:`aquaspec.gpu.shading_output.ShadingOutput.read_display`)."""
-        return self.output.read_display(self._shape["n_materials"])
-
-    def read_rgb(self) -> np.ndarray:
-        """Linear camera RGB of the last run, (H, W, 3) float32.
-
-        Raises :class:`AquaspecError` if a pixel referenced an undefined
-        material or a value is not finite, or if the last run wrote the
-        display image instead.
-        """
-        rgb = self.output.read_rgb(self._shape["n_materials"])
-        if not np.all(np.isfinite(rgb)):
-            raise AquaspecError("the light-field pass produced NaN or infinity")
-        return rgb

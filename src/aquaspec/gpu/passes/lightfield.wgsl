@@ -47,9 +47,7 @@
 // each; a sample in a loop whose trip count differs between invocations
 // (the irradiance read skipped on open water) made the frame 1.3 ms slower.
 
-#include "common.wgsl"
-#include "tonemap.wgsl"
-#include "materials.wgsl"
+#include "shading4.wgsl"
 #include "lftables.wgsl"
 
 {{ params_struct }}
@@ -77,8 +75,6 @@ const TONEMAP: u32 = {{ tonemap_id }}u;
 // Whether the G-buffer has per-pixel (sigmoid) materials: when false the
 // sigmoid texture is not read and no sigmoid is evaluated.
 const PER_PIXEL_MATERIALS: bool = {{ per_pixel }};
-// Material index meaning "use this pixel's sigmoid coefficients" (gbuffer.PER_PIXEL).
-const PER_PIXEL: u32 = 0xffffffffu;
 // FILTER: the tables are read with the sampler's bilinear filtering (needs
 // float32-filterable); else the same bilinear interpolation from four fetches.
 const FILTER: bool = {{ filter }};
@@ -102,23 +98,13 @@ const SLOTS: u32 = {{ slots }}u;
 const NODE_ARRAY: u32 = max(NODES, 1u);
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
-// G-buffer: surface (S bits, n_y bits, octahedral normal, material index)
-// and sigmoid (c0, c1, c2, unused), aquaspec.gpu.gbuffer.
-@group(0) @binding(1) var gb_surface: texture_2d<u32>;
-@group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
+// (Bindings 1 and 2, the G-buffer, and 6, 8, 9, 10, the outputs: shading4.wgsl.)
 // BAND_VEC4 vec4 per band i (lightfield_pass.band_table, float64 on the host):
 //   [B i]             K (1/m), c' = c - f b, f b - mean(f b), t (sigmoid band centre)
 //   [B i + 1 (+ 2)]   G_i0 .. G_i3 (G_i4 .. G_i7 with RANK 8)
 //   [B i + B - 1]     w'_r, w'_g, w'_b, f b - mean(f b) projected (PROJECTED)
 @group(0) @binding(4) var<uniform> band_table: array<vec4<f32>, {{ band_table_len }}>;
-// (Bindings 3 and 5: the material table, materials.wgsl, as deferred.wgsl.)
-@group(0) @binding(6) var<storage, read_write> rgb_out: array<vec4<f32>>;
-// status[0]: pixels with a material index out of range; with DISPLAY,
-// status[2]: pixels with a non-finite value (written black) and status[3]
-// the smallest such pixel index.
-@group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
-@group(0) @binding(9) var<uniform> disp: {{ display_struct_name }};
-@group(0) @binding(10) var<storage, read_write> rgba_out: array<u32>;
+// (Bindings 3 and 5: the material table, materials.wgsl.)
 // Water table: layer 0 the water's camera RGB, layer 1 (SPREAD) the cone's
 // share; texel (distance column, direction row).
 @group(0) @binding(11) var water_table: texture_2d_array<f32>;
@@ -199,9 +185,9 @@ fn direction_row(v: vec4<f32>) -> vec4<f32> {
     return select(outside, inside, v > vec4<f32>(prm.window_cos));
 }
 
-// What the band loop needs of the four pixels (vec4 lanes): the exponent's
-// variables, the kept share's (SPREAD) and per-pixel materials.
-struct LfPixels {
+// What the band loop (shading4.wgsl) needs of the four pixels (vec4 lanes):
+// the exponent's variables, the kept share's (SPREAD) and per-pixel materials.
+struct BandPixels {
     d_e: vec4<f32>,
     s_e: vec4<f32>,
     u0: vec4<f32>,
@@ -253,7 +239,7 @@ fn node_value_alpha(z: vec4<f32>) -> vec4<f32> {
 // The targets' own light in band i (material reflectance rho_m, 0 where
 // none) added to acc: one exponential (COARSE: two, the share the pixel
 // does not keep, over 1 - alpha).
-fn target_band(i: u32, rho_m: vec4<f32>, p: LfPixels, acc: ptr<function, Rgb4>) {
+fn shade_band(i: u32, rho_m: vec4<f32>, p: BandPixels, acc: ptr<function, Rgb4>) {
     let q0 = band_table[BAND_VEC4 * i];
     let g0 = band_table[BAND_VEC4 * i + 1u];
     let wt = band_table[BAND_VEC4 * i + BAND_VEC4 - 1u];
@@ -312,11 +298,9 @@ fn target_band(i: u32, rho_m: vec4<f32>, p: LfPixels, acc: ptr<function, Rgb4>) 
 @compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>,
         @builtin(num_workgroups) nwg: vec3<u32>) {
-    // Rows of workgroups interleaved, top half / bottom half, as in
-    // deferred.wgsl: the two lavapipe threads each get open water and hits.
-    let half = (nwg.y + 1u) / 2u;
-    let block = select(half + wg.y / 2u, wg.y / 2u, wg.y % 2u == 0u);
-    let row = block * {{ workgroup_y }}u + lid.y;
+    // Rows of workgroups interleaved, top half / bottom half (shading4.wgsl):
+    // the two lavapipe threads each get open water and hits.
+    let row = interleaved_row(wg.y, lid.y, nwg.y);
     let col = wg.x * {{ workgroup_x }}u + lid.x;
     // The four pixels (lanes) of this invocation: four adjacent pixels of a
     // row, or (COARSE) two pixels of each of two blocks, at offsets BLOCK / 4
@@ -344,29 +328,13 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         px = min(vec4<u32>(j0) + vec4<u32>(0u, 1u, 2u, 3u), vec4<u32>(prm.width - 1u));
         py = vec4<u32>(row);
     }
-    let row_start = row * prm.width;
     let v_y = ray_direction_y(px, py);
     let d_o = prm.depth_o;
 
-    var s_gb: vec4<f32>;
-    var n_y: vec4<f32>;
-    var material: vec4<u32>;
-    var sig: array<vec3<f32>, 4>;
-    for (var k = 0u; k < 4u; k = k + 1u) {
-        let xy = vec2<u32>(px[k], py[k]);
-        let surf = textureLoad(gb_surface, xy, 0);
-        s_gb[k] = bitcast<f32>(surf.x);
-        n_y[k] = bitcast<f32>(surf.y);
-        material[k] = surf.w;
-        if (PER_PIXEL_MATERIALS) {
-            sig[k] = textureLoad(gb_sigmoid, xy, 0).xyz;
-        }
-    }
+    let gb = load_gbuffer(px, py);
     // A hit counts only if the ray reaches it before the water surface.
-    let up = v_y > vec4<f32>(0.0);
-    let v_safe = select(vec4<f32>(1.0), v_y, up);
-    let hit = (s_gb >= vec4<f32>(0.0)) & (!up | (s_gb <= d_o / v_safe));
-    let s = select(vec4<f32>(0.0), s_gb, hit);
+    let hit = hit_before_surface(gb.s, v_y, d_o);
+    let s = select(vec4<f32>(0.0), gb.s, hit);
     // Depth of the hit (unused for open water).
     let d_s = max(d_o - s * v_y, vec4<f32>(0.0));
 
@@ -407,32 +375,10 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         }
     }
 
-    // Materials, as deferred.wgsl.
-    let use_sigmoid = hit & (material == vec4<u32>(PER_PIXEL)) & vec4<bool>(PER_PIXEL_MATERIALS);
-    let use_material = hit & !use_sigmoid & (material < vec4<u32>(prm.n_materials));
-    var c0 = vec4<f32>(0.0);
-    var c1 = vec4<f32>(0.0);
-    var c2 = vec4<f32>(0.0);
-    var bad = 0u;
-    for (var k = 0u; k < 4u; k = k + 1u) {
-        // (COARSE lanes repeat pixels counted by the full-resolution pass.)
-        let valid = !COARSE && j0 + k < prm.width;
-        if (use_sigmoid[k]) {
-            let c = sig[k];
-            c0[k] = c.x;
-            c1[k] = c.y;
-            c2[k] = c.z;
-        }
-        if (valid && hit[k] && !use_sigmoid[k] && !use_material[k]) {
-            // Out-of-range material index (or PER_PIXEL in a G-buffer
-            // declared without per-pixel materials): reported, rho = 0.
-            bad = bad + 1u;
-        }
-    }
-    if (bad > 0u) {
-        atomicAdd(&status[0], bad);
-    }
-    let mrow = select(vec4<u32>(0u), material * MATERIAL_GROUPS, use_material);
+    // Materials (COARSE lanes repeat pixels counted by the full-resolution pass).
+    let cols = vec4<u32>(j0) + vec4<u32>(0u, 1u, 2u, 3u);
+    let mat = pixel_materials(gb, hit, prm.n_materials,
+                              (cols < vec4<u32>(prm.width)) & vec4<bool>(!COARSE));
 
     // The irradiance basis at (d_S, n_y). Read for every pixel: in control
     // flow that differs between invocations (a trip count of any(hit))
@@ -450,7 +396,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         let x_s = depth_coord(d_s);
         // (n_y of open water is whatever the G-buffer holds: made 0, so the
         // band loop's exponent stays finite there.)
-        let y_n = cos_coord(select(vec4<f32>(0.0), n_y, hit));
+        let y_n = cos_coord(select(vec4<f32>(0.0), gb.n_y, hit));
         for (var k = 0u; k < 4u; k = k + 1u) {
             let u = bilinear4(basis_table, y_n[k], x_s[k], 0u, N_MU, N_DEPTH);
             u0[k] = u.x;
@@ -503,54 +449,12 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         }
     }
     // The targets' light summed apart from the water's (dk applies to it
-    // alone), one material vec4 per pixel for four bands
-    // (aquaspec.gpu.materials): below GROUPED_MIN_BANDS nested loops, from it
-    // four band bodies per iteration, then N_BANDS % 4.
+    // alone), by the band loop of shading4.wgsl (none where no pixel hits).
     var acc = Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
-    let pix = LfPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk,
-                       1.0 / max(1.0 - prm.alpha, 1e-12), c0, c1, c2, use_sigmoid);
-    if (!GROUPED_BANDS) {
-        // A material vec4 per outer iteration, a band per inner one (trip
-        // counts per invocation: the loops stay loops, as materials.wgsl says).
-        if (N_BANDS < 4u) {
-            // (One vec4, read outside any loop: with 3 bands the outer loop's
-            // single iteration cost 1.1-1.3 ms per 1280x720 frame.)
-            let m = material_group(mrow, 0u, use_material);
-            let n_in = select(0u, N_BANDS, any_hit);
-            for (var j = 0u; j < n_in; j = j + 1u) {
-                target_band(j, group_band(m, j), pix, &acc);
-            }
-        } else {
-            let n_outer = select(0u, MATERIAL_GROUPS, any_hit);
-            for (var q = 0u; q < n_outer; q = q + 1u) {
-                let m = material_group(mrow, q, use_material);
-                let n_in = min(4u, N_BANDS - 4u * q);
-                for (var j = 0u; j < n_in; j = j + 1u) {
-                    target_band(4u * q + j, group_band(m, j), pix, &acc);
-                }
-            }
-        }
-    }
-    let n_groups = select(0u, select(0u, FULL_GROUPS, any_hit), GROUPED_BANDS);
-    for (var q = 0u; q < n_groups; q = q + 1u) {
-        let m = material_group(mrow, q, use_material);
-        target_band(4u * q, group_band(m, 0u), pix, &acc);
-        target_band(4u * q + 1u, group_band(m, 1u), pix, &acc);
-        target_band(4u * q + 2u, group_band(m, 2u), pix, &acc);
-        target_band(4u * q + 3u, group_band(m, 3u), pix, &acc);
-    }
-    let n_rest = select(0u, select(0u, 1u, GROUPED_BANDS && REST_BANDS > 0u), any_hit);
-    for (var t = 0u; t < n_rest; t = t + 1u) {
-        let m = material_group(mrow, FULL_GROUPS, use_material);
-        let i = 4u * FULL_GROUPS;
-        target_band(i, group_band(m, 0u), pix, &acc);
-        if (REST_BANDS > 1u) {
-            target_band(i + 1u, group_band(m, 1u), pix, &acc);
-        }
-        if (REST_BANDS > 2u) {
-            target_band(i + 2u, group_band(m, 2u), pix, &acc);
-        }
-    }
+    let pix = BandPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk,
+                         1.0 / max(1.0 - prm.alpha, 1e-12), mat.c0, mat.c1, mat.c2,
+                         mat.use_sigmoid);
+    band_loop(mat, any_hit, pix, &acc);
     let sr = acc.r;
     let sg = acc.g;
     let sb = acc.b;
@@ -618,31 +522,6 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
             }
         }
     }
-    if (DISPLAY) {
-        // display.wgsl's main for the four pixels, as in deferred.wgsl.
-        var n_bad = 0u;
-        var first_bad = 0xffffffffu;
-        for (var k = 0u; k < 4u; k = k + 1u) {
-            if (j0 + k < prm.width) {
-                let p = row_start + j0 + k;
-                let lin = vec3<f32>(r[k], gr[k], b[k]);
-                let c = max(lin, vec3<f32>(0.0));
-                let x = vec3<f32>(dot(disp.m0, c), dot(disp.m1, c), dot(disp.m2, c));
-                let bad_px = any_non_finite(lin) || any_non_finite(x);
-                n_bad = n_bad + select(0u, 1u, bad_px);
-                first_bad = select(first_bad, min(first_bad, p), bad_px);
-                rgba_out[p] = select(display_rgba8(x), 0xff000000u, bad_px);
-            }
-        }
-        if (n_bad > 0u) {
-            atomicAdd(&status[2], n_bad);
-            atomicMin(&status[3], first_bad);
-        }
-    } else {
-        for (var k = 0u; k < 4u; k = k + 1u) {
-            if (j0 + k < prm.width) {
-                rgb_out[row_start + j0 + k] = vec4<f32>(r[k], gr[k], b[k], 1.0);
-            }
-        }
-    }
+    // (display.wgsl's main with DISPLAY.)
+    write_pixels(row, j0, prm.width, r, gr, b);
 }

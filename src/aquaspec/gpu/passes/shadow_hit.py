@@ -10,7 +10,7 @@ surface y = 0, depth -y. The direction cells, their phase functions and
 the nodes along the ray are ``hit_rays``'s own
 (:meth:`~aquaspec.transport.lightfield.shadow.ShadowContext.hit_quadrature`, float64, then float32),
 and so is each receiver's frame (:func:`~aquaspec.transport.lightfield.shadow.ray_frames`).
-``tests/gpu/passes/test_shadow_passes.py`` holds the pass against ``hit_rays``.
+``tests/gpu/passes/test_shadow_hit_pass.py`` holds the pass against ``hit_rays``.
 
 Bands are four to a vec4 (the last vec4 padded with zeros) in every
 per-band buffer. Bindings of shadow_hit.wgsl:

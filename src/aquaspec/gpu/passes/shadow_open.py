@@ -8,7 +8,7 @@ source blocks. WGSL: ``shadow_open.wgsl`` beside this module, one invocation per
 private array (bands four to a vec4). Conventions: metres, y up, water surface y = 0, depth -y.
 The cumulative integral along the rays stays on the host
 (:meth:`~aquaspec.transport.lightfield.shadow.ShadowContext.cumulative`).
-``tests/gpu/passes/test_shadow_passes.py`` holds the pass against ``open_ray``.
+``tests/gpu/passes/test_shadow_open_pass.py`` holds the pass against ``open_ray``.
 
 Bands are four to a vec4 (the last padded with zeros) in every per-band
 buffer, band-contiguous. Bindings of shadow_open.wgsl (float32):

@@ -10,7 +10,8 @@ directions around rays that end on a surface:
 along open-water rays: :class:`~aquaspec.gpu.passes.shadow_open.OpenRayPass`).
 The GPU renderer (:meth:`aquaspec.rendering.renderer.Renderer.subtract_shadow`) makes
 one per renderer. Float32; against the NumPy rays within about 1e-5 of
-each band's largest value (``tests/gpu/passes/test_shadow_passes.py``).
+each band's largest value (``tests/gpu/passes/test_shadow_hit_pass.py``,
+``test_shadow_open_pass.py``).
 
 Not a pass of its own (it has no WGSL): the driver of the two ray passes,
 which share :class:`aquaspec.gpu.band_rays.BandRayPass`.

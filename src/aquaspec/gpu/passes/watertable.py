@@ -9,7 +9,7 @@ column, then the hit columns, which read it) into a storage buffer, copied
 into a 2-D array texture (layers: camera RGB, with the cone spread the cone's
 share; with the multiple-scattering spread one per lambda node). Tables with
 a seabed are built on the CPU and uploaded (the WGSL has the deep-water
-closed form only). ``tests/gpu/passes/test_lightfield_pass.py`` holds it
+closed form only). ``tests/gpu/passes/test_watertable_pass.py`` holds it
 against the twin.
 
 Bindings of watertable.wgsl: 0 uniform :data:`WATER_PARAMS_LAYOUT`; 1 uniform

@@ -1,8 +1,8 @@
 // The display transform's per-pixel curves (aquaspec.colour.display, TONEMAPS and
-// the sRGB encoding), shared by display.wgsl and the fused display of
-// deferred.wgsl. The including file defines TONEMAP (the tone map id,
-// aquaspec.gpu.display_transform.TONEMAP_IDS, a compile-time constant: a switch
-// on a uniform ran every curve for every pixel on lavapipe).
+// the sRGB encoding), shared by display.wgsl and the fused display of the
+// shading passes (shading4.wgsl). The including file defines TONEMAP (the
+// tone map id, aquaspec.gpu.display_transform.TONEMAP_IDS, a compile-time
+// constant: a switch on a uniform ran every curve for every pixel on lavapipe).
 
 const EXP_MASK: u32 = 0x7f800000u;
 // The filmic curves are at 1 long before this; the clamp keeps x * x finite.

@@ -1,0 +1,54 @@
+"""The water table built on the GPU (aquaspec.gpu.passes.watertable,
+watertable.wgsl) against its NumPy twin, lightfield_compiled.water_table."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from support.lightfield_passes import gpu_pass, setup_of
+
+pytestmark = pytest.mark.gpu
+
+
+@pytest.mark.parametrize("water,n,phase,depth,cone,spread", [
+    ("IB", 8, "petzold", 5.0, 15.0, False),
+    ("I", 5, "hg", 0.3, 15.0, False),       # just below the surface: fast change at the horizon
+    ("7C", 16, "isotropic", 12.0, 0.0, False),
+    ("II", 6, "ff", 4.0, 40.0, True),
+])
+def test_water_table_built_on_the_gpu_matches_numpy(water, n, phase, depth, cone, spread,
+                                                    lightfield_gbuffer):
+    """watertable.wgsl against lightfield_compiled.water_table (float64), both
+    layers, and the table is rebuilt when the camera's depth changes."""
+    from aquaspec.transport.lightfield.conespread import pyramid_weights
+    from aquaspec.transport.lightfield.compiled import water_table
+    from aquaspec.transport.lightfield.spreadplan import spread_plan
+    gb = lightfield_gbuffer("up", depth)
+    params = (("backscatter", 0.0183),) if phase == "ff" else ()
+    setup = dataclasses.replace(setup_of(water, n, phase, cone=cone), phase_params=params,
+                                cone_spread=spread)
+    lp = gpu_pass(gb, setup)
+    lp.run()
+    got = lp.water.read()
+    med = setup.medium(gb.materials)
+    ref = water_table(setup.lightfield_tables(), a=med["a"], b=med["b"], e0=med["e0"],
+                      response_weights=med["response_weights"], depth_o=depth, split=spread)
+    if spread:
+        alpha = lp.spread_plan[1]
+        cam = gb.camera
+        weights = pyramid_weights(setup.lightfield_tables().cone, cam.fy, cam.height, cam.width)
+        assert alpha == spread_plan(weights, cam.fy)[1]
+        ref = np.stack([ref[0] + alpha * ref[1], ref[1]])
+    assert got.shape == ref.shape
+    scale = np.abs(ref).max()
+    np.testing.assert_allclose(got, ref, rtol=2e-4, atol=2e-6 * scale)
+    # A new depth, a new table.
+    key = lp.water.key
+    gb2 = lightfield_gbuffer("up", depth + 1.0)
+    lp.gbuffer.upload(gb2)
+    lp.run()
+    assert lp.water.key != key
+    assert np.abs(lp.water.read() - got).max() > 1e-3 * scale
