@@ -84,6 +84,7 @@ from aquaspec.numerics import bilinear
 from aquaspec.scene.gbuffer import hit_reflectance
 from aquaspec.transport.lightfield.conespread import (interp_nodes, lambda_coordinate, spread,
                                                       spread_nodes)
+from aquaspec.transport.lightfield import factors
 from aquaspec.transport.lightfield.spreadplan import (coarse_sample_pixels, kept_projection,
                                                       kept_share, multiple_plan, node_alpha,
                                                       node_hats, spread_plan, upsample_groups)
@@ -122,6 +123,9 @@ def irradiance_factors(tables: LightfieldTables, rank: int = IRRADIANCE_RANK, sw
     n_mu) U on the nodes, "max_error", "rms_error"}``: the largest and rms
     relative error of ``E`` over the nodes down to :data:`ERROR_DEPTH_M`.
     Least squares in ``ln E``; with ``n <= rank`` bands exact (``U_i = ln E_i``).
+    The solves are normal equations with a conditioning guard and the start
+    the leading rows of an SVD (:mod:`aquaspec.transport.lightfield.factors`,
+    which says why that is safe here).
     """
     if not (isinstance(rank, (int, np.integer)) and rank >= 1):
         raise AquaspecError(f"rank={rank!r}; accepted: an integer >= 1")
@@ -139,14 +143,13 @@ def irradiance_factors(tables: LightfieldTables, rank: int = IRRADIANCE_RANK, sw
         basis = np.zeros((rank, nd * nm))
         basis[:n] = m
     else:
-        c_fixed = np.linalg.lstsq(fixed.T, m.T, rcond=None)[0].T
-        _, sv, vt = np.linalg.svd(m - c_fixed @ fixed, full_matrices=False)
-        basis = vt[:rank] * sv[:rank, None]
+        c_fixed = factors.normal_lstsq(fixed.T, m.T).T
+        basis = factors.leading_rows(m - c_fixed @ fixed, rank)
         for _ in range(sweeps):
             a = np.vstack([fixed, basis])
-            coef = np.linalg.lstsq(a.T, m.T, rcond=None)[0].T
-            basis = np.linalg.lstsq(coef[:, 2:], m - coef[:, :2] @ fixed, rcond=None)[0]
-        coef = np.linalg.lstsq(np.vstack([fixed, basis]).T, m.T, rcond=None)[0].T
+            coef = factors.normal_lstsq(a.T, m.T).T
+            basis = factors.normal_lstsq(coef[:, 2:], m - coef[:, :2] @ fixed)
+        coef = factors.normal_lstsq(np.vstack([fixed, basis]).T, m.T).T
     fit = coef @ np.vstack([fixed, basis])
     rel = np.expm1(fit - m)[:, dd <= ERROR_DEPTH_M]
     if not np.all(np.isfinite(coef)) or not np.all(np.isfinite(basis)):
@@ -159,9 +162,9 @@ def choose_irradiance_factors(tables: LightfieldTables) -> dict:
     """:func:`irradiance_factors` with the first rank of :data:`IRRADIANCE_RANKS`
     whose largest error is within :data:`IRRADIANCE_TOLERANCE` (else the last).
 
-    Kept in aquaspec's cache, keyed by the irradiance table and this
-    module's code and constants."""
-    key = code_digest([sys.modules[__name__]], *(np.asarray(t, dtype=float).tobytes()
+    Kept in aquaspec's cache, keyed by the irradiance table and the code and
+    constants of this module and :mod:`aquaspec.transport.lightfield.factors`."""
+    key = code_digest([sys.modules[__name__], factors], *(np.asarray(t, dtype=float).tobytes()
                                                  for t in (tables.irradiance_per_e0,
                                                            tables.depth_m)))
     fac = cached_arrays("irradiance-factors", key, lambda: {
