@@ -113,13 +113,17 @@ def add_water_options(p, *, required=True):
                    help=f"published data set for Jerlov types (default {DEFAULT_SOURCE})")
 
 
+def add_camspec_option(p):
+    p.add_argument("--camspec", metavar="PATH",
+                   help="a camspec_database.txt (Jiang et al. 2013; not shipped) whose cameras "
+                        "--sensor can name")
+
+
 def add_sensor_options(p):
     p.add_argument("--sensor", default="human", metavar="NAME|FILE.csv",
                    help="camera response: 'human' (CIE 1931 -> linear sRGB), a built-in camera, "
                         "a camera of --camspec, or a CSV wavelength_nm,r,g,b (default human)")
-    p.add_argument("--camspec", metavar="PATH",
-                   help="a camspec_database.txt (Jiang et al. 2013; not shipped) whose cameras "
-                        "--sensor can name")
+    add_camspec_option(p)
     p.add_argument("--outside-zero", action="store_true",
                    help="take the sensor's response as zero outside its wavelength range "
                         "instead of refusing such bands")

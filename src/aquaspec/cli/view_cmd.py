@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 from aquaspec.cli.common import (DEFAULT_SUN_ELEVATION_DEG, MAX_OCEAN_DEPTH_M,
-                                 add_spread_scattering_option, band_count, check_camspec, depth_metres,
+                                 add_camspec_option, add_spread_scattering_option,
+                                 band_count, check_camspec, depth_metres,
                                  finite_float, sun_from)
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
 from aquaspec.scene.camera import parse_size
@@ -33,9 +34,7 @@ def register(sub):
     p.add_argument("--sensor", default="human", metavar="NAME",
                    help="camera response: 'human', a built-in camera or a camera of --camspec "
                         "(default human)")
-    p.add_argument("--camspec", metavar="PATH",
-                   help="a camspec_database.txt (Jiang et al. 2013; not shipped) whose cameras "
-                        "--sensor can name")
+    add_camspec_option(p)
     p.add_argument("--ms-model", default=DEFAULT_MS_MODEL, choices=list(MS_MODEL_CHOICES),
                    help=f"multiple-scattering model to start with (default {DEFAULT_MS_MODEL})")
     p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
