@@ -45,3 +45,20 @@ def test_each_water_data_warning_once(tmp_path):
 def test_make_test_shows_skip_reasons():
     recipe = re.search(r"^test:.*\n((?:\t.*\n)+)", (REPO / "Makefile").read_text(), re.M)
     assert recipe and re.search(r"pytest .*-rs", recipe.group(1)), "make test lost -rs"
+
+
+def test_a_test_run_leaves_no_cache_folders(tmp_path):
+    """The per-run cache and runtime folders tests/conftest.py makes in the
+    temporary directory are removed when the run ends (they were 17-63 MB each
+    and stayed behind)."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("AQUASPEC_CACHE", "XDG_RUNTIME_DIR")}
+    env["TMPDIR"] = str(tmp)
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+         str(REPO / "tests" / "test_numerics.py"), "-k", "legendre"],
+        capture_output=True, text=True, cwd=REPO, env=env, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert sorted(p.name for p in tmp.iterdir() if p.name.startswith("aquaspec-")) == []
