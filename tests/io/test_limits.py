@@ -168,3 +168,11 @@ class TestMemory:
         assert len(err) == 1 and err[0].startswith("aquaspec render: error: a 320x180 render "
                                                    "of 1000 bands")
         assert not list(tmp_path.iterdir())
+
+
+def test_a_band_count_out_of_range_is_refused_by_bands_not_the_estimate():
+    """``render(bands=10**400)``: the estimate stays out of the way (it overflowed
+    formatting the bytes) and the bands' own range check answers."""
+    from aquaspec.rendering.api import render
+    with pytest.raises(AquaspecError, match=r"number of bands .* out of range; accepted: 1 to 1024"):
+        render(bands=10**400, size=(8, 6), backend="numpy")

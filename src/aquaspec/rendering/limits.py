@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from aquaspec.colour.bands import MAX_BANDS, MIN_BANDS
 from aquaspec.io.limits import check_memory
 from aquaspec.transport.lightfield.tables import DEFAULT_N_DEPTH, DEFAULT_N_MU
 from aquaspec.transport.models import LIGHTFIELD, ms_model_name
@@ -65,10 +66,11 @@ def check_render_memory(n_bands, width: int, height: int, *, ms_model: str, back
                         available: int | None = None) -> None:
     """Refuse a render whose estimate exceeds what the machine has, naming both.
 
-    A band count that is not a positive integer is left to
-    :class:`aquaspec.colour.bands.Bands` to refuse.
+    A band count that is not an integer from ``MIN_BANDS`` to ``MAX_BANDS`` is
+    left to :class:`aquaspec.colour.bands.Bands` to refuse.
     """
-    if not isinstance(n_bands, (int, np.integer)) or isinstance(n_bands, bool) or n_bands < 1:
+    if (not isinstance(n_bands, (int, np.integer)) or isinstance(n_bands, bool)
+            or not MIN_BANDS <= n_bands <= MAX_BANDS):
         return
     lightfield = ms_model_name(ms_model) == LIGHTFIELD
     need = render_memory_bytes(n_bands, width, height, lightfield=lightfield, backend=backend)
