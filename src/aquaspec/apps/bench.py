@@ -57,7 +57,7 @@ from aquaspec.gpu.device import adapter_info
 from aquaspec.gpu.passes.copy import CopyPass
 from aquaspec.gpu.passes.display import DisplayPass
 from aquaspec.gpu.passes.sun import SunPass
-from aquaspec.io.atomic import write_file_atomically
+from aquaspec.io.png import write_figure
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
 from aquaspec.medium.water import get_water
 from aquaspec.rendering.api import as_waves
@@ -523,7 +523,4 @@ def plot(result: dict, path) -> None:
     ax.set_title(f"aquaspec frame time, {result['adapter'].get('device')}", fontsize=9)
     ax.legend()
     fig.tight_layout()
-    try:
-        write_file_atomically(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
-    finally:
-        plt.close(fig)
+    write_figure(path, fig, dpi=110)

@@ -5,7 +5,8 @@ from __future__ import annotations
 from aquaspec.cli.common import (add_band_options, add_water_options, bands_from, check_camspec,
                                 water_from)
 from aquaspec.colour.sensors import get_sensor
-from aquaspec.io.atomic import check_writable, write_file_atomically
+from aquaspec.io.atomic import check_writable
+from aquaspec.io.png import write_figure
 
 
 def register(sub):
@@ -63,10 +64,7 @@ def plot(path, water, sensor, bands):
         ax2.set_ylabel("response")
         ax2.set_title(sensor.name)
     fig.tight_layout()
-    try:
-        write_file_atomically(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
-    finally:
-        plt.close(fig)
+    write_figure(path, fig, dpi=110)
 
 
 def run(args):

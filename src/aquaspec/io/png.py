@@ -23,7 +23,7 @@ import numpy as np
 from PIL import Image, PngImagePlugin, UnidentifiedImageError
 
 from aquaspec.errors import AquaspecError
-from aquaspec.io.atomic import check_writable, write_atomically
+from aquaspec.io.atomic import check_writable, write_atomically, write_file_atomically
 from aquaspec.io.metadata import METADATA_KEY, metadata_json, stamped
 
 PNG_SUFFIXES = (".png",)
@@ -120,3 +120,13 @@ def read_png_metadata(path) -> dict:
         raise AquaspecError(f"PNG {str(p)!r} has no {METADATA_KEY!r} text chunk; "
                             "it was not written by aquaspec")
     return json.loads(text)
+
+
+def write_figure(path, fig, dpi: int = 100) -> Path:
+    """Save a matplotlib figure as a PNG, atomically, and close it (also when
+    saving fails): the plots of validate, bench, spectra and Tyler's check."""
+    import matplotlib.pyplot as plt  # deferred: matplotlib takes 0.3 s to import; only figures need it
+    try:
+        return write_file_atomically(path, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi))
+    finally:
+        plt.close(fig)

@@ -17,6 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from aquaspec.io.atomic import write_file_atomically
+from aquaspec.io.png import write_figure
 from aquaspec.transport.models import DEFAULT_MS_MODEL, ms_model_name
 from aquaspec.validation.reference import REFERENCE_BANDS
 from aquaspec.validation.study import CONVERGED_STDERR, KD_DEPTHS_M, REGIONS
@@ -203,10 +204,7 @@ def plot_errors(rows, path, *, region="patch_means", kd="database", order=None):
     axes[0].set_title(f"error per scene, {region.replace('_', ' ')} (mean over cameras, "
                       f"{kd} Kd)")
     fig.tight_layout()
-    try:
-        write_file_atomically(path, lambda t: fig.savefig(t, format="png", dpi=100))
-    finally:
-        plt.close(fig)
+    write_figure(path, fig, dpi=100)
 
 
 class Panel(NamedTuple):
@@ -277,7 +275,4 @@ def plot_panels(images, path, params):
             ax.imshow(np.clip(img * scale, 0, 1) ** (1 / 2.2))
             ax.set_title(f"{w} {d:g} m: {col.title}" if j == 0 else col.title, fontsize=8)
     fig.tight_layout()
-    try:
-        write_file_atomically(path, lambda t: fig.savefig(t, format="png", dpi=100))
-    finally:
-        plt.close(fig)
+    write_figure(path, fig, dpi=100)

@@ -44,7 +44,7 @@ import jerlov
 import numpy as np
 
 from aquaspec.errors import AquaspecError
-from aquaspec.io.atomic import write_file_atomically
+from aquaspec.io.png import write_figure
 from aquaspec.transport.lightfield.solve import solve_lightfield
 
 #: Tyler's beam attenuation, 1/m (transmittance 67.3 % per metre; ``jerlov``).
@@ -187,7 +187,4 @@ def plot_tyler(res: dict, path):
                  fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    try:
-        return write_file_atomically(path, lambda t: fig.savefig(t, format="png", dpi=100))
-    finally:
-        plt.close(fig)
+    return write_figure(path, fig, dpi=100)
