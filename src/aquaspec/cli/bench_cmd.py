@@ -26,12 +26,19 @@ def register(sub):
                     "caustics / flat sun).",
         epilog="example: aquaspec bench --light sun-sky --wind 3 --sizes 1280x720 --bands 8,16 "
                "--no-numpy")
-    p.add_argument("--sizes", default="1280x720,1920x1080", metavar="WxH,...",
-                   help="image sizes to time (default 1280x720,1920x1080)")
-    p.add_argument("--bands", default="3,8,16,32,64", metavar="N,...",
-                   help="band counts to time, fitted as t(n) = t0 + n t1 (default 3,8,16,32,64)")
-    p.add_argument("--frames", type=int, default=20, metavar="N",
-                   help="timed frames per point (default 20)")
+    p.add_argument("--sizes", default=None, metavar="WxH,...",
+                   help="image sizes to time (default 1280x720,1920x1080; 1280x720 with "
+                        "--motion)")
+    p.add_argument("--bands", default=None, metavar="N,...",
+                   help="band counts to time, fitted as t(n) = t0 + n t1 (default "
+                        "3,8,16,32,64; 8 with --motion)")
+    p.add_argument("--frames", type=int, default=None, metavar="N",
+                   help="timed frames per point (default 20; 36 of each kind with --motion)")
+    p.add_argument("--motion", action="store_true",
+                   help="time frames of a moving camera (a scripted path through the built-in "
+                        "scene, its depth changing by up to 0.92 m per frame) with the waves "
+                        "advancing 1/30 s per frame, against as many still frames interleaved "
+                        "in the same run; reports moving / still and each pass"),
     p.add_argument("--warmup", type=int, default=3, metavar="N",
                    help="untimed frames first (default 3)")
     p.add_argument("--water", default="IB", metavar="TYPE|FILE.csv",
@@ -72,18 +79,26 @@ def run(args):
         check_writable(args.json, suffixes=(".json",))
     if args.plot:
         check_writable(args.plot, suffixes=(".png",))
-    sizes = [parse_size(s) for s in args.sizes.split(",") if s]
+    if args.motion and (args.plot or args.compare_seeds):
+        raise AquaspecError(f"--motion times one kind of frame moving and still; accepted "
+                            f"without {'--plot' if args.plot else '--compare-seeds'}")
+    sizes_text = args.sizes or ("1280x720" if args.motion else "1280x720,1920x1080")
+    bands_text = args.bands or ("8" if args.motion else "3,8,16,32,64")
+    sizes = [parse_size(s) for s in sizes_text.split(",") if s]
     try:
-        bands = [int(b) for b in args.bands.split(",") if b]
+        bands = [int(b) for b in bands_text.split(",") if b]
     except ValueError:
-        raise AquaspecError(f"--bands {args.bands!r} must be comma-separated integers") from None
+        raise AquaspecError(f"--bands {bands_text!r} must be comma-separated integers") from None
+    frames = args.frames if args.frames is not None else (36 if args.motion else 20)
     sun_elevation, sun_azimuth = sun_from(args)
     waves = waves_from(args)
     if args.sun_shadow_map is not None:
         # deferred: loads wgpu; only a shadow map size is checked against the device
         from aquaspec.gpu.device import max_texture_size
         shadow_map_from(args, max_texture_size())
-    result = run_bench(sizes=sizes, bands=bands, frames=args.frames, warmup=args.warmup,
+    if args.motion:
+        return _run_motion(args, sizes, bands, frames, sun_elevation, sun_azimuth, waves)
+    result = run_bench(sizes=sizes, bands=bands, frames=frames, warmup=args.warmup,
                        water=args.water, depth_m=args.depth, numpy_reference=not args.no_numpy,
                        ms_model=args.ms_model, phase=args.phase, compare_seeds=args.compare_seeds,
                        cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
@@ -96,4 +111,26 @@ def run(args):
         write_file_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
     if args.plot:
         plot(result, args.plot)
+    return 0
+
+
+def _run_motion(args, sizes, bands, frames, sun_elevation, sun_azimuth, waves):
+    """``bench --motion``: each size and band count, moving against still."""
+    # deferred: the bench loads wgpu and every GPU pass; `aquaspec --help` need not
+    from aquaspec.apps.motion import format_motion, run_motion_bench
+    results = []
+    for size in sizes:
+        for n in bands:
+            result = run_motion_bench(
+                size=size, bands=n, frames=frames, warmup=args.warmup, water=args.water,
+                depth_m=args.depth, ms_model=args.ms_model, phase=args.phase,
+                cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
+                light=args.light, sun_elevation_deg=sun_elevation, sun_azimuth_deg=sun_azimuth,
+                sun_shadow_map=args.sun_shadow_map, waves=waves,
+                progress=lambda m: print(m, file=sys.stderr, flush=True))
+            print(format_motion(result))
+            results.append(result)
+    if args.json:
+        text = json.dumps(results if len(results) > 1 else results[0], indent=2)
+        write_file_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
     return 0

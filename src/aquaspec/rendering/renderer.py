@@ -13,9 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from aquaspec.colour.display import display_settings
 from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.errors import AquaspecError
+from aquaspec.gpu.buffers import read_buffer
 from aquaspec.gpu.passes.deferred import DeferredPass
+from aquaspec.gpu.passes.display import DisplayPass
 from aquaspec.gpu.passes.lightfield import LightfieldPass
 from aquaspec.gpu.passes.raster import RasterPass
 from aquaspec.gpu.passes.shadow_rays import ShadowRays
@@ -25,6 +28,12 @@ from aquaspec.scene.camera import Camera, check_size
 from aquaspec.scene.gbuffer import GBuffer
 from aquaspec.scene.shadowmap import DEFAULT_MAP_SIZE
 from aquaspec.shading.shade import scene_shadow
+
+
+def _same(key, other) -> bool:
+    """Whether two ``(setup, materials)`` keys hold the very same objects."""
+    return (other is not None and key[0] is other[0] and len(key[1]) == len(other[1])
+            and all(a is b for a, b in zip(key[1], other[1])))
 
 
 class Renderer:
@@ -51,12 +60,16 @@ class Renderer:
         self._sun_key = None
         #: Shadow-map side for the sun (texels).
         self.sun_map_size = None
+        self._display = None        # DisplayPass of frames with the sun (set_display)
+        self._last_display = None
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         """Upload ``setup``'s medium for a scene of ``materials`` to the shading
         pass (the light field's or the seeds'), unless it is there already."""
-        key = (id(setup), tuple(id(m) for m in materials))
-        if key != self._medium_key:
+        # The key holds the objects themselves: an id() alone may be reused
+        # by a new setup once the old one is freed.
+        key = (setup, tuple(materials))
+        if not _same(key, self._medium_key):
             self._use_lightfield = setup.ms_model == "lightfield"
             if self._use_lightfield:
                 if self.lightfield is None:
@@ -80,8 +93,8 @@ class Renderer:
             self.sun = SunPass(self.deferred.device, self.width, self.height,
                                self.deferred.n_bands, map_size=size)
             self._sun_key = None
-        key = (id(setup), tuple(id(m) for m in materials))
-        if key != self._sun_key:
+        key = (setup, tuple(materials))
+        if not _same(key, self._sun_key):
             medium = setup.medium(materials)
             self.sun.set_inputs(sun, response_weights=medium["response_weights"],
                                 material_bands=medium["material_bands"],
@@ -161,6 +174,81 @@ class Renderer:
                           progress=progress, rays=self._shadow_rays)
         drgb = radiance_to_rgb(dl.reshape(-1, dl.shape[-1]), medium["response_weights"])
         return (rgb - drgb.reshape(rgb.shape)).astype(rgb.dtype)
+
+    # ------------------------------------------------------------ live frames
+    def set_display(self, settings: dict) -> None:
+        """Display settings (``exposure_ev``, ``white_balance_gains``, ``matrix``,
+        ``tonemap``, as :func:`aquaspec.colour.display.display_settings` gives
+        them) for :meth:`encode_frame`; call after :meth:`set_spectral`."""
+        keys = ("exposure_ev", "white_balance_gains", "matrix", "tonemap")
+        kw = {k: settings[k] for k in keys if k in settings}
+        self._shading_pass().set_display(**kw)
+        if self._display is None:
+            self._display = DisplayPass(self.width, self.height, device=self.deferred.device)
+        self._display.set_settings(**kw)
+
+    def auto_display(self, scene, camera: Camera, setup: SpectralSetup) -> dict:
+        """Render one linear frame and take the display settings from it
+        (automatic exposure and grey-world gains), as a live view starts."""
+        rgb = self.render_scene(scene, camera, setup)
+        settings = display_settings(rgb)
+        settings.setdefault("tonemap", "filmic")
+        self.set_display(settings)
+        return settings
+
+    def encode_frame(self, encoder, scene, camera: Camera, setup: SpectralSetup, *,
+                     split=None):
+        """Record one displayed frame into ``encoder``: rasterise ``scene`` for
+        ``camera``, shade (the light field's water table is rebuilt on the GPU
+        when the camera's depth changed), add the sun, apply the display
+        transform of :meth:`set_display`. Nothing is read back
+        (:meth:`read_display` reads the 8-bit image); this is the frame of a
+        live view and of ``aquaspec bench --motion``.
+
+        ``split(name, encoder)``, if given, is called after each pass
+        (``"geometry"``, then ``"shading+display"`` without the sun, or
+        ``"shading"``, ``"sun shadow"``, ``"sun"``, ``"display"``) and returns
+        the encoder for the next one: a benchmark submits and times each pass
+        with it. Returns the encoder last returned by ``split`` (``encoder``
+        itself without it).
+        """
+        split = split or (lambda name, enc: enc)
+        self._check_camera(camera)
+        self.set_spectral(setup, scene.materials)
+        sun = self._sun_pass(setup, scene.materials)
+        shading = self._shading_pass()
+        if shading.display_settings is None:
+            raise AquaspecError("no display settings: call set_display() or auto_display() "
+                                "before encode_frame()")
+        self.raster.render_to(self.deferred.gbuffer, scene, camera, encoder=encoder)
+        encoder = split("geometry", encoder)
+        if sun is None:
+            shading.encode(encoder, display=True)
+            self._last_display = shading
+            return split("shading+display", encoder)
+        shading.encode(encoder)
+        encoder = split("shading", encoder)
+        sun.encode_shadow_map(encoder, self.raster, scene, camera)
+        encoder = split("sun shadow", encoder)
+        sun.encode(encoder, camera, self.deferred.gbuffer.textures, shading.rgb_buffer)
+        encoder = split("sun", encoder)
+        self._display.use_input(shading.rgb_buffer)
+        self._display.encode(encoder)
+        self._last_display = self._display
+        return split("display", encoder)
+
+    def wait(self) -> None:
+        """Block until the GPU has finished the work submitted so far."""
+        read_buffer(self.deferred.device, self._shading_pass().output.status_buffer,
+                    np.uint32, (4,))
+
+    def read_display(self) -> np.ndarray:
+        """The 8-bit display image (H, W, 3) of the last :meth:`encode_frame`."""
+        if self._last_display is None:
+            raise AquaspecError("no frame yet: submit one from encode_frame() first")
+        if isinstance(self._last_display, DisplayPass):
+            return self._last_display.read()
+        return self._last_display.read_display()
 
     def read_radiance(self) -> np.ndarray:
         """The last frame's per-band radiance (H, W, n), with ``debug_radiance``."""
