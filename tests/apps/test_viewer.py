@@ -85,6 +85,24 @@ def test_default_is_the_light_field_with_the_spread():
     assert len(v._setups) == 2 and max(x.seabed.depth_m for x in v._setups.values()) > 8.0
 
 
+def test_shallower_raises_the_camera_in_the_same_scene():
+    """Going up keeps the scene and its light field (no new setup, no new
+    solve): the camera rises in it, and the frame is that camera's render."""
+    from aquaspec.rendering.renderer import Renderer
+    v = Viewer(64, 36, bands=4, depth_m=6.0)
+    v.update()
+    scene = v._scene
+    v.update(depth_m=2.5)
+    assert v._scene is scene and len(v._setups) == 1
+    assert v._camera.depth_m == pytest.approx(2.5)
+    np.testing.assert_allclose(v._camera.forward, scene.camera.forward)
+    (setup,) = v._setups.values()
+    ref = Renderer(64, 36, 4).render_scene(scene, v._camera, setup)
+    np.testing.assert_allclose(v.linear, ref, rtol=1e-5, atol=1e-7 * np.abs(ref).max())
+    v.update(depth_m=7.0)               # deeper than the scene was built for: a new one
+    assert v._scene is not scene and v._camera.depth_m == pytest.approx(7.0)
+
+
 def test_multiple_scattering_spread():
     """spread_scattering="multiple" (aquaspec view --spread-scattering multiple):
     the setups use it with the spread (the built-in scene's seabed: the water

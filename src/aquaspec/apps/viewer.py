@@ -8,7 +8,10 @@ sea's caustics, :mod:`aquaspec.light.caustics`, a few seconds for each new sea o
 sun), and choices of water type, sensor and multiple-scattering model (the
 seeds' formula or the light field). Every change re-renders the frame on the GPU through one
 :class:`aquaspec.rendering.renderer.Renderer`, which is rebuilt only when the band
-count changes, so a new depth or water costs one frame. Waters, sensors and
+count changes, so a new depth or water costs one frame. The scene is built
+for the deepest depth asked for so far (the camera 1.5 m above the sand);
+a shallower depth raises the camera in it, so the light field (whose lower
+boundary is the sand) is not solved again. Waters, sensors and
 spectral setups are kept once made: going back to a water neither reloads
 it (nor repeats its data warnings) nor re-uploads its tables.
 
@@ -18,6 +21,7 @@ figure), so it can be driven and tested headless.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -101,10 +105,15 @@ class Viewer:
         t0 = time.perf_counter()
         if self._renderer is None or self._renderer.deferred.n_bands != s["bands"]:
             self._renderer = Renderer(self.width, self.height, s["bands"])
-        if self._scene_depth != s["depth_m"]:
-            self._scene, self._camera = builtin_scene(s["depth_m"], width=self.width,
-                                                      height=self.height)
+        if self._scene_depth is None or s["depth_m"] > self._scene_depth:
+            # A scene whose camera stands 1.5 m above the sand at this depth;
+            # shallower views raise the camera in it (no new light field).
+            self._scene, self._scene_camera = builtin_scene(s["depth_m"], width=self.width,
+                                                            height=self.height)
             self._scene_depth = s["depth_m"]
+        self._camera = dataclasses.replace(
+            self._scene_camera, position=self._scene_camera.position
+            + [0.0, self._scene_depth - s["depth_m"], 0.0])
         setup = self._setup(s["water"], s["sensor"], s["bands"], s["ms_model"],
                             s["cone_spread"] and s["ms_model"] == "lightfield",
                             self._scene.seabed if s["ms_model"] == "lightfield" else None,
