@@ -110,6 +110,8 @@ def test_bad_input(argv, match, capsys, tmp_path, monkeypatch):
 
 
 SUN_ROW_PASSES = ("sun_shadow_map_ms", "sun_froxels_ms", "sun_pixels_ms")
+#: The light field's sun frame: shadow map (kept), froxels, shading with the sun (fused).
+FUSED_SUN_PASSES = ("sun_shadow_map_ms", "sun_froxels_ms", "sun_shade_display_ms")
 
 
 def _small_sun_bench(tmp_path, *argv):
@@ -127,17 +129,19 @@ def test_cli_sun_passes_and_ratio(tmp_path, capsys):
     assert doc["sun_rendering"]["shadow_map_texels"] == 2048
     assert doc["sun_rendering"]["caustics"] is None
     x = doc["rows"][0]
-    for k in SUN_ROW_PASSES + ("geometry_ms", "deferred_ms", "display_ms", "shade_display_ms",
-                               "no_sun_frame_ms", "frame_wall_ms", "no_sun_frame_wall_ms"):
+    for k in FUSED_SUN_PASSES + ("geometry_ms", "deferred_ms", "display_ms", "shade_display_ms",
+                                 "no_sun_frame_ms", "frame_wall_ms", "no_sun_frame_wall_ms",
+                                 "sun_shadow_map_redraw_ms"):
         assert np.isfinite(x[k]) and x[k] > 0, k
     assert "flat_sun_ms" not in x and "caustics_over_flat_sun" not in x
-    # The sun's frame: its three passes between the (unfused) shading and the display.
-    assert x["sun_ms"] == pytest.approx(sum(x[k] for k in SUN_ROW_PASSES))
-    assert x["frame_ms"] == pytest.approx(x["geometry_ms"] + x["deferred_ms"] + x["sun_ms"]
-                                          + x["display_ms"])
+    # The light field's sun frame: shadow map (kept while nothing moves), froxels,
+    # then the shading pass with the sun in its band loop and the display fused.
+    assert x["sun_fused"] is True
+    assert x["frame_ms"] == pytest.approx(x["geometry_ms"] + sum(x[k] for k in FUSED_SUN_PASSES))
+    assert x["sun_pixels_ms"] == pytest.approx(x["sun_shade_display_ms"] - x["shade_display_ms"])
+    assert x["sun_ms"] == pytest.approx(x["frame_ms"] - x["no_sun_frame_ms"])
     assert x["no_sun_frame_ms"] == pytest.approx(x["geometry_ms"] + x["shade_display_ms"])
     assert x["sun_over_no_sun"] == pytest.approx(x["frame_ms"] / x["no_sun_frame_ms"])
-    assert x["sun_over_no_sun"] > 1
     text = capsys.readouterr().out
     assert "light: sun-sky, sun at 45 deg elevation, azimuth 30 deg; shadow map 2048" in text
     assert "sun/px" in text and "no sun" in text and "caustics" not in text
@@ -148,11 +152,11 @@ def test_cli_wind_adds_the_caustics_ratio(tmp_path, capsys):
     assert doc["sun_rendering"]["shadow_map_texels"] == 512
     assert doc["sun_rendering"]["caustics"]["wind_speed_m_s"] == 3
     x = doc["rows"][0]
-    flat = ("flat_sun_shadow_map_ms", "flat_sun_froxels_ms", "flat_sun_pixels_ms")
-    for k in SUN_ROW_PASSES + flat:
+    flat = ("flat_sun_shadow_map_ms", "flat_sun_froxels_ms", "flat_sun_shade_display_ms")
+    for k in FUSED_SUN_PASSES + flat:
         assert np.isfinite(x[k]) and x[k] > 0, k
-    assert x["flat_sun_ms"] == pytest.approx(sum(x[k] for k in flat))
-    assert x["flat_sun_frame_ms"] == pytest.approx(x["frame_unfused_ms"] + x["flat_sun_ms"])
+    assert x["flat_sun_frame_ms"] == pytest.approx(x["geometry_ms"] + sum(x[k] for k in flat))
+    assert x["flat_sun_ms"] == pytest.approx(x["flat_sun_frame_ms"] - x["no_sun_frame_ms"])
     assert x["caustics_over_flat_sun"] == pytest.approx(x["frame_ms"] / x["flat_sun_frame_ms"])
     assert x["sun_over_no_sun"] == pytest.approx(x["frame_ms"] / x["no_sun_frame_ms"])
     text = capsys.readouterr().out
@@ -168,6 +172,10 @@ def test_numpy_reference_shades_the_sun():
     assert res["ratios"][0]["numpy_over_gpu_n8"] == pytest.approx(npy["numpy_ms"] / x["frame_ms"])
     assert res["ratios"][0]["sun_over_no_sun_n8"] == x["sun_over_no_sun"]
     assert "the NumPy reference shades the sun too" in format_table(res)
+    # The seeds' sun frame: its passes between the (unfused) shading and the display.
+    assert x["sun_fused"] is False
+    assert x["frame_ms"] == pytest.approx(x["geometry_ms"] + x["deferred_ms"] + x["display_ms"]
+                                          + sum(x[k] for k in SUN_ROW_PASSES))
 
 
 def test_compare_seeds_with_a_sun_compares_the_frames_without_it():
@@ -192,7 +200,7 @@ def test_sun_parts_record_their_own_pass_with_timestamps():
     """Each sun part records exactly its own pass, and timestamp queries bracket it
     (the path bench takes on hardware GPUs; lavapipe is timed by the wall clock)."""
     from aquaspec.colour.bands import Bands
-    from aquaspec.apps.bench import _Sun
+    from aquaspec.apps.sun_passes import SunFrame
     from aquaspec.gpu.dispatch import submit_pass
     from aquaspec.gpu.timing import time_passes, timestamps_supported
     from aquaspec.light.sky import surface_light
@@ -207,15 +215,19 @@ def test_sun_parts_record_their_own_pass_with_timestamps():
     r = Renderer(64, 36, 3)
     r.sun_map_size = 256
     r.render_scene(scene, camera, setup)
-    sun = _Sun(r, r.sun, scene, camera, r.deferred.rgb_buffer)
-    parts = {k: sun.part(k) for k in _Sun.PARTS}
-    # Each part records its own pass: only the per-pixel one adds the sun to the image.
+    sun = SunFrame(r, r.sun, scene, camera, r.deferred)
+    parts = sun.parts()
+    assert set(parts) == {"shadow_map", "shadow_map_redraw", "froxels", "pixels"}
+    # Each part records its own pass: only the per-pixel one adds the sun to the image
+    # (the shadow map, kept from the frame before, records an empty pass).
     dev = r.deferred.device
     r.deferred.run()
     base = r.deferred.read_rgb()
-    for k in ("shadow_map", "froxels"):
+    draws = r.sun.shadow_map.draw_count
+    for k in ("shadow_map", "shadow_map_redraw", "froxels"):
         submit_pass(dev, parts[k])
         assert np.array_equal(r.deferred.read_rgb(), base), k
+    assert r.sun.shadow_map.draw_count == draws + 1      # the redraw alone
     submit_pass(dev, parts["pixels"])
     assert (r.deferred.read_rgb() - base).sum() > 0
     if not timestamps_supported(r.deferred.device):
@@ -226,7 +238,7 @@ def test_sun_parts_record_their_own_pass_with_timestamps():
 
 
 def test_sun_part_missing_pass_is_an_error():
-    from aquaspec.apps.bench import _SunPart
+    from aquaspec.apps.sun_passes import SunPart
     from aquaspec.errors import AquaspecError
 
     class Encoder:
@@ -235,7 +247,7 @@ def test_sun_part_missing_pass_is_an_error():
 
     with pytest.raises(AquaspecError, match=r"recorded 1 pass\(es\) where bench times its "
                                             r"pixels as pass 2"):
-        _SunPart(lambda enc: enc.begin_compute_pass(), 1, "pixels").encode(Encoder())
+        SunPart(lambda enc: enc.begin_compute_pass(), 1, "pixels").encode(Encoder())
 
 
 def test_unknown_light_is_refused(capsys):

@@ -46,10 +46,13 @@ class TestRun:
             assert res[key]["still_ms"] > 0 and res[key]["moving_ms"] > 0
             assert res[key]["moving_over_still"] == pytest.approx(
                 res[key]["moving_ms"] / res[key]["still_ms"])
-        assert {"geometry", "shading", "display"} <= set(res["per_pass"]["passes"])
+        passes = set(res["per_pass"]["passes"])
+        # (The light field adds the sun in its shading pass, the display fused.)
+        assert {"geometry", "sun shadow", "sun froxels", "shading+display"} <= passes
         assert len(res["path"]["depths_m"]) == 13
         sw = res["switch"]
-        assert sw["new_water_s"] > 0 and sw["cached_bands_s"] > 0
+        assert sw["new_water_s"] > 0 and sw["cached_bands_s"] > 0 and sw["new_sun_s"] > 0
+        assert sw["sun_elevation_deg"] == pytest.approx(70.0)
         text = motion.format_motion(res)
         assert "moving / still" in text and "first frame after a change" in text
 

@@ -209,7 +209,7 @@ def _setup(wind, **kw):
 
 
 def test_froxels_with_caustics_against_a_fine_march():
-    """The veil's caustics: froxels (4 footprint-filtered reads per slice)
+    """The veil's caustics: froxels (2 footprint-filtered reads per slice)
     against each pixel's own ray in 400 steps, built-in scene at 3 m. The
     froxels are 8 pixels wide, so their pattern is the column's mean."""
     import dataclasses
@@ -233,7 +233,7 @@ def test_froxels_with_caustics_against_a_fine_march():
     # ... and the froxels follow the pattern the caustics put in the veil.
     gm, gf = (march / flat - 1.0).ravel(), (frox / flat - 1.0).ravel()
     assert np.median(np.abs(gm)) > 0.03
-    assert np.corrcoef(gm, gf)[0, 1] > 0.7, np.corrcoef(gm, gf)[0, 1]   # measured 0.83
+    assert np.corrcoef(gm, gf)[0, 1] > 0.7, np.corrcoef(gm, gf)[0, 1]   # measured 0.81
 
 
 def _render(backend, **kw):

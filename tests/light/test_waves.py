@@ -1,5 +1,7 @@
 """The wind sea (aquaspec.light.waves): its spectrum, slopes and surface."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.integrate import quad
@@ -102,3 +104,32 @@ def test_unresolved_variance_completes_cox_munk():
         assert W.unresolved_slope_variance(w) > 0.1 * W.cox_munk_slope_variance(wind)
     doc = W.Waves(10.0).describe()
     assert doc["unresolved_slope_variance"] > 0 and doc["longer_than_tile_slope_variance"] > 0
+
+
+def test_a_looping_sea_closes_and_keeps_its_frequencies_within_pi_over_t():
+    period = 1.5
+    k = np.linspace(0.0, 200.0, 2001)
+    true = W.angular_frequency(k)
+    looped = W.angular_frequency(k, period)
+    assert looped[0] == 0.0 and np.all(looped[1:] > 0)
+    turns = looped * period / (2 * np.pi)
+    np.testing.assert_allclose(turns, np.round(turns), atol=1e-9)       # whole turns
+    fine = true[1:] > np.pi / period                                    # not clamped to 1 turn
+    assert np.all(np.abs(looped[1:] - true[1:])[fine] <= np.pi / period + 1e-12)
+    sea = W.Waves(4.0, grid=64, tile_m=4.0, seed=2, period_s=period)
+    for t in (0.0, 0.37):
+        a = W.surface(dataclasses.replace(sea, time_s=t))
+        b = W.surface(dataclasses.replace(sea, time_s=t + period))
+        for x, y in zip(a, b):
+            np.testing.assert_allclose(y, x, atol=1e-9 * np.abs(x).max())
+    # At t = 0 it is the true sea; later the two part (their phases drift by <= pi t / T).
+    true_sea = dataclasses.replace(sea, period_s=None)
+    np.testing.assert_array_equal(W.surface(sea)[0], W.surface(true_sea)[0])
+    later = [W.surface(dataclasses.replace(s, time_s=0.4))[0] for s in (sea, true_sea)]
+    assert np.abs(later[0] - later[1]).max() > 1e-3 * np.abs(later[1]).max()
+
+
+@pytest.mark.parametrize("period", [0.0, -1.0, float("nan")])
+def test_bad_loop_periods_are_refused(period):
+    with pytest.raises(AquaspecError, match="wave loop period"):
+        W.Waves(3.0, period_s=period)

@@ -24,18 +24,21 @@ too. Reported:
   seeds' frame on the same G-buffer, timed in the same run beside the
   light-field frame, and their ratio (the cost of the better model; with a
   sun, both frames without it: the sun's passes are the same work for both);
-- with a sun (``light="sun-sky"``, :mod:`aquaspec.gpu.passes.sun`), its three
-  passes each (the shadow map, the froxels of its single scattering, the
-  per-pixel pass adding its light to the linear image). The sun is added
-  after the shading, so its frame cannot fuse the display: it is geometry +
-  shading + shadow map + froxels + per-pixel sun + display. Its ratio to the
-  frame without the sun (geometry + fused shading and display) is measured
-  on the same G-buffer in the same run, and with ``waves`` (caustics) the
-  ratio of the sun with caustics to the sun over a flat surface (a second
-  sun pass without caustics, timed beside it). The NumPy reference then
-  shades the sun too (its NumPy shadow map included): 1.6 times its time
-  without the sun at 1280x720, 2.7 times with caustics (measured here),
-  seconds per size, so it is kept and stays comparable with the GPU frame.
+- with a sun (``light="sun-sky"``, :mod:`aquaspec.gpu.passes.sun`), its passes
+  each (:class:`aquaspec.apps.sun_passes.SunFrame`). With the light field the
+  frame is geometry + the shadow map (kept from the frame before while
+  nothing moves; its cost when drawn again is reported beside) + the froxels
+  + the shading pass adding the sun in its band loop with the display fused;
+  with the seeds' model the sun is added after the shading, so the display
+  cannot be fused: geometry + shading + shadow map + froxels + per-pixel sun
+  + display. Its ratio to the frame without the sun (geometry + fused
+  shading and display) is measured on the same G-buffer in the same run, and
+  with ``waves`` (caustics) the ratio of the sun with caustics to the sun
+  over a flat surface (a second sun pass without caustics, timed beside it).
+  The NumPy reference then shades the sun too (its NumPy shadow map
+  included): 1.6 times its time without the sun at 1280x720, 2.7 times with
+  caustics (measured here), seconds per size, so it is kept and stays
+  comparable with the GPU frame.
 
 The machine may be shared and noisy: compare ratios from one run, not
 absolute times across runs.
@@ -57,6 +60,7 @@ from aquaspec.gpu.device import adapter_info
 from aquaspec.gpu.passes.copy import CopyPass
 from aquaspec.gpu.passes.display import DisplayPass
 from aquaspec.gpu.passes.sun import SunPass
+from aquaspec.apps.sun_passes import SunFrame, Unlit
 from aquaspec.io.png import write_figure
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
 from aquaspec.medium.water import get_water
@@ -67,7 +71,7 @@ from aquaspec.scene.builtin import builtin_scene
 from aquaspec.scene.shadowmap import (DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, numpy_shadow_map,
                                       shadow_map_spec)
 from aquaspec.shading.shade import shade_gbuffer
-from aquaspec.transport.froxels import FROXEL_SLICES, FROXEL_TILE
+from aquaspec.transport.froxels import froxel_description
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MONZON2022, cone_spread_for, ms_model_name
 
 DEFAULT_SIZES = ((1280, 720), (1920, 1080))
@@ -92,91 +96,9 @@ class _Fused:
         self.shading = shading
 
     def encode(self, encoder, timestamp_writes=None):
+        if hasattr(self.shading, "set_sun"):
+            self.shading.set_sun(None)          # the frame without the sun
         self.shading.encode(encoder, timestamp_writes, display=True)
-
-
-class _Dropped:
-    """A pass that records nothing (see :class:`_OnePass`)."""
-
-    def __getattr__(self, name):
-        return lambda *args, **kwargs: None
-
-
-class _OnePass:
-    """A command encoder that records only the ``keep``-th pass begun on it.
-
-    The other render or compute passes are dropped, and the kept one carries
-    ``timestamp_writes``: one pass of a method that records several together
-    (:meth:`aquaspec.gpu.passes.sun.SunPass.encode`: the froxels, then the
-    per-pixel pass) is timed through the method itself, with its uniform
-    uploads and bind groups, as the renderer runs it.
-    """
-
-    def __init__(self, encoder, keep: int, timestamp_writes=None):
-        self.encoder, self.keep, self.timestamp_writes = encoder, keep, timestamp_writes
-        self.begun = 0
-
-    def _begin(self, kind, kwargs):
-        i, self.begun = self.begun, self.begun + 1
-        if i != self.keep:
-            return _Dropped()
-        if self.timestamp_writes is not None:
-            kwargs = {**kwargs, "timestamp_writes": self.timestamp_writes}
-        return getattr(self.encoder, kind)(**kwargs)
-
-    def begin_render_pass(self, **kwargs):
-        return self._begin("begin_render_pass", kwargs)
-
-    def begin_compute_pass(self, **kwargs):
-        return self._begin("begin_compute_pass", kwargs)
-
-    def __getattr__(self, name):
-        return getattr(self.encoder, name)
-
-
-class _Sun:
-    """The sun's passes (a :class:`~aquaspec.gpu.passes.sun.SunPass` with its inputs
-    set) on the renderer's G-buffer, adding the sun's light into ``rgb_buffer``.
-
-    :meth:`encode` records all of them (a frame); :meth:`part` is one of them
-    as a timed pass: ``"shadow_map"``, ``"froxels"`` or ``"pixels"``.
-    """
-
-    #: Part -> (the method recording it, its index among the passes that method begins).
-    PARTS = {"shadow_map": ("_shadow_map", 0), "froxels": ("_light", 0), "pixels": ("_light", 1)}
-
-    def __init__(self, renderer, sun, scene, camera, rgb_buffer):
-        self.r, self.sun, self.scene, self.camera, self.rgb = (renderer, sun, scene, camera,
-                                                              rgb_buffer)
-
-    def _shadow_map(self, encoder):
-        self.sun.encode_shadow_map(encoder, self.r.raster, self.scene, self.camera)
-
-    def _light(self, encoder):
-        self.sun.encode(encoder, self.camera, self.r.deferred.gbuffer.textures, self.rgb)
-
-    def encode(self, encoder):
-        self._shadow_map(encoder)
-        self._light(encoder)
-
-    def part(self, name: str):
-        method, index = self.PARTS[name]
-        return _SunPart(getattr(self, method), index, name)
-
-
-class _SunPart:
-    """One pass of the sun's (see :class:`_Sun`), as one timed pass."""
-
-    def __init__(self, record, index: int, name: str):
-        self.record, self.index, self.name = record, index, name
-
-    def encode(self, encoder, timestamp_writes=None):
-        rec = _OnePass(encoder, self.index, timestamp_writes)
-        self.record(rec)
-        if rec.begun <= self.index:
-            raise AquaspecError(f"the sun pass recorded {rec.begun} pass(es) where bench "
-                                f"times its {self.name} as pass {self.index + 1}; "
-                                "aquaspec.apps.bench._Sun.PARTS needs updating")
 
 
 def _frame_wall_ms(renderer, passes, frames, warmup):
@@ -297,10 +219,12 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                                        matrix=settings["matrix"], tonemap=settings["tonemap"])
                 passes["shade_display_seeds"] = _Fused(r.deferred)
             if sun is not None:
-                # render_scene made r.sun with setup's inputs; it adds the sun
-                # into the linear image of the (unfused) shading pass.
-                sun_frame = _Sun(r, r.sun, scene, camera, shading.rgb_buffer)
-                passes.update({f"sun_{k}": sun_frame.part(k) for k in _Sun.PARTS})
+                # render_scene made r.sun with setup's inputs (its shadow map
+                # and froxels are there for this camera).
+                sun_frame = SunFrame(r, r.sun, scene, camera, shading)
+                passes.update({f"sun_{k}": p for k, p in sun_frame.parts().items()})
+                if sun_frame.fused:
+                    passes["deferred"] = Unlit(shading)    # its linear image without the sun
                 if waves is not None:
                     # The same sun over a flat surface, on the same G-buffer.
                     flat = SunPass(r.deferred.device, width, height, n, map_size=map_size)
@@ -310,8 +234,11 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                                     response_weights=medium["response_weights"],
                                     material_bands=medium["material_bands"],
                                     sigmoid_centers_t=medium["sigmoid_centers_t"])
-                    flat_frame = _Sun(r, flat, scene, camera, shading.rgb_buffer)
-                    passes.update({f"flat_sun_{k}": flat_frame.part(k) for k in _Sun.PARTS})
+                    flat_frame = SunFrame(r, flat, scene, camera, shading)
+                    enc = r.deferred.device.create_command_encoder()
+                    flat_frame.encode(enc)
+                    r.deferred.device.queue.submit([enc.finish()])
+                    passes.update({f"flat_sun_{k}": p for k, p in flat_frame.parts().items()})
             times = time_passes(passes, method=timing, frames=frames, warmup=warmup,
                                 device=r.deferred.device)
             unfused = times.ms["geometry"] + times.ms["deferred"] + times.ms["display"]
@@ -324,17 +251,29 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                 wall = _frame_wall_ms(r, [geometry, shading, disp], frames, warmup)
             extra = {}
             if sun is not None:
-                # The sun's frame: its passes between the shading and the display.
+                # The sun's frame: with the light field geometry + shadow map +
+                # froxels + shading with the sun and the display fused; with the
+                # seeds' model its passes between the shading and the display.
                 no_sun = frame
-                sun_ms = sum(times.ms[f"sun_{k}"] for k in _Sun.PARTS)
-                frame = unfused + sun_ms
-                extra = {"sun_ms": sun_ms, "no_sun_frame_ms": no_sun,
-                         "sun_over_no_sun": frame / no_sun, "no_sun_frame_wall_ms": wall}
-                wall = _frame_wall_ms(r, [geometry, shading, sun_frame, disp], frames, warmup)
+
+                def sun_frame_ms(prefix):
+                    ms = sum(times.ms[f"{prefix}{k}"] for k in sun_frame.frame_parts())
+                    return times.ms["geometry"] + ms if sun_frame.fused else unfused + ms
+                frame = sun_frame_ms("sun_")
+                if sun_frame.fused:
+                    times.ms["sun_pixels"] = (times.ms["sun_shade_display"]
+                                              - times.ms["shade_display"])
+                extra = {"sun_ms": frame - no_sun, "no_sun_frame_ms": no_sun,
+                         "sun_over_no_sun": frame / no_sun, "no_sun_frame_wall_ms": wall,
+                         "sun_fused": sun_frame.fused}
+                wall = _frame_wall_ms(r, [geometry, sun_frame, passes["sun_shade_display"]]
+                                      if sun_frame.fused else [geometry, shading, sun_frame, disp],
+                                      frames, warmup)
                 if waves is not None:
-                    flat_ms = sum(times.ms[f"flat_sun_{k}"] for k in _Sun.PARTS)
-                    extra.update({"flat_sun_ms": flat_ms, "flat_sun_frame_ms": unfused + flat_ms,
-                                  "caustics_over_flat_sun": frame / (unfused + flat_ms)})
+                    flat_frame_ms = sun_frame_ms("flat_sun_")
+                    extra.update({"flat_sun_ms": flat_frame_ms - no_sun,
+                                  "flat_sun_frame_ms": flat_frame_ms,
+                                  "caustics_over_flat_sun": frame / flat_frame_ms})
             row = {"width": width, "height": height, "bands": n, **{f"{k}_ms": v for k, v in
                    times.ms.items()}, "frame_ms": frame, "fps": 1e3 / frame,
                    "frame_wall_ms": wall, "frame_unfused_ms": unfused, **extra,
@@ -356,11 +295,20 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                     f"{times.ms['copy']:.2f} | frame submitted at once {wall:.2f} ms")
             else:
                 say(f"{width}x{height} n={n:3d}: frame {frame:7.2f} ms ({1e3 / frame:6.1f} fps) "
-                    f"= geometry {times.ms['geometry']:.2f} + deferred "
-                    f"{times.ms['deferred']:.2f} + sun {row['sun_ms']:.2f} (shadow map "
-                    f"{times.ms['sun_shadow_map']:.2f}, froxels {times.ms['sun_froxels']:.2f}, "
-                    f"per pixel {times.ms['sun_pixels']:.2f}) + display "
-                    f"{times.ms['display']:.2f} | without the sun {row['no_sun_frame_ms']:.2f} "
+                    + (f"= geometry {times.ms['geometry']:.2f} + shadow map "
+                       f"{times.ms['sun_shadow_map']:.2f} (drawn again: "
+                       f"{times.ms['sun_shadow_map_redraw']:.2f}) + froxels "
+                       f"{times.ms['sun_froxels']:.2f} + shading with the sun and display "
+                       f"{times.ms['sun_shade_display']:.2f} (without the sun "
+                       f"{times.ms['shade_display']:.2f}: the sun per pixel "
+                       f"{times.ms['sun_pixels']:.2f})" if sun_frame.fused else
+                       f"= geometry {times.ms['geometry']:.2f} + deferred "
+                       f"{times.ms['deferred']:.2f} + sun {row['sun_ms']:.2f} (shadow map "
+                       f"{times.ms['sun_shadow_map']:.2f}, drawn again "
+                       f"{times.ms['sun_shadow_map_redraw']:.2f}, froxels "
+                       f"{times.ms['sun_froxels']:.2f}, per pixel {times.ms['sun_pixels']:.2f}) "
+                       f"+ display {times.ms['display']:.2f}")
+                    + f" | without the sun {row['no_sun_frame_ms']:.2f} "
                     f"ms: sun / no sun = {row['sun_over_no_sun']:.3f}"
                     + ("" if waves is None else
                        f" | flat sun {row['flat_sun_ms']:.2f} ms: caustics / flat sun = "
@@ -420,8 +368,7 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
             "light": light_obj.describe(),
             **({} if sun is None else {"sun_rendering": {
                 "shadow_map_texels": map_size, "shadow_radius_m": DEFAULT_MAP_RADIUS_M,
-                "single_scattering": f"froxels of {FROXEL_TILE}x{FROXEL_TILE} pixels, "
-                                     f"{FROXEL_SLICES} slices",
+                "single_scattering": froxel_description(),
                 "caustics": None if waves is None else setup.sun_inputs().caustics.describe()}}),
             "rows": rows, "numpy_reference": numpy_rows, "fits": fits, "ratios": ratios}
 
@@ -455,7 +402,13 @@ def format_table(result: dict) -> str:
     light = _light_line(result)
     if light is not None:
         lines.append(light)
-    if sun:
+    if sun and any(x.get("sun_fused") for x in result["rows"]):
+        lines += ["frame = geometry + shadow map + froxels + shading with the sun and the "
+                  "display fused (the light field adds the sun in its band loop; the shadow "
+                  "map is kept while nothing moves); no sun: geometry + shade+display "
+                  "(fused), the same G-buffer in the same run; wall: the frame submitted at "
+                  "once"]
+    elif sun:
         lines += ["frame = geometry + deferred + sun + display: the sun's passes (shadow map, "
                   "froxels, per pixel) add its light to the linear image, so the display "
                   "cannot be fused; no sun: geometry + shade+display (fused), the same "
@@ -491,11 +444,13 @@ def format_table(result: dict) -> str:
             line += f" | {x['flat_sun_ms']:8.2f} {x['caustics_over_flat_sun']:8.3f}"
         lines.append(line)
     if sun:
-        lines.append("shade+disp: without the sun; shadow, froxels, sun/px: the sun's passes; "
+        lines.append("shade+disp: without the sun; shadow, froxels, sun/px: the sun's passes "
+                     "(fused: sun/px is the shading pass's time with the sun less without; "
+                     "shadow: as a still frame runs it, kept from the frame before); "
                      "ratio: frame / frame without the sun"
                      + ("; seeds: the seeds' frame without the sun, its ratio the models' "
                         "frames without the sun" if compare else "")
-                     + ("; flat sun: the sun's three passes without caustics, caustics: frame "
+                     + ("; flat sun: the sun's cost without caustics, caustics: frame "
                         "/ frame with the flat sun" if flat else ""))
     for f in result["fits"]:
         lines.append(f"fit {f['width']}x{f['height']}: t(n) = {f['t0_ms']:.2f} ms + n * "

@@ -34,6 +34,7 @@ from aquaspec.colour.bands import Bands
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.device import adapter_info
+from aquaspec.light.caustics import caustic_loop
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
 from aquaspec.medium.water import get_water
 from aquaspec.rendering.api import as_waves
@@ -58,6 +59,8 @@ MIN_PATH_DEPTH_M = 0.5
 SWITCH_WATER = "II"
 #: Band count switched to by :func:`switch_times`.
 SWITCH_BANDS = 16
+#: Change of the sun's elevation timed by :func:`switch_times`, degrees.
+SWITCH_SUN_DEG = 10.0
 #: Turns of the path: yaw and pitch swings (degrees) and their periods (frames).
 YAW_SWING_DEG, YAW_PERIOD_FRAMES = 20.0, 40
 PITCH_SWING_DEG, PITCH_PERIOD_FRAMES = 8.0, 28
@@ -155,7 +158,8 @@ def switch_times(renderer: Renderer, scene, camera, setup: SpectralSetup, settin
     water :data:`SWITCH_WATER` with an empty disk cache (solved), the bench's
     own water, then :data:`SWITCH_WATER` again (from the disk cache); the
     band count :data:`SWITCH_BANDS` (a new renderer, solved) and again
-    (cached).
+    (cached); with a sun, its elevation moved by :data:`SWITCH_SUN_DEG`
+    (solved, then again from the cache).
     """
     def first_frame(r, s):
         t0 = time.perf_counter()
@@ -184,6 +188,17 @@ def switch_times(renderer: Renderer, scene, camera, setup: SpectralSetup, settin
         out["bands"] = SWITCH_BANDS
         out["new_bands_s"] = first_frame(Renderer(w, h, SWITCH_BANDS), new_setup(bands=bands))
         out["cached_bands_s"] = first_frame(Renderer(w, h, SWITCH_BANDS), new_setup(bands=bands))
+        sun = setup.light.sun
+        if sun is not None:
+            # A new sun elevation: a new light field and (with waves) caustics.
+            elevation = sun.elevation_deg + (SWITCH_SUN_DEG if sun.elevation_deg
+                                             + SWITCH_SUN_DEG <= 90.0 else -SWITCH_SUN_DEG)
+            light = surface_light("sun-sky", sun_elevation_deg=elevation,
+                                  sun_azimuth_deg=sun.azimuth_deg)
+            out["sun_elevation_deg"] = float(elevation)
+            out["new_sun_s"] = first_frame(renderer, dataclasses.replace(setup, light=light))
+            first_frame(renderer, setup)
+            out["cached_sun_s"] = first_frame(renderer, dataclasses.replace(setup, light=light))
     first_frame(renderer, setup)     # leave the renderer as it was
     return out
 
@@ -224,6 +239,19 @@ def run_motion_bench(*, size=(1280, 720), bands: int = 8, frames: int = 36, warm
     for r in (still, moving):
         if sun_shadow_map is not None:
             r.sun_map_size = sun_shadow_map
+    loop_s = None
+    if waves is not None:
+        # Both kinds of frame read the sea's caustic loop; the still frames
+        # stay at t = 0. (The loop is built, or read from the cache, here.)
+        say(f"the caustic loop of a {waves.wind_speed:g} m/s sea under the sun (built once "
+            "per sea state and sun, then cached; minutes the first time) ...")
+        still.set_wave_time(0.0)
+        moving.set_wave_time(0.0)
+        t0 = time.perf_counter()
+        caustic_loop(waves, light_obj.sun.elevation_deg, light_obj.sun.azimuth_deg,
+                     n_water=light_obj.sun.n_water)
+        loop_s = time.perf_counter() - t0
+        say(f"caustic loop ready in {loop_s:.1f} s")
     t0 = time.perf_counter()
     settings = still.auto_display(scene, camera, setup)
     moving.set_spectral(setup, scene.materials)
@@ -238,6 +266,8 @@ def run_motion_bench(*, size=(1280, 720), bands: int = 8, frames: int = 36, warm
         parts = {"still": [], "moving": []}
         for i in range(warmup + frames):
             # Interleaved, so that a change of load hits both kinds alike.
+            if waves is not None:
+                moving.set_wave_time(i / FRAME_RATE_HZ)
             for kind, cam in (("still", camera), ("moving", path[i])):
                 ms = timers[kind].frame(scene, cam, setup)
                 if i >= warmup:
@@ -254,7 +284,9 @@ def run_motion_bench(*, size=(1280, 720), bands: int = 8, frames: int = 36, warm
         result[key] = entry
         say(f"{'pass by pass' if by_pass else 'whole frame'}: still {med['still']:.1f} ms, "
             f"moving {med['moving']:.1f} ms: moving / still = {entry['moving_over_still']:.3f}")
-    say("changes of water and band count ...")
+    say("changes of water, band count and sun ...")
+    # (A new sun's caustics: the still map at t = 0, not a new loop.)
+    still.set_wave_time(None)
     switch = switch_times(still, scene, camera, setup, settings)
     return {"adapter": adapter_info(), "width": width, "height": height, "bands": bands,
             "frames": frames, "warmup": warmup, "ms_model": ms_model,
@@ -265,6 +297,8 @@ def run_motion_bench(*, size=(1280, 720), bands: int = 8, frames: int = 36, warm
                      "seabed_depth_m": None if scene.seabed is None
                      else float(scene.seabed.depth_m),
                      "wave_seconds_per_frame": 1.0 / FRAME_RATE_HZ},
+            "waves": None if waves is None else {**waves.describe(),
+                                                 "caustic_loop_ready_s": loop_s},
             **result, "switch": switch}
 
 
@@ -278,6 +312,10 @@ def format_motion(result: dict) -> str:
              f"camera path: depth {min(result['path']['depths_m']):.2f}-"
              f"{max(result['path']['depths_m']):.2f} m, up to "
              f"{result['path']['max_depth_step_m']:.2f} m per frame",
+             *([] if not result.get("waves") else [
+                 f"waves: {result['waves']['wind_speed_m_s']:g} m/s, advancing "
+                 f"{result['path']['wave_seconds_per_frame']:.4f} s per frame (caustic loop "
+                 f"ready in {result['waves']['caustic_loop_ready_s']:.1f} s)"]),
              f"whole frame: still {f['still_ms']:.1f} ms ({1e3 / f['still_ms']:.1f} fps), "
              f"moving {f['moving_ms']:.1f} ms ({1e3 / f['moving_ms']:.1f} fps): "
              f"moving / still = {f['moving_over_still']:.3f}",
@@ -291,5 +329,8 @@ def format_motion(result: dict) -> str:
     lines.append(f"first frame after a change (s): water {sw['water']} {sw['new_water_s']:.2f} "
                  f"new, {sw['cached_water_s']:.2f} cached; "
                  f"{sw['bands']} bands {sw['new_bands_s']:.2f} new, {sw['cached_bands_s']:.2f} "
-                 "cached")
+                 "cached"
+                 + ("" if "new_sun_s" not in sw else
+                    f"; sun at {sw['sun_elevation_deg']:g} deg {sw['new_sun_s']:.2f} new, "
+                    f"{sw['cached_sun_s']:.2f} cached"))
     return "\n".join(lines)

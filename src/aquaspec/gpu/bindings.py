@@ -21,9 +21,11 @@ _TEXTURES = {"float": (wgpu.TextureSampleType.unfilterable_float, wgpu.TextureVi
                              wgpu.TextureViewDimension.d2_array),
              "filterable_array": (wgpu.TextureSampleType.float,
                                   wgpu.TextureViewDimension.d2_array),
-             "filterable": (wgpu.TextureSampleType.float, wgpu.TextureViewDimension.d2)}
+             "filterable": (wgpu.TextureSampleType.float, wgpu.TextureViewDimension.d2),
+             "depth": (wgpu.TextureSampleType.depth, wgpu.TextureViewDimension.d2)}
 _SAMPLERS = {"sampler": wgpu.SamplerBindingType.filtering,
-             "nonfiltering_sampler": wgpu.SamplerBindingType.non_filtering}
+             "nonfiltering_sampler": wgpu.SamplerBindingType.non_filtering,
+             "comparison_sampler": wgpu.SamplerBindingType.comparison}
 #: Every kind :func:`bind_group_layout` accepts.
 BINDING_KINDS = (*_BUFFERS, *_TEXTURES, "storage_rgba32float", *_SAMPLERS)
 
@@ -52,8 +54,9 @@ def bind_group_layout(device, bindings):
     ``"float"`` / ``"uint"`` (unfilterable 2-D textures of that sample type),
     ``"filterable"`` (2-D filterable float), ``"float_array"`` /
     ``"filterable_array"`` (2-D array textures, unfilterable / filterable
-    float), ``"storage_rgba32float"`` (write-only storage texture),
-    ``"sampler"`` / ``"nonfiltering_sampler"``.
+    float), ``"depth"`` (a 2-D depth texture), ``"storage_rgba32float"`` (write-only
+    storage texture),
+    ``"sampler"`` / ``"nonfiltering_sampler"`` / ``"comparison_sampler"``.
     """
     return device.create_bind_group_layout(entries=[_entry(b, k)
                                                     for b, k in sorted(bindings.items())])

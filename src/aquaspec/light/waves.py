@@ -26,6 +26,15 @@ surface, ``sigma^2 = 0.003 + 5.12e-3 U``, ``U`` at 12.5 m) is
 :func:`cox_munk_slope_variance`, the check that the default tile is a
 plausible sea (:meth:`Waves.describe` reports both).
 
+A looping sea (``Waves.period_s = T``) has every frequency rounded to a
+whole number of turns per ``T``, ``omega_T = (2 pi / T) max(1, round(omega T
+/ 2 pi))`` (:func:`angular_frequency`; the habit of real-time ocean renderers,
+which make a repeating sequence of a tile): ``h(x, t + T) = h(x, t)`` exactly,
+each frequency moves by at most ``pi / T`` (so each wave's phase drifts from
+the true sea's by at most ``pi t / T``) and the surface at ``t = 0`` is the
+true sea's. Caustics are then a loop of frames built once
+(:class:`aquaspec.light.caustics.CausticLoop`).
+
 Waves shorter than the tile's samples (down to capillaries) and longer than
 the tile are not in it: :func:`unresolved_slope_variance` is what Cox & Munk
 measured beyond what the tile and the longer waves
@@ -69,6 +78,9 @@ class Waves:
         The random phases' seed: the same seed gives the same sea.
     tile_m, grid : float, int
         Tile width and samples per side.
+    period_s : float or None
+        A looping sea: the frequencies rounded to whole turns per
+        ``period_s`` seconds (:func:`angular_frequency`); None: the true sea.
     """
 
     wind_speed: float
@@ -77,6 +89,7 @@ class Waves:
     seed: int = 0
     tile_m: float = DEFAULT_TILE_M
     grid: int = DEFAULT_GRID
+    period_s: float | None = None
 
     def __post_init__(self):
         u = float(self.wind_speed)
@@ -99,6 +112,12 @@ class Waves:
         seed = int(self.seed)
         if seed != self.seed or seed < 0:
             raise AquaspecError(f"wave seed {self.seed!r}; accepted: an integer >= 0")
+        if self.period_s is not None:
+            period = float(self.period_s)
+            if not (np.isfinite(period) and period > 0):
+                raise AquaspecError(f"wave loop period {self.period_s!r} s; accepted: None or "
+                                    "a finite number > 0")
+            object.__setattr__(self, "period_s", period)
         object.__setattr__(self, "wind_speed", u)
         object.__setattr__(self, "wind_azimuth_deg", az % 360.0)
         object.__setattr__(self, "time_s", t)
@@ -109,7 +128,7 @@ class Waves:
         return {"spectrum": "Pierson-Moskowitz 1964, cos^2 spreading",
                 "wind_speed_m_s": self.wind_speed, "wind_azimuth_deg": self.wind_azimuth_deg,
                 "time_s": self.time_s, "seed": self.seed, "tile_m": self.tile_m,
-                "grid": self.grid,
+                "grid": self.grid, "loop_period_s": self.period_s,
                 "resolved_slope_variance": resolved_slope_variance(self),
                 "cox_munk_slope_variance": cox_munk_slope_variance(self.wind_speed),
                 "longer_than_tile_slope_variance": long_wave_slope_variance(self),
@@ -188,13 +207,24 @@ def resolved_slope_variance(waves: Waves) -> float:
     return float(np.sum((kx ** 2 + kz ** 2) * f) * dk * dk)
 
 
+def angular_frequency(k, period_s: float | None = None):
+    """``omega`` (rad/s) of deep-water waves of wavenumbers ``k`` (rad/m),
+    ``omega^2 = g k``; with ``period_s``, rounded to whole turns per period
+    (at least one; ``k = 0`` stays at rest): see the module docstring."""
+    omega = np.sqrt(GRAVITY * np.asarray(k, dtype=float))
+    if period_s is None:
+        return omega
+    step = 2.0 * np.pi / float(period_s)
+    return np.where(omega > 0, step * np.maximum(1.0, np.round(omega / step)), 0.0)
+
+
 def _amplitudes(waves: Waves):
     f, kx, kz = directional_spectrum(waves)
     dk = 2.0 * np.pi / waves.tile_m
     rng = np.random.default_rng(waves.seed)
     xi = rng.standard_normal((2,) + f.shape)
     amp = (xi[0] + 1j * xi[1]) * np.sqrt(f) * dk
-    omega = np.sqrt(GRAVITY * np.hypot(kx, kz))
+    omega = angular_frequency(np.hypot(kx, kz), waves.period_s)
     return amp * np.exp(-1j * omega * waves.time_s)
 
 

@@ -63,7 +63,7 @@ from aquaspec.scene.shadowmap import DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, num
 from aquaspec.shading.shade import shade_gbuffer
 from aquaspec.shading.sun import surface_visibility
 from aquaspec.transport import monzon2022 as model
-from aquaspec.transport.froxels import FROXEL_SLICES, FROXEL_TILE
+from aquaspec.transport.froxels import froxel_description
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MONZON2022
 
 BACKENDS = ("gpu", "numpy")
@@ -87,9 +87,17 @@ def white_card(camera: Camera) -> dict:
     return {"depth_m": depth, "distance_m": WHITE_CARD_DISTANCE_M, "view": view}
 
 
-def as_waves(waves):
-    """``render(waves=)`` as a :class:`aquaspec.light.waves.Waves` or None:
-    None, a ``Waves``, or a wind speed in m/s (``Waves(wind_speed)``)."""
+def as_waves(waves, wave_time=None):
+    """``render(waves=, wave_time=)`` as a :class:`aquaspec.light.waves.Waves`
+    or None: None, a ``Waves``, or a wind speed in m/s (``Waves(wind_speed)``);
+    ``wave_time`` (s), if given, is its instant."""
+    if wave_time is not None:
+        if waves is None:
+            raise AquaspecError(f"wave_time={wave_time!r} is the waves' instant: it needs "
+                                "waves (a wind speed or a Waves)")
+        if isinstance(wave_time, bool) or not isinstance(wave_time, (int, float)):
+            raise AquaspecError(f"wave_time={wave_time!r}; accepted: seconds, a finite number")
+        return dataclasses.replace(as_waves(waves), time_s=float(wave_time))
     if waves is None:
         return None
     if isinstance(waves, Waves):
@@ -105,6 +113,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            size=(1280, 720), scene=None, camera: Camera | None = None, mesh=None, albedo=None,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
            sun_azimuth_deg=None, sun_shadow_map: int | None = None, waves=None,
+           wave_time: float | None = None,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
@@ -152,6 +161,10 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         A wind sea on the surface (a wind speed in m/s stands for
         ``Waves(wind_speed)``): the sun's beam is focused into caustics on the
         surfaces and in the water (:mod:`aquaspec.light.caustics`). Needs a sun.
+    wave_time : float, optional
+        The waves' instant, s (replaces ``waves.time_s``; for many instants
+        of one sea keep a :class:`aquaspec.rendering.renderer.Renderer` and
+        use its ``set_wave_time``).
     ambient : str
         Ambient irradiance model of the seeds' model
         (:data:`aquaspec.transport.monzon2022.AMBIENT_MODELS`).
@@ -222,7 +235,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         water=water, source=source, sensor=sensor, camspec=camspec, bands=bands,
         wavelength_range=wavelength_range, light=light, irradiance_w_m2=irradiance_w_m2,
         sun_elevation_deg=sun_elevation_deg, sun_azimuth_deg=sun_azimuth_deg,
-        sun_shadow_map=sun_shadow_map, waves=waves, ambient=ambient, outside=outside,
+        sun_shadow_map=sun_shadow_map, waves=as_waves(waves, wave_time), ambient=ambient,
+        outside=outside,
         ms_model=ms_model, phase=phase, forward_cone_deg=forward_cone_deg,
         cone_spread=cone_spread, spread_scattering=spread_scattering,
         ambient_shadow=ambient_shadow, say=say)
@@ -535,8 +549,7 @@ def _params(setup: SpectralSetup, depth, view: _View, backend, display_info, t0,
         params["sun_rendering"] = {
             "shadow_map_texels": None if view.from_rgbd else map_size,
             "shadow_radius_m": None if view.from_rgbd else DEFAULT_MAP_RADIUS_M,
-            "single_scattering": f"froxels of {FROXEL_TILE}x{FROXEL_TILE} pixels, "
-                                 f"{FROXEL_SLICES} slices",
+            "single_scattering": froxel_description(view.camera.width),
             "beam_extinction": "c* (delta-M) with the light field, c with the seeds' model"}
     if with_layers:
         params["layers"] = {"names": list(LAYER_NAMES), "definitions": "aquaspec.rendering.layers: "

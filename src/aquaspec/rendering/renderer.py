@@ -22,7 +22,9 @@ from aquaspec.gpu.passes.display import DisplayPass
 from aquaspec.gpu.passes.lightfield import LightfieldPass
 from aquaspec.gpu.passes.raster import RasterPass
 from aquaspec.gpu.passes.shadow_rays import ShadowRays
+from aquaspec.gpu.passes.caustics import CausticLoopPass
 from aquaspec.gpu.passes.sun import SunPass
+from aquaspec.light.caustics import DEFAULT_LOOP_FRAMES, caustic_loop
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera, check_size
 from aquaspec.scene.gbuffer import GBuffer
@@ -62,6 +64,10 @@ class Renderer:
         self.sun_map_size = None
         self._display = None        # DisplayPass of frames with the sun (set_display)
         self._last_display = None
+        #: The waves' time of the next frames' caustics, s (:meth:`set_wave_time`).
+        self.wave_time_s = None
+        self._wave_loop = None      # CausticLoopPass of the moving sea
+        self._loop_options = (DEFAULT_LOOP_FRAMES, True)
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         """Upload ``setup``'s medium for a scene of ``materials`` to the shading
@@ -102,6 +108,36 @@ class Renderer:
             self._sun_key = key
         return self.sun
 
+    def set_wave_time(self, time_s: float | None, *, frames: int = DEFAULT_LOOP_FRAMES,
+                      smooth: bool = True) -> None:
+        """Move the waves: the next frames' caustics are the setup's sea at
+        ``time_s`` seconds, read from its loop
+        (:func:`aquaspec.light.caustics.caustic_loop`, ``frames`` per period;
+        built on the CPU once per sea state and sun, each frame kept in the
+        cache) and mixed on the GPU per frame
+        (:class:`aquaspec.gpu.passes.caustics.CausticLoopPass`; ``smooth=False``
+        copies the nearest frame). None: the setup's own still map."""
+        self.wave_time_s = None if time_s is None else float(time_s)
+        self._loop_options = (frames, bool(smooth))
+        if self.wave_time_s is None:
+            self._sun_key = None    # the still map goes back on the next frame
+
+    def _advance_waves(self, encoder, setup: SpectralSetup) -> bool:
+        """Record the caustics at :attr:`wave_time_s` for the sun pass
+        (:meth:`set_wave_time`); False: the waves stand still."""
+        if self.wave_time_s is None or setup.waves is None:
+            return False
+        frames, smooth = self._loop_options
+        sun = setup.light.sun
+        loop = caustic_loop(setup.waves, sun.elevation_deg, sun.azimuth_deg, frames=frames,
+                            n_water=sun.n_water)
+        if self._wave_loop is None or self._wave_loop.loop is not loop:
+            self._wave_loop = CausticLoopPass(self.deferred.device, loop)
+        self._wave_loop.smooth = smooth
+        self._wave_loop.encode(encoder, self.wave_time_s)
+        self.sun.use_caustic_texture(self._wave_loop.view, self._wave_loop.geometry)
+        return True
+
     def render_scene(self, scene, camera: Camera, setup: SpectralSetup,
                      progress=None) -> np.ndarray:
         """Rasterise and shade on the GPU; returns linear camera RGB (H, W, 3) float32.
@@ -115,11 +151,9 @@ class Renderer:
         sun = self._sun_pass(setup, scene.materials)
         enc = self.deferred.device.create_command_encoder()
         self.raster.render_to(self.deferred.gbuffer, scene, camera, encoder=enc)
-        self._shading_pass().encode(enc)
         if sun is not None:
-            sun.encode_shadow_map(enc, self.raster, scene, camera)
-            sun.encode(enc, camera, self.deferred.gbuffer.textures,
-                       self._shading_pass().rgb_buffer)
+            self._advance_waves(enc, setup)
+        self.encode_shading(enc, sun, camera, scene)
         self.deferred.device.queue.submit([enc.finish()])
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
@@ -139,22 +173,55 @@ class Renderer:
         self.set_spectral(setup, gbuffer.materials)
         self.deferred.gbuffer.upload(gbuffer)
         sun = self._sun_pass(setup, gbuffer.materials)
-        if sun is None:
-            self._shading_pass().run()
-        else:
-            enc = self.deferred.device.create_command_encoder()
-            self._shading_pass().encode(enc)
-            if sun_scene is not None:
-                sun.encode_shadow_map(enc, self.raster, sun_scene, gbuffer.camera)
-            else:
-                sun.no_shadows()
-            sun.encode(enc, gbuffer.camera, self.deferred.gbuffer.textures,
-                       self._shading_pass().rgb_buffer)
-            self.deferred.device.queue.submit([enc.finish()])
+        enc = self.deferred.device.create_command_encoder()
+        if sun is not None:
+            self._advance_waves(enc, setup)
+        self.encode_shading(enc, sun, gbuffer.camera, sun_scene)
+        self.deferred.device.queue.submit([enc.finish()])
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
             rgb = self.subtract_shadow(rgb, gbuffer, setup, progress)
         return rgb
+
+    def encode_shading(self, encoder, sun, camera, shadow_scene, *, split=None,
+                       display: bool = False):
+        """Record the shading of the G-buffer and, with ``sun`` (a
+        :class:`~aquaspec.gpu.passes.sun.SunPass` with its inputs set), the sun:
+        its shadow map of ``shadow_scene`` (None: nothing shadowed) and its
+        froxels, then the light field's shading with the sun's light in its
+        band loop (the display transform fused with ``display``), or the seeds'
+        shading followed by the sun's per-pixel pass (linear RGB only).
+        ``split`` as in :meth:`encode_frame` (``"sun shadow"``, ``"sun
+        froxels"``, ``"shading"`` or with ``display`` ``"shading+display"``; seeds'
+        model: ``"shading"``, ``"sun shadow"``, ``"sun"``); returns the encoder
+        last returned by it."""
+        split = split or (lambda name, enc: enc)
+        shading = self._shading_pass()
+        fused = sun is not None and self._use_lightfield
+        if self.lightfield is not None:
+            self.lightfield.set_sun(sun if fused else None)
+        if sun is None or fused:
+            if sun is not None:
+                if shadow_scene is not None:
+                    sun.encode_shadow_map(encoder, self.raster, shadow_scene, camera)
+                else:
+                    sun.no_shadows()
+                encoder = split("sun shadow", encoder)
+                sun.encode_froxels(encoder, camera)
+                encoder = split("sun froxels", encoder)
+            shading.encode(encoder, display=display)
+            return split("shading+display" if display else "shading", encoder)
+        if display:
+            raise AquaspecError("the seeds' shading adds the sun after it: no fused display")
+        shading.encode(encoder)
+        encoder = split("shading", encoder)
+        if shadow_scene is not None:
+            sun.encode_shadow_map(encoder, self.raster, shadow_scene, camera)
+        else:
+            sun.no_shadows()
+        encoder = split("sun shadow", encoder)
+        sun.encode(encoder, camera, self.deferred.gbuffer.textures, shading.rgb_buffer)
+        return split("sun", encoder)
 
     def subtract_shadow(self, rgb: np.ndarray, gbuffer: GBuffer, setup: SpectralSetup,
                         progress=None) -> np.ndarray:
@@ -207,7 +274,10 @@ class Renderer:
 
         ``split(name, encoder)``, if given, is called after each pass
         (``"geometry"``, then ``"shading+display"`` without the sun, or
-        ``"shading"``, ``"sun shadow"``, ``"sun"``, ``"display"``) and returns
+        ``"waves"`` when they move (:meth:`set_wave_time`), then with the light
+        field ``"sun shadow"``, ``"sun froxels"``, ``"shading+display"`` (the sun
+        added and the display fused in it), with the seeds' model ``"shading"``,
+        ``"sun shadow"``, ``"sun"``, ``"display"``) and returns
         the encoder for the next one: a benchmark submits and times each pass
         with it. Returns the encoder last returned by ``split`` (``encoder``
         itself without it).
@@ -226,12 +296,15 @@ class Renderer:
             shading.encode(encoder, display=True)
             self._last_display = shading
             return split("shading+display", encoder)
-        shading.encode(encoder)
-        encoder = split("shading", encoder)
-        sun.encode_shadow_map(encoder, self.raster, scene, camera)
-        encoder = split("sun shadow", encoder)
-        sun.encode(encoder, camera, self.deferred.gbuffer.textures, shading.rgb_buffer)
-        encoder = split("sun", encoder)
+        if self._advance_waves(encoder, setup):
+            encoder = split("waves", encoder)
+        if self._use_lightfield:
+            # The sun's light in the shading pass's band loop, the display fused.
+            encoder = self.encode_shading(encoder, sun, camera, scene, split=split,
+                                          display=True)
+            self._last_display = shading
+            return encoder
+        encoder = self.encode_shading(encoder, sun, camera, scene, split=split)
         self._display.use_input(shading.rgb_buffer)
         self._display.encode(encoder)
         self._last_display = self._display

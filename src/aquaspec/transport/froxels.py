@@ -3,7 +3,9 @@
 The renderer does not march each pixel's ray (the march,
 :func:`aquaspec.transport.sun_scattering.single_scattering_marched`, is the
 reference it is measured against): the
-image is cut into columns of :data:`FROXEL_TILE` x ``FROXEL_TILE`` pixels,
+image is cut into square columns of :func:`froxel_tile` pixels a side
+(:data:`FROXEL_TILE` per :data:`FROXEL_TILE_WIDTH` pixels of width, so the
+columns keep their angle as the image grows),
 each column's central ray is integrated front to back over
 :data:`FROXEL_SLICES` slices (:func:`froxel_grid`), and each pixel reads its
 column and its neighbours' at its own ray length (:func:`froxel_lookup`). The
@@ -27,11 +29,25 @@ from aquaspec.scene.camera import camera_depth
 from aquaspec.transport.sun_scattering import (TAIL, SunInputs, band_mean_phase_at, march_length,
                                                phase_from_log_table)
 
-#: Froxels: columns of ``FROXEL_TILE`` x ``FROXEL_TILE`` pixels, ``FROXEL_SLICES`` slices deep.
+#: Froxels: columns of ``FROXEL_TILE`` x ``FROXEL_TILE`` pixels per
+#: ``FROXEL_TILE_WIDTH`` pixels of image width (:func:`froxel_tile`),
+#: ``FROXEL_SLICES`` slices deep.
 FROXEL_TILE = 8
+FROXEL_TILE_WIDTH = 640
 FROXEL_SLICES = 64
-#: Caustic reads per froxel slice, spread evenly along it.
-CAUSTIC_SUBSAMPLES = 4
+#: Caustic reads per froxel slice, spread evenly along it (each filtered over
+#: its share of the slice).
+CAUSTIC_SUBSAMPLES = 2
+
+
+def froxel_tile(width: int) -> int:
+    """The side of a froxel column in pixels for an image ``width`` pixels wide:
+    :data:`FROXEL_TILE` up to :data:`FROXEL_TILE_WIDTH` pixels, then that many
+    per ``FROXEL_TILE_WIDTH`` (16 at 1280, 24 at 1920): at least 80 columns
+    across, each no wider than 8 pixels of a 640-pixel image. (The froxels'
+    error against each pixel's march depends on the columns' angle: 16-pixel
+    columns at 320x180 measured as 8-pixel ones at 160x90.)"""
+    return FROXEL_TILE * max(1, -(-int(width) // FROXEL_TILE_WIDTH))
 
 
 def caustic_foot_speed(v, to_sun) -> np.ndarray:
@@ -45,11 +61,13 @@ def caustic_foot_speed(v, to_sun) -> np.ndarray:
 
 
 def froxel_caustics(camera, cmap: caustics.CausticMap, dirs, t_a, t_b, *,
-                    tile: int = FROXEL_TILE, n_sub: int = CAUSTIC_SUBSAMPLES) -> np.ndarray:
+                    tile: int | None = None, n_sub: int = CAUSTIC_SUBSAMPLES) -> np.ndarray:
     """The mean caustic factor over each froxel slice [t_a, t_b] of the rays
     ``dirs`` (..., 3): :data:`CAUSTIC_SUBSAMPLES` reads at the middles of equal
     parts, each averaged over the larger of the column's width
-    (``tile t / fx``) and its part's length in foot coordinates."""
+    (``tile t / fx``, ``tile`` by default :func:`froxel_tile`) and its part's
+    length in foot coordinates."""
+    tile = froxel_tile(camera.width) if tile is None else tile
     speed = caustic_foot_speed(dirs, cmap.to_sun)[..., None]
     dt = t_b - t_a
     out = np.zeros(np.shape(t_a))
@@ -60,10 +78,12 @@ def froxel_caustics(camera, cmap: caustics.CausticMap, dirs, t_a, t_b, *,
     return out / n_sub
 
 
-def column_directions(camera, tile: int = FROXEL_TILE) -> np.ndarray:
+def column_directions(camera, tile: int | None = None) -> np.ndarray:
     """Unit rays through the centres of the froxel columns' tiles, (ch, cw, 3):
     column ``(b, a)`` covers pixels ``tile a ... tile a + tile - 1`` (and rows
-    alike); its ray goes through pixel coordinates ``(tile a + tile/2, tile b + tile/2)``."""
+    alike); its ray goes through pixel coordinates ``(tile a + tile/2, tile b + tile/2)``
+    (``tile`` by default :func:`froxel_tile`)."""
+    tile = froxel_tile(camera.width) if tile is None else tile
     cw, ch = -(-camera.width // tile), -(-camera.height // tile)
     px = tile * np.arange(cw) + tile / 2.0
     py = tile * np.arange(ch) + tile / 2.0
@@ -83,7 +103,7 @@ class FroxelGrid:
     cum: np.ndarray
 
 
-def froxel_grid(camera, sun: SunInputs, visibility=None, *, tile: int = FROXEL_TILE,
+def froxel_grid(camera, sun: SunInputs, visibility=None, *, tile: int | None = None,
                 slices: int = FROXEL_SLICES, tail: float = TAIL) -> FroxelGrid:
     """The beam's single scattering integrated front to back along each froxel column.
 
@@ -97,8 +117,10 @@ def froxel_grid(camera, sun: SunInputs, visibility=None, *, tile: int = FROXEL_T
         cum_k = sum_{m <= k} b beam0 exp(-c_sun d_o / mu0) p / p_ref
                 V_m int_{t_{m-1}}^{t_m} exp(-k_band t) dt
 
-    Returns the :class:`FroxelGrid` (``cum[..., 0, :] = 0``).
+    Returns the :class:`FroxelGrid` (``cum[..., 0, :] = 0``). ``tile``: by
+    default :func:`froxel_tile`.
     """
+    tile = froxel_tile(camera.width) if tile is None else tile
     d_o = camera_depth(camera)
     dirs = column_directions(camera, tile)
     mu0 = sun.mu0
@@ -129,11 +151,13 @@ def froxel_grid(camera, sun: SunInputs, visibility=None, *, tile: int = FROXEL_T
     return FroxelGrid(length, cum)
 
 
-def froxel_lookup(grid: FroxelGrid, camera, s, *, tile: int = FROXEL_TILE) -> np.ndarray:
+def froxel_lookup(grid: FroxelGrid, camera, s, *, tile: int | None = None) -> np.ndarray:
     """Each pixel's single scattering from the froxels, (H, W, n) before the
     pixel's own phase factor: bilinear between the four nearest columns, each
     read at ``min(S, L)`` linearly between slice boundaries (uniform in
-    ``sqrt(t / L)``). ``s`` (H, W): the pixel's ray length (inf: open water)."""
+    ``sqrt(t / L)``). ``s`` (H, W): the pixel's ray length (inf: open water);
+    ``tile`` as the grid's (by default :func:`froxel_tile`)."""
+    tile = froxel_tile(camera.width) if tile is None else tile
     length, cum = grid.length, grid.cum
     ch, cw = length.shape
     slices = cum.shape[2] - 1
@@ -163,3 +187,10 @@ def froxel_lookup(grid: FroxelGrid, camera, s, *, tile: int = FROXEL_TILE) -> np
             lo, hi = cum[bb, aa, k0], cum[bb, aa, k0 + 1]                # (H, W, n)
             out += (wv[:, None] * wu[None, :])[..., None] * ((1.0 - f) * lo + f * hi)
     return out
+
+
+def froxel_description(width: int | None = None) -> str:
+    """The froxels in words (for a render's or a benchmark's metadata)."""
+    tile = (f"{froxel_tile(width)}x{froxel_tile(width)} pixels" if width is not None else
+            f"{FROXEL_TILE}x{FROXEL_TILE} pixels per {FROXEL_TILE_WIDTH} pixels of width")
+    return f"froxels of {tile}, {FROXEL_SLICES} slices"

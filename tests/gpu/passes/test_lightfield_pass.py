@@ -103,9 +103,9 @@ def test_matches_reference(water, n, phase, kind, depth, cone, filtering, lightf
     ("IB", 8, 7.8, 5, "multiple"),
 ])
 def test_seabed_tables(water, n, depth_h, rank, spread, lightfield_gbuffer):
-    """Tables with a Lambertian seabed: the water table is built on the CPU
-    (lightfield_compiled.water_table, with the multiple-scattering spread's
-    node layers and kept share too) and the pass matches its twin."""
+    """Tables with a Lambertian seabed: the water table is built on the GPU
+    (watertable.wgsl, with the multiple-scattering spread's node layers and
+    kept share too) and the pass matches its twin."""
     from aquaspec.transport.lightfield.bake import lightfield_tables
     gb = lightfield_gbuffer("builtin", 5.0)
     setup = setup_of(water, n, "petzold", cone=40.0 if spread else 15.0,

@@ -141,6 +141,70 @@ class TestWaterTable:
         with pytest.raises(AquaspecError, match="split=True"):
             lfc.water_table(t, **{**kw, "split": False}, alpha_nodes=np.zeros(6))
 
+    @pytest.mark.parametrize("light", ["overcast", "sun-sky"])
+    @pytest.mark.parametrize("split", [False, True])
+    def test_every_node_is_the_model_with_a_seabed(self, light, split):
+        """With a seabed (7.8 m, albedo 0.3; with a sun its beam lights the
+        seabed too) the closed form is pixel_radiance on every node, at camera
+        depths from near the surface to 0.2 m above the seabed: black targets
+        (down rays' targets beyond the seabed are cut at it), open water seeing
+        the sky or the seabed (the last column, and S = inf going down)."""
+        from aquaspec.scene.seabed import Seabed
+        setup = SpectralSetup(load_water("II"), get_sensor("human"), surface_light(light),
+                              Bands(5), ms_model="lightfield", seabed=Seabed(7.8, 0.3),
+                              cone_spread=split)
+        t = setup.lightfield_tables()
+        assert t.has_seabed and t.has_sun == (light == "sun-sky")
+        assert np.all(np.asarray(t.forward_fraction) > 0)       # the two-point cone form
+        med = setup.medium([])
+        kw = dict(a=med["a"], b=med["b"], e0=med["e0"])
+        resp = med["response_weights"]
+        v, _ = lfc.direction_nodes(t.window_cos)
+        s = lfc.distance_nodes()
+        down = v < 0
+        gains = []
+        for d_o in (0.3, 3.9, 7.6):
+            table = lfc.water_table(t, **kw, response_weights=resp, depth_o=d_o, split=split)
+            vv = v[:, None, None]
+            with np.errstate(over="ignore", divide="ignore"):     # up rays near level
+                ss = np.minimum(s[None, :, None], np.where(vv > 0, d_o / vv, np.inf))
+                sd = np.maximum(d_o - np.where(np.isfinite(ss), ss, 0.0) * vv, 0.0)
+                hit = t.pixel_radiance(**kw, depth_o=d_o, v_y=vv, s=ss, rho=np.zeros(5),
+                                       surface_depth=sd, n_y=np.ones_like(sd),
+                                       split_cone=split)
+                open_l = t.pixel_radiance(**kw, depth_o=d_o, v_y=v[:, None],
+                                          s=np.full((v.size, 1), np.inf))
+            base, cone = hit if split else (hit, None)
+            finite = np.isfinite(ss[..., 0])
+            scale = np.abs(table).max()
+            np.testing.assert_allclose(table[0, :, -1], open_l @ resp, rtol=1e-9,
+                                       atol=1e-12 * scale)
+            np.testing.assert_allclose(table[0, :, :-1][finite], (base @ resp)[finite],
+                                       rtol=1e-9, atol=1e-12 * scale)
+            # S = inf going down: open water, which sees the seabed.
+            far = ~finite.all(1)
+            np.testing.assert_allclose(table[0, far, -2], table[0, far, -1], rtol=1e-12)
+            if split:
+                np.testing.assert_allclose(table[1, :, :-1][finite], (cone @ resp)[finite],
+                                           rtol=1e-9, atol=1e-12 * scale)
+                assert np.abs(table[1]).max() > 0
+            # The seabed's light is in open water looking down: the same rows
+            # over deep water are darker, the more so near the seabed.
+            deep = lfc.water_table(dataclasses.replace(t, seabed_depth_m=float("inf")),
+                                   **kw, response_weights=resp, depth_o=d_o, split=split)
+            gains.append(table[0, down, -1].sum() / deep[0, down, -1].sum())
+            # Beyond the seabed a down ray's target is at the seabed: flat in S.
+            to_bed = np.where(down, (t.seabed_depth_m - d_o) / np.where(down, -v, 1.0), np.inf)
+            beyond = s[None, :-1] > to_bed[:, None]
+            rows = np.flatnonzero(beyond.any(1))
+            assert rows.size > 0
+            for j in rows[::16]:
+                cols = np.flatnonzero(beyond[j])
+                np.testing.assert_allclose(table[:, j, cols], table[:, j, cols[:1]].repeat(
+                    cols.size, axis=1), rtol=1e-12, atol=1e-15 * scale)
+        print("open water looking down, seabed / none:", np.round(gains, 4))
+        assert gains[0] > 1.0 and np.all(np.diff(gains) > 0) and gains[-1] > 1.05
+
     @pytest.mark.parametrize("wc", [0.66, 0.0])
     def test_lookup_hits_nodes_and_keeps_the_window_edge_sharp(self, wc):
         n_out, n_in = lfc.direction_split(wc)
@@ -223,8 +287,8 @@ def test_twin_follows_the_model(water, n, phase, params, kind, depth, cone, spre
 @pytest.mark.parametrize("spread", [False, True])
 def test_twin_follows_the_model_with_a_seabed(spread, lightfield_gbuffer):
     """Tables with a Lambertian seabed (12 m, albedo 0.3, Jerlov I): the water
-    table is the model on its nodes (lightfield_compiled._water_table_from_model)
-    and the compiled image follows shade_gbuffer as in deep water."""
+    table is the model on its nodes (TestWaterTable) and the compiled image
+    follows shade_gbuffer as in deep water."""
     from aquaspec.shading.shade import shade_gbuffer
     gb = lightfield_gbuffer("builtin", 5.0)
     setup = SpectralSetup(load_water("I"), get_sensor("nikon-5100-npl"),

@@ -40,7 +40,14 @@ One invocation shades four horizontally adjacent pixels. Bindings:
                                         start level (the pyramid's level 0)
 16  texture ``rgba32float``             the pyramid's result (full-resolution
                                         pass with the spread)
+17- the sun's (:meth:`set_sun`;             :data:`aquaspec.gpu.passes.sun.FUSED_BINDINGS`
+23  full-resolution pass only)
 ==  ==================================  ==========================================
+
+With a sun (:meth:`set_sun`) the full-resolution pass adds the sun's light
+in its own band loop (the froxels are built before it,
+:meth:`aquaspec.gpu.passes.sun.SunPass.encode_froxels`), and the display
+transform stays fused.
 
 With the cone spread a frame is three steps, in one compute pass: the COARSE
 pipeline (one invocation per two blocks of the spread's start level,
@@ -74,6 +81,7 @@ from aquaspec.gpu.gbuffer import B_SIGMOID, B_SURFACE, GBufferTextures
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.materials import MaterialTable
 from aquaspec.gpu.passes.conespread import ConeSpreadPass
+from aquaspec.gpu.passes.sun import SunPass, sunlight_values
 from aquaspec.gpu.passes.watertable import MAX_NODES, WaterTablePass, alpha_vec4s
 from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.gpu.shading_output import ShadingOutput
@@ -163,13 +171,17 @@ class LightfieldPass(ShadingPass):
         #: The water table per camera depth.
         self.water = WaterTablePass(dev)
         table_kind = "filterable_array" if self.filtering else "float_array"
-        self._layout = bind_group_layout(dev, {
+        self._kinds = {
             B_PARAMS: "uniform", B_SURFACE: "uint", B_SIGMOID: "float", B_BANDS: "uniform",
             **MaterialTable.layout(), **ShadingOutput.layout(),
             B_WATER: table_kind, B_BASIS: table_kind,
             B_SAMPLER: "sampler" if self.filtering else "nonfiltering_sampler",
             B_CONE: "storage_rgba32float",
-            B_SPREAD: "filterable" if self.filtering else "float"})
+            B_SPREAD: "filterable" if self.filtering else "float"}
+        self._layout = bind_group_layout(dev, self._kinds)
+        self._sun_layout = None
+        #: The sun added in the full-resolution pass (:meth:`set_sun`), or None.
+        self.sun = None
         mode = "linear" if self.filtering else "nearest"
         self._sampler = dev.create_sampler(label="lightfield tables", mag_filter=mode,
                                            min_filter=mode, address_mode_u="clamp-to-edge",
@@ -271,9 +283,9 @@ class LightfieldPass(ShadingPass):
                            window_cos=tables.window_cos,
                            fb_mean=float(np.mean(f * b)))
         self.factors = factors
-        #: Tables with a seabed: the water table is built on the CPU
-        #: (:func:`aquaspec.transport.lightfield.compiled.water_table`; watertable.wgsl
-        #: has the deep-water closed form only) and uploaded.
+        #: Tables with a seabed (watertable.wgsl's SEABED: the lines of sight
+        #: going down end on it; twin
+        #: :func:`aquaspec.transport.lightfield.compiled.water_table`).
         self.seabed = tables.has_seabed
         previous, self._medium = self._medium, (tables, a, b, e0,
                                                 np.asarray(response_weights, dtype=float))
@@ -301,15 +313,24 @@ class LightfieldPass(ShadingPass):
                                   spread=self.spread, nodes=self.nodes, seabed=self.seabed)
         self._groups = {}
 
+    def set_sun(self, sun: SunPass | None) -> None:
+        """Add ``sun``'s light (its inputs set, its froxels encoded before each
+        frame) in the full-resolution pass from the next frame on; None: no sun."""
+        if sun is not None and (sun.width, sun.height) != (self.width, self.height):
+            raise AquaspecError(f"the sun pass is {sun.width}x{sun.height}; the shading "
+                                f"pass {self.width}x{self.height}")
+        self.sun = sun
+
     # ------------------------------------------------------------- dispatch
     def pipeline(self, per_pixel, tonemap, coarse=False, projected=False):
         """The compute pipeline for these compile-time constants (made when first used)."""
         sh = self._shape
         split = lfc.direction_split(sh["window_cos"])
         group = bool(self.spread and 2 ** self.spread_plan[0] >= 4)
+        sun = self.sun is not None and not coarse
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
                self.filtering, self.spread, coarse, group, projected,
-               self.materials.in_uniform, self.nodes)
+               self.materials.in_uniform, self.nodes, sun)
         if key not in self._pipelines:
             band_vec4 = 2 + -(-sh["rank"] // 4)
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
@@ -328,9 +349,12 @@ class LightfieldPass(ShadingPass):
                             projected="true" if projected else "false",
                             nodes=self.nodes, slots=max(1, -(-3 * self.nodes // 4)),
                             **self.materials.template(),
+                            **sunlight_values(self.width, sh["n_bands"]),
+                            sun_pixels="sun_pixels" if sun else "no_sun_pixels",
+                            sun_surface="sun_surface" if sun else "no_sun_surface",
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
-            self._pipelines[key] = compute_pipeline(self.device, self._layout, src,
-                                                    "lightfield.wgsl")
+            self._pipelines[key] = compute_pipeline(self.device, self._sun_layout_() if sun
+                                                    else self._layout, src, "lightfield.wgsl")
         return self._pipelines[key]
 
     def reference_compiled(self) -> "lfc.Compiled":
@@ -343,21 +367,30 @@ class LightfieldPass(ShadingPass):
                                       depth_o=depth_o, factors=self.factors,
                                       alpha_nodes=np.array(alpha) if self.nodes else None)
 
+    def _sun_layout_(self):
+        if self._sun_layout is None:
+            self._sun_layout = bind_group_layout(self.device,
+                                                 {**self._kinds, **SunPass.fused_layout()})
+        return self._sun_layout
+
     def bind_group(self, coarse=False):
         """The bind group of the full-resolution pass, or of the COARSE one."""
         sp = self._spread_pass
         cone = sp.cone_texture if (coarse and sp) else self._unused["storage"]
         spread_in = sp.result if (sp and not coarse) else self._unused["sampled"]
+        sun = None if coarse or self.sun is None else self.sun.fused_resources()
         key = (self.gbuffer.bindings_version, self.water.texture_version, id(cone),
-               id(spread_in))
+               id(spread_in), None if sun is None else tuple(id(x) for x in sun.values()))
         cache = self._groups
         if key not in cache:
             tex = self.gbuffer.textures
             resources = {B_PARAMS: self._uniform, B_SURFACE: tex["surface"],
                          B_SIGMOID: tex["sigmoid"], **self._buffers, **self.output.resources(),
-                         B_WATER: self.water.texture, B_CONE: cone, B_SPREAD: spread_in}
-            cache[key] = self.device.create_bind_group(layout=self._layout,
-                                                       entries=bind_group_entries(resources))
+                         B_WATER: self.water.texture, B_CONE: cone, B_SPREAD: spread_in,
+                         **(sun or {})}
+            cache[key] = self.device.create_bind_group(
+                layout=self._layout if sun is None else self._sun_layout_(),
+                entries=bind_group_entries(resources))
         return cache[key]
 
     def _update_spread(self, cam):

@@ -35,6 +35,17 @@
 //   plus the water table's layers 1 .. K, in SLOTS vec4 per block, slot m at
 //   column block + m coarse_size.x of cone_out (aquaspec.gpu.passes.conespread).
 //
+// With the sun (the full-resolution pipeline of a frame with a sun,
+// aquaspec.gpu.passes.sun.SunPass.fused_resources; twin aquaspec.shading.sun.sun_radiance):
+// the template names SUN_PIXELS and SUN_SURFACE are sun_pixels and
+// sun_surface (else no_sun_pixels and no_sun_surface, so that a frame
+// without the sun does not use the sun's bindings). Per pixel the sun's veil
+// (the froxels) and the share of the beam its surface gets (sunlight.wgsl);
+// per band the lit surface's light rho beam0 / pi exp(-c_sun d_S / mu0 - c S)
+// times that share, added to the image beside the targets' light, so that
+// the display transform stays fused and the G-buffer and the image are read
+// once.
+//
 // Written for lavapipe (SIMD over 8 invocations on the CPU), as
 // deferred.wgsl (see its header): per-band constants in a uniform array
 // with a compile-time band count, per-pixel work (table coordinates)
@@ -49,6 +60,7 @@
 
 #include "shading4.wgsl"
 #include "lftables.wgsl"
+#include "sunlight.wgsl"
 
 {{ params_struct }}
 
@@ -108,6 +120,9 @@ const NODE_ARRAY: u32 = max(NODES, 1u);
 // Water table: layer 0 the water's camera RGB, layer 1 (SPREAD) the cone's
 // share; texel (distance column, direction row).
 @group(0) @binding(11) var water_table: texture_2d_array<f32>;
+// The sun's per-band constants (sun.wgsl's `bands`: c, c_sun / mu0, b beam0,
+// beam0 / pi; w_r, w_g, w_b, t).
+@group(0) @binding({{ sun_b_bands }}) var<uniform> sun_bands: array<vec4<f32>, {{ sun_band_vec4 }}>;
 // Irradiance basis U: layer g, texel (direction j, depth i) holds U_4g .. U_4g+3.
 @group(0) @binding(12) var basis_table: texture_2d_array<f32>;
 @group(0) @binding(14) var table_sampler: sampler;
@@ -206,6 +221,142 @@ struct BandPixels {
     c1: vec4<f32>,
     c2: vec4<f32>,
     use_sigmoid: vec4<bool>,
+}
+
+// The sun's veil (camera RGB) and the share of the beam the four pixels'
+// surfaces get (0 where no hit).
+struct SunPixels {
+    r: vec4<f32>,
+    g: vec4<f32>,
+    b: vec4<f32>,
+    lit: vec4<f32>,
+}
+
+fn no_sun_pixels(px: vec4<u32>, py: vec4<u32>, gb: GbufferPixels, hit: vec4<bool>) -> SunPixels {
+    return SunPixels(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+}
+
+// One pixel's lit share (0 where no hit).
+fn sun_pixel_lit(px: u32, py: u32, s: f32, hit: bool, oct: u32, n_y: f32) -> f32 {
+    let v = ray_through(f32(px) + 0.5, f32(py) + 0.5);
+    let n = decode_normal(oct, bitcast<u32>(n_y));
+    return select(0.0, sun_lit(v, select(0.0, s, hit), n), hit);
+}
+
+// One pixel's ray's cosine to the sun.
+fn sun_cos(px: u32, py: u32) -> f32 {
+    return dot(ray_through(f32(px) + 0.5, f32(py) + 0.5), sp.to_sun);
+}
+
+// Froxel column `base`'s single scattering at the four lanes' distances s.
+fn froxel_column4(base: u32, s: vec4<f32>) -> Rgb4 {
+    let length = froxels[base].w;
+    let x = sqrt(min(s, vec4<f32>(length)) / max(length, 1e-30)) * f32(SLICES);
+    let k0 = min(vec4<u32>(floor(x)), vec4<u32>(SLICES - 1u));
+    let f = select(vec4<f32>(0.0), x - vec4<f32>(k0), vec4<bool>(length > 0.0));
+    let kb = base + k0;
+    let e = select(0.0, 1.0, length > 0.0);
+    let l0 = mix(froxels[kb.x].xyz, froxels[kb.x + 1u].xyz, f.x) * e;
+    let l1 = mix(froxels[kb.y].xyz, froxels[kb.y + 1u].xyz, f.y) * e;
+    let l2 = mix(froxels[kb.z].xyz, froxels[kb.z + 1u].xyz, f.z) * e;
+    let l3 = mix(froxels[kb.w].xyz, froxels[kb.w + 1u].xyz, f.w) * e;
+    return Rgb4(vec4<f32>(l0.x, l1.x, l2.x, l3.x), vec4<f32>(l0.y, l1.y, l2.y, l3.y),
+                vec4<f32>(l0.z, l1.z, l2.z, l3.z));
+}
+
+fn rgb4_mix(a: Rgb4, b: Rgb4, f: vec4<f32>) -> Rgb4 {
+    return Rgb4(mix(a.r, b.r, f), mix(a.g, b.g, f), mix(a.b, b.b, f));
+}
+
+// The lit shares and the veil (sunlight.wgsl's sun_veil) of the four pixels
+// of a row. The lanes are four adjacent pixels from a multiple of four and
+// froxel columns are a multiple of 8 pixels wide, so all four lie between the
+// same four columns: their lengths are read once. (Each lane written out: a
+// loop over the lanes indexing them with its counter was several times
+// slower on lavapipe.)
+fn sun_pixels(px: vec4<u32>, py: vec4<u32>, gb: GbufferPixels, hit: vec4<bool>) -> SunPixels {
+    // The shadow map and caustics only where a lane hits (a trip count, not a
+    // branch: lavapipe leaves the loop when no SIMD lane has an iteration).
+    var lit = vec4<f32>(0.0);
+    let n_lit = select(0u, 1u, any(hit));
+    for (var t = 0u; t < n_lit; t = t + 1u) {
+        lit = vec4<f32>(sun_pixel_lit(px.x, py.x, gb.s.x, hit.x, gb.oct.x, gb.n_y.x),
+                        sun_pixel_lit(px.y, py.y, gb.s.y, hit.y, gb.oct.y, gb.n_y.y),
+                        sun_pixel_lit(px.z, py.z, gb.s.z, hit.z, gb.oct.z, gb.n_y.z),
+                        sun_pixel_lit(px.w, py.w, gb.s.w, hit.w, gb.oct.w, gb.n_y.w));
+    }
+    let s = select(vec4<f32>(f32_inf()), gb.s, hit);
+    let ux = (vec4<f32>(px) + 0.5 - 0.5 * f32(TILE)) / f32(TILE);
+    let uy = (f32(py.x) + 0.5 - 0.5 * f32(TILE)) / f32(TILE);
+    let ax0 = clamp(floor(ux.x), 0.0, f32(sp.cols_x - 1u));
+    let ay0 = clamp(floor(uy), 0.0, f32(sp.cols_y - 1u));
+    let fx = clamp(ux - ax0, vec4<f32>(0.0), vec4<f32>(1.0));
+    let fy = vec4<f32>(clamp(uy - ay0, 0.0, 1.0));
+    let cx0 = u32(ax0);
+    let cx1 = min(cx0 + 1u, sp.cols_x - 1u);
+    let cy0 = u32(ay0);
+    let cy1 = min(cy0 + 1u, sp.cols_y - 1u);
+    let row0 = rgb4_mix(froxel_column4((cy0 * sp.cols_x + cx0) * (SLICES + 1u), s),
+                        froxel_column4((cy0 * sp.cols_x + cx1) * (SLICES + 1u), s), fx);
+    let row1 = rgb4_mix(froxel_column4((cy1 * sp.cols_x + cx0) * (SLICES + 1u), s),
+                        froxel_column4((cy1 * sp.cols_x + cx1) * (SLICES + 1u), s), fx);
+    let ss = rgb4_mix(row0, row1, fy);
+    let phase = vec4<f32>(ref_phase_value(phase_at(sun_cos(px.x, py.x))),
+                          ref_phase_value(phase_at(sun_cos(px.y, py.y))),
+                          ref_phase_value(phase_at(sun_cos(px.z, py.z))),
+                          ref_phase_value(phase_at(sun_cos(px.w, py.w))));
+    return SunPixels(ss.r * phase, ss.g * phase, ss.b * phase, lit);
+}
+
+fn no_sun_surface(m: PixelMaterials, run: bool, d: vec4<f32>, s: vec4<f32>,
+                  lit: vec4<f32>) -> Rgb4 {
+    return Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+}
+
+// The sun-lit surface's light in band i (sun.wgsl's main: rho beam0 / pi
+// exp(-c_sun d / mu0 - c S) times the share lit), added to acc.
+fn sun_surface_band(i: u32, rho_m: vec4<f32>, m: PixelMaterials, d: vec4<f32>, s: vec4<f32>,
+                    lit: vec4<f32>, acc: ptr<function, Rgb4>) {
+    let q0 = sun_bands[2u * i];
+    let q1 = sun_bands[2u * i + 1u];
+    var rho = rho_m;
+    if (PER_PIXEL_MATERIALS) {
+        rho = select(rho, sigmoid_reflectance(m.c0, m.c1, m.c2, q1.w), m.use_sigmoid);
+    }
+    let l = rho * q0.w * exp(-q0.y * d - q0.x * s) * lit;
+    (*acc).r = (*acc).r + l * q1.x;
+    (*acc).g = (*acc).g + l * q1.y;
+    (*acc).b = (*acc).b + l * q1.z;
+}
+
+// The sun-lit surfaces' light at depths d and distances s, in a band loop of
+// its own after the targets' (three more per-pixel values in that loop made
+// a 1280x720 frame 45 ms of CPU slower on lavapipe), four band bodies per
+// material vec4 (a band index picking a vector component cost as much again).
+fn sun_surface(m: PixelMaterials, run: bool, d: vec4<f32>, s: vec4<f32>,
+               lit: vec4<f32>) -> Rgb4 {
+    var acc = Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+    let n_groups = select(0u, FULL_GROUPS, run);
+    for (var q = 0u; q < n_groups; q = q + 1u) {
+        let g = material_group(m.mrow, q, m.use_material);
+        sun_surface_band(4u * q, group_band(g, 0u), m, d, s, lit, &acc);
+        sun_surface_band(4u * q + 1u, group_band(g, 1u), m, d, s, lit, &acc);
+        sun_surface_band(4u * q + 2u, group_band(g, 2u), m, d, s, lit, &acc);
+        sun_surface_band(4u * q + 3u, group_band(g, 3u), m, d, s, lit, &acc);
+    }
+    let n_rest = select(0u, select(0u, 1u, REST_BANDS > 0u), run);
+    for (var t = 0u; t < n_rest; t = t + 1u) {
+        let g = material_group(m.mrow, FULL_GROUPS, m.use_material);
+        let i = 4u * FULL_GROUPS;
+        sun_surface_band(i, group_band(g, 0u), m, d, s, lit, &acc);
+        if (REST_BANDS > 1u) {
+            sun_surface_band(i + 1u, group_band(g, 1u), m, d, s, lit, &acc);
+        }
+        if (REST_BANDS > 2u) {
+            sun_surface_band(i + 2u, group_band(g, 2u), m, d, s, lit, &acc);
+        }
+    }
+    return acc;
 }
 
 // COARSE with NODES: the node images of the four lanes (camera RGB per node).
@@ -467,6 +618,12 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         gr = gr + sg;
         b = b + sb;
     }
+    // The sun (after the targets' band loop, so that none of it is live there).
+    let sun = {{ sun_pixels }}(px, py, gb, hit);
+    let lit = {{ sun_surface }}(mat, any_hit, d_s, s, sun.lit);
+    r = r + sun.r + lit.r;
+    gr = gr + sun.g + lit.g;
+    b = b + sun.b + lit.b;
     if (COARSE && NODES > 0u) {
         // The blocks' mean node images, value q = 3 n + c in slot q / 4.
         var s0: array<vec4<f32>, SLOTS>;

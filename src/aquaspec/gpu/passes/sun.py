@@ -7,12 +7,16 @@ Three steps (maths in :mod:`aquaspec.transport.sun_scattering` and
   scene rasterised depth-only along the refracted beam;
 - the froxels (``sun.wgsl`` beside this module, ``build_froxels``): the beam's single
   scattering integrated front to back along each column of
-  :data:`aquaspec.transport.froxels.FROXEL_TILE` x ``FROXEL_TILE`` pixels, over
+  :func:`aquaspec.transport.froxels.froxel_tile` pixels square, over
   :data:`aquaspec.transport.froxels.FROXEL_SLICES` slices, in camera RGB;
-- the sun's radiance (``main``): per pixel the sun-lit surface's light and
-  the single scattering read from the froxels at the pixel's distance, added
-  in camera RGB to the shading pass's linear image (its ``rgb_buffer``), so
-  :meth:`read_rgb` of that pass returns the whole image.
+- the sun's radiance per pixel: the sun-lit surface's light and the single
+  scattering read from the froxels at the pixel's distance. The light-field
+  shading pass adds it in its own band loop (:meth:`fused_layout`,
+  :meth:`fused_resources` and :meth:`wgsl_values` give it the bindings and
+  ``sunlight.wgsl``'s templates; :meth:`encode_froxels` comes first); for the
+  seeds' model ``main`` adds it in camera RGB to the shading pass's linear
+  image (its ``rgb_buffer``), so :meth:`read_rgb` of that pass returns the
+  whole image.
 
 Bindings of sun.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
 surface and sigmoid textures (:mod:`aquaspec.gpu.gbuffer`); 3 material band
@@ -22,8 +26,13 @@ pixel, read and written); 8 the froxels (vec4 per column and slice
 boundary); 9 ``ln`` of the bands' mean phase function
 (:func:`aquaspec.transport.sun_scattering.band_mean_log_phase`); 10 the caustic factor's slices
 (:class:`aquaspec.light.caustics.CausticMap`, an ``r16float`` 2-D array with its mip
-levels; a 1 x 1 x 2 stand-in without caustics) and 11 its repeating
-trilinear sampler.
+levels; a 1 x 1 x 2 stand-in without caustics), 11 its repeating
+trilinear sampler and 12 the shadow map's comparison sampler. The fused
+bindings (:data:`FUSED_BINDINGS`) are the same resources at other numbers.
+
+The shadow map is drawn again only when its geometry (the sun, the map's
+place around the camera) or the scene's uploaded buffers change
+(:meth:`aquaspec.gpu.passes.sun_shadow.SunShadowPass.encode`).
 """
 
 from __future__ import annotations
@@ -34,7 +43,7 @@ import wgpu
 from aquaspec.errors import AquaspecError
 from aquaspec.scene.shadowmap import (BIAS_TEXELS, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE,
                                       NORMAL_OFFSET_TEXELS, ShadowMapSpec)
-from aquaspec.transport.froxels import CAUSTIC_SUBSAMPLES, FROXEL_SLICES, FROXEL_TILE
+from aquaspec.transport.froxels import CAUSTIC_SUBSAMPLES, FROXEL_SLICES, froxel_tile
 from aquaspec.transport.sun_scattering import (PHASE_TABLE_SIZE, TAIL, SunInputs,
                                                band_mean_log_phase)
 from aquaspec.gpu.buffers import create_storage_buffer, create_uniform_buffer, upload_buffer
@@ -58,6 +67,27 @@ CAUSTIC_FORMAT = "r16float"
 #: Bound in place of the caustics when there are none (two 1 x 1 slices of 1).
 NO_CAUSTICS = (np.ones((2, 1, 1), np.float32),)
 WORKGROUP = (8, 8)
+#: sunlight.wgsl's bindings in sun.wgsl: params, shadow map, froxels, mean phase, caustics.
+SUN_BINDINGS = {"params": 0, "shadow": 6, "froxels": 8, "ref_phase": 9, "caustic": 10,
+                "caustic_sampler": 11, "shadow_sampler": 12}
+#: The same resources in a shading pass that adds the sun itself (lightfield.wgsl with
+#: SUN), with the per-band constants (``bands``, the layout of sun.wgsl's binding 4).
+FUSED_BINDINGS = {"params": 17, "bands": 18, "shadow": 19, "froxels": 20, "ref_phase": 21,
+                  "caustic": 22, "caustic_sampler": 23, "shadow_sampler": 24}
+
+
+def sunlight_values(width: int, n_bands: int, bindings: dict = FUSED_BINDINGS,
+                    froxel_access: str = "read") -> dict:
+    """Template values of ``sunlight.wgsl`` for a shader binding the sun's resources
+    at ``bindings`` (:data:`FUSED_BINDINGS` or :data:`SUN_BINDINGS`; with
+    FUSED_BINDINGS also ``sun_b_bands`` and ``sun_band_vec4`` of the per-band
+    constants) for images ``width`` pixels wide."""
+    tile = froxel_tile(width)
+    return {"sun_params_struct": PARAMS_LAYOUT.wgsl(),
+            "sun_params_struct_name": PARAMS_LAYOUT.name, "tile": tile,
+            "slices": FROXEL_SLICES, "phase_size": PHASE_TABLE_SIZE,
+            "froxel_access": froxel_access, "sun_band_vec4": 2 * int(n_bands),
+            **{f"sun_b_{k}": v for k, v in bindings.items()}}
 
 
 class SunPass:
@@ -77,7 +107,9 @@ class SunPass:
         self.width, self.height, self.n_bands = int(width), int(height), int(n_bands)
         self.map_size = int(map_size)
         self.phase_size = PHASE_TABLE_SIZE
-        self.cols = (-(-self.width // FROXEL_TILE), -(-self.height // FROXEL_TILE))
+        #: Froxel columns are ``tile`` pixels square (:func:`froxel_tile`).
+        self.tile = froxel_tile(self.width)
+        self.cols = (-(-self.width // self.tile), -(-self.height // self.tile))
         self._pipelines = {}
         self._use_pipelines(True)
         self._froxels = create_storage_buffer(
@@ -99,9 +131,16 @@ class SunPass:
             address_mode_u=wgpu.AddressMode.repeat, address_mode_v=wgpu.AddressMode.repeat,
             mag_filter=wgpu.FilterMode.linear, min_filter=wgpu.FilterMode.linear,
             mipmap_filter=wgpu.MipmapFilterMode.linear)
+        self._shadow_sampler = device.create_sampler(
+            address_mode_u=wgpu.AddressMode.clamp_to_edge,
+            address_mode_v=wgpu.AddressMode.clamp_to_edge,
+            mag_filter=wgpu.FilterMode.nearest, min_filter=wgpu.FilterMode.nearest,
+            compare=wgpu.CompareFunction.less_equal)
         self._caustic_map = None
+        self._caustic_geometry = None
         self._caustic_tex = self._caustic_texture(NO_CAUSTICS)
         self._bind_key = None
+        self._froxel_key = None
         self._group = None
         self._inputs = None
 
@@ -112,10 +151,8 @@ class SunPass:
             binding = ("@group(0) @binding(3) var<uniform> material_bands: "
                        f"array<vec4<f32>, {UNIFORM_VEC4}>;") if key else \
                 "@group(0) @binding(3) var<storage, read> material_bands: array<f32>;"
-            src = load_wgsl("sun.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
-                            params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
-                            tile=FROXEL_TILE, slices=FROXEL_SLICES, phase_size=self.phase_size,
-                            caustic_sub=CAUSTIC_SUBSAMPLES,
+            src = load_wgsl("sun.wgsl", **self.wgsl_values(SUN_BINDINGS, "read_write"),
+                            n_bands=self.n_bands, caustic_sub=CAUSTIC_SUBSAMPLES,
                             band_vec4=2 * self.n_bands, material_binding=binding,
                             material_read="material_bands[k / 4u][k % 4u]" if key
                             else "material_bands[k]")
@@ -127,7 +164,44 @@ class SunPass:
                     label="sun froxels", layout="auto",
                     compute={"module": module, "entry_point": "build_froxels"}))
         self._pipeline, self._build = self._pipelines[key]
-        self._bind_key = None
+        self._bind_key = self._froxel_key = None
+
+    def wgsl_values(self, bindings: dict = FUSED_BINDINGS, froxel_access: str = "read") -> dict:
+        """:func:`sunlight_values` for this pass's image width and bands."""
+        return sunlight_values(self.width, self.n_bands, bindings, froxel_access)
+
+    @staticmethod
+    def fused_layout() -> dict:
+        """Binding kinds (:func:`aquaspec.gpu.bindings.bind_group_layout`) of the
+        sun's resources in a shading pass that adds the sun itself."""
+        b = FUSED_BINDINGS
+        return {b["params"]: "uniform", b["bands"]: "uniform", b["shadow"]: "depth",
+                b["froxels"]: "read", b["ref_phase"]: "read", b["caustic"]: "filterable_array",
+                b["caustic_sampler"]: "sampler", b["shadow_sampler"]: "comparison_sampler"}
+
+    def fused_resources(self) -> dict:
+        """``{binding: resource}`` of :meth:`fused_layout` (after :meth:`set_inputs`)."""
+        b = FUSED_BINDINGS
+        return {b["params"]: self._params, b["bands"]: self._bands,
+                b["shadow"]: self.shadow_map.view, b["froxels"]: self._froxels,
+                b["ref_phase"]: self._ref_phase, b["caustic"]: self.caustic_view,
+                b["caustic_sampler"]: self._caustic_sampler,
+                b["shadow_sampler"]: self._shadow_sampler}
+
+    @property
+    def caustic_view(self):
+        """The caustic factor's slices as bound (a 2-D array view with its mips; the
+        1 x 1 x 2 stand-in without caustics): the one place that owns them."""
+        return self._caustic_tex[1]
+
+    def caustic_params(self) -> dict:
+        """The caustics' fields of :data:`PARAMS_LAYOUT` (meta of :attr:`caustic_view`)."""
+        geo = self._caustic_geometry
+        if geo is None:
+            return dict(caustic=0, c_slices=2, c_tile=1.0, c_max_depth=1.0, c_texel=1.0,
+                        c_levels=1.0)
+        return dict(caustic=1, c_slices=geo.slices, c_tile=geo.tile_m,
+                    c_max_depth=geo.max_depth_m, c_texel=geo.texel_m, c_levels=float(geo.levels))
 
     def _caustic_texture(self, levels):
         """An r16float 2-D array texture holding ``levels`` (K, n_m, n_m) as its mips."""
@@ -150,7 +224,22 @@ class SunPass:
             return
         self._caustic_tex = self._caustic_texture(NO_CAUSTICS if cmap is None else cmap.levels)
         self._caustic_map = cmap
-        self._bind_key = None
+        self._caustic_geometry = None if cmap is None else cmap.geometry
+        self._bind_key = self._froxel_key = None
+
+    def use_caustic_texture(self, view, geometry) -> None:
+        """Sample caustic slices made on the GPU (e.g. by
+        :class:`aquaspec.gpu.passes.caustics.CausticLoopPass`): ``view``, an
+        r16float 2-D array view with mips laid out as a
+        :class:`aquaspec.light.caustics.CausticMap`'s levels, and its
+        :class:`aquaspec.light.caustics.CausticGeometry`; until the next
+        :meth:`set_inputs` with other caustics."""
+        if view is self.caustic_view and geometry == self._caustic_geometry:
+            return
+        self._caustic_tex = (None, view)
+        self._caustic_map = None       # set_inputs() uploads its own map again
+        self._caustic_geometry = geometry
+        self._bind_key = self._froxel_key = None
 
     # ---- per-band inputs --------------------------------------------------------
     def set_inputs(self, sun: SunInputs, *, response_weights, material_bands,
@@ -215,7 +304,48 @@ class SunPass:
 
     # ---- the sun's radiance -----------------------------------------------------
     def encode(self, encoder, camera, gbuffer_textures: dict, rgb_buffer) -> None:
-        """Record the sun's light added into ``rgb_buffer`` (vec4 per pixel)."""
+        """Record the sun's light added into ``rgb_buffer`` (vec4 per pixel): the
+        froxels (:meth:`encode_froxels`), then the per-pixel pass."""
+        self.encode_froxels(encoder, camera)
+        key = (id(gbuffer_textures["surface"]), id(gbuffer_textures["sigmoid"]),
+               id(rgb_buffer), id(self._materials), id(self.caustic_view))
+        if key != self._bind_key:
+            def buf(binding, buffer):
+                return {"binding": binding, "resource": {"buffer": buffer, "offset": 0,
+                                                         "size": buffer.size}}
+            self._group = self.device.create_bind_group(
+                layout=self._pipeline.get_bind_group_layout(0), entries=[
+                    *self._sun_entries(self._pipeline, with_phase=False),
+                    {"binding": 1, "resource": gbuffer_textures["surface"].create_view()},
+                    {"binding": 2, "resource": gbuffer_textures["sigmoid"].create_view()},
+                    buf(3, self._materials), buf(4, self._bands), buf(7, rgb_buffer)])
+            self._bind_key = key
+        cp = encoder.begin_compute_pass()
+        cp.set_pipeline(self._pipeline)
+        cp.set_bind_group(0, self._group)
+        cp.dispatch_workgroups(-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]))
+        cp.end()
+
+    def _sun_entries(self, pipeline, with_phase: bool) -> list:
+        """Bind-group entries of sunlight.wgsl's resources at :data:`SUN_BINDINGS`."""
+        def buf(binding, buffer):
+            return {"binding": binding, "resource": {"buffer": buffer, "offset": 0,
+                                                     "size": buffer.size}}
+        b = SUN_BINDINGS
+        out = [{"binding": b["params"], "resource": {"buffer": self._params, "offset": 0,
+                                                     "size": PARAMS_LAYOUT.size}},
+               {"binding": b["shadow"], "resource": self.shadow_map.view},
+               buf(b["froxels"], self._froxels), buf(b["ref_phase"], self._ref_phase),
+               {"binding": b["caustic"], "resource": self.caustic_view},
+               {"binding": b["caustic_sampler"], "resource": self._caustic_sampler},
+               {"binding": b["shadow_sampler"], "resource": self._shadow_sampler}]
+        if with_phase:
+            out += [buf(4, self._bands), buf(5, self._phase)]
+        return out
+
+    def encode_froxels(self, encoder, camera) -> None:
+        """Upload this frame's parameters and record the froxel pass (the single
+        scattering along each column), which the per-pixel terms read."""
         if self._inputs is None:
             raise AquaspecError("SunPass.set_inputs() first")
         if (camera.width, camera.height) != (self.width, self.height):
@@ -228,49 +358,19 @@ class SunPass:
                    normal_offset=NORMAL_OFFSET_TEXELS * spec.texel) if self.shadowed else dict(
             e1=(1.0, 0.0, 0.0), u0=0.0, e2=(0.0, 0.0, 1.0), v0=0.0, map_size=self.map_size,
             texel=1.0, h_min=0.0, h_max=1.0, bias=0.0, normal_offset=0.0)
-        cmap = self._caustic_map
-        caustic = dict(caustic=0, c_slices=2, c_tile=1.0, c_max_depth=1.0, c_texel=1.0,
-                       c_levels=1.0) if cmap is None else dict(
-            caustic=1, c_slices=cmap.depths.size, c_tile=cmap.waves.tile_m,
-            c_max_depth=cmap.max_depth, c_texel=cmap.texel, c_levels=float(len(cmap.levels)))
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
-            **camera_fields(camera), to_sun=self._inputs.to_sun, **caustic,
+            **camera_fields(camera), to_sun=self._inputs.to_sun, **self.caustic_params(),
             width=self.width, height=self.height, shadowed=int(self.shadowed),
             neg_log_tail=-np.log(TAIL), cols_x=self.cols[0], cols_y=self.cols[1], **geo))
-        key = (id(gbuffer_textures["surface"]), id(gbuffer_textures["sigmoid"]),
-               id(rgb_buffer), id(self._materials))
-        if key != self._bind_key:
-            def buf(binding, buffer):
-                return {"binding": binding, "resource": {"buffer": buffer, "offset": 0,
-                                                         "size": buffer.size}}
-            params = {"binding": 0, "resource": {"buffer": self._params, "offset": 0,
-                                                 "size": PARAMS_LAYOUT.size}}
-            caustic_entries = [{"binding": 10, "resource": self._caustic_tex[1]},
-                               {"binding": 11, "resource": self._caustic_sampler}]
-            self._group = self.device.create_bind_group(
-                layout=self._pipeline.get_bind_group_layout(0), entries=[
-                    params,
-                    {"binding": 1, "resource": gbuffer_textures["surface"].create_view()},
-                    {"binding": 2, "resource": gbuffer_textures["sigmoid"].create_view()},
-                    buf(3, self._materials), buf(4, self._bands),
-                    {"binding": 6, "resource": self.shadow_map.view},
-                    buf(7, rgb_buffer), buf(8, self._froxels), buf(9, self._ref_phase),
-                    *caustic_entries])
+        if self._froxel_key != id(self.caustic_view):
             self._build_group = self.device.create_bind_group(
-                layout=self._build.get_bind_group_layout(0), entries=[
-                    params, buf(4, self._bands), buf(5, self._phase),
-                    {"binding": 6, "resource": self.shadow_map.view},
-                    buf(8, self._froxels), buf(9, self._ref_phase), *caustic_entries])
-            self._bind_key = key
+                layout=self._build.get_bind_group_layout(0),
+                entries=self._sun_entries(self._build, with_phase=True))
+            self._froxel_key = id(self.caustic_view)
         cp = encoder.begin_compute_pass()
         cp.set_pipeline(self._build)
         cp.set_bind_group(0, self._build_group)
         cp.dispatch_workgroups(-(-self.cols[0] * self.cols[1] // 64))
-        cp.end()
-        cp = encoder.begin_compute_pass()
-        cp.set_pipeline(self._pipeline)
-        cp.set_bind_group(0, self._group)
-        cp.dispatch_workgroups(-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]))
         cp.end()
 
     def read_shadow_map(self) -> np.ndarray | None:

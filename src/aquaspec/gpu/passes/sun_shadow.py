@@ -6,6 +6,13 @@ this module through :meth:`aquaspec.scene.shadowmap.ShadowMapSpec.clip_matrix`
 into a ``depth32float`` texture of :data:`aquaspec.scene.shadowmap.DEFAULT_MAP_SIZE`
 texels a side, which :class:`aquaspec.gpu.passes.sun.SunPass` reads. NumPy
 twin: :mod:`aquaspec.scene.shadowmap` (the same map, read the same way).
+
+The map is kept from frame to frame, as real-time renderers keep the shadow
+maps of static geometry: it is drawn again only when its geometry (the
+:class:`~aquaspec.scene.shadowmap.ShadowMapSpec`: the sun, the scene's bounds
+and the camera's place across the beam) or the scene's uploaded vertex and
+index buffers change (a 2048^2 map cost 10-15 ms a 1280x720 frame on
+lavapipe).
 """
 
 from __future__ import annotations
@@ -21,6 +28,13 @@ from aquaspec.gpu.shaders import load_wgsl
 
 CLIP_LAYOUT = UniformLayout("ShadowClip", [("clip", "mat4x4<f32>")])
 DEPTH_FORMAT = "depth32float"
+
+
+def _spec_key(spec: ShadowMapSpec) -> tuple:
+    """The map's geometry as a hashable value (equal specs draw equal maps)."""
+    return (tuple(np.asarray(spec.to_sun, float)), tuple(np.asarray(spec.e1, float)),
+            tuple(np.asarray(spec.e2, float)), spec.u0, spec.v0, spec.texel, spec.size,
+            spec.h_min, spec.h_max)
 
 
 class SunShadowPass:
@@ -52,6 +66,9 @@ class SunShadowPass:
         #: The map's geometry of the last :meth:`encode` (None: nothing shadowed).
         self.spec: ShadowMapSpec | None = None
         self.shadowed = False
+        self._drawn = None          # what the map holds: (spec fields, draw buffers)
+        #: Maps drawn so far (the others were kept from an earlier frame).
+        self.draw_count = 0
 
     def pipeline(self, stride: int):
         """The render pipeline for vertices of ``stride`` bytes (made when first used)."""
@@ -80,6 +97,11 @@ class SunShadowPass:
         self.spec, self.shadowed = spec, spec is not None
         if spec is None:
             return None
+        draws = raster.draws(scene)
+        key = (_spec_key(spec), tuple((id(d.vertex), id(d.index), d.count) for d in draws))
+        if key == self._drawn:
+            return spec
+        self._drawn = None
         upload_buffer(self.device, self._clip, CLIP_LAYOUT.pack(
             clip=np.asarray(spec.clip_matrix().T, np.float32).reshape(-1)))
         rp = encoder.begin_render_pass(
@@ -87,14 +109,21 @@ class SunShadowPass:
             depth_stencil_attachment={"view": self.view, "depth_clear_value": 1.0,
                                       "depth_load_op": wgpu.LoadOp.clear,
                                       "depth_store_op": wgpu.StoreOp.store})
-        for d in raster.draws(scene):
+        for d in draws:
             rp.set_pipeline(self.pipeline(VERTEX_STRIDE[d.mode]))
             rp.set_bind_group(0, self._clip_group)
             rp.set_vertex_buffer(0, d.vertex)
             rp.set_index_buffer(d.index, d.index_format)
             rp.draw_indexed(d.count)
         rp.end()
+        self._drawn = key
+        self.draw_count += 1
         return spec
+
+    def forget(self) -> None:
+        """Draw the map again on the next :meth:`encode` (e.g. after editing a mesh's
+        vertices in place, as :meth:`aquaspec.gpu.passes.raster.RasterPass.invalidate`)."""
+        self._drawn = None
 
     def no_shadows(self) -> None:
         """Nothing shadows the sun until the next :meth:`encode` (e.g. RGB-D images)."""

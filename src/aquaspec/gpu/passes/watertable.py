@@ -7,10 +7,11 @@ The camera-RGB water table over ray directions and distances
 ``watertable.wgsl`` beside this module, two dispatches (the open-water
 column, then the hit columns, which read it) into a storage buffer, copied
 into a 2-D array texture (layers: camera RGB, with the cone spread the cone's
-share; with the multiple-scattering spread one per lambda node). Tables with
-a seabed are built on the CPU and uploaded (the WGSL has the deep-water
-closed form only). ``tests/gpu/passes/test_watertable_pass.py`` holds it
-against the twin.
+share; with the multiple-scattering spread one per lambda node). Deep water
+and tables with a seabed alike (the line of sight going down ends on the
+seabed: a compile-time constant, the seabed's depth and radiance as
+uniforms). ``tests/gpu/passes/test_watertable_pass.py`` holds it against the
+twin.
 
 Bindings of watertable.wgsl: 0 uniform :data:`WATER_PARAMS_LAYOUT`; 1 uniform
 per band group :func:`water_band_fields`; 2 the ``ln F`` prefactor as a 2-D
@@ -20,13 +21,10 @@ the table out, ``(layers, directions, DISTANCES)`` vec4.
 
 from __future__ import annotations
 
-import types
-
 import numpy as np
 import wgpu
 
 from aquaspec.transport.lightfield import compiled as lfc
-from aquaspec.transport.lightfield.spreadplan import node_alpha
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
 from aquaspec.gpu.buffers import (create_array_texture, create_storage_buffer,
@@ -37,8 +35,8 @@ from aquaspec.gpu.shaders import load_wgsl
 
 WATER_PARAMS_LAYOUT = UniformLayout("WaterTableParams", [
     ("depth_o", "f32"), ("window_cos", "f32"), ("max_depth", "f32"), ("alpha", "f32"),
-    ("n_out", "u32"), ("n_in", "u32"), ("fb_mean", "f32"), ("alpha_lo", "vec4<f32>"),
-    ("alpha_hi", "vec4<f32>"),
+    ("n_out", "u32"), ("n_in", "u32"), ("fb_mean", "f32"), ("seabed_depth", "f32"),
+    ("alpha_lo", "vec4<f32>"), ("alpha_hi", "vec4<f32>"),
 ])
 
 #: Most lambda nodes of the multiple-scattering spread the shaders take.
@@ -55,27 +53,30 @@ def alpha_vec4s(alpha) -> dict:
 
 
 def water_band_fields(tables, *, a, b, e0, response_weights) -> np.ndarray:
-    """Per band group the fields of watertable.wgsl: (8, ceil(n / 4), 4) float64.
+    """Per band group the fields of watertable.wgsl: (9, ceil(n / 4), 4) float64.
 
-    ``c, kappa_1, c' = c - f b, b E0 / (4 pi), L_top, w_r, w_g, w_b``, four
-    bands per vec4 (zero past the last band).
+    ``c, kappa_1, c' = c - f b, b E0 / (4 pi), L_top, w_r, w_g, w_b, L_bed``
+    (``L_bed`` the seabed's radiance,
+    :meth:`aquaspec.transport.lightfield.tables.LightfieldTables.seabed_radiance`;
+    zero in deep water), four bands per vec4 (zero past the last band).
     """
     a, b, e0 = (np.asarray(x, dtype=np.float64) for x in (a, b, e0))
     w = np.asarray(response_weights, dtype=np.float64)
     n = a.size
     f = np.asarray(tables.forward_fraction, dtype=np.float64)
     c = a + b
+    l_bed = tables.seabed_radiance(e0) if tables.has_seabed else np.zeros(n)
     rows = np.stack([c, np.asarray(tables.k_inf, np.float64), c - f * b,
                      b * e0 / (4.0 * np.pi),
                      np.asarray(tables.sky_radiance_per_e0, np.float64) * e0,
-                     w[:, 0], w[:, 1], w[:, 2]])
+                     w[:, 0], w[:, 1], w[:, 2], l_bed])
     groups = -(-n // 4)
-    out = np.zeros((8, groups * 4))
+    out = np.zeros((rows.shape[0], groups * 4))
     out[:, :n] = rows
     # Padding bands: c = 1 keeps their (unused) path integrals finite.
     out[0, n:] = 1.0
     out[2, n:] = 1.0
-    return out.reshape(8, groups, 4)
+    return out.reshape(rows.shape[0], groups, 4)
 
 
 class WaterTablePass:
@@ -90,7 +91,6 @@ class WaterTablePass:
         self._layout = bind_group_layout(device, {0: "uniform", 1: "uniform",
                                                   2: "float_array", 3: "write"})
         self._pipelines = {}
-        self._medium = None
         #: The table's ``2d-array`` view (None before the first build).
         self.texture = None
         self._tex = self._out = self._shape = self._table_shape = None
@@ -106,9 +106,13 @@ class WaterTablePass:
         ``log_prefactor``: the ``ln F`` texels (:func:`band_group_texture`);
         ``shape``: ``n_depth, n_mu, window_cos, max_depth, fb_mean``;
         ``spread``, ``nodes``: the cone spread and its lambda nodes (0: single
-        scattering); ``seabed``: built on the CPU.
+        scattering); ``seabed``: whether the tables have a seabed (at
+        ``tables.seabed_depth_m``).
         """
-        self._medium = (tables, a, b, e0, np.asarray(response_weights, dtype=float))
+        if bool(seabed) != tables.has_seabed:
+            raise AquaspecError(f"seabed={seabed!r} but the tables have "
+                                f"{'a' if tables.has_seabed else 'no'} seabed")
+        self._seabed_depth = float(tables.seabed_depth_m) if tables.has_seabed else 0.0
         self._shape = shape
         self.spread, self.nodes, self.seabed = bool(spread), int(nodes), bool(seabed)
         self._bands = water_band_fields(tables, a=a, b=b, e0=e0,
@@ -129,7 +133,8 @@ class WaterTablePass:
         """The two pipelines ``(open_column, main)`` of watertable.wgsl for this medium's
         sizes (made when first used)."""
         sh = self._shape
-        key = (self._bands.shape[1], sh["n_depth"], sh["n_mu"], self.spread, self.nodes)
+        key = (self._bands.shape[1], sh["n_depth"], sh["n_mu"], self.spread, self.nodes,
+               self.seabed)
         if key not in self._pipelines:
             src = load_wgsl("watertable.wgsl", params_struct=WATER_PARAMS_LAYOUT.wgsl(),
                             params_struct_name=WATER_PARAMS_LAYOUT.name,
@@ -138,6 +143,7 @@ class WaterTablePass:
                             length_scale=f"{float(lfc.LENGTH_SCALE_M)!r}",
                             split="true" if self.spread else "false",
                             nodes=self.nodes, node_array=max(1, self.nodes),
+                            seabed="true" if self.seabed else "false",
                             band_len=self._bands.shape[0] * self._bands.shape[1])
             self._pipelines[key] = tuple(
                 compute_pipeline(self.device, self._layout, src,
@@ -150,8 +156,7 @@ class WaterTablePass:
         when the depth, the medium or (with the spread) alpha changed: layer 0
         holds ``W0 + alpha W1`` with the spread (:func:`lightfield_compiled.spread_plan`);
         with the multiple-scattering spread ``alpha`` is the tuple of the nodes'
-        shares and the table has a layer per node (:func:`lightfield_compiled.water_table`).
-        With a seabed the table is built on the CPU and uploaded (0.3-1.5 s)."""
+        shares and the table has a layer per node (:func:`lightfield_compiled.water_table`)."""
         key = (depth_o, alpha)
         if self.key == key:
             return
@@ -170,24 +175,7 @@ class WaterTablePass:
                                               label="lightfield water table out")
             self._table_shape = (layers, rows)
             self.texture_version += 1
-        if self.seabed:
-            tables, a, b, e0, w = self._medium
-            table = lfc.water_table(tables, a=a, b=b, e0=e0, response_weights=w,
-                                    depth_o=depth_o, split=self.spread,
-                                    alpha_nodes=np.array(alpha) if self.nodes else None)
-            if self.spread and not self.nodes:
-                table[0] += alpha * table[1]       # as watertable.wgsl's layer 0
-            texels = np.zeros(table.shape[:3] + (4,), np.float32)
-            texels[..., :3] = table
-            if self.nodes:
-                # (As watertable.wgsl: the pixel's kept share over the distances.)
-                texels[0, :, :lfc.DISTANCES - 1, 3] = node_alpha(
-                    types.SimpleNamespace(alpha_nodes=np.array(alpha),
-                                          fb=np.array([self._shape["fb_mean"]])),
-                    self.distances(depth_o))
-            upload_buffer(dev, self._out, texels.reshape(-1))
-        else:
-            self._encode_dispatches(encoder, depth_o, alpha, n_out, n_in, rows)
+        self._encode_dispatches(encoder, depth_o, alpha, n_out, n_in, rows)
         encoder.copy_buffer_to_texture(
             {"buffer": self._out, "offset": 0, "bytes_per_row": lfc.DISTANCES * 16,
              "rows_per_image": rows},
@@ -202,7 +190,8 @@ class WaterTablePass:
         upload_buffer(dev, self._params, WATER_PARAMS_LAYOUT.pack(
             depth_o=depth_o, window_cos=self._shape["window_cos"],
             max_depth=self._shape["max_depth"], alpha=0.0 if self.nodes else alpha,
-            n_out=n_out, n_in=n_in, fb_mean=self._shape["fb_mean"], **alpha_vec4s(alpha)))
+            n_out=n_out, n_in=n_in, fb_mean=self._shape["fb_mean"],
+            seabed_depth=self._seabed_depth, **alpha_vec4s(alpha)))
         group = dev.create_bind_group(layout=self._layout, entries=bind_group_entries(
             {0: self._params, 1: self._band_buffer, 2: self._log_prefactor, 3: self._out}))
         # The open-water column first: the hit columns read it.
@@ -211,14 +200,20 @@ class WaterTablePass:
             (hits, group, (-(-(lfc.DISTANCES - 1) // 8), -(-rows // 8), 1))])
 
     def distances(self, depth_o: float) -> np.ndarray:
-        """The hit columns' distances of the water table ``(directions, DISTANCES - 1)``,
-        up rays' clipped at the surface (watertable.wgsl's ``s``)."""
+        """The hit columns' distances of the water table ``(directions, DISTANCES - 1)``
+        as watertable.wgsl's ``s``: up rays' clipped at the surface and, with a
+        seabed, down rays' finite ones at the seabed."""
         v, _ = lfc.direction_nodes(self._shape["window_cos"])
         s = np.broadcast_to(lfc.distance_nodes(), (v.size, lfc.DISTANCES - 1))
         up = v[:, None] > 0
         with np.errstate(over="ignore"):       # up rays within 1e-30 of level
             to_surface = depth_o / np.where(up, v[:, None], 1.0)
-        return np.where(up, np.minimum(s, to_surface), s)
+        s = np.where(up, np.minimum(s, to_surface), s)
+        if self.seabed:
+            down = v[:, None] < 0
+            to_bed = (self._seabed_depth - depth_o) / np.where(down, -v[:, None], 1.0)
+            s = np.where(down & np.isfinite(s), np.minimum(s, to_bed), s)
+        return s
 
     def read(self, channels: int = 3) -> np.ndarray:
         """The last water table built, ``(layers, directions, DISTANCES, channels)``

@@ -2,10 +2,15 @@
 // twin of aquaspec.transport.lightfield.compiled (water_table, float64 NumPy; its
 // module docstring has the axes and the formula). One invocation per texel
 // (distance column k, direction row j); per band group (four bands as vec4)
-//   R(d, v)  = F(d, v) b E0 / (4 pi) ms_path_integral(c, kappa_1, d, v, inf)
-//   L_bg(d)  = R(d, v) + u(d) L_top,  u(d) = exp(-c d / v) (up rays; 0 down)
+//   R(d, v)  = F(d, v) b E0 / (4 pi) ms_path_integral(c, kappa_1, d, v, l(d))
+//   L_bg(d)  = R(d, v) + exp(-c l(d)) L_end
 //   base     = L_bg(d_o) - T L_bg(d_S),  cone = -(T' - T) L_bg(d_S)
-// with T' = exp(-c' S), T = T' (not SPLIT) or exp(-c S) (SPLIT), summed over
+// where the line of sight from depth d ends on the water surface (up rays:
+// l = d / v, L_end = L_top inside the window, else 0), on the seabed at depth
+// H (SEABED, down rays: l = (H - d) / -v, L_end = L_bed) or nowhere (l = inf).
+// With SEABED a down ray's finite hit distance S is cut at the seabed (a
+// black target beyond it is taken at it) and d_S clamped to [0, H];
+// T' = exp(-c' S), T = T' (not SPLIT) or exp(-c S) (SPLIT), summed over
 // bands in camera RGB. Layer 0 holds base + alpha cone (SPLIT) or base,
 // layer 1 (SPLIT) the cone's share; column DISTANCES - 1 is open water
 // (L_bg(d_o)). Output: a storage buffer copied into the table texture.
@@ -32,11 +37,13 @@ const DISTANCES: u32 = {{ distances }}u;
 const LENGTH_SCALE: f32 = {{ length_scale }};
 const SPLIT: bool = {{ split }};
 const NODES: u32 = {{ nodes }}u;
+const SEABED: bool = {{ seabed }};
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // Per band group g, field f at [f N_GROUPS + g] (lightfield_pass.water_band_fields):
 // 0 c, 1 kappa_1, 2 c' = c - f b, 3 b E0 / (4 pi), 4 L_top (sky radiance
-// below the surface), 5 w_r, 6 w_g, 7 w_b.
+// below the surface), 5 w_r, 6 w_g, 7 w_b, 8 L_bed (the seabed's radiance; 0
+// without a seabed).
 @group(0) @binding(1) var<uniform> bands: array<vec4<f32>, {{ band_len }}>;
 // ln F: layer g, texel (direction j, depth i) holds bands 4g .. 4g + 3.
 @group(0) @binding(2) var log_prefactor: texture_2d_array<f32>;
@@ -61,27 +68,49 @@ fn log_f(d: f32, v: f32, g: u32) -> vec4<f32> {
     return mix(lo, hi, fx);
 }
 
+// Whether the line of sight along v ends (on the surface or the seabed).
+fn ends(v: f32) -> bool {
+    return v > 0.0 || (SEABED && v < 0.0);
+}
+
+// Length l(d) of the line of sight from depth d to its end (ends(v) only).
+fn to_end(d: f32, v: f32) -> f32 {
+    return select((prm.seabed_depth - d) / -v, d / v, v > 0.0);
+}
+
 // R(d, v) of four bands: F b E0 / (4 pi) times the seeds' path integral to
-// infinity (up rays: to the surface, length d / v), written with
-// exponents <= 0 whatever the sign of k = c - kappa_1 v, and its series where
-// |k L| < 0.1 would cancel in f32 (model.ms_path_integral).
+// the line of sight's end (length l, at depth d_end: 0 or H; else to
+// infinity), written with exponents <= 0 whatever the sign of k = c -
+// kappa_1 v (exp(-kappa_1 d - k l) = exp(-kappa_1 d_end - c l)), and its
+// series where |k l| < 0.1 would cancel in f32 (model.ms_path_integral).
 fn r_at(d: f32, v: f32, g: u32) -> vec4<f32> {
     let c = field(0u, g);
     let k1 = field(1u, g);
     let k = c - k1 * v;
     let e1 = exp(-k1 * d);
     var path: vec4<f32>;
-    if (v > 0.0) {
-        let len = d / v;
+    if (ends(v)) {
+        let len = to_end(d, v);
+        let d_end = select(prm.seabed_depth, 0.0, v > 0.0);
         let x = k * len;
         let series = e1 * len * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0
                      - x * (1.0 / 120.0)))));
         let k_safe = select(vec4<f32>(1.0), k, k != vec4<f32>(0.0));
-        path = select((e1 - exp(-c * (d / v))) / k_safe, series, abs(x) < vec4<f32>(0.1));
+        path = select((e1 - exp(-k1 * d_end - c * len)) / k_safe, series,
+                      abs(x) < vec4<f32>(0.1));
     } else {
         path = e1 / k;
     }
     return exp(log_f(d, v, g)) * field(3u, g) * path;
+}
+
+// The line of sight's end seen from depth d: exp(-c l(d)) L_end (four bands).
+fn end_light(d: f32, v: f32, inside: bool, g: u32) -> vec4<f32> {
+    if (!ends(v)) {
+        return vec4<f32>(0.0);
+    }
+    let l_end = select(field(8u, g), select(vec4<f32>(0.0), field(4u, g), inside), v > 0.0);
+    return exp(-field(0u, g) * to_end(d, v)) * l_end;
 }
 
 // Direction node j (lightfield_compiled.direction_nodes): (v, inside the window).
@@ -107,12 +136,10 @@ fn open_column(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let node = node_direction(j);
     let v = node.x;
-    let up = v > 0.0;
     var open = vec3<f32>(0.0);
     for (var g = 0u; g < N_GROUPS; g = g + 1u) {
-        let l_top = select(vec4<f32>(0.0), field(4u, g), node.y > 0.5);
-        let u_o = select(vec4<f32>(0.0), exp(-field(0u, g) * (prm.depth_o / v)), up);
-        open = open + rgb_of(r_at(prm.depth_o, v, g) + u_o * l_top, g);
+        open = open + rgb_of(r_at(prm.depth_o, v, g)
+                             + end_light(prm.depth_o, v, node.y > 0.5, g), g);
     }
     let texel = j * DISTANCES + DISTANCES - 1u;
     out[texel] = vec4<f32>(open, 0.0);
@@ -155,7 +182,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (up) {
         s = select(min(s, to_surface), to_surface, inf_node);
     }
-    let d_s = max(d_o - s * v, 0.0);
+    var d_s = max(d_o - s * v, 0.0);
+    if (SEABED && v < 0.0 && !inf_node) {
+        s = min(s, (prm.seabed_depth - d_o) / -v);
+        d_s = clamp(d_o - s * v, 0.0, prm.seabed_depth);
+    }
 
     // Open water seen past the hit, T L_bg(d_S), and the cone's share.
     var behind = vec3<f32>(0.0);
@@ -165,9 +196,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (up || !inf_node) {
         for (var g = 0u; g < N_GROUPS; g = g + 1u) {
             let c = field(0u, g);
-            let l_top = select(vec4<f32>(0.0), field(4u, g), inside);
-            let u_s = select(vec4<f32>(0.0), exp(-c * (d_s / v)), up);
-            let blocked = r_at(d_s, v, g) + u_s * l_top;
+            let blocked = r_at(d_s, v, g) + end_light(d_s, v, inside, g);
             let t_beam = exp(-field(2u, g) * s);
             let t = select(t_beam, exp(-c * s), SPLIT);
             behind = behind + rgb_of(t * blocked, g);

@@ -47,11 +47,13 @@ fn interleaved_row(wg_y: u32, lid_y: u32, nwg_y: u32) -> u32 {
 }
 
 // The G-buffer at four pixels (columns px, rows py): the hit distance S
-// (negative: none), n_y, the material index and (PER_PIXEL_MATERIALS) the
-// sigmoid coefficients.
+// (negative: none), n_y, the octahedral normal's word (sunlight.wgsl's
+// decode_normal), the material index and (PER_PIXEL_MATERIALS) the sigmoid
+// coefficients.
 struct GbufferPixels {
     s: vec4<f32>,
     n_y: vec4<f32>,
+    oct: vec4<u32>,
     material: vec4<u32>,
     c0: vec4<f32>,
     c1: vec4<f32>,
@@ -65,6 +67,7 @@ fn load_gbuffer(px: vec4<u32>, py: vec4<u32>) -> GbufferPixels {
         let surf = textureLoad(gb_surface, xy, 0);
         g.s[k] = bitcast<f32>(surf.x);
         g.n_y[k] = bitcast<f32>(surf.y);
+        g.oct[k] = surf.z;
         g.material[k] = surf.w;
         if (PER_PIXEL_MATERIALS) {
             let c = textureLoad(gb_sigmoid, xy, 0).xyz;

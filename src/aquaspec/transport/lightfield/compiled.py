@@ -10,14 +10,17 @@ model (SPEC: keep the per-pixel cost near the seeds'):
 - **Water table** ``W(v_y, S)``: everything the water adds to a pixel whose
   ray (direction ``v``, up component ``v_y``) ends on a surface at distance
   ``S``, in camera RGB, for the camera's depth ``d_o``. With the open-water
-  field ``L_bg(d, v) = R(d, v) + u(d) L_top`` of
-  :meth:`aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance`,
+  field ``L_bg(d, v) = R(d, v) + u(d) L_end`` of
+  :meth:`aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance`
+  (``L_end`` the sky seen through the window or, with a seabed, the seabed
+  where the line of sight ends, ``u`` the transmittance to it),
   ``W = sum_i w_i [L_bg(d_o, v) - T'(S) L_bg(d_S, v)]`` (``T' = exp(-c' S)``,
   ``c' = c - f b`` the beam extinction with the forward cone, ``d_S = d_o - S
   v_y``): the radiance of a black target. It depends on the pixel only
   through ``(v_y, S)`` (horizontally uniform water), so a 2-D table for the
   camera's depth gives it for all bands at once (:func:`water_table`; the
-  GPU builds the same table, ``gpu/passes/watertable.wgsl``). A last column
+  GPU builds the same table, ``gpu/passes/watertable.wgsl``, with or
+  without a seabed: a closed form per band). A last column
   holds open water (the ray hits nothing). With the cone spread a second layer holds the
   cone's share ``-(T' - T) L_bg(d_S, v)`` and the first uses ``T = exp(-c S)``.
 - **Factored irradiance**: the target's own light ``T'(S) rho E(d_S, n_y) / pi``
@@ -88,7 +91,8 @@ from aquaspec.transport.lightfield import factors
 from aquaspec.transport.lightfield.spreadplan import (coarse_sample_pixels, kept_projection,
                                                       kept_share, multiple_plan, node_alpha,
                                                       node_hats, spread_plan, upsample_groups)
-from aquaspec.transport.lightfield.tables import LightfieldTables, seeds_shape, table_lookup
+from aquaspec.transport.lightfield.tables import (LightfieldTables, cut_at_seabed, seeds_shape,
+                                                  table_lookup)
 
 #: Functions U_r shared by all bands in the factored irradiance: four fill one
 #: texture read (RGBA). Measured on the tables' nodes (depth <= 30 m, phase
@@ -239,7 +243,20 @@ def water_table(tables: LightfieldTables, *, a, b, e0, response_weights, depth_o
     the cone's share ``-sum_i w_i (T' - T) L_bg(d_S, v)``. Column
     ``DISTANCES - 1``: open water. The terms of
     :meth:`aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance` for a black target
-    (deep water), evaluated directly on the nodes (the test compares the two).
+    (its two-point form with the forward cone), in closed form on the nodes (the
+    tests compare the two on every node, with and without a seabed).
+
+    The open-water field is ``L_bg(d, v) = R(d, v) + exp(-c l(d)) L_end``:
+    ``R`` the path integral ``F b E0 / (4 pi) ms_path_integral`` along the line
+    of sight from depth ``d``, which ends on the water surface (up rays, ``l
+    = d / v_y``, ``L_end`` the sky inside the window), on the seabed at depth
+    ``H`` (down rays with a seabed, ``l = (H - d) / -v_y``, ``L_end`` the
+    seabed's radiance,
+    :meth:`~aquaspec.transport.lightfield.tables.LightfieldTables.seabed_radiance`)
+    or nowhere (``l = inf``). With a seabed the hit distances of down rays are
+    cut at the seabed (a black target beyond it is taken at the seabed, also
+    in the spread's lambda coordinate: the table is flat in ``S`` there) and
+    ``S = inf`` going down is open water, which sees the seabed.
 
     With ``alpha_nodes`` (K,) (the multiple-scattering spread: the share kept
     by the pixel at each lambda node, :func:`multiple_plan`) the band's cone
@@ -255,44 +272,46 @@ def water_table(tables: LightfieldTables, *, a, b, e0, response_weights, depth_o
     w = np.asarray(response_weights, dtype=float)
     if alpha_nodes is not None and not split:
         raise AquaspecError("alpha_nodes (the multiple-scattering spread) need split=True")
-    if tables.has_seabed:
-        return _water_table_from_model(tables, a=a, b=b, e0=e0, w=w, depth_o=depth_o,
-                                       split=split, alpha_nodes=alpha_nodes)
     c = a + b
     f = np.asarray(tables.forward_fraction, dtype=float)
     c_beam = c - f * b
     k1 = np.asarray(tables.k_inf, dtype=float)
-    wc = tables.window_cos
+    bed = tables.seabed_depth_m
     sky = np.asarray(tables.sky_radiance_per_e0, dtype=float) * e0
-    v, inside = direction_nodes(wc)
+    l_bed = tables.seabed_radiance(e0) if tables.has_seabed else np.zeros_like(sky)
+    v, inside = direction_nodes(tables.window_cos)
     s_nodes = distance_nodes()                         # hit nodes, the last inf
 
     def r_at(depth, vv):
         """R(d, v) per band: (P, n)."""
-        pref = tables.prefactor(depth, vv)
-        return pref * e0 * seeds_shape(b, c, k1, depth[:, None], vv[:, None], np.inf)
+        to_end = np.broadcast_to(cut_at_seabed(np.inf, depth, vv, bed), depth.shape)
+        return tables.prefactor(depth, vv) * e0 * seeds_shape(b, c, k1, depth[:, None],
+                                                              vv[:, None], to_end[:, None])
+
+    def end_light(depth, vv, l_top):
+        """exp(-c l(d)) L_end per band: (P, n)."""
+        up, down = vv > 0, (vv < 0) & np.isfinite(bed)
+        length = np.where(up, depth / np.where(up, vv, 1.0),
+                          (bed - depth) / np.where(down, -vv, 1.0))
+        l_end = np.where(up[:, None], l_top, np.where(down[:, None], l_bed, 0.0))
+        return np.where((up | down)[:, None],
+                        np.exp(-c * np.where(up | down, length, 0.0)[:, None]), 0.0) * l_end
 
     # Up rays within 1e-30 of level reach the surface at a distance that
     # overflows: exp(-inf) = 0 is the limit.
     with np.errstate(over="ignore"):
-        up = v > 0
-        v_safe = np.where(up, v, 1.0)
         l_top = np.where(inside[:, None], sky, 0.0)                            # (J, n)
-        u_o = np.where(up[:, None], np.exp(-c * depth_o / v_safe[:, None]), 0.0)
-        open_l = r_at(np.full(v.size, depth_o), v) + u_o * l_top              # L_bg(d_o, v)
+        d_o = np.full(v.size, float(depth_o))
+        open_l = r_at(d_o, v) + end_light(d_o, v, l_top)                      # L_bg(d_o, v)
         vv, ss = np.meshgrid(v, s_nodes, indexing="ij")
-        to_surface = np.where(vv > 0, depth_o / np.where(vv > 0, vv, 1.0), np.inf)
-        ss = np.minimum(ss, to_surface).reshape(-1)
-        vv = vv.reshape(-1)
+        vv, ss = vv.reshape(-1), ss.reshape(-1)
+        ss = np.minimum(ss, np.where(vv > 0, depth_o / np.where(vv > 0, vv, 1.0), np.inf))
         # S = inf (rays going down or level): open water, T = 0.
         far = ~np.isfinite(ss)
-        ss = np.where(far, 0.0, ss)
-        d_s = np.maximum(depth_o - ss * vv, 0.0)
-        upp = vv > 0
-        u_s = np.where(upp[:, None], np.exp(-c * d_s[:, None] / np.where(upp, vv, 1.0)[:, None]),
-                       0.0)
+        ss = np.where(far, 0.0, cut_at_seabed(ss, depth_o, vv, bed))
+        d_s = np.clip(depth_o - ss * vv, 0.0, bed)
         rows = np.repeat(np.arange(v.size), s_nodes.size)
-        blocked = r_at(d_s, vv) + u_s * l_top[rows]                          # L_bg(d_S, v)
+        blocked = r_at(d_s, vv) + end_light(d_s, vv, l_top[rows])            # L_bg(d_S, v)
         t_beam = np.where(far[:, None], 0.0, np.exp(-c_beam * ss[:, None]))
         t = np.where(far[:, None], 0.0, np.exp(-c * ss[:, None])) if split else t_beam
         base = open_l[rows] - t * blocked
@@ -321,48 +340,6 @@ def _fill_hit_columns(out, base, cone, s, fb, w, alpha_nodes, shape):
     out[0, :, :DISTANCES - 1] = (base @ w).reshape(shape + (3,))
     if alpha_nodes is None and out.shape[0] > 1:
         out[1, :, :DISTANCES - 1] = (cone @ w).reshape(shape + (3,))
-
-
-def _water_table_from_model(tables, *, a, b, e0, w, depth_o: float, split: bool,
-                            alpha_nodes=None):
-    """:func:`water_table` for tables with a seabed: the model itself
-    (:meth:`aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance`) on every node, a
-    black target at each finite distance and open water (the seabed seen
-    below, the sky above) in the last column and at ``S = inf`` going down.
-    The seabed's growing modes have no closed form along the ray in the deep
-    water table's terms, so this is evaluated directly (NumPy; 0.13-1.0 s at
-    8-64 bands)."""
-    v, _ = direction_nodes(tables.window_cos)
-    s_nodes = distance_nodes()
-    out = np.zeros((_layers(split, alpha_nodes), v.size, DISTANCES, 3))
-    kw = dict(a=a, b=b, e0=e0, depth_o=float(depth_o))
-    with np.errstate(over="ignore"):      # up rays within 1e-30 of level
-        open_l = tables.pixel_radiance(**kw, v_y=v[:, None],
-                                           s=np.full((v.size, 1), np.inf))
-        out[0, :, DISTANCES - 1] = open_l @ w
-        # (Nodes as a (directions, distances, 1) grid: what depends on the
-        # direction alone, such as the light at the camera, is evaluated
-        # once per direction.)
-        vv = v[:, None, None]
-        up = vv > 0
-        ss = np.minimum(s_nodes[None, :, None],
-                        np.where(up, depth_o / np.where(up, vv, 1.0), np.inf))
-        sd = np.maximum(depth_o - np.where(np.isfinite(ss), ss, 0.0) * vv, 0.0)
-        hit = tables.pixel_radiance(**kw, v_y=vv, s=ss, rho=np.zeros(a.size),
-                                    surface_depth=sd, n_y=np.ones_like(sd), split_cone=split)
-        ss = ss.reshape(-1, 1)
-        far = ~np.isfinite(ss[:, 0])
-    base, cone = ((x.reshape(-1, a.size) for x in hit) if split
-                  else (hit.reshape(-1, a.size), np.zeros((ss.shape[0], a.size))))
-    base = np.where(far[:, None], np.repeat(open_l, s_nodes.size, axis=0), base)
-    cone = np.where(far[:, None], 0.0, cone)
-    f = np.asarray(tables.forward_fraction, dtype=float)
-    _fill_hit_columns(out, base, cone, np.where(far, 0.0, ss[:, 0]), f * b, w, alpha_nodes,
-                      (v.size, s_nodes.size))
-    if not np.all(np.isfinite(out)):
-        raise AquaspecError("the light-field water table came out non-finite; check the "
-                            "water coefficients and tables")
-    return out
 
 
 def lookup_water(table, v_y, s, hit, window_cos: float):

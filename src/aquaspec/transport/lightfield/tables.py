@@ -331,7 +331,7 @@ class LightfieldTables:
         r_o, r_s, fin, s_f = self._two_point(a=a, b=b, e0=e0, depth_o=depth_o, v_y=v_y, s=s)
         return r_o - np.where(fin, np.exp(-c * s_f), 0.0) * r_s
 
-    def _seabed_radiance(self, e0):
+    def seabed_radiance(self, e0):
         """The seabed's own radiance (Lambertian under the downwelling light: the
         diffuse field's and, with a sun, the beam's, as ``LightField``'s boundary)."""
         bed = self.seabed_depth_m
@@ -374,7 +374,7 @@ class LightfieldTables:
         v = np.asarray(v_y, dtype=float)
         bed = self.seabed_depth_m
         s_eff = cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
-        l_bed = self._seabed_radiance(e0) if np.isfinite(bed) else 0.0
+        l_bed = self.seabed_radiance(e0) if np.isfinite(bed) else 0.0
         if rho is None:
             l_surf = np.where(np.isfinite(s_eff) & (v > 0), self._top_radiance(v, e0), 0.0)
             if np.isfinite(bed):

@@ -1,0 +1,160 @@
+// The direct sun's per-point and per-pixel terms (aquaspec.gpu.passes.sun),
+// shared by sun.wgsl (its froxel and per-pixel entry points) and by the
+// light-field shading pass (lightfield.wgsl with SUN: the sun's light added
+// in its own band loop). The including shader defines nothing of these;
+// templates from aquaspec.gpu.passes.sun.SunPass.wgsl_values: the sun's
+// uniform struct and binding numbers, the froxel tile, slices and the phase
+// table's size. NumPy twins: aquaspec.scene.shadowmap.map_visibility,
+// aquaspec.light.caustics.sample, aquaspec.transport.froxels.froxel_lookup.
+//
+// The shadow map (aquaspec.gpu.passes.sun_shadow) is a depth texture rasterised
+// orthographically along the beam: depth z = (h_max - h) / (h_max - h_min)
+// with h = p . to_sun; a texel left at the clear value 1 has no surface.
+// Four texels are compared and their results weighted bilinearly
+// (percentage-closer filtering), as map_visibility does.
+// `ref_phase[k]`: ln of the bands' mean p at theta_k = pi (k / (PHASE_SIZE - 1))^2.
+// `froxels[column * (SLICES + 1) + k]`: (cumulative RGB at t_k, the column's L).
+// Caustics (aquaspec.light.caustics): the beam's factor per depth slice
+// (array layer) in foot coordinates, a mip pyramid read through a repeating
+// trilinear sampler; layers at d_k = D (k / (K - 1))^2, linear between them
+// in sqrt(d / D).
+
+#include "common.wgsl"
+
+{{ sun_params_struct }}
+
+const TILE: u32 = {{ tile }}u;
+const SLICES: u32 = {{ slices }}u;
+const PHASE_SIZE: u32 = {{ phase_size }}u;
+
+@group(0) @binding({{ sun_b_params }}) var<uniform> sp: {{ sun_params_struct_name }};
+@group(0) @binding({{ sun_b_shadow }}) var shadow_map: texture_depth_2d;
+@group(0) @binding({{ sun_b_froxels }}) var<storage, {{ froxel_access }}> froxels: array<vec4<f32>>;
+@group(0) @binding({{ sun_b_ref_phase }}) var<storage, read> ref_phase: array<f32>;
+@group(0) @binding({{ sun_b_caustic }}) var caustic_tex: texture_2d_array<f32>;
+@group(0) @binding({{ sun_b_caustic_sampler }}) var caustic_sampler: sampler;
+// Comparing depths (less-equal, clamped to the edge): the four texels of a
+// shadow-map footprint compared in one gather.
+@group(0) @binding({{ sun_b_shadow_sampler }}) var shadow_sampler: sampler_comparison;
+
+// aquaspec.gpu.gbuffer.oct_decode of the G-buffer's normal word, then n_y kept exact
+// (unpack_surface).
+fn decode_normal(oct: u32, n_y_bits: u32) -> vec3<f32> {
+    let p = unpack2x16snorm(oct);
+    let y = 1.0 - abs(p.x) - abs(p.y);
+    let s = select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
+    let xz = select(p, (1.0 - abs(p.yx)) * s, y < 0.0);
+    let n_y = clamp(bitcast<f32>(n_y_bits), -1.0, 1.0);
+    let h = length(xz);
+    let scale = select(0.0, sqrt(max(1.0 - n_y * n_y, 0.0)) / h, h > 0.0);
+    return vec3<f32>(xz.x * scale, n_y, xz.y * scale);
+}
+
+// Share of the sun that reaches point p (1 where no map or outside it). A
+// texel lets the beam through when h >= h_texel - bias, i.e. when the
+// point's depth less the bias, min(z_p, 1), is at most the texel's depth z
+// (a texel at the clear value 1 always does): the four texels are compared
+// by one gather (texel (j0, i0) in w, (j0 + 1, i0) in z, (j0, i0 + 1) in x,
+// (j0 + 1, i0 + 1) in y) and those outside the map count as lit.
+fn visibility(p: vec3<f32>) -> f32 {
+    if (sp.shadowed == 0u) {
+        return 1.0;
+    }
+    let x = (dot(p, sp.e1) - sp.u0) / sp.texel - 0.5;
+    let y = (dot(p, sp.e2) - sp.v0) / sp.texel - 0.5;
+    let h = dot(p, sp.to_sun);
+    let j0 = floor(x);
+    let i0 = floor(y);
+    let fx = x - j0;
+    let fy = y - i0;
+    let size = f32(sp.map_size);
+    let z_ref = min((sp.h_max - h - sp.bias) / (sp.h_max - sp.h_min), 1.0);
+    let g = textureGatherCompare(shadow_map, shadow_sampler,
+                                 vec2<f32>(j0 + 1.0, i0 + 1.0) / size, z_ref);
+    let out_j0 = j0 < 0.0 || j0 >= size;
+    let out_j1 = j0 + 1.0 < 0.0 || j0 + 1.0 >= size;
+    let out_i0 = i0 < 0.0 || i0 >= size;
+    let out_i1 = i0 + 1.0 < 0.0 || i0 + 1.0 >= size;
+    let lit = select(g, vec4<f32>(1.0), vec4<bool>(out_j0 || out_i1, out_j1 || out_i1,
+                                                   out_j1 || out_i0, out_j0 || out_i0));
+    return mix(mix(lit.w, lit.z, fx), mix(lit.x, lit.y, fx), fy);
+}
+
+// The caustic factor at p averaged over about `footprint` metres (1 without caustics).
+fn caustic(p: vec3<f32>, footprint: f32) -> f32 {
+    if (sp.caustic == 0u) {
+        return 1.0;
+    }
+    let d = -p.y;
+    let u = vec2<f32>(p.x + d / sp.to_sun.y * sp.to_sun.x,
+                      p.z + d / sp.to_sun.y * sp.to_sun.z) / sp.c_tile;
+    let dc = clamp(d, 0.0, sp.c_max_depth);
+    let x = sqrt(dc / sp.c_max_depth) * f32(sp.c_slices - 1u);
+    let k0 = min(u32(floor(x)), sp.c_slices - 2u);
+    let fk = x - f32(k0);
+    let lod = clamp(log2(max(footprint / sp.c_texel, 1.0)), 0.0, sp.c_levels - 1.0);
+    let a = textureSampleLevel(caustic_tex, caustic_sampler, u, k0, lod).x;
+    let b = textureSampleLevel(caustic_tex, caustic_sampler, u, k0 + 1u, lod).x;
+    return mix(a, b, fk);
+}
+
+// Camera.ray_directions through pixel coordinates (px, py).
+fn ray_through(px: f32, py: f32) -> vec3<f32> {
+    let xc = (px - sp.cx) / sp.fx;
+    let yc = (py - sp.cy) / sp.fy;
+    return normalize(sp.right * xc - sp.up * yc + sp.forward);
+}
+
+// Where a phase table is read for cos theta: entry k0 and the fraction to k0 + 1.
+struct PhaseAt {
+    k0: u32,
+    f: f32,
+}
+
+fn phase_at(cos_theta: f32) -> PhaseAt {
+    let xp = sqrt(acos(clamp(cos_theta, -1.0, 1.0)) / PI) * f32(PHASE_SIZE - 1u);
+    let k0 = min(u32(floor(xp)), PHASE_SIZE - 2u);
+    return PhaseAt(k0, xp - f32(k0));
+}
+
+fn ref_phase_value(at: PhaseAt) -> f32 {
+    return exp(mix(ref_phase[at.k0], ref_phase[at.k0 + 1u], at.f));
+}
+
+// The single scattering of column (cx, cy) at distance t (before the pixel's phase).
+fn froxel_at(cx: u32, cy: u32, t: f32) -> vec3<f32> {
+    let base = (cy * sp.cols_x + cx) * (SLICES + 1u);
+    let length = froxels[base].w;
+    if (length <= 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let x = sqrt(min(t, length) / length) * f32(SLICES);
+    let k0 = min(u32(floor(x)), SLICES - 1u);
+    let f = x - f32(k0);
+    return mix(froxels[base + k0].xyz, froxels[base + k0 + 1u].xyz, f);
+}
+
+// The sun's light at pixel (col, row) whose ray v reaches distance s (inf:
+// open water): the single scattering from the four nearest froxel columns
+// (bilinearly) times the bands' mean phase function at the pixel's angle.
+fn sun_veil(col: u32, row: u32, v: vec3<f32>, s: f32) -> vec3<f32> {
+    let u = (vec2<f32>(f32(col), f32(row)) + 0.5 - 0.5 * f32(TILE)) / f32(TILE);
+    let last = vec2<f32>(f32(sp.cols_x - 1u), f32(sp.cols_y - 1u));
+    let a0 = clamp(floor(u), vec2<f32>(0.0), last);
+    let a1 = min(a0 + 1.0, last);
+    let fu = clamp(u - a0, vec2<f32>(0.0), vec2<f32>(1.0));
+    let i0 = vec2<u32>(a0);
+    let i1 = vec2<u32>(a1);
+    let ss = mix(mix(froxel_at(i0.x, i0.y, s), froxel_at(i1.x, i0.y, s), fu.x),
+                 mix(froxel_at(i0.x, i1.y, s), froxel_at(i1.x, i1.y, s), fu.x), fu.y);
+    return ss * ref_phase_value(phase_at(dot(v, sp.to_sun)));
+}
+
+// The share of the beam a surface at distance s along v with normal n gets:
+// max(0, n . to_sun) times the shadow map's visibility (read off the surface
+// along its normal) times the caustic factor over the pixel's footprint.
+fn sun_lit(v: vec3<f32>, s: f32, n: vec3<f32>) -> f32 {
+    let pos = sp.position + v * s;
+    let cos_n = max(dot(n, sp.to_sun), 0.0);
+    return cos_n * visibility(pos + n * sp.normal_offset) * caustic(pos, s / sp.fx);
+}
