@@ -213,7 +213,8 @@ class TestWaterTable:
         v, inside = lfc.direction_nodes(wc)
         assert not inside[n_out - 1] and inside[n_out] and v[n_out - 1] <= wc < v[n_out]
         s = lfc.distance_nodes()
-        j, i = np.array([0, 5, n_out - 1, n_out, 250]), np.array([0, 7, 100, 3, 400])
+        j = np.array([0, 5, n_out - 1, n_out, lfc.DIRECTIONS - 6])
+        i = np.array([0, 7, lfc.DISTANCES // 5, 3, lfc.DISTANCES - 3])
         got = lfc.lookup_water(table, v[j], s[i], np.ones(5, bool), wc)
         np.testing.assert_allclose(got[:, 0], table[0, j, i], rtol=1e-9)
         # Just outside / inside the window: the two edge rows, never blended.
