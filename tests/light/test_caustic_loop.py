@@ -3,6 +3,8 @@ are the instants' maps, it closes, it is continuous in time, and a sequence of
 frames changes no faster than the waves move the caustics."""
 
 import dataclasses
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -120,3 +122,96 @@ def test_render_takes_the_waves_time():
         as_waves(3.0, float("inf"))
     with pytest.raises(AquaspecError, match="wave_time="):
         as_waves(3.0, "soon")
+
+
+# ---- a loop built in the background -------------------------------------------------
+
+
+def test_build_order_spreads_the_frames_over_the_period():
+    order = cst.build_order(48)
+    assert sorted(order) == list(range(48))
+    assert order[:8] == [0, 24, 12, 36, 6, 18, 30, 42]
+    for done in (2, 4, 8, 16):         # the largest gap halves as the frames double
+        have = np.sort(order[:done])
+        gaps = np.diff(np.append(have, have[0] + 48))
+        assert gaps.max() == 48 // done
+    assert sorted(cst.build_order(5)) == list(range(5)) and cst.build_order(2) == [0, 1]
+
+
+def _partial(loop, frames):
+    ready = np.zeros(loop.frames, bool)
+    ready[list(frames)] = True
+    return ready
+
+
+def test_a_partial_loop_reads_between_its_ready_frames(loop):
+    """With some frames missing the factor is linear in time between the ready
+    ones around the loop: each ready frame exactly at its instant, continuous
+    in between (no jump at a missing frame), one frame alone held still."""
+    dt = SEA.period_s / FRAMES
+    ready = _partial(loop, (0, 6, 12))
+    assert loop.frame_weights(3 * dt, ready) == (0, 6, 0.5)
+    assert loop.frame_weights(15 * dt, ready) == (12, 0, 0.25)         # wraps to frame 0
+    assert loop.frame_weights(-1 * dt, ready) == (12, 0, 11 / 12)
+    for f in (0, 6, 12):
+        for got, want in zip(loop.levels_at(f * dt, ready), loop.frame_levels(f)):
+            np.testing.assert_array_equal(got, want)
+    times = np.linspace(0.0, SEA.period_s, 241)
+    seq = np.stack([loop.levels_at(t, ready)[0] for t in times])
+    steps = np.sqrt(np.mean(np.diff(seq, axis=0) ** 2, axis=(1, 2, 3)))
+    # The largest step: the mix over 12 frames' span of the two most different
+    # ready frames, spread over its 48 steps of 1/240 s (and half-float rounding).
+    span = max(_rms(loop.level0[f].astype(float), loop.level0[g].astype(float))
+               for f, g in ((0, 6), (6, 12), (12, 0)))
+    assert steps.max() <= span / 48 * 1.05 + 1e-3
+    only = _partial(loop, (0,))
+    for t in (0.0, 0.4, 0.93):
+        assert loop.frame_weights(t, only) == (0, 0, 0.0)
+        np.testing.assert_array_equal(loop.levels_at(t, only)[0], loop.frame_levels(0)[0])
+    with pytest.raises(AquaspecError, match="no frame yet"):
+        loop.frame_weights(0.1, np.zeros(loop.frames, bool))
+
+
+def test_a_loop_built_in_the_background_is_the_same_loop(tmp_path, monkeypatch):
+    """``background=True`` returns with frame 0 (the still map of t = 0) and
+    fills the rest in a thread, calling progress(done, total) after each
+    frame; the frames are the instants' maps, as the blocking build's; a new
+    sea or sun stops the last loop's build; asked for again, the rest is built."""
+    monkeypatch.setenv("AQUASPEC_CACHE", str(tmp_path))
+    sea = dataclasses.replace(SEA, seed=5)
+    frames = 8
+    calls, gate = [], threading.Event()
+
+    def progress(done, total):
+        calls.append((done, total))
+        if done == 3:
+            gate.wait(30)       # hold the build here until the test has looked
+
+    lp = cst.caustic_loop(sea, *SUN, frames=frames, background=True, progress=progress, **MAP)
+    assert lp.ready[0] and calls[0] == (1, frames)
+    np.testing.assert_array_equal(lp.frame_levels(0)[0],
+                                  cst.cached_caustic_map(dataclasses.replace(sea, period_s=None),
+                                                         *SUN, **MAP).levels[0])
+    while len(calls) < 3:
+        time.sleep(0.01)
+    assert lp.ready.sum() == 3 and not lp.complete
+    # Another sun: this loop's build stops after the frame under way.
+    other = cst.caustic_loop(sea, SUN[0] + 5.0, SUN[1], frames=2, **MAP)
+    assert other.complete
+    gate.set()
+    lp.wait()
+    assert lp.ready.sum() == 3 and calls[-1] == (3, frames)
+    # Asked for again (blocking): the missing frames are built, in order, and
+    # they are the instants' maps.
+    calls.clear()
+    again = cst.caustic_loop(sea, *SUN, frames=frames, progress=progress, **MAP)
+    assert again is not lp and again.complete
+    assert [c[0] for c in calls] == list(range(1, frames + 1))
+    dt = sea.period_s / frames
+    for f in range(frames):
+        np.testing.assert_array_equal(again.frame_levels(f)[0],
+                                      _map(f * dt, sea)[0])
+        if lp.ready[f]:
+            np.testing.assert_array_equal(lp.level0[f], again.level0[f])
+    # A background request for a loop that is there returns it at once.
+    assert cst.caustic_loop(sea, *SUN, frames=frames, background=True, **MAP) is again

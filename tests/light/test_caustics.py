@@ -30,6 +30,35 @@ def test_splat_conserves_weight_and_a_regular_lattice_is_uniform():
     assert out.sum() == pytest.approx(w.sum(), rel=1e-12)
 
 
+def _splat_by_corners(u, w, n, tile):
+    """The bilinear splat written out: each corner of each point's cell by itself."""
+    i0, i1, j0, j1, fz, fx = cst.periodic_cell(u, n, tile)
+    out = np.zeros(n * n)
+    for ii, wz in ((i0, 1.0 - fz), (i1, fz)):
+        for jj, wx in ((j0, 1.0 - fx), (j1, fx)):
+            np.add.at(out, ii * n + jj, w * wz * wx)
+    return out.reshape(n, n)
+
+
+@pytest.mark.parametrize("n", [16, 12])
+def test_splat_by_moments_is_the_bilinear_splat(n):
+    """One bincount pass per moment at the cell's corner (splat_texels) against
+    each corner added by itself: the same texels, in float64 and (to float32's
+    precision) from float32 coordinates; points on every edge of the wrap."""
+    tile = 2.0
+    rng = np.random.default_rng(1)
+    u = np.concatenate([rng.uniform(-3 * tile, 4 * tile, (4000, 2)),
+                        [[0.0, 0.0], [tile - 1e-9, tile - 1e-9], [tile * (n - 0.5) / n, 0.3],
+                         [0.7, tile * (n - 0.5) / n], [-tile / (2 * n), -tile / (2 * n)]]])
+    w = rng.random(len(u))
+    want = _splat_by_corners(u, w, n, tile)
+    np.testing.assert_allclose(cst.splat(u, w, n, tile), want, rtol=1e-12, atol=1e-12)
+    ux, uz = (np.float32(c * (n / tile) - 0.5) for c in u.T)
+    got = cst.splat_texels(ux, uz, w, n)
+    assert got.dtype == np.float64
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5 * w.max())
+
+
 def _sinusoid(amp, wavelength, tile, m, n_y=8):
     """A single wave along x on an (n_y, m) grid (the map accepts any periodic surface)."""
     x = np.arange(m) * tile / m

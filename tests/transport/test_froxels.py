@@ -42,7 +42,7 @@ def test_froxel_columns_keep_their_angle_as_the_image_grows():
     at 320x180, twice as wide in angle as 1280x720's, still meet the 160x90
     test's bounds against each pixel's own march (measured: median 0.28 %,
     99th percentile 5.6 %, as 8-pixel columns at 160x90)."""
-    from aquaspec.transport.froxels import froxel_grid, froxel_lookup, froxel_tile
+    from aquaspec.transport.froxels import froxel_grid, froxel_lookup, froxel_tile, pixel_lengths
     from aquaspec.transport.sun_scattering import band_mean_phase_at
     from aquaspec.scene.raycast import raycast_gbuffer
     from aquaspec.rendering.setup import SpectralSetup
@@ -65,7 +65,7 @@ def test_froxel_columns_keep_their_angle_as_the_image_grows():
     d = gb.distance.astype(float)
     s = np.where(hit_before_surface(d, cam.ray_directions()[..., 1], -cam.position[1]), d,
                  np.inf)
-    frox = froxel_lookup(grid, cam, s, tile=16) * band_mean_phase_at(
+    frox = froxel_lookup(grid, cam, s, pixel_lengths(cam, sun), tile=16) * band_mean_phase_at(
         sun.log_phase, cam.ray_directions() @ sun.to_sun)[..., None]
     rel = np.abs(frox / march - 1.0)
     assert np.median(rel) < 0.005

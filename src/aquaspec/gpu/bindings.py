@@ -22,6 +22,7 @@ _TEXTURES = {"float": (wgpu.TextureSampleType.unfilterable_float, wgpu.TextureVi
              "filterable_array": (wgpu.TextureSampleType.float,
                                   wgpu.TextureViewDimension.d2_array),
              "filterable": (wgpu.TextureSampleType.float, wgpu.TextureViewDimension.d2),
+             "filterable_3d": (wgpu.TextureSampleType.float, wgpu.TextureViewDimension.d3),
              "depth": (wgpu.TextureSampleType.depth, wgpu.TextureViewDimension.d2)}
 _SAMPLERS = {"sampler": wgpu.SamplerBindingType.filtering,
              "nonfiltering_sampler": wgpu.SamplerBindingType.non_filtering,
@@ -54,7 +55,7 @@ def bind_group_layout(device, bindings):
     ``"float"`` / ``"uint"`` (unfilterable 2-D textures of that sample type),
     ``"filterable"`` (2-D filterable float), ``"float_array"`` /
     ``"filterable_array"`` (2-D array textures, unfilterable / filterable
-    float), ``"depth"`` (a 2-D depth texture), ``"storage_rgba32float"`` (write-only
+    float), ``"filterable_3d"`` (a 3-D filterable float texture), ``"depth"`` (a 2-D depth texture), ``"storage_rgba32float"`` (write-only
     storage texture),
     ``"sampler"`` / ``"nonfiltering_sampler"`` / ``"comparison_sampler"``.
     """

@@ -19,9 +19,11 @@ times what a flat surface passes through the same horizontal area. Carried
 to depth ``d`` the ray lands at ``x0 + (d + h) t_xz / |t_y|``. The caustic
 factor at depth ``d`` is the landed flux per horizontal area over the flat
 surface's: a photon map, each facet's ``w`` splatted bilinearly (periodic)
-onto the texels of a plane at depth ``d``. The facets are the tile's samples
-refined ``oversample`` times by Fourier interpolation (the same band-limited
-surface, more facets per texel).
+onto the texels of a plane at depth ``d`` (:mod:`aquaspec.light.photon_map`;
+the landing points in float32, a rounding far below the half floats the map
+is kept in). The facets are the tile's samples refined ``oversample`` times
+by Fourier interpolation (the same band-limited surface, more facets per
+texel; against 8, the default 4 differs by up to 0.055 rms per slice, 2 by 0.18).
 
 The factor is stored in *foot coordinates*: a point ``p`` at depth ``d``
 looks up ``u = p_xz + (d / mu0) s_xz``, where the flat surface's refracted
@@ -67,33 +69,45 @@ is being lit; :func:`sample` is the NumPy twin.
 
 Waves in motion
 ---------------
-A map costs seconds (about 1 M facets splatted onto 32 slices; on lavapipe
-the same splat with GPU atomics measured 1.1-2.1 s), so a moving sea is a
-loop (:class:`CausticLoop`): the looping sea of
-:mod:`aquaspec.light.waves` (period ``T``) mapped at ``F`` instants
-``f T / F``, built once per sea state and sun (each frame kept by
-:func:`cached_caustic_map`). At time ``t`` the factor is linear in time
-between the two frames around it (:meth:`CausticLoop.levels_at`; the GPU's
+A map costs about 0.4-0.7 s (about 1 M facets splatted onto 32 slices, the
+slices in threads; on lavapipe the same splat with GPU atomics measured
+1.1-2.1 s), so a moving sea is a loop (:class:`CausticLoop`): the looping
+sea of :mod:`aquaspec.light.waves` (period ``T``) mapped at ``F`` instants
+``f T / F``, built once per sea state and sun (each frame kept in the cache
+directory). At time ``t`` the factor is linear in time between the two
+frames around it (:meth:`CausticLoop.levels_at`; the GPU's
 :class:`aquaspec.gpu.passes.caustics.CausticLoopPass` does it per frame):
 continuous in ``t``, periodic, and equal to the map of the instant at each
 frame.
+
+A live view need not wait (:func:`caustic_loop` with ``background``):
+frame 0 is the still map of ``t = 0``, the others are built in a thread in
+:func:`build_order` (always spread over the period), and the factor is read
+between the ready frames around ``t``: the caustics are there at once, then
+cross-fade between the instants built (slowly at first), the motion
+sharpening as the gaps close.
 """
 
 from __future__ import annotations
 
 import sys
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.special import j1
 
 from aquaspec.cache import cached_arrays, code_digest
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sun import air_to_sun, check_azimuth, check_elevation, refracted_to_sun
-from aquaspec.light.waves import Waves, surface, unresolved_slope_variance, wavenumbers
+# (splat and disc_blur are this module's too: the photon map's pieces.)
+from aquaspec.light.photon_map import (disc_blur, half_wavenumbers, periodic_cell,  # noqa: F401
+                                       splat, splat_texels)
+from aquaspec.light.waves import (DEFAULT_LOOP_PERIOD_S, Waves, looping,  # noqa: F401
+                                  surface, unresolved_slope_variance)
 from aquaspec.medium.interface import FLAT_NORMAL, N_WATER, fresnel_transmittance, refract
-from aquaspec.numerics import bilinear_blend, repeat_cell
-from aquaspec.parallel import in_threads
+from aquaspec.numerics import bilinear_blend
+from aquaspec.parallel import workers
 
 #: The sun's mean angular radius (its semi-diameter), degrees.
 SUN_RADIUS_DEG = 0.2666
@@ -101,9 +115,8 @@ SUN_RADIUS_DEG = 0.2666
 DEFAULT_OVERSAMPLE = 4
 DEFAULT_SLICES = 32
 DEFAULT_MAX_DEPTH_M = 40.0
-#: A moving sea's loop: its period (s) and frames per period (1/24 s apart;
-#: the slices 1 m down decorrelate in about 0.06 s at 5 m/s).
-DEFAULT_LOOP_PERIOD_S = 2.0
+#: A moving sea's loop: frames per period (:data:`DEFAULT_LOOP_PERIOD_S`;
+#: 1/24 s apart: the slices 1 m down decorrelate in about 0.06 s at 5 m/s).
 DEFAULT_LOOP_FRAMES = 48
 
 
@@ -131,62 +144,6 @@ def facet_weights(cos_i, normal_y, cos_z, n_water: float = N_WATER):
     ci = np.clip(cos_i, 0.0, 1.0)
     flat = cos_z * fresnel_transmittance(cos_z, n_water)
     return np.where(cos_i > 0, ci * fresnel_transmittance(ci, n_water) / (normal_y * flat), 0.0)
-
-
-def periodic_cell(u, n: int, tile_m: float):
-    """The four texels around foot points ``u`` (..., 2) on ``n x n`` periodic
-    texels of a tile (texel ``[i, j]`` centred at ``((j + 1/2), (i + 1/2)) L / n``):
-    ``(i0, i1, j0, j1, fz, fx)``, rows along z and columns along x."""
-    j0, j1, fx = repeat_cell(np.asarray(u[..., 0]) / tile_m * n - 0.5, n)
-    i0, i1, fz = repeat_cell(np.asarray(u[..., 1]) / tile_m * n - 0.5, n)
-    return i0, i1, j0, j1, fz, fx
-
-
-def splat(u, weights, n: int, tile_m: float) -> np.ndarray:
-    """Bilinear periodic splat of points ``u`` (P, 2) (x, z) onto ``n x n``
-    texels of a tile (:func:`periodic_cell`): the summed weights per texel."""
-    i0, i1, j0, j1, fz, fx = periodic_cell(u, n, tile_m)
-    out = np.zeros(n * n)
-    for ii, wz in ((i0, 1.0 - fz), (i1, fz)):
-        for jj, wx in ((j0, 1.0 - fx), (j1, fx)):
-            out += np.bincount(ii * n + jj, weights=weights * wz * wx, minlength=n * n)
-    return out.reshape(n, n)
-
-
-def _disc_transfer(n: int, radii, along, tile_m: float) -> np.ndarray:
-    """Fourier transfer (n, n) of a uniform ellipse: radii ``(r_along,
-    r_across)`` m, ``along`` the unit (x, z) of its first axis."""
-    r_par, r_perp = radii
-    kx, kz = wavenumbers(n, tile_m)
-    k_par = kx * along[0] + kz * along[1]
-    k_perp = -kx * along[1] + kz * along[0]
-    q = np.hypot(k_par * r_par, k_perp * r_perp)
-    qs = np.where(q > 1e-8, q, 1.0)
-    return np.where(q > 1e-8, 2.0 * j1(qs) / qs, 1.0)
-
-
-def _gaussian_transfer(n: int, cov, tile_m: float) -> np.ndarray:
-    """Fourier transfer (n, n) of a Gaussian of covariance ``cov`` (2, 2), m^2,
-    axes (x, z): ``exp(-k^T cov k / 2)``."""
-    kx, kz = wavenumbers(n, tile_m)
-    return np.exp(-0.5 * (cov[0, 0] * kx * kx + 2.0 * cov[0, 1] * kx * kz
-                          + cov[1, 1] * kz * kz))
-
-
-def disc_blur(slice_, radii, along, tile_m: float, cov=None) -> np.ndarray:
-    """Convolve a periodic slice (n, n) with a uniform ellipse (radii
-    ``(r_along, r_across)`` m, ``along`` the unit (x, z) of its first axis)
-    and, with ``cov`` (2, 2) m^2, a Gaussian of that covariance (axes x, z)."""
-    n = slice_.shape[0]
-    tf = None
-    if radii[0] > 0 or radii[1] > 0:
-        tf = _disc_transfer(n, radii, along, tile_m)
-    if cov is not None and np.any(np.asarray(cov) != 0):
-        g = _gaussian_transfer(n, np.asarray(cov, dtype=float), tile_m)
-        tf = g if tf is None else tf * g
-    if tf is None:
-        return slice_
-    return np.fft.ifft2(np.fft.fft2(slice_) * tf).real
 
 
 @dataclass(frozen=True)
@@ -257,29 +214,42 @@ def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
     w = facet_weights(cos_i, norm[..., 1], air[1], n_water).reshape(-1)
     mean_w = float(np.sum(w) / (m * m))
     lit = w > 0
-    x0 = np.stack(np.meshgrid(np.arange(m), np.arange(m)), axis=-1).reshape(-1, 2) \
-        * (tile_m / m)
-    ty = np.abs(t[..., 1]).reshape(-1)
-    slope = t[..., [0, 2]].reshape(-1, 2) / ty[:, None]
-    flat = -s[[0, 2]] / mu0
-    hh = h.reshape(-1)
-    x0, slope, hh, w = x0[lit], slope[lit], hh[lit], w[lit]
+    keep = slice(None) if lit.all() else lit           # (a low sun leaves some dark)
+    ty = np.abs(t[..., 1]).reshape(-1)[keep]
+    # The landing point at depth d in texel units (texel centres at whole
+    # numbers), a + d b: x0 + h slope fixed, the run (slope - flat) per metre.
+    scale = n / tile_m
+    grid = np.arange(m) * (n / float(m)) - 0.5
+    rows = np.broadcast_to(grid[:, None], (m, m))          # z of each facet; x: rows.T
+    a, b = [], []
+    for axis, x0 in ((0, rows.T), (2, rows)):
+        slope = t[..., axis].reshape(-1)[keep] / ty
+        a.append(np.asarray(x0.reshape(-1)[keep] + h.reshape(-1)[keep] * slope * scale,
+                            np.float32))
+        b.append(np.asarray((slope + s[axis] / mu0) * scale, np.float32))
+    w = w[keep] * ((n * n) / float(m * m))
     alpha = np.radians(sun_radius_deg)
     a_perp = alpha / n_water
     a_par = alpha * air[1] / (n_water * mu0)
-    per_photon = (n * n) / float(m * m)
     jac = run_jacobian(air, n_water)
     spread = 0.5 * float(unresolved_variance) * (jac @ jac.T)     # per unit depth^2
     depths = np.asarray(depths, dtype=float)
     out = np.empty((depths.size, n, n), np.float32)
-    for k, d in enumerate(depths):
-        u = x0 + d * (slope - flat) + hh[:, None] * slope
-        c = splat(u, w * per_photon, n, tile_m)
+    k_half = half_wavenumbers(n, tile_m)
+
+    def one(k):
+        d = float(depths[k])
+        dd = np.float32(d)
+        c = splat_texels(b[0] * dd + a[0], b[1] * dd + a[1], w, n)
         c = disc_blur(c, (d * a_par / mu0 ** 2, d * a_perp / mu0), dir_h, tile_m,
-                      cov=d * d * spread)
+                      cov=d * d * spread, wavenumbers=k_half)
         out[k] = np.maximum(c, 0.0)
-        if progress is not None:
-            progress(k + 1, depths.size)
+
+    # The slices in threads (NumPy lets go of the GIL in the splat's loops).
+    with ThreadPoolExecutor(max_workers=min(workers(), depths.size)) as pool:
+        for done, _ in enumerate(pool.map(one, range(depths.size)), 1):
+            if progress is not None:
+                progress(done, depths.size)
     return out, mean_w
 
 
@@ -401,27 +371,33 @@ def sample(cmap: CausticMap, points, footprint_m=0.0) -> np.ndarray:
 
 _CACHE: dict = {}
 _CACHE_SIZE = 4
+_LOCK = threading.Lock()
 #: The modules whose code keys the cached slices (:func:`aquaspec.cache.code_digest`).
-_CODE_MODULES = (__name__, "aquaspec.light.waves", "aquaspec.light.sun",
-                 "aquaspec.medium.interface")
+_CODE_MODULES = (__name__, "aquaspec.light.photon_map", "aquaspec.light.waves",
+                 "aquaspec.light.sun", "aquaspec.medium.interface")
 
 
-def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
-                       n_water: float = N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
-                       slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
-                       sun_radius_deg: float = SUN_RADIUS_DEG,
-                       unresolved_slopes: bool = True) -> CausticMap:
-    """:func:`caustic_map`, remembered for the last few (waves, sun) in this
-    process and its slices kept in the cache directory (:mod:`aquaspec.cache`)."""
+def _map_options(elevation_deg, azimuth_deg, *, n_water=N_WATER,
+                 oversample=DEFAULT_OVERSAMPLE, slices=DEFAULT_SLICES,
+                 max_depth_m=DEFAULT_MAX_DEPTH_M, sun_radius_deg=SUN_RADIUS_DEG,
+                 unresolved_slopes=True):
+    """The checked sun and :func:`caustic_map`'s options, as a cache key's parts."""
     elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
                                                  max_depth_m)
-    kw = dict(n_water=float(n_water), oversample=int(oversample), slices=int(slices),
-              max_depth_m=float(max_depth_m), sun_radius_deg=float(sun_radius_deg),
-              unresolved_slopes=bool(unresolved_slopes))
+    return elevation_deg, azimuth_deg, dict(
+        n_water=float(n_water), oversample=int(oversample), slices=int(slices),
+        max_depth_m=float(max_depth_m), sun_radius_deg=float(sun_radius_deg),
+        unresolved_slopes=bool(unresolved_slopes))
+
+
+def _stored_slices(waves: Waves, elevation_deg, azimuth_deg, kw):
+    """Level 0 (K, n, n) float16 and the mean facet weight of
+    :func:`caustic_map`, from the cache directory (computed once). A looping
+    sea at ``t = 0`` is the true sea's surface, so both share one entry."""
+    if waves.time_s == 0.0 and waves.period_s is not None:
+        waves = replace(waves, period_s=None)
     key = (waves, elevation_deg, azimuth_deg, tuple(sorted(kw.items())))
-    hit = _CACHE.get(key)
-    if hit is not None:
-        return hit
+
     def compute():
         cm = caustic_map(waves, elevation_deg, azimuth_deg, **kw)
         return {"level0": cm.levels[0].astype(np.float16),
@@ -429,25 +405,64 @@ def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *
 
     data = cached_arrays("caustics", code_digest([sys.modules[m] for m in _CODE_MODULES],
                                                  repr(key)), compute)
-    hit = _assemble(waves, elevation_deg, azimuth_deg, data["level0"],
-                    float(data["mean_weight"]), **kw)
-    if len(_CACHE) >= _CACHE_SIZE:
-        _CACHE.pop(next(iter(_CACHE)))
-    _CACHE[key] = hit
+    return data["level0"], float(data["mean_weight"])
+
+
+def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float,
+                       **map_kwargs) -> CausticMap:
+    """:func:`caustic_map` (same options), remembered for the last few (waves,
+    sun) in this process and its slices kept in the cache directory
+    (:mod:`aquaspec.cache`)."""
+    elevation_deg, azimuth_deg, kw = _map_options(elevation_deg, azimuth_deg, **map_kwargs)
+    key = (waves, elevation_deg, azimuth_deg, tuple(sorted(kw.items())))
+    with _LOCK:
+        hit = _CACHE.get(key)
+    if hit is not None:
+        return hit
+    hit = _assemble(waves, elevation_deg, azimuth_deg,
+                    *_stored_slices(waves, elevation_deg, azimuth_deg, kw), **kw)
+    with _LOCK:
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.pop(next(iter(_CACHE)))
+        _CACHE[key] = hit
     return hit
 
 
-@dataclass(frozen=True)
+def build_order(frames: int) -> list:
+    """The order a loop's frames are built in: frame 0, then each time the
+    frame farthest (around the loop) from those built, the first of ties
+    (0, 24, 12, 36, 6, ... for 48): the frames built so far always spread
+    over the whole period."""
+    order, dist = [0], np.array([min(f, frames - f) for f in range(frames)], float)
+    while len(order) < frames:
+        f = int(np.argmax(dist))
+        order.append(f)
+        dist = np.minimum(dist, [min((g - f) % frames, (f - g) % frames)
+                                 for g in range(frames)])
+        dist[order] = -1.0
+    return order
+
+
+@dataclass(frozen=True, eq=False)
 class CausticLoop:
     """The caustics of a looping sea (``first.waves.period_s``) at ``F``
     instants ``f T / F`` of one period (see the module docstring).
 
     ``level0`` (F, K, n, n) float16: each frame's slices; ``first``: frame
-    0's :class:`CausticMap` (the geometry, the sun, the description).
+    0's :class:`CausticMap` (the geometry, the sun, the description);
+    ``ready`` (F,) bool: the frames built so far (all of them unless the loop
+    is being built in the background, :func:`caustic_loop`), read between
+    the ready ones.
     """
 
     first: CausticMap
     level0: np.ndarray
+    ready: np.ndarray | None = None
+    _run: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self):
+        if self.ready is None:
+            object.__setattr__(self, "ready", np.ones(self.level0.shape[0], bool))
 
     @property
     def period_s(self) -> float:
@@ -458,6 +473,10 @@ class CausticLoop:
         return int(self.level0.shape[0])
 
     @property
+    def complete(self) -> bool:
+        return bool(self.ready.all())
+
+    @property
     def geometry(self) -> CausticGeometry:
         return self.first.geometry
 
@@ -465,20 +484,33 @@ class CausticLoop:
         """Frame ``f``'s mip levels (:func:`mip_levels`)."""
         return mip_levels(self.level0[int(f) % self.frames])
 
-    def frame_weights(self, time_s: float):
+    def frame_weights(self, time_s: float, ready=None):
         """``(f0, f1, a)``: the factor at ``time_s`` is ``(1 - a)`` frame ``f0``
-        plus ``a`` frame ``f1 = f0 + 1`` (wrapped)."""
+        plus ``a`` frame ``f1``, the ready frames (``ready`` (F,) bool, else
+        :attr:`ready`) at or before and after the time around the loop
+        (``f1 = f0 + 1``, wrapped, once all are)."""
         t = float(time_s)
         if not np.isfinite(t):
             raise AquaspecError(f"wave time {time_s!r} s; accepted: a finite number")
         x = (t / self.period_s) % 1.0 * self.frames
-        f0 = min(int(np.floor(x)), self.frames - 1)
-        return f0, (f0 + 1) % self.frames, float(min(max(x - f0, 0.0), 1.0))
+        have = np.flatnonzero(self.ready if ready is None else ready)
+        if have.size == self.frames:
+            f0 = min(int(np.floor(x)), self.frames - 1)
+            return f0, (f0 + 1) % self.frames, float(min(max(x - f0, 0.0), 1.0))
+        if have.size == 0:
+            raise AquaspecError("the caustic loop has no frame yet")
+        i = int(np.searchsorted(have, x, side="right")) - 1      # -1: the last, wrapped
+        f0, f1 = int(have[i]), int(have[(i + 1) % have.size])
+        if f0 == f1:
+            return f0, f1, 0.0
+        span = (f1 - f0) % self.frames
+        return f0, f1, float(min(max(((x - f0) % self.frames) / span, 0.0), 1.0))
 
-    def levels_at(self, time_s: float) -> tuple:
-        """The mip levels at ``time_s``: the two frames' levels mixed in
-        float32 and rounded to half precision (as the GPU does it)."""
-        f0, f1, a = self.frame_weights(time_s)
+    def levels_at(self, time_s: float, ready=None) -> tuple:
+        """The mip levels at ``time_s``: the two frames' levels
+        (:meth:`frame_weights`) mixed in float32 and rounded to half
+        precision (as the GPU does it)."""
+        f0, f1, a = self.frame_weights(time_s, ready)
         return tuple(np.asarray(np.float32(1.0 - a) * p + np.float32(a) * q,
                                 np.float16).astype(np.float32)
                      for p, q in zip(self.frame_levels(f0), self.frame_levels(f1)))
@@ -490,41 +522,95 @@ class CausticLoop:
                           levels=self.levels_at(time_s), mean_weight=self.first.mean_weight,
                           info={**self.first.info, "loop_frames": self.frames})
 
+    def wait(self) -> "CausticLoop":
+        """Wait for a background build (:func:`caustic_loop`); raises what it raised."""
+        thread = self._run.get("thread")
+        if thread is not None:
+            thread.join()
+        if self._run.get("error") is not None:
+            raise self._run["error"]
+        return self
 
-def looping(waves: Waves, period_s: float | None = None) -> Waves:
-    """``waves`` as a looping sea: its own ``period_s``, else ``period_s``,
-    else :data:`DEFAULT_LOOP_PERIOD_S`."""
-    if waves.period_s is not None:
-        return waves
-    return replace(waves, period_s=DEFAULT_LOOP_PERIOD_S if period_s is None else period_s)
+    def stop(self) -> None:
+        """Stop a background build after the frame under way (the frames
+        built stay; :func:`caustic_loop` resumes it)."""
+        if "stop" in self._run:
+            self._run["stop"].set()
+
+    def _fill(self, make_frame, progress, stop) -> None:
+        """Build the missing frames in :func:`build_order` (``make_frame(f)``:
+        frame f's level 0), calling ``progress(done, total)`` after each."""
+        try:
+            for f in build_order(self.frames):
+                if stop is not None and stop.is_set():
+                    return
+                if not self.ready[f]:
+                    self.level0[f] = make_frame(f)
+                    self.ready[f] = True          # (after its texels: readers check this)
+                    if progress is not None:
+                        progress(int(self.ready.sum()), self.frames)
+        except Exception as exc:        # kept for wait(): a background thread has no caller
+            self._run["error"] = exc
+            if stop is None:
+                raise
 
 
 _LOOPS: dict = {}
 
 
 def caustic_loop(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
-                 frames: int = DEFAULT_LOOP_FRAMES, **map_kwargs) -> CausticLoop:
-    """The :class:`CausticLoop` of :func:`looping` ``(waves)`` under the sun,
-    ``frames`` per period, each frame :func:`cached_caustic_map` (with
-    ``map_kwargs``) in threads; the last loop is remembered in this process."""
+                 frames: int = DEFAULT_LOOP_FRAMES, progress=None, background: bool = False,
+                 **map_kwargs) -> CausticLoop:
+    """The :class:`CausticLoop` of :func:`aquaspec.light.waves.looping`
+    ``(waves)`` under the sun, ``frames`` per period, each frame
+    :func:`caustic_map` (with ``map_kwargs``) kept in the cache directory; the
+    last loop is remembered in this process (a new one stops the last one's
+    background build).
+
+    Frame 0 is the sea's map at ``t = 0`` (the still map's cache entry); the
+    others are built in :func:`build_order`, one after another (each map's
+    slices in threads), calling ``progress(done, total)`` (frames ready)
+    after each. ``background``: return once frame 0 is there and build the
+    rest in a thread (``progress`` is then called from it;
+    :attr:`CausticLoop.ready` says which frames are there,
+    :meth:`CausticLoop.wait` waits for all). Either way the frames are the
+    same numbers.
+    """
     if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 2:
         raise AquaspecError(f"caustic loop frames {frames!r}; accepted: an integer >= 2")
+    elevation_deg, azimuth_deg, kw = _map_options(elevation_deg, azimuth_deg, **map_kwargs)
     sea = replace(looping(waves), time_s=0.0)
-    key = (sea, float(elevation_deg), float(azimuth_deg), int(frames),
-           tuple(sorted(map_kwargs.items())))
-    hit = _LOOPS.get(key)
-    if hit is not None:
-        return hit
-    first = cached_caustic_map(sea, elevation_deg, azimuth_deg, **map_kwargs)
-    level0 = np.empty((int(frames),) + first.levels[0].shape, np.float16)
-    level0[0] = first.levels[0]
+    key = (sea, elevation_deg, azimuth_deg, int(frames), tuple(sorted(kw.items())))
 
-    def build(f):       # (only the half floats of each frame are kept)
-        level0[f] = cached_caustic_map(replace(sea, time_s=f * sea.period_s / frames),
-                                       elevation_deg, azimuth_deg, **map_kwargs).levels[0]
+    def make_frame(f):
+        t = f * sea.period_s / frames
+        return _stored_slices(replace(sea, time_s=t), elevation_deg, azimuth_deg, kw)[0]
 
-    in_threads(build, range(1, int(frames)))
-    loop = CausticLoop(first=first, level0=level0)
-    _LOOPS.clear()
-    _LOOPS[key] = loop
+    loop = _LOOPS.get(key)
+    if loop is None:
+        level0, mean_w = _stored_slices(sea, elevation_deg, azimuth_deg, kw)
+        loop = CausticLoop(first=_assemble(sea, elevation_deg, azimuth_deg, level0, mean_w, **kw),
+                           level0=np.empty((int(frames),) + level0.shape, np.float16),
+                           ready=np.zeros(int(frames), bool))
+        loop.level0[0], loop.ready[0] = level0, True
+        with _LOCK:
+            for old in _LOOPS.values():
+                old.stop()
+            _LOOPS.clear()
+            _LOOPS[key] = loop
+    if progress is not None:
+        progress(int(loop.ready.sum()), loop.frames)
+    with _LOCK:
+        thread = loop._run.get("thread")
+        running = thread is not None and thread.is_alive() and not loop._run["stop"].is_set()
+        if background and not running and not loop.complete:
+            stop = threading.Event()
+            thread = threading.Thread(target=loop._fill, args=(make_frame, progress, stop),
+                                      daemon=True, name="caustic loop")
+            loop._run.update(stop=stop, error=None, thread=thread)
+            thread.start()
+    if not background:
+        if running:
+            loop.wait()
+        loop._fill(make_frame, progress, None)      # (whatever a stopped build left)
     return loop

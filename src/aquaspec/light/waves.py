@@ -44,12 +44,14 @@ measured beyond what the tile and the longer waves
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.fft as sfft
 from scipy.special import exp1
 
 from aquaspec.errors import AquaspecError
+from aquaspec.parallel import workers
 
 GRAVITY = 9.81
 #: Pierson & Moskowitz (1964): the equilibrium constant and the peak factor.
@@ -58,6 +60,8 @@ PM_BETA = 0.74
 
 DEFAULT_TILE_M = 8.0
 DEFAULT_GRID = 256
+#: A looping sea's period when none is given (:func:`looping`), s.
+DEFAULT_LOOP_PERIOD_S = 2.0
 #: Accepted wind speeds, m/s (PM's spectrum is for a fully developed sea).
 WIND_RANGE = (0.5, 25.0)
 
@@ -133,6 +137,14 @@ class Waves:
                 "cox_munk_slope_variance": cox_munk_slope_variance(self.wind_speed),
                 "longer_than_tile_slope_variance": long_wave_slope_variance(self),
                 "unresolved_slope_variance": unresolved_slope_variance(self)}
+
+
+def looping(waves: Waves, period_s: float | None = None) -> Waves:
+    """``waves`` as a looping sea: its own ``period_s``, else ``period_s``,
+    else :data:`DEFAULT_LOOP_PERIOD_S`."""
+    if waves.period_s is not None:
+        return waves
+    return replace(waves, period_s=DEFAULT_LOOP_PERIOD_S if period_s is None else period_s)
 
 
 def pm_spectrum(k, wind_speed):
@@ -240,8 +252,7 @@ def surface(waves: Waves, oversample: int = 1):
     big[np.ix_(idx, idx)] = amp
     kx, kz = wavenumbers(m, waves.tile_m)
     scale = float(m) * m
-    h = np.fft.ifft2(big).real * scale
-    hx = np.fft.ifft2(1j * kx * big).real * scale
-    hz = np.fft.ifft2(1j * kz * big).real * scale
+    h, hx, hz = (sfft.ifft2(spectrum, workers=workers()).real * scale
+                 for spectrum in (big, 1j * kx * big, 1j * kz * big))
     return h, hx, hz
 

@@ -67,7 +67,7 @@ class Renderer:
         #: The waves' time of the next frames' caustics, s (:meth:`set_wave_time`).
         self.wave_time_s = None
         self._wave_loop = None      # CausticLoopPass of the moving sea
-        self._loop_options = (DEFAULT_LOOP_FRAMES, True)
+        self._loop_options = (DEFAULT_LOOP_FRAMES, True, False)
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         """Upload ``setup``'s medium for a scene of ``materials`` to the shading
@@ -109,16 +109,19 @@ class Renderer:
         return self.sun
 
     def set_wave_time(self, time_s: float | None, *, frames: int = DEFAULT_LOOP_FRAMES,
-                      smooth: bool = True) -> None:
+                      smooth: bool = True, progressive: bool = False) -> None:
         """Move the waves: the next frames' caustics are the setup's sea at
         ``time_s`` seconds, read from its loop
         (:func:`aquaspec.light.caustics.caustic_loop`, ``frames`` per period;
         built on the CPU once per sea state and sun, each frame kept in the
         cache) and mixed on the GPU per frame
         (:class:`aquaspec.gpu.passes.caustics.CausticLoopPass`; ``smooth=False``
-        copies the nearest frame). None: the setup's own still map."""
+        copies the nearest frame). None: the setup's own still map.
+        ``progressive``: do not wait for a new loop; until it is built in the
+        background, frames read between the loop's frames built so far (at
+        first only ``t = 0``'s, the still map: live views)."""
         self.wave_time_s = None if time_s is None else float(time_s)
-        self._loop_options = (frames, bool(smooth))
+        self._loop_options = (frames, bool(smooth), bool(progressive))
         if self.wave_time_s is None:
             self._sun_key = None    # the still map goes back on the next frame
 
@@ -127,10 +130,10 @@ class Renderer:
         (:meth:`set_wave_time`); False: the waves stand still."""
         if self.wave_time_s is None or setup.waves is None:
             return False
-        frames, smooth = self._loop_options
+        frames, smooth, progressive = self._loop_options
         sun = setup.light.sun
         loop = caustic_loop(setup.waves, sun.elevation_deg, sun.azimuth_deg, frames=frames,
-                            n_water=sun.n_water)
+                            n_water=sun.n_water, background=progressive)
         if self._wave_loop is None or self._wave_loop.loop is not loop:
             self._wave_loop = CausticLoopPass(self.deferred.device, loop)
         self._wave_loop.smooth = smooth

@@ -23,8 +23,15 @@ from aquaspec.errors import AquaspecError
 #: Shadow-map side in texels.
 DEFAULT_MAP_SIZE = 2048
 #: Shadows are resolved within this distance of the camera, m (beyond it
-#: everything is lit): at 2048 texels, 4 cm texels.
+#: everything is lit): with the margin, at 2048 texels, 4.3 cm texels.
 DEFAULT_MAP_RADIUS_M = 40.0
+#: The map reaches this much further than :data:`DEFAULT_MAP_RADIUS_M`, m, and
+#: its centre across the beam snaps to a grid of twice this pitch (as cascaded
+#: shadow maps snap theirs), so every camera in a cell of the grid gets the
+#: same map: a camera moving about a metre a frame redraws it when it crosses
+#: into another cell instead of every frame, and a moving camera's frame
+#: equals a still render of it.
+DEFAULT_MAP_MARGIN_M = 4.0
 #: Depth bias, in texels (a point counts as lit up to this far below the map).
 BIAS_TEXELS = 1.0
 #: Surface points are looked up this far along their normal, in texels.
@@ -85,13 +92,19 @@ class ShadowMapSpec:
 
 
 def shadow_map_spec(scene_bounds, camera_position, to_sun, *, size: int = DEFAULT_MAP_SIZE,
-                    radius_m: float = DEFAULT_MAP_RADIUS_M) -> ShadowMapSpec | None:
+                    radius_m: float = DEFAULT_MAP_RADIUS_M,
+                    margin_m: float = DEFAULT_MAP_MARGIN_M) -> ShadowMapSpec | None:
     """The map over the scene's bounds ((2, 3): low and high corners), cut to
-    ``radius_m`` around the camera across the beam; None for an empty scene."""
+    ``radius_m + margin_m`` around the camera's place across the beam snapped
+    to a grid of pitch ``2 margin_m`` (so within ``margin_m`` of the camera
+    each way: the map holds everything within ``radius_m`` of it, and is the
+    same for every camera of the grid's cell); None for an empty scene."""
     if not (isinstance(size, (int, np.integer)) and 16 <= size <= 8192):
         raise AquaspecError(f"shadow map size {size!r}; accepted: an integer 16 ... 8192")
     if not (np.isfinite(radius_m) and radius_m > 0):
         raise AquaspecError(f"shadow map radius {radius_m!r} m; accepted: a distance > 0")
+    if not (np.isfinite(margin_m) and margin_m >= 0):
+        raise AquaspecError(f"shadow map margin {margin_m!r} m; accepted: a distance >= 0")
     lo, hi = np.asarray(scene_bounds, dtype=float)
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
         return None
@@ -100,10 +113,15 @@ def shadow_map_spec(scene_bounds, camera_position, to_sun, *, size: int = DEFAUL
     corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                         for z in (lo[2], hi[2])])
     cam = np.asarray(camera_position, dtype=float)
-    u_lo = max((corners @ e1).min(), cam @ e1 - radius_m)
-    u_hi = min((corners @ e1).max(), cam @ e1 + radius_m)
-    v_lo = max((corners @ e2).min(), cam @ e2 - radius_m)
-    v_hi = min((corners @ e2).max(), cam @ e2 + radius_m)
+    cu, cv = float(cam @ e1), float(cam @ e2)
+    if margin_m > 0:
+        pitch = 2.0 * margin_m
+        cu, cv = pitch * np.round(cu / pitch), pitch * np.round(cv / pitch)
+    reach = radius_m + margin_m
+    u_lo = max((corners @ e1).min(), cu - reach)
+    u_hi = min((corners @ e1).max(), cu + reach)
+    v_lo = max((corners @ e2).min(), cv - reach)
+    v_hi = min((corners @ e2).max(), cv + reach)
     if u_hi <= u_lo or v_hi <= v_lo:
         return None
     extent = max(u_hi - u_lo, v_hi - v_lo) * (1.0 + 1e-6)
@@ -189,13 +207,14 @@ def map_visibility(height_map, spec: ShadowMapSpec, points, *, bias_texels=BIAS_
 
 
 def numpy_shadow_map(scene, camera, to_sun, *, size: int = DEFAULT_MAP_SIZE,
-                     radius_m: float = DEFAULT_MAP_RADIUS_M):
+                     radius_m: float = DEFAULT_MAP_RADIUS_M,
+                     margin_m: float = DEFAULT_MAP_MARGIN_M):
     """``(height_map, spec)`` of a scene for :func:`aquaspec.shading.sun.sun_radiance`,
     or None (no scene, or nothing near the camera)."""
     if scene is None or not scene.meshes:
         return None
     spec = shadow_map_spec(scene.bounds(), camera.position, to_sun, size=size,
-                           radius_m=radius_m)
+                           radius_m=radius_m, margin_m=margin_m)
     if spec is None:
         return None
     return shadow_map_numpy(scene, spec), spec

@@ -19,7 +19,7 @@ from aquaspec.light import caustics
 from aquaspec.light.sun import surface_irradiance
 from aquaspec.scene.camera import camera_depth
 from aquaspec.scene.shadowmap import NORMAL_OFFSET_TEXELS, ShadowMapSpec, map_visibility
-from aquaspec.transport.froxels import froxel_grid, froxel_lookup
+from aquaspec.transport.froxels import froxel_grid, froxel_lookup, pixel_lengths
 from aquaspec.transport.monzon2022 import hit_before_surface
 from aquaspec.transport.sun_scattering import (TAIL, SunInputs, band_mean_phase_at,
                                                phase_from_log_table, single_scattering_marched)
@@ -70,8 +70,8 @@ def sun_radiance(gbuffer, sun: SunInputs, *, rho_of_hits, height_map=None,
 
     if method == "froxel":
         grid = froxel_grid(cam, sun, vis_points, tail=tail)
-        out = froxel_lookup(grid, cam, s) * band_mean_phase_at(sun.log_phase,
-                                                               dirs @ sun.to_sun)[..., None]
+        out = (froxel_lookup(grid, cam, s, pixel_lengths(cam, sun, tail=tail))
+               * band_mean_phase_at(sun.log_phase, dirs @ sun.to_sun)[..., None])
     else:
         out = np.zeros(s.shape + (n,))
         phase = phase_from_log_table(sun.log_phase, dirs @ sun.to_sun)      # (H, W, n)

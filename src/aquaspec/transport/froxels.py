@@ -8,7 +8,8 @@ image is cut into square columns of :func:`froxel_tile` pixels a side
 columns keep their angle as the image grows),
 each column's central ray is integrated front to back over
 :data:`FROXEL_SLICES` slices (:func:`froxel_grid`), and each pixel reads its
-column and its neighbours' at its own ray length (:func:`froxel_lookup`). The
+column and its neighbours' at its own ray length as a share of its own march
+length (:func:`froxel_lookup`: one trilinear sample on the GPU). The
 phase function is divided by the bands' mean at the column's angle
 (:func:`aquaspec.transport.sun_scattering.band_mean_log_phase`) and each pixel
 multiplies it back at its own angle, so the forward peak follows the pixel.
@@ -151,12 +152,26 @@ def froxel_grid(camera, sun: SunInputs, visibility=None, *, tile: int | None = N
     return FroxelGrid(length, cum)
 
 
-def froxel_lookup(grid: FroxelGrid, camera, s, *, tile: int | None = None) -> np.ndarray:
+def pixel_lengths(camera, sun: SunInputs, *, tail: float = TAIL) -> np.ndarray:
+    """Each pixel's own march length of open water, (H, W), m
+    (:func:`aquaspec.transport.sun_scattering.march_length`, as the columns'):
+    where :func:`froxel_lookup` reads the froxels' slices from."""
+    v_y = camera.ray_directions().astype(float)[..., 1]
+    return march_length(sun.c_sun, sun.c_view, np.full(v_y.shape, camera_depth(camera)), v_y,
+                        np.full(v_y.shape, np.inf), sun.mu0, tail)
+
+
+def froxel_lookup(grid: FroxelGrid, camera, s, pixel_length, *,
+                  tile: int | None = None) -> np.ndarray:
     """Each pixel's single scattering from the froxels, (H, W, n) before the
-    pixel's own phase factor: bilinear between the four nearest columns, each
-    read at ``min(S, L)`` linearly between slice boundaries (uniform in
-    ``sqrt(t / L)``). ``s`` (H, W): the pixel's ray length (inf: open water);
-    ``tile`` as the grid's (by default :func:`froxel_tile`)."""
+    pixel's own phase factor: bilinear between the four nearest columns (their
+    weights clamped at the image's border), each read linearly between slice
+    boundaries at the pixel's own ``w = sqrt(min(S, L_px) / L_px)`` (slices are
+    uniform in ``sqrt(t / L)`` of each column's own ``L``; 0 where
+    ``L_px = 0``): the trilinear sample of a 3-D texture, as the GPU reads it.
+    ``s`` (H, W): the pixel's ray length (inf: open water); ``pixel_length``
+    (H, W): its own march length (:func:`pixel_lengths`); ``tile`` as the
+    grid's (by default :func:`froxel_tile`)."""
     tile = froxel_tile(camera.width) if tile is None else tile
     length, cum = grid.length, grid.cum
     ch, cw = length.shape
@@ -172,17 +187,16 @@ def froxel_lookup(grid: FroxelGrid, camera, s, *, tile: int | None = None) -> np
 
     a0, a1, fu = axis(wid, cw)
     b0, b1, fv = axis(hgt, ch)
+    lp = np.asarray(pixel_length, dtype=float)
     s = np.asarray(s, dtype=float)
+    empty = lp <= 0                          # a camera at the surface, looking up
+    ll = np.where(empty, 1.0, lp)
+    x = np.where(empty, 0.0, np.sqrt(np.minimum(s, ll) / ll) * slices)
+    k0 = np.minimum(np.floor(x), slices - 1).astype(np.int64)
+    f = (x - k0)[..., None]
     out = np.zeros((hgt, wid, cum.shape[-1]))
     for bi, wv in ((b0, 1.0 - fv), (b1, fv)):
         for ai, wu in ((a0, 1.0 - fu), (a1, fu)):
-            ll = length[bi[:, None], ai[None, :]]
-            empty = ll <= 0                  # a camera at the surface, looking up
-            ll = np.where(empty, 1.0, ll)
-            tc = np.minimum(s, ll)
-            x = np.where(empty, 0.0, np.sqrt(tc / ll) * slices)
-            k0 = np.minimum(np.floor(x), slices - 1).astype(np.int64)
-            f = (x - k0)[..., None]
             bb, aa = np.broadcast_arrays(bi[:, None], ai[None, :])
             lo, hi = cum[bb, aa, k0], cum[bb, aa, k0 + 1]                # (H, W, n)
             out += (wv[:, None] * wu[None, :])[..., None] * ((1.0 - f) * lo + f * hi)

@@ -142,3 +142,70 @@ def test_half_floats_round_to_nearest_even_down_to_subnormals(device):
             np.testing.assert_allclose(g, w, rtol=HALF_ULP, atol=2.0 ** -24)
         equal = np.mean(np.concatenate([(g == w).ravel() for g, w in zip(got, want)]))
         assert equal > 0.99, equal
+
+
+def test_a_loop_still_being_built_is_uploaded_frame_by_frame(device, loop):
+    """A partial loop (frames 0 and 4 of 8 ready): the pass mixes between what
+    it has uploaded, as the NumPy twin with that set says, and takes one
+    newly built frame per encode; one frame alone is copied (no dispatch)."""
+    part = cst.CausticLoop(first=loop.first, level0=loop.level0.copy(),
+                           ready=np.zeros(loop.frames, bool))
+    part.ready[0] = True
+    p = CausticLoopPass(device, part)
+    dt = SEA.period_s / loop.frames
+    for g, w in zip(_run(device, p, 2.5 * dt), loop.frame_levels(0)):
+        np.testing.assert_array_equal(g, w)                    # t = 0's map, held
+    part.ready[[4, 6]] = True                                  # (as a background build does)
+    got = _run(device, p, 2.5 * dt)
+    assert p.uploaded.tolist() == [True, False, False, False, True, False, False, False]
+    want = part.levels_at(2.5 * dt, p.uploaded)
+    assert part.frame_weights(2.5 * dt, p.uploaded) == (0, 4, 2.5 / 4)
+    for g, w in zip(got, want):
+        np.testing.assert_allclose(g, w, rtol=HALF_ULP, atol=2.0 ** -24)
+    got = _run(device, p, 2.5 * dt)                            # the same time, one more frame
+    assert p.uploaded.sum() == 3
+    for g, w in zip(got, part.levels_at(2.5 * dt, p.uploaded)):
+        np.testing.assert_allclose(g, w, rtol=HALF_ULP, atol=2.0 ** -24)
+    for g, w in zip(_run(device, p, 5.0 * dt), part.levels_at(5.0 * dt)):
+        np.testing.assert_allclose(g, w, rtol=HALF_ULP, atol=2.0 ** -24)
+
+
+def test_a_progressive_renderer_draws_the_frames_it_has(device):
+    """``set_wave_time(progressive=True)`` does not wait for the loop: the
+    frame shows the loop read between the frames uploaded so far (the
+    renderer's pass says which), equal to that factor as a still map."""
+    from aquaspec.colour.bands import Bands
+    from aquaspec.colour.sensors import get_sensor
+    from aquaspec.light.sky import surface_light
+    from aquaspec.medium.water import load_water
+    from aquaspec.rendering.renderer import Renderer
+    from aquaspec.rendering.setup import SpectralSetup
+    from aquaspec.scene.builtin import builtin_scene
+
+    sea = dataclasses.replace(SEA, seed=7)
+    w, h = 64, 36
+    scene, cam = builtin_scene(2.0, width=w, height=h)
+
+    def setup():
+        return SpectralSetup(load_water("IB"), get_sensor("human"),
+                             surface_light("sun-sky", sun_elevation_deg=SUN[0],
+                                           sun_azimuth_deg=SUN[1]),
+                             Bands(4), ms_model="seeds", waves=sea)
+
+    r = Renderer(w, h, 4)
+    r.sun_map_size = 256
+    r.set_wave_time(0.3, frames=8, progressive=True)
+    s = setup()
+    img = r.render_scene(scene, cam, s)
+    lp, uploaded = r._wave_loop.loop, r._wave_loop.uploaded.copy()
+    assert uploaded[0]
+    ref_setup = setup()
+    ref_setup.cache.sun_inputs = dataclasses.replace(
+        ref_setup.sun_inputs(), caustics=dataclasses.replace(
+            lp.map_at(0.3), levels=lp.levels_at(0.3, uploaded)))
+    ref = Renderer(w, h, 4)
+    ref.sun_map_size = 256
+    want = ref.render_scene(scene, cam, ref_setup)
+    np.testing.assert_allclose(img, want, atol=HALF_ULP * np.abs(want).max())
+    lp.wait()
+    assert lp.complete

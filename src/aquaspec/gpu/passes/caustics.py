@@ -1,14 +1,19 @@
 """The caustics of a moving sea on the GPU: a loop's two frames mixed per frame.
 
-A caustic map costs seconds to build (:mod:`aquaspec.light.caustics`: on
-lavapipe the photon splat alone, with fixed-point atomics, measured
-1.1-2.1 s per instant), so the moving sea is a
+A caustic map costs most of a second to build on the CPU
+(:mod:`aquaspec.light.caustics`; on lavapipe the photon splat alone, with
+fixed-point atomics, measured 1.1-2.1 s per instant), so the moving sea is a
 :class:`aquaspec.light.caustics.CausticLoop` built once per sea state and
 sun, kept here as one storage buffer per frame. Per frame, ``caustics.wgsl``
 mixes the two frames around the waves' time (NumPy twin
 :meth:`aquaspec.light.caustics.CausticLoop.levels_at`) into a buffer that is
 copied into the ``r16float`` 2-D array texture with mips that the sun pass
 samples (:meth:`aquaspec.gpu.passes.sun.SunPass.use_caustic_texture`).
+A loop still being built in the background is uploaded frame by frame as
+its frames arrive and read between those uploaded (as
+:meth:`aquaspec.light.caustics.CausticLoop.frame_weights` says for them);
+with one frame, or without the mix, a frame is copied as it is (0.6-1 ms
+against 5-6 ms for the mix at the default size on lavapipe).
 
 Bindings of caustics.wgsl: 0 uniform ``LoopParams`` (the mix weight, the
 word count); 1, 2 the two frames (read); 3 the mixed frame (written).
@@ -35,6 +40,8 @@ ROW_ALIGN = 256
 #: Invocations per workgroup of caustics.wgsl, and vec4 words per dispatch row.
 WORKGROUP = 64
 ROW_WORDS = 64 * 1024
+#: Frames of a loop still being built uploaded per :meth:`CausticLoopPass.encode`.
+UPLOADS_PER_ENCODE = 1
 
 
 def level_layout(n: int, slices: int, levels: int) -> list:
@@ -68,8 +75,10 @@ class CausticLoopPass:
     ----------
     device : wgpu.GPUDevice
     loop : CausticLoop
-        Uploaded once (every frame's levels: about 6.3 MB a frame at the
-        default 256 texels and 32 slices).
+        Its frames are uploaded once each (every frame's levels: about 6.3 MB
+        a frame at the default 256 texels and 32 slices): those ready now,
+        the others as the loop's background build makes them
+        (:meth:`encode`).
     smooth : bool
         Mix the two frames around the time (continuous in time; on lavapipe
         4.4-5.3 ms at the default size); False: copy the nearest frame (no
@@ -84,9 +93,10 @@ class CausticLoopPass:
         self.geometry: CausticGeometry = geo
         n = loop.level0.shape[-1]
         self._layout = level_layout(n, geo.slices, geo.levels)
-        self._frames = [create_storage_buffer(device, pack_frame(loop.frame_levels(f)),
-                                              label=f"caustic loop frame {f}")
-                        for f in range(loop.frames)]
+        #: The frames on the GPU (one storage buffer each; None: not yet).
+        self._frames = [None] * loop.frames
+        self.uploaded = np.zeros(loop.frames, bool)
+        self._upload(np.flatnonzero(loop.ready))
         self.words = self._frames[0].size // 16
         self._mixed = create_storage_buffer(device, self._frames[0].size,
                                             label="caustics now")
@@ -107,27 +117,41 @@ class CausticLoopPass:
         self._groups = {}
         #: The waves' time of the last :meth:`encode`, s.
         self.time_s = None
-        self._smooth_done = None
+        self._held = None
+
+    def _upload(self, frames) -> None:
+        for f in frames:
+            self._frames[f] = create_storage_buffer(
+                self.device, pack_frame(self.loop.frame_levels(f)),
+                label=f"caustic loop frame {f}")
+            self.uploaded[f] = True
 
     def _group(self, f0: int, f1: int):
-        if f0 not in self._groups:
-            self._groups[f0] = self.device.create_bind_group(
+        if (f0, f1) not in self._groups:
+            self._groups[(f0, f1)] = self.device.create_bind_group(
                 layout=self._bind_layout, entries=bind_group_entries(
                     {0: self._params, 1: self._frames[f0], 2: self._frames[f1],
                      3: self._mixed}))
-        return self._groups[f0]
+        return self._groups[(f0, f1)]
 
     def encode(self, encoder, time_s: float, timestamp_writes=None) -> None:
         """Record the caustics at ``time_s`` into :attr:`texture` (the mix
         weight is uploaded now: one :meth:`encode` per submission;
         ``timestamp_writes`` bracket the mix's compute pass). Nothing is
         recorded when the texture holds that time already (waves standing
-        still cost nothing), unless ``timestamp_writes`` asks for a timing."""
-        if (float(time_s) == self.time_s and timestamp_writes is None
-                and self._smooth_done == self.smooth):
+        still cost nothing), unless ``timestamp_writes`` asks for a timing.
+
+        A loop still being built (:attr:`CausticLoop.ready`) is read between
+        the frames uploaded so far; each call uploads at most
+        :data:`UPLOADS_PER_ENCODE` newly built frames (30-50 ms each on lavapipe).
+        """
+        new = np.flatnonzero(self.loop.ready & ~self.uploaded)[:UPLOADS_PER_ENCODE]
+        self._upload(new)
+        f0, f1, a = self.loop.frame_weights(time_s, ready=self.uploaded)
+        held = (float(time_s), self.smooth, int(self.uploaded.sum()))
+        if held == self._held and timestamp_writes is None:
             return
-        f0, f1, a = self.loop.frame_weights(time_s)
-        if self.smooth:
+        if self.smooth and f1 != f0:
             upload_buffer(self.device, self._params, _params(a, self.words))
             record_dispatch(encoder, self._pipeline, self._group(f0, f1),
                             (ROW_WORDS // WORKGROUP, -(-self.words // ROW_WORDS), 1),
@@ -143,7 +167,7 @@ class CausticLoopPass:
                 {"texture": self.texture, "mip_level": m, "origin": (0, 0, 0)},
                 (side, side, k))
         self.time_s = float(time_s)
-        self._smooth_done = self.smooth
+        self._held = held
 
     def read_levels(self) -> list:
         """The texture's levels as float32 arrays (K, n_m, n_m) (tests)."""

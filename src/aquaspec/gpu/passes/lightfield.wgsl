@@ -243,37 +243,19 @@ fn sun_pixel_lit(px: u32, py: u32, s: f32, hit: bool, oct: u32, n_y: f32) -> f32
     return select(0.0, sun_lit(v, select(0.0, s, hit), n), hit);
 }
 
-// One pixel's ray's cosine to the sun.
-fn sun_cos(px: u32, py: u32) -> f32 {
-    return dot(ray_through(f32(px) + 0.5, f32(py) + 0.5), sp.to_sun);
+// One pixel's veil: the froxels' single scattering at its distance s (inf:
+// open water) times the bands' mean phase function at its angle.
+fn sun_pixel_veil(px: u32, py: u32, s: f32) -> vec3<f32> {
+    let x = f32(px) + 0.5;
+    let y = f32(py) + 0.5;
+    let v = ray_through(x, y);
+    return froxel_read(x, y, v, s) * ref_phase_value(phase_at(dot(v, sp.to_sun)));
 }
 
-// Froxel column `base`'s single scattering at the four lanes' distances s.
-fn froxel_column4(base: u32, s: vec4<f32>) -> Rgb4 {
-    let length = froxels[base].w;
-    let x = sqrt(min(s, vec4<f32>(length)) / max(length, 1e-30)) * f32(SLICES);
-    let k0 = min(vec4<u32>(floor(x)), vec4<u32>(SLICES - 1u));
-    let f = select(vec4<f32>(0.0), x - vec4<f32>(k0), vec4<bool>(length > 0.0));
-    let kb = base + k0;
-    let e = select(0.0, 1.0, length > 0.0);
-    let l0 = mix(froxels[kb.x].xyz, froxels[kb.x + 1u].xyz, f.x) * e;
-    let l1 = mix(froxels[kb.y].xyz, froxels[kb.y + 1u].xyz, f.y) * e;
-    let l2 = mix(froxels[kb.z].xyz, froxels[kb.z + 1u].xyz, f.z) * e;
-    let l3 = mix(froxels[kb.w].xyz, froxels[kb.w + 1u].xyz, f.w) * e;
-    return Rgb4(vec4<f32>(l0.x, l1.x, l2.x, l3.x), vec4<f32>(l0.y, l1.y, l2.y, l3.y),
-                vec4<f32>(l0.z, l1.z, l2.z, l3.z));
-}
-
-fn rgb4_mix(a: Rgb4, b: Rgb4, f: vec4<f32>) -> Rgb4 {
-    return Rgb4(mix(a.r, b.r, f), mix(a.g, b.g, f), mix(a.b, b.b, f));
-}
-
-// The lit shares and the veil (sunlight.wgsl's sun_veil) of the four pixels
-// of a row. The lanes are four adjacent pixels from a multiple of four and
-// froxel columns are a multiple of 8 pixels wide, so all four lie between the
-// same four columns: their lengths are read once. (Each lane written out: a
-// loop over the lanes indexing them with its counter was several times
-// slower on lavapipe.)
+// The lit shares and the veils (sunlight.wgsl's sun_veil: one trilinear
+// froxel sample each) of the four pixels. (Each lane written out: a loop
+// over the lanes indexing them with its counter was several times slower on
+// lavapipe.)
 fn sun_pixels(px: vec4<u32>, py: vec4<u32>, gb: GbufferPixels, hit: vec4<bool>) -> SunPixels {
     // The shadow map and caustics only where a lane hits (a trip count, not a
     // branch: lavapipe leaves the loop when no SIMD lane has an iteration).
@@ -286,26 +268,12 @@ fn sun_pixels(px: vec4<u32>, py: vec4<u32>, gb: GbufferPixels, hit: vec4<bool>) 
                         sun_pixel_lit(px.w, py.w, gb.s.w, hit.w, gb.oct.w, gb.n_y.w));
     }
     let s = select(vec4<f32>(f32_inf()), gb.s, hit);
-    let ux = (vec4<f32>(px) + 0.5 - 0.5 * f32(TILE)) / f32(TILE);
-    let uy = (f32(py.x) + 0.5 - 0.5 * f32(TILE)) / f32(TILE);
-    let ax0 = clamp(floor(ux.x), 0.0, f32(sp.cols_x - 1u));
-    let ay0 = clamp(floor(uy), 0.0, f32(sp.cols_y - 1u));
-    let fx = clamp(ux - ax0, vec4<f32>(0.0), vec4<f32>(1.0));
-    let fy = vec4<f32>(clamp(uy - ay0, 0.0, 1.0));
-    let cx0 = u32(ax0);
-    let cx1 = min(cx0 + 1u, sp.cols_x - 1u);
-    let cy0 = u32(ay0);
-    let cy1 = min(cy0 + 1u, sp.cols_y - 1u);
-    let row0 = rgb4_mix(froxel_column4((cy0 * sp.cols_x + cx0) * (SLICES + 1u), s),
-                        froxel_column4((cy0 * sp.cols_x + cx1) * (SLICES + 1u), s), fx);
-    let row1 = rgb4_mix(froxel_column4((cy1 * sp.cols_x + cx0) * (SLICES + 1u), s),
-                        froxel_column4((cy1 * sp.cols_x + cx1) * (SLICES + 1u), s), fx);
-    let ss = rgb4_mix(row0, row1, fy);
-    let phase = vec4<f32>(ref_phase_value(phase_at(sun_cos(px.x, py.x))),
-                          ref_phase_value(phase_at(sun_cos(px.y, py.y))),
-                          ref_phase_value(phase_at(sun_cos(px.z, py.z))),
-                          ref_phase_value(phase_at(sun_cos(px.w, py.w))));
-    return SunPixels(ss.r * phase, ss.g * phase, ss.b * phase, lit);
+    let l0 = sun_pixel_veil(px.x, py.x, s.x);
+    let l1 = sun_pixel_veil(px.y, py.y, s.y);
+    let l2 = sun_pixel_veil(px.z, py.z, s.z);
+    let l3 = sun_pixel_veil(px.w, py.w, s.w);
+    return SunPixels(vec4<f32>(l0.x, l1.x, l2.x, l3.x), vec4<f32>(l0.y, l1.y, l2.y, l3.y),
+                     vec4<f32>(l0.z, l1.z, l2.z, l3.z), lit);
 }
 
 fn no_sun_surface(m: PixelMaterials, run: bool, d: vec4<f32>, s: vec4<f32>,

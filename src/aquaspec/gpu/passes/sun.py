@@ -22,8 +22,9 @@ Bindings of sun.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
 surface and sigmoid textures (:mod:`aquaspec.gpu.gbuffer`); 3 material band
 reflectances (M * n f32); 4 two vec4 per band; 5 ``ln p`` per band
 (:func:`aquaspec.transport.sun_scattering.log_phase_table`); 6 the shadow map; 7 the image (vec4 per
-pixel, read and written); 8 the froxels (vec4 per column and slice
-boundary); 9 ``ln`` of the bands' mean phase function
+pixel, read and written); 8 the froxels (a 3-D texture, RGB per column and
+slice boundary, :func:`froxel_format`; written at 13 by build_froxels, read
+through the linear clamped sampler 14); 9 ``ln`` of the bands' mean phase function
 (:func:`aquaspec.transport.sun_scattering.band_mean_log_phase`); 10 the caustic factor's slices
 (:class:`aquaspec.light.caustics.CausticMap`, an ``r16float`` 2-D array with its mip
 levels; a 1 x 1 x 2 stand-in without caustics), 11 its repeating
@@ -67,26 +68,36 @@ CAUSTIC_FORMAT = "r16float"
 #: Bound in place of the caustics when there are none (two 1 x 1 slices of 1).
 NO_CAUSTICS = (np.ones((2, 1, 1), np.float32),)
 WORKGROUP = (8, 8)
-#: sunlight.wgsl's bindings in sun.wgsl: params, shadow map, froxels, mean phase, caustics.
+#: sunlight.wgsl's bindings in sun.wgsl: params, shadow map, froxels (sampled), mean
+#: phase, caustics, samplers (build_froxels writes the froxels at binding 13).
 SUN_BINDINGS = {"params": 0, "shadow": 6, "froxels": 8, "ref_phase": 9, "caustic": 10,
-                "caustic_sampler": 11, "shadow_sampler": 12}
+                "caustic_sampler": 11, "shadow_sampler": 12, "froxel_sampler": 14}
 #: The same resources in a shading pass that adds the sun itself (lightfield.wgsl with
 #: SUN), with the per-band constants (``bands``, the layout of sun.wgsl's binding 4).
 FUSED_BINDINGS = {"params": 17, "bands": 18, "shadow": 19, "froxels": 20, "ref_phase": 21,
-                  "caustic": 22, "caustic_sampler": 23, "shadow_sampler": 24}
+                  "caustic": 22, "caustic_sampler": 23, "shadow_sampler": 24,
+                  "froxel_sampler": 25}
+
+
+def froxel_format(device) -> str:
+    """The froxels' texture format: rgba32float where the device filters it
+    (float32-filterable), else rgba16float."""
+    return "rgba32float" if "float32-filterable" in device.features else "rgba16float"
 
 
 def sunlight_values(width: int, n_bands: int, bindings: dict = FUSED_BINDINGS,
-                    froxel_access: str = "read") -> dict:
+                    bands_var: str = "sun_bands") -> dict:
     """Template values of ``sunlight.wgsl`` for a shader binding the sun's resources
     at ``bindings`` (:data:`FUSED_BINDINGS` or :data:`SUN_BINDINGS`; with
     FUSED_BINDINGS also ``sun_b_bands`` and ``sun_band_vec4`` of the per-band
-    constants) for images ``width`` pixels wide."""
+    constants) for images ``width`` pixels wide; ``bands_var``: the name of
+    the per-band constants in the shader."""
     tile = froxel_tile(width)
     return {"sun_params_struct": PARAMS_LAYOUT.wgsl(),
             "sun_params_struct_name": PARAMS_LAYOUT.name, "tile": tile,
             "slices": FROXEL_SLICES, "phase_size": PHASE_TABLE_SIZE,
-            "froxel_access": froxel_access, "sun_band_vec4": 2 * int(n_bands),
+            "sun_band_vec4": 2 * int(n_bands), "sun_n_bands": int(n_bands),
+            "sun_bands_var": bands_var,
             **{f"sun_b_{k}": v for k, v in bindings.items()}}
 
 
@@ -111,9 +122,24 @@ class SunPass:
         self.tile = froxel_tile(self.width)
         self.cols = (-(-self.width // self.tile), -(-self.height // self.tile))
         self._pipelines = {}
+        self.froxel_format = froxel_format(device)
+        texel = 8 if self.froxel_format == "rgba16float" else 16
+        #: Texels per row of the froxels' buffer (rows of a multiple of 256 bytes).
+        self._froxel_row = -(-self.cols[0] * texel // 256) * 256 // texel
+        self._froxel_buffer = create_storage_buffer(
+            device, texel * self._froxel_row * self.cols[1] * (FROXEL_SLICES + 1),
+            label="sun froxels (written)")
         self._use_pipelines(True)
-        self._froxels = create_storage_buffer(
-            device, 16 * self.cols[0] * self.cols[1] * (FROXEL_SLICES + 1), label="sun froxels")
+        self._froxels = device.create_texture(
+            label="sun froxels", size=(self.cols[0], self.cols[1], FROXEL_SLICES + 1),
+            format=self.froxel_format, dimension="3d",
+            usage=wgpu.TextureUsage.COPY_DST | wgpu.TextureUsage.TEXTURE_BINDING)
+        self._froxel_view = self._froxels.create_view()
+        self._froxel_sampler = device.create_sampler(
+            address_mode_u=wgpu.AddressMode.clamp_to_edge,
+            address_mode_v=wgpu.AddressMode.clamp_to_edge,
+            address_mode_w=wgpu.AddressMode.clamp_to_edge,
+            mag_filter=wgpu.FilterMode.linear, min_filter=wgpu.FilterMode.linear)
         self._ref_phase = create_storage_buffer(device, 4 * self.phase_size,
                                                 label="sun mean phase")
         self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="sun params")
@@ -147,11 +173,17 @@ class SunPass:
     def _use_pipelines(self, materials_in_uniform: bool) -> None:
         """Compile (once) and select the pipelines for where the materials are."""
         key = bool(materials_in_uniform)
+        half = self.froxel_format == "rgba16float"
         if key not in self._pipelines:
             binding = ("@group(0) @binding(3) var<uniform> material_bands: "
                        f"array<vec4<f32>, {UNIFORM_VEC4}>;") if key else \
                 "@group(0) @binding(3) var<storage, read> material_bands: array<f32>;"
-            src = load_wgsl("sun.wgsl", **self.wgsl_values(SUN_BINDINGS, "read_write"),
+            src = load_wgsl("sun.wgsl", **self.wgsl_values(SUN_BINDINGS, "bands"),
+                            froxel_row=self._froxel_row, froxel_half=str(half).lower(),
+                            froxel_word="vec2<u32>" if half else "vec4<f32>",
+                            froxel_pack=("vec2<u32>(pack2x16float(value.xy), "
+                                         "pack2x16float(vec2<f32>(value.z, 0.0)))") if half
+                            else "vec4<f32>(value, 0.0)",
                             n_bands=self.n_bands, caustic_sub=CAUSTIC_SUBSAMPLES,
                             band_vec4=2 * self.n_bands, material_binding=binding,
                             material_read="material_bands[k / 4u][k % 4u]" if key
@@ -166,9 +198,9 @@ class SunPass:
         self._pipeline, self._build = self._pipelines[key]
         self._bind_key = self._froxel_key = None
 
-    def wgsl_values(self, bindings: dict = FUSED_BINDINGS, froxel_access: str = "read") -> dict:
+    def wgsl_values(self, bindings: dict = FUSED_BINDINGS, bands_var: str = "sun_bands") -> dict:
         """:func:`sunlight_values` for this pass's image width and bands."""
-        return sunlight_values(self.width, self.n_bands, bindings, froxel_access)
+        return sunlight_values(self.width, self.n_bands, bindings, bands_var)
 
     @staticmethod
     def fused_layout() -> dict:
@@ -176,17 +208,19 @@ class SunPass:
         sun's resources in a shading pass that adds the sun itself."""
         b = FUSED_BINDINGS
         return {b["params"]: "uniform", b["bands"]: "uniform", b["shadow"]: "depth",
-                b["froxels"]: "read", b["ref_phase"]: "read", b["caustic"]: "filterable_array",
-                b["caustic_sampler"]: "sampler", b["shadow_sampler"]: "comparison_sampler"}
+                b["froxels"]: "filterable_3d", b["ref_phase"]: "read",
+                b["caustic"]: "filterable_array", b["caustic_sampler"]: "sampler",
+                b["shadow_sampler"]: "comparison_sampler", b["froxel_sampler"]: "sampler"}
 
     def fused_resources(self) -> dict:
         """``{binding: resource}`` of :meth:`fused_layout` (after :meth:`set_inputs`)."""
         b = FUSED_BINDINGS
         return {b["params"]: self._params, b["bands"]: self._bands,
-                b["shadow"]: self.shadow_map.view, b["froxels"]: self._froxels,
+                b["shadow"]: self.shadow_map.view, b["froxels"]: self._froxel_view,
                 b["ref_phase"]: self._ref_phase, b["caustic"]: self.caustic_view,
                 b["caustic_sampler"]: self._caustic_sampler,
-                b["shadow_sampler"]: self._shadow_sampler}
+                b["shadow_sampler"]: self._shadow_sampler,
+                b["froxel_sampler"]: self._froxel_sampler}
 
     @property
     def caustic_view(self):
@@ -327,7 +361,9 @@ class SunPass:
         cp.end()
 
     def _sun_entries(self, pipeline, with_phase: bool) -> list:
-        """Bind-group entries of sunlight.wgsl's resources at :data:`SUN_BINDINGS`."""
+        """Bind-group entries of sunlight.wgsl's resources at :data:`SUN_BINDINGS`
+        (``with_phase``: build_froxels's, which writes the froxels, else main's,
+        which samples them)."""
         def buf(binding, buffer):
             return {"binding": binding, "resource": {"buffer": buffer, "offset": 0,
                                                      "size": buffer.size}}
@@ -335,12 +371,16 @@ class SunPass:
         out = [{"binding": b["params"], "resource": {"buffer": self._params, "offset": 0,
                                                      "size": PARAMS_LAYOUT.size}},
                {"binding": b["shadow"], "resource": self.shadow_map.view},
-               buf(b["froxels"], self._froxels), buf(b["ref_phase"], self._ref_phase),
+               buf(b["ref_phase"], self._ref_phase),
                {"binding": b["caustic"], "resource": self.caustic_view},
                {"binding": b["caustic_sampler"], "resource": self._caustic_sampler},
                {"binding": b["shadow_sampler"], "resource": self._shadow_sampler}]
         if with_phase:
-            out += [buf(4, self._bands), buf(5, self._phase)]
+            out += [buf(4, self._bands), buf(5, self._phase),
+                    buf(13, self._froxel_buffer)]
+        else:
+            out += [{"binding": b["froxels"], "resource": self._froxel_view},
+                    {"binding": b["froxel_sampler"], "resource": self._froxel_sampler}]
         return out
 
     def encode_froxels(self, encoder, camera) -> None:
@@ -372,6 +412,12 @@ class SunPass:
         cp.set_bind_group(0, self._build_group)
         cp.dispatch_workgroups(-(-self.cols[0] * self.cols[1] // 64))
         cp.end()
+        texel = 8 if self.froxel_format == "rgba16float" else 16
+        encoder.copy_buffer_to_texture(
+            {"buffer": self._froxel_buffer, "offset": 0, "bytes_per_row": texel * self._froxel_row,
+             "rows_per_image": self.cols[1]},
+            {"texture": self._froxels, "mip_level": 0, "origin": (0, 0, 0)},
+            (self.cols[0], self.cols[1], FROXEL_SLICES + 1))
 
     def read_shadow_map(self) -> np.ndarray | None:
         """:meth:`aquaspec.gpu.passes.sun_shadow.SunShadowPass.read` (tests)."""

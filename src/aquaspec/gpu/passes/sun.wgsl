@@ -10,7 +10,8 @@
 //   column's angle (aquaspec.transport.froxels.froxel_grid);
 // - main: per pixel, the light of a sun-lit surface carried to the camera
 //   plus the single scattering read from the froxels at the pixel's own
-//   distance (bilinear between columns, linear between slices) times the
+//   distance (one trilinear sample: bilinear between columns, linear
+//   between slices at the pixel's own sqrt(S / L)) times the
 //   mean phase function at the pixel's own angle (froxel_lookup); added in
 //   camera RGB to the shading pass's linear image (rgb_out).
 //
@@ -37,6 +38,19 @@ const CAUSTIC_SUB: u32 = {{ caustic_sub }}u;
 @group(0) @binding(4) var<uniform> bands: array<vec4<f32>, {{ band_vec4 }}>;
 @group(0) @binding(5) var<storage, read> log_phase: array<f32>;
 @group(0) @binding(7) var<storage, read_write> rgb_out: array<vec4<f32>>;
+// The froxels as build_froxels writes them, laid out as the 3-D texture
+// sunlight.wgsl's froxel_tex is copied from (a buffer: storage-texture
+// writes made the pass a quarter slower on lavapipe): texel (x, y, k) at
+// (k * cols_y + y) * FROXEL_ROW + x, FROXEL_ROW texels a row (a multiple of
+// 256 bytes); FROXEL_HALF: rgba16float texels as two u32 each.
+const FROXEL_ROW: u32 = {{ froxel_row }}u;
+const FROXEL_HALF: bool = {{ froxel_half }};
+@group(0) @binding(13) var<storage, read_write> froxel_out: array<{{ froxel_word }}>;
+
+fn store_froxel(cx: u32, cy: u32, k: u32, value: vec3<f32>) {
+    let i = (k * sp.cols_y + cy) * FROXEL_ROW + cx;
+    froxel_out[i] = {{ froxel_pack }};
+}
 
 // The mean caustic factor over the slice [ta, tb] of the ray o + t v
 // (`speed`: how fast the ray moves in foot coordinates).
@@ -70,18 +84,7 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
     let half = 0.5 * f32(TILE);
     let v = ray_through(f32(TILE * cx) + half, f32(TILE * cy) + half);
     let d_o = -sp.position.y;
-    let inf = f32_inf();
-    // The column's length: the water surface (up rays) or where the slowest
-    // band's integrand has fallen below the tail (aquaspec.transport.sun_scattering.march_length).
-    var k_min = inf;
-    for (var i = 0u; i < N_BANDS; i = i + 1u) {
-        let q0 = bands[2u * i];
-        k_min = min(k_min, q0.x - q0.y * v.y);
-    }
-    let to_surface = select(inf, d_o / v.y, v.y > 0.0);
-    let t_tail = select(inf, sp.neg_log_tail / k_min, k_min > 0.0);
-    var length = min(to_surface, t_tail);
-    length = select(0.0, length, length < inf);
+    let length = march_length(v);
 
     let at = phase_at(dot(v, sp.to_sun));
     let p_ref = ref_phase_value(at);
@@ -102,8 +105,7 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let drift = v.xz - v.y / sp.to_sun.y * sp.to_sun.xz;
     let speed = sqrt(dot(drift, drift));
-    let base = column * (SLICES + 1u);
-    froxels[base] = vec4<f32>(0.0, 0.0, 0.0, length);
+    store_froxel(cx, cy, 0u, vec3<f32>(0.0));
     var acc = vec3<f32>(0.0);
     let step = length / f32(SLICES * SLICES);
     for (var k = 1u; k <= SLICES; k = k + 1u) {
@@ -125,7 +127,7 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
             decay[i] = decay[i] * q;
             acc = acc + (vis * start[i] * seg) * bands[2u * i + 1u].xyz;
         }
-        froxels[base + k] = vec4<f32>(acc, length);
+        store_froxel(cx, cy, k, acc);
     }
 }
 

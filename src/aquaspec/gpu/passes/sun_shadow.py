@@ -8,11 +8,11 @@ texels a side, which :class:`aquaspec.gpu.passes.sun.SunPass` reads. NumPy
 twin: :mod:`aquaspec.scene.shadowmap` (the same map, read the same way).
 
 The map is kept from frame to frame, as real-time renderers keep the shadow
-maps of static geometry: it is drawn again only when its geometry (the
-:class:`~aquaspec.scene.shadowmap.ShadowMapSpec`: the sun, the scene's bounds
-and the camera's place across the beam) or the scene's uploaded vertex and
-index buffers change (a 2048^2 map cost 10-15 ms a 1280x720 frame on
-lavapipe).
+maps of static geometry: it is drawn again only when the sun, the scene's
+bounds or its uploaded vertex and index buffers change, or the camera crosses
+into another cell of the map's snapped centre (cells of twice
+:data:`aquaspec.scene.shadowmap.DEFAULT_MAP_MARGIN_M` across the beam; a
+2048^2 map cost 10-15 ms a 1280x720 frame on lavapipe).
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ from __future__ import annotations
 import numpy as np
 import wgpu
 
-from aquaspec.scene.shadowmap import DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, ShadowMapSpec, shadow_map_spec
+from aquaspec.scene.shadowmap import (DEFAULT_MAP_MARGIN_M, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE,
+                                      ShadowMapSpec, shadow_map_spec)
 from aquaspec.gpu.buffers import create_uniform_buffer, upload_buffer
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.passes.raster import VERTEX_STRIDE
@@ -87,13 +88,19 @@ class SunShadowPass:
         return self._pipelines[stride]
 
     def encode(self, encoder, raster, scene, camera, to_sun, *,
-               radius_m: float = DEFAULT_MAP_RADIUS_M) -> ShadowMapSpec | None:
+               radius_m: float = DEFAULT_MAP_RADIUS_M,
+               margin_m: float = DEFAULT_MAP_MARGIN_M) -> ShadowMapSpec | None:
         """Record the shadow map of ``scene`` around ``camera`` for a sun in direction
-        ``to_sun`` (under water); None for no scene: nothing is shadowed."""
+        ``to_sun`` (under water); None for no scene: nothing is shadowed.
+
+        The map is kept (not drawn again) while its geometry
+        (:func:`aquaspec.scene.shadowmap.shadow_map_spec`: the same for every
+        camera in a cell of ``2 margin_m`` across the beam) and the scene's
+        buffers are the same."""
         spec = None
         if scene is not None and scene.meshes:
             spec = shadow_map_spec(scene.bounds(), camera.position, to_sun,
-                                   size=self.map_size, radius_m=radius_m)
+                                   size=self.map_size, radius_m=radius_m, margin_m=margin_m)
         self.spec, self.shadowed = spec, spec is not None
         if spec is None:
             return None

@@ -13,7 +13,12 @@
 // Four texels are compared and their results weighted bilinearly
 // (percentage-closer filtering), as map_visibility does.
 // `ref_phase[k]`: ln of the bands' mean p at theta_k = pi (k / (PHASE_SIZE - 1))^2.
-// `froxels[column * (SLICES + 1) + k]`: (cumulative RGB at t_k, the column's L).
+// The froxels: a 3-D texture, texel (column x, column y, slice boundary k)
+// holding the cumulative RGB at t_k = L (k / SLICES)^2 of the column's own
+// length L; a pixel reads it with one trilinear sample at its own
+// w = sqrt(min(S, L_px) / L_px) (L_px: its own ray's march length), the
+// same w in the four columns around it
+// (aquaspec.transport.froxels.froxel_lookup).
 // Caustics (aquaspec.light.caustics): the beam's factor per depth slice
 // (array layer) in foot coordinates, a mip pyramid read through a repeating
 // trilinear sampler; layers at d_k = D (k / (K - 1))^2, linear between them
@@ -26,10 +31,14 @@
 const TILE: u32 = {{ tile }}u;
 const SLICES: u32 = {{ slices }}u;
 const PHASE_SIZE: u32 = {{ phase_size }}u;
+const SUN_N_BANDS: u32 = {{ sun_n_bands }}u;
 
 @group(0) @binding({{ sun_b_params }}) var<uniform> sp: {{ sun_params_struct_name }};
 @group(0) @binding({{ sun_b_shadow }}) var shadow_map: texture_depth_2d;
-@group(0) @binding({{ sun_b_froxels }}) var<storage, {{ froxel_access }}> froxels: array<vec4<f32>>;
+@group(0) @binding({{ sun_b_froxels }}) var froxel_tex: texture_3d<f32>;
+// Linear, clamped to the edges (the columns' bilinear weights clamped at the
+// image's border, linear between slice boundaries).
+@group(0) @binding({{ sun_b_froxel_sampler }}) var froxel_sampler: sampler;
 @group(0) @binding({{ sun_b_ref_phase }}) var<storage, read> ref_phase: array<f32>;
 @group(0) @binding({{ sun_b_caustic }}) var caustic_tex: texture_2d_array<f32>;
 @group(0) @binding({{ sun_b_caustic_sampler }}) var caustic_sampler: sampler;
@@ -121,33 +130,43 @@ fn ref_phase_value(at: PhaseAt) -> f32 {
     return exp(mix(ref_phase[at.k0], ref_phase[at.k0 + 1u], at.f));
 }
 
-// The single scattering of column (cx, cy) at distance t (before the pixel's phase).
-fn froxel_at(cx: u32, cy: u32, t: f32) -> vec3<f32> {
-    let base = (cy * sp.cols_x + cx) * (SLICES + 1u);
-    let length = froxels[base].w;
-    if (length <= 0.0) {
-        return vec3<f32>(0.0);
+// Where the single scattering along ray v is integrated to
+// (aquaspec.transport.sun_scattering.march_length of open water): the water
+// surface (up rays) or where the slowest band's integrand has fallen below
+// the tail; 0 for a camera at the surface looking up. The bands' constants
+// `{{ sun_bands_var }}` (c_view, c_sun / mu0 in the first vec4 of each band).
+fn march_length(v: vec3<f32>) -> f32 {
+    let inf = f32_inf();
+    var k_min = inf;
+    for (var i = 0u; i < SUN_N_BANDS; i = i + 1u) {
+        let q0 = {{ sun_bands_var }}[2u * i];
+        k_min = min(k_min, q0.x - q0.y * v.y);
     }
-    let x = sqrt(min(t, length) / length) * f32(SLICES);
-    let k0 = min(u32(floor(x)), SLICES - 1u);
-    let f = x - f32(k0);
-    return mix(froxels[base + k0].xyz, froxels[base + k0 + 1u].xyz, f);
+    let to_surface = select(inf, -sp.position.y / v.y, v.y > 0.0);
+    let t_tail = select(inf, sp.neg_log_tail / k_min, k_min > 0.0);
+    let length = min(to_surface, t_tail);
+    return select(0.0, length, length < inf);
+}
+
+// The single scattering (before the pixel's phase factor) at pixel
+// coordinates (px, py) whose ray v reaches distance s (inf: open water):
+// one trilinear sample of the froxels at the columns around the pixel and
+// its own w.
+fn froxel_read(px: f32, py: f32, v: vec3<f32>, s: f32) -> vec3<f32> {
+    let length = march_length(v);
+    let w = select(0.0, sqrt(min(s, length) / max(length, 1e-30)), length > 0.0);
+    let cols = vec2<f32>(f32(sp.cols_x), f32(sp.cols_y));
+    let uv = (vec2<f32>(px, py) / f32(TILE)) / cols;
+    let z = (w * f32(SLICES) + 0.5) / f32(SLICES + 1u);
+    return textureSampleLevel(froxel_tex, froxel_sampler, vec3<f32>(uv, z), 0.0).xyz;
 }
 
 // The sun's light at pixel (col, row) whose ray v reaches distance s (inf:
-// open water): the single scattering from the four nearest froxel columns
-// (bilinearly) times the bands' mean phase function at the pixel's angle.
+// open water): the froxels' single scattering times the bands' mean phase
+// function at the pixel's angle.
 fn sun_veil(col: u32, row: u32, v: vec3<f32>, s: f32) -> vec3<f32> {
-    let u = (vec2<f32>(f32(col), f32(row)) + 0.5 - 0.5 * f32(TILE)) / f32(TILE);
-    let last = vec2<f32>(f32(sp.cols_x - 1u), f32(sp.cols_y - 1u));
-    let a0 = clamp(floor(u), vec2<f32>(0.0), last);
-    let a1 = min(a0 + 1.0, last);
-    let fu = clamp(u - a0, vec2<f32>(0.0), vec2<f32>(1.0));
-    let i0 = vec2<u32>(a0);
-    let i1 = vec2<u32>(a1);
-    let ss = mix(mix(froxel_at(i0.x, i0.y, s), froxel_at(i1.x, i0.y, s), fu.x),
-                 mix(froxel_at(i0.x, i1.y, s), froxel_at(i1.x, i1.y, s), fu.x), fu.y);
-    return ss * ref_phase_value(phase_at(dot(v, sp.to_sun)));
+    return froxel_read(f32(col) + 0.5, f32(row) + 0.5, v, s)
+        * ref_phase_value(phase_at(dot(v, sp.to_sun)));
 }
 
 // The share of the beam a surface at distance s along v with normal n gets:
