@@ -169,3 +169,14 @@ def test_sun_and_wind_controls():
         Viewer(32, 18).update(wind=40.0)
     with pytest.raises(AquaspecError, match="sun elevation -5"):
         Viewer(32, 18, sun_elevation_deg=-5.0)
+
+
+def test_a_renderer_per_band_count_is_kept():
+    """Going back to a band count reuses its renderer (its compiled passes)."""
+    v = Viewer(64, 36, bands=4, ms_model="seeds")
+    v.update()
+    four = v._renderer
+    v.update(bands=6)
+    assert v._renderer is not four and v._renderer.deferred.n_bands == 6
+    v.update(bands=4)
+    assert v._renderer is four

@@ -34,7 +34,7 @@ from aquaspec.colour.bands import Bands
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.device import adapter_info
-from aquaspec.light.caustics import caustic_loop
+from aquaspec.light.caustics import DEFAULT_LOOP_FRAMES, caustic_loop
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
 from aquaspec.medium.water import get_water
 from aquaspec.rendering.api import as_waves
@@ -157,8 +157,9 @@ def switch_times(renderer: Renderer, scene, camera, setup: SpectralSetup, settin
     (as a user's change does) and renders one displayed frame with it: the
     water :data:`SWITCH_WATER` with an empty disk cache (solved), the bench's
     own water, then :data:`SWITCH_WATER` again (from the disk cache); the
-    band count :data:`SWITCH_BANDS` (a new renderer, solved) and again
-    (cached); with a sun, its elevation moved by :data:`SWITCH_SUN_DEG`
+    band count :data:`SWITCH_BANDS` (a new renderer, solved), back to the
+    bench's, and :data:`SWITCH_BANDS` again (its renderer kept, a new setup from
+    the disk cache); with a sun, its elevation moved by :data:`SWITCH_SUN_DEG`
     (solved, then again from the cache).
     """
     def first_frame(r, s):
@@ -186,8 +187,12 @@ def switch_times(renderer: Renderer, scene, camera, setup: SpectralSetup, settin
         bands = Bands(SWITCH_BANDS, setup.bands.lo_nm, setup.bands.hi_nm)
         w, h = renderer.width, renderer.height
         out["bands"] = SWITCH_BANDS
-        out["new_bands_s"] = first_frame(Renderer(w, h, SWITCH_BANDS), new_setup(bands=bands))
-        out["cached_bands_s"] = first_frame(Renderer(w, h, SWITCH_BANDS), new_setup(bands=bands))
+        # A live view keeps a renderer per band count it has shown (their
+        # compiled passes), as it keeps setups: back to that count reuses it.
+        other_r = Renderer(w, h, SWITCH_BANDS)
+        out["new_bands_s"] = first_frame(other_r, new_setup(bands=bands))
+        first_frame(renderer, setup)
+        out["cached_bands_s"] = first_frame(other_r, new_setup(bands=bands))
         sun = setup.light.sun
         if sun is not None:
             # A new sun elevation: a new light field and (with waves) caustics.
@@ -248,8 +253,11 @@ def run_motion_bench(*, size=(1280, 720), bands: int = 8, frames: int = 36, warm
         still.set_wave_time(0.0)
         moving.set_wave_time(0.0)
         t0 = time.perf_counter()
+        step = max(1, DEFAULT_LOOP_FRAMES // 8)
         caustic_loop(waves, light_obj.sun.elevation_deg, light_obj.sun.azimuth_deg,
-                     n_water=light_obj.sun.n_water)
+                     n_water=light_obj.sun.n_water,
+                     progress=lambda done, total: say(f"  caustic loop: {done}/{total} frames")
+                     if done == total or done % step == 0 else None)
         loop_s = time.perf_counter() - t0
         say(f"caustic loop ready in {loop_s:.1f} s")
     t0 = time.perf_counter()

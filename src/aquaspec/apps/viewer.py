@@ -80,6 +80,7 @@ class Viewer:
         self.spread_scattering = spread_scattering
         self._waters, self._sensors, self._setups = {}, {}, {}
         self._renderer = None
+        self._renderers = {}
         self._scene_depth = None
         self.last_frame_ms = None
         self.image = None
@@ -104,7 +105,12 @@ class Viewer:
         s = self.state
         t0 = time.perf_counter()
         if self._renderer is None or self._renderer.deferred.n_bands != s["bands"]:
-            self._renderer = Renderer(self.width, self.height, s["bands"])
+            # One renderer per band count shown (its compiled passes kept).
+            if s["bands"] not in self._renderers:
+                if len(self._renderers) >= self.MAX_RENDERERS:
+                    self._renderers.pop(next(iter(self._renderers)))
+                self._renderers[s["bands"]] = Renderer(self.width, self.height, s["bands"])
+            self._renderer = self._renderers[s["bands"]]
         if self._scene_depth is None or s["depth_m"] > self._scene_depth:
             # A scene whose camera stands 1.5 m above the sand at this depth;
             # shallower views raise the camera in it (no new light field).
@@ -146,6 +152,9 @@ class Viewer:
             return None
         return (round(s["sun_elevation"], 1), round(s["sun_azimuth"], 1),
                 round(s["wind"], 1) if s["wind"] > 0 else 0.0)
+
+    #: Renderers kept, one per band count (each about 100 MB at 1280x720).
+    MAX_RENDERERS = 3
 
     #: Spectral setups kept (each may hold a sea's caustic map, about 11 MB).
     MAX_SETUPS = 16
