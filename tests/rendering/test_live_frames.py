@@ -57,18 +57,23 @@ def test_moving_camera_equals_a_render_per_camera(light, scene_and_path):
     assert max(abs(np.diff(depths))) > 0.5
 
 
-def test_encode_frame_is_the_displayed_render(scene_and_path):
-    """encode_frame's 8-bit image is render_scene's linear image through the
-    display transform with the same settings (within one step)."""
+@pytest.mark.parametrize("model,light", [("lightfield", "overcast"),
+                                         ("lightfield", "sun-sky"), ("seeds", "sun-sky")])
+def test_encode_frame_is_the_displayed_render(model, light, scene_and_path):
+    """encode_frame's 8-bit image (through draw_frame) is render_scene's linear
+    image through the display transform with the same settings (within one
+    step): the display fused into the shading, or (the seeds' model with the
+    sun) a display pass after it."""
     from aquaspec.gpu.passes.display import DisplayPass
     scene, path = scene_and_path
-    setup = setup_for(scene, light="sun-sky")
+    setup = setup_for(scene, light=light)
+    if model == "seeds":
+        setup = SpectralSetup(setup.water, setup.sensor, setup.light, setup.bands,
+                              ms_model="seeds")
     r = Renderer(W, H, N)
     settings = r.auto_display(scene, path[0], setup)
     for cam in path[1:3]:
-        enc = r.deferred.device.create_command_encoder()
-        r.encode_frame(enc, scene, cam, setup)
-        r.deferred.device.queue.submit([enc.finish()])
+        r.draw_frame(scene, cam, setup)
         shown = r.read_display()
         lin = Renderer(W, H, N).render_scene(scene, cam, setup)
         disp = DisplayPass(W, H, device=r.deferred.device)

@@ -112,16 +112,8 @@ class _Timer:
     def frame(self, scene, camera, setup) -> float:
         """Record, submit and wait for one frame; returns its wall time (ms)."""
         self.parts = {}
-        t0 = time.perf_counter()
-        if self.by_pass:
-            self._last = t0
-            self.r.encode_frame(self.dev.create_command_encoder(), scene, camera, setup,
-                                split=self._split)
-        else:
-            enc = self.dev.create_command_encoder()
-            self.r.encode_frame(enc, scene, camera, setup)
-            self.dev.queue.submit([enc.finish()])
-            self.r.wait()
+        t0 = self._last = time.perf_counter()
+        self.r.draw_frame(scene, camera, setup, split=self._split if self.by_pass else None)
         return (time.perf_counter() - t0) * 1e3
 
     def _split(self, name, encoder):
@@ -167,10 +159,7 @@ def switch_times(renderer: Renderer, scene, camera, setup: SpectralSetup, settin
         if r is not renderer:
             r.set_spectral(s, scene.materials)
             r.set_display(settings)
-        enc = r.deferred.device.create_command_encoder()
-        r.encode_frame(enc, scene, camera, s)
-        r.deferred.device.queue.submit([enc.finish()])
-        r.wait()
+        r.draw_frame(scene, camera, s)
         return time.perf_counter() - t0
 
     def new_setup(**change):

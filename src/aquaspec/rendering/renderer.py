@@ -295,13 +295,9 @@ class Renderer:
                                 "before encode_frame()")
         self.raster.render_to(self.deferred.gbuffer, scene, camera, encoder=encoder)
         encoder = split("geometry", encoder)
-        if sun is None:
-            shading.encode(encoder, display=True)
-            self._last_display = shading
-            return split("shading+display", encoder)
-        if self._advance_waves(encoder, setup):
+        if sun is not None and self._advance_waves(encoder, setup):
             encoder = split("waves", encoder)
-        if self._use_lightfield:
+        if sun is None or self._use_lightfield:
             # The sun's light in the shading pass's band loop, the display fused.
             encoder = self.encode_shading(encoder, sun, camera, scene, split=split,
                                           display=True)
@@ -312,6 +308,15 @@ class Renderer:
         self._display.encode(encoder)
         self._last_display = self._display
         return split("display", encoder)
+
+    def draw_frame(self, scene, camera: Camera, setup: SpectralSetup, *, split=None) -> None:
+        """Record one displayed frame (:meth:`encode_frame`, ``split`` as
+        there), submit it and wait until the GPU has finished it."""
+        dev = self.deferred.device
+        encoder = self.encode_frame(dev.create_command_encoder(), scene, camera, setup,
+                                    split=split)
+        dev.queue.submit([encoder.finish()])
+        self.wait()
 
     def wait(self) -> None:
         """Block until the GPU has finished the work submitted so far."""

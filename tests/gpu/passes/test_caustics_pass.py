@@ -26,6 +26,33 @@ def loop():
     return cst.caustic_loop(SEA, *SUN, frames=8, **MAP)
 
 
+def _sun_setup(n, ms_model, sea):
+    """A new setup of Jerlov IB under the sun SUN over ``sea``, ``n`` bands."""
+    from aquaspec.colour.bands import Bands
+    from aquaspec.colour.sensors import get_sensor
+    from aquaspec.light.sky import surface_light
+    from aquaspec.medium.water import load_water
+    from aquaspec.rendering.setup import SpectralSetup
+    return SpectralSetup(load_water("IB"), get_sensor("human"),
+                         surface_light("sun-sky", sun_elevation_deg=SUN[0],
+                                       sun_azimuth_deg=SUN[1]),
+                         Bands(n), ms_model=ms_model, waves=sea)
+
+
+def _with_caustics(setup, cmap):
+    """``setup`` whose sun reads the still caustic map ``cmap``."""
+    setup.cache.sun_inputs = dataclasses.replace(setup.sun_inputs(), caustics=cmap)
+    return setup
+
+
+def _renderer(w, h, n):
+    """A renderer with a small (256-texel) shadow map."""
+    from aquaspec.rendering.renderer import Renderer
+    r = Renderer(w, h, n)
+    r.sun_map_size = 256
+    return r
+
+
 def _run(device, p, t):
     enc = device.create_command_encoder()
     p.encode(enc, t)
@@ -76,25 +103,15 @@ def test_gpu_mix_matches_numpy(device, loop, monkeypatch):
 def test_renderer_moves_the_waves_as_the_loop_says(device, ms_model):
     """A renderer told the waves' time samples the loop's factor at that time:
     its image equals one rendered with that factor uploaded as a still map."""
-    from aquaspec.colour.bands import Bands
-    from aquaspec.colour.sensors import get_sensor
-    from aquaspec.light.sky import surface_light
-    from aquaspec.medium.water import load_water
-    from aquaspec.rendering.renderer import Renderer
-    from aquaspec.rendering.setup import SpectralSetup
     from aquaspec.scene.builtin import builtin_scene
 
     w, h = 96, 54
     scene, cam = builtin_scene(2.0, width=w, height=h)
 
     def setup():
-        return SpectralSetup(load_water("IB"), get_sensor("human"),
-                             surface_light("sun-sky", sun_elevation_deg=SUN[0],
-                                           sun_azimuth_deg=SUN[1]),
-                             Bands(6), ms_model=ms_model, waves=SEA)
+        return _sun_setup(6, ms_model, SEA)
 
-    moving = Renderer(w, h, 6)
-    moving.sun_map_size = 256
+    moving = _renderer(w, h, 6)
     s = setup()
     moving.set_wave_time(0.37, frames=8)
     images = {0.37: moving.render_scene(scene, cam, s)}
@@ -103,13 +120,9 @@ def test_renderer_moves_the_waves_as_the_loop_says(device, ms_model):
     moving.set_wave_time(None)
     still = moving.render_scene(scene, cam, s)
     for t, img in images.items():
-        ref_setup = setup()
-        ref_setup.cache.sun_inputs = dataclasses.replace(
-            ref_setup.sun_inputs(), caustics=cst.caustic_loop(SEA, *SUN, frames=8,
-                                                              n_water=1.33).map_at(t))
-        ref = Renderer(w, h, 6)
-        ref.sun_map_size = 256
-        want = ref.render_scene(scene, cam, ref_setup)
+        ref_setup = _with_caustics(setup(), cst.caustic_loop(SEA, *SUN, frames=8,
+                                                             n_water=1.33).map_at(t))
+        want = _renderer(w, h, 6).render_scene(scene, cam, ref_setup)
         scale = np.abs(want).max()
         # Texels may differ by one half-float unit (HALF_ULP) of the factor.
         np.testing.assert_allclose(img, want, atol=HALF_ULP * scale)
@@ -117,9 +130,7 @@ def test_renderer_moves_the_waves_as_the_loop_says(device, ms_model):
     scale = np.abs(still).max()
     assert np.abs(images[0.37] - images[0.61]).max() > 0.02 * scale     # the waves moved
     # Back to the setup's still map (its sea at time 0) once the time is None.
-    again = Renderer(w, h, 6)
-    again.sun_map_size = 256
-    np.testing.assert_allclose(still, again.render_scene(scene, cam, setup()),
+    np.testing.assert_allclose(still, _renderer(w, h, 6).render_scene(scene, cam, setup()),
                                atol=1e-6 * scale)
 
 
@@ -174,12 +185,6 @@ def test_a_progressive_renderer_draws_the_frames_it_has(device):
     """``set_wave_time(progressive=True)`` does not wait for the loop: the
     frame shows the loop read between the frames uploaded so far (the
     renderer's pass says which), equal to that factor as a still map."""
-    from aquaspec.colour.bands import Bands
-    from aquaspec.colour.sensors import get_sensor
-    from aquaspec.light.sky import surface_light
-    from aquaspec.medium.water import load_water
-    from aquaspec.rendering.renderer import Renderer
-    from aquaspec.rendering.setup import SpectralSetup
     from aquaspec.scene.builtin import builtin_scene
 
     sea = dataclasses.replace(SEA, seed=7)
@@ -187,25 +192,17 @@ def test_a_progressive_renderer_draws_the_frames_it_has(device):
     scene, cam = builtin_scene(2.0, width=w, height=h)
 
     def setup():
-        return SpectralSetup(load_water("IB"), get_sensor("human"),
-                             surface_light("sun-sky", sun_elevation_deg=SUN[0],
-                                           sun_azimuth_deg=SUN[1]),
-                             Bands(4), ms_model="seeds", waves=sea)
+        return _sun_setup(4, "seeds", sea)
 
-    r = Renderer(w, h, 4)
-    r.sun_map_size = 256
+    r = _renderer(w, h, 4)
     r.set_wave_time(0.3, frames=8, progressive=True)
     s = setup()
     img = r.render_scene(scene, cam, s)
     lp, uploaded = r._wave_loop.loop, r._wave_loop.uploaded.copy()
     assert uploaded[0]
-    ref_setup = setup()
-    ref_setup.cache.sun_inputs = dataclasses.replace(
-        ref_setup.sun_inputs(), caustics=dataclasses.replace(
-            lp.map_at(0.3), levels=lp.levels_at(0.3, uploaded)))
-    ref = Renderer(w, h, 4)
-    ref.sun_map_size = 256
-    want = ref.render_scene(scene, cam, ref_setup)
+    ref_setup = _with_caustics(setup(), dataclasses.replace(
+        lp.map_at(0.3), levels=lp.levels_at(0.3, uploaded)))
+    want = _renderer(w, h, 4).render_scene(scene, cam, ref_setup)
     np.testing.assert_allclose(img, want, atol=HALF_ULP * np.abs(want).max())
     lp.wait()
     assert lp.complete
