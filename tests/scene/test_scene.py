@@ -227,3 +227,19 @@ class TestPlaceInFront:
         s = Scene([Mesh.flat(box.vertices, box.faces)], [Reflectance.constant(0.5)])
         with pytest.raises(AquaspecError, match="above the water surface"):
             place_in_front(s, depth_m=1.0, size_m=3.0)
+
+
+def test_gbuffer_positions_are_inf_in_open_water_and_exact_on_hits():
+    """Open-water pixels get inf (never NaN from inf * 0 in a zero ray component);
+    a hit lies at distance S along its ray."""
+    from aquaspec.scene.gbuffer import GBuffer
+    cam = Camera.look_at([0.0, -5.0, 0.0], [0.0, -5.0, -1.0], width=7, height=5, fov_y_deg=40.0)
+    dist = np.full((5, 7), np.inf, np.float32)
+    dist[2, 3] = 2.0
+    g = GBuffer(cam, dist, np.zeros((5, 7, 3)), np.zeros((5, 7), np.uint32), np.zeros((5, 7, 3)),
+                materials=[Reflectance.constant(0.5, "grey")])
+    p = g.positions()
+    assert not np.any(np.isnan(p))
+    assert np.all(np.isinf(p[~g.hit]))
+    ray = cam.ray_directions()[2, 3]
+    assert np.allclose(p[2, 3], cam.position + 2.0 * ray)

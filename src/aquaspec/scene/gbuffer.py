@@ -71,7 +71,9 @@ class GBuffer:
     def positions(self) -> np.ndarray:
         """(H, W, 3) world positions of the hits (inf where open water)."""
         d = self.camera.ray_directions()
-        return self.camera.position + d * self.distance[..., None].astype(float)
+        hit = self.hit
+        s = np.where(hit, self.distance, 0.0)[..., None].astype(float)
+        return np.where(hit[..., None], self.camera.position + d * s, np.inf)
 
 
 def hit_reflectance(material, sigmoid, material_bands, t):
