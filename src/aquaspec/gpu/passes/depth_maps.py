@@ -3,7 +3,7 @@
 Each layer is the scene rasterised depth-only along one direction
 (:class:`aquaspec.scene.shadowmap.ShadowMapSpec`: axes across the direction,
 heights ``h = p . w`` along it, depth ``(h_max - h) / (h_max - h_min)``)
-with ``depth_map.wgsl`` beside this module, into a ``depth32float`` texture
+with ``depth_maps.wgsl`` beside this module, into a ``depth32float`` texture
 array of ``size`` texels a side. The sun's shadow map is one such layer; the
 ambient occlusion's maps (one per direction of its set) are many. NumPy twin:
 :func:`aquaspec.scene.shadowmap.shadow_map_numpy` (the same map per layer).
@@ -57,8 +57,8 @@ class DepthMapArray:
         self._layer_views = [self._texture.create_view(dimension="2d", base_array_layer=k,
                                                        array_layer_count=1)
                              for k in range(self.layers)]
-        self._module = device.create_shader_module(label="depth_map.wgsl",
-                                                   code=load_wgsl("depth_map.wgsl"))
+        self._module = device.create_shader_module(label="depth_maps.wgsl",
+                                                   code=load_wgsl("depth_maps.wgsl"))
         clip_layout = device.create_bind_group_layout(entries=[
             {"binding": 0, "visibility": wgpu.ShaderStage.VERTEX,
              "buffer": {"type": wgpu.BufferBindingType.uniform}}])
