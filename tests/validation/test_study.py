@@ -325,8 +325,8 @@ def test_reference_cache(tmp_path):
     assert any("reference from cache" in m for m in logs[1])
     assert any("Kd measured in the reference (cache)" in m for m in logs[1])
     assert not any("reference from cache" in m for m in logs[2])
-    a = first["images"][("IB", 4.0, "reference", "-")]
-    np.testing.assert_array_equal(a, second["images"][("IB", 4.0, "reference", "-")])
+    a = first["images"][("board", "IB", 4.0, "reference", "-")]
+    np.testing.assert_array_equal(a, second["images"][("board", "IB", 4.0, "reference", "-")])
     assert len(list(tmp_path.glob("*.npz"))) == 3     # Kd, render at 8 spp, render at 16 spp
 
 
@@ -389,13 +389,13 @@ PANEL_INK = 0.25
 class TestPanels:
     """panels.png shows the models that were run, titled with what was run."""
 
-    def images(self, methods, scenes=(("I", 3.0), ("IB", 5.0))):
+    def images(self, methods, scenes=(("board", "I", 3.0), ("ledge", "IB", 5.0))):
         rng = np.random.default_rng(0)
         out = {}
-        for w, d in scenes:
-            out[(w, d, "reference", "-")] = rng.random((6, 8, 3))
+        for name, w, d in scenes:
+            out[(name, w, d, "reference", "-")] = rng.random((6, 8, 3))
             for m in methods:
-                out[(w, d, m, "database")] = rng.random((6, 8, 3))
+                out[(name, w, d, m, "database")] = rng.random((6, 8, 3))
         return out
 
     def test_the_default_models(self):

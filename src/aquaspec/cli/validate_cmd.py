@@ -76,6 +76,17 @@ def register(sub):
                    help="a flat grey Lambertian seabed M metres below the camera (albedo "
                         "default 0.2) in the reference and in the light field; the light "
                         "field also runs without it (lightfield-deep-n*)")
+    p.add_argument("--scene", default="board", metavar="NAME,...",
+                   help="validation scenes (default board): board (the thesis's board in open "
+                        "water), open (the board 0.25 m above a grey seabed, 0.8 m below the "
+                        "camera), ledge (open under a dark slab 0.3 m above the board), wall "
+                        "(open before a dark wall 0.4 m behind the board), box (open beside a "
+                        "1 m grey box on the seabed); the occluded scenes are level views "
+                        "with their own seabed and add the regions seabed, shaded_seabed and "
+                        "occluder")
+    p.add_argument("--occlusion", action="store_true",
+                   help="light-field model: shade with the scene's occlusion of the ambient "
+                        "light field (aquaspec.scene.occlusion, issue 36)")
     p.add_argument("--view", default="level", choices=("level", "down"),
                    help="the board facing the camera, which looks level (default, the "
                         "thesis's scene), or lying flat with the camera looking down at it "
@@ -113,10 +124,13 @@ def run(args):
     from aquaspec.validation.reference import FF_DEFAULT_BACKSCATTER, check_phase, require_mitsuba
     # deferred: as above
     from aquaspec.validation.report import (format_attenuation, format_converged,
-                                            format_summary, format_timing, write_results)
+                                            format_scenes, format_summary, format_timing,
+                                            write_results)
     # deferred: as above
     from aquaspec.validation.study import (REGIONS, DEFAULT_SUN_ELEVATION_DEG, default_cache_dir,
                                            run_study)
+    # deferred: as above
+    from aquaspec.validation.scenes import SCENES
     if args.g is not None and args.phase != "hg":
         raise AquaspecError(f"--g is the Henyey-Greenstein parameter: it needs --phase hg, "
                             f"not --phase {args.phase}")
@@ -134,6 +148,13 @@ def run(args):
                                     else args.sun_elevation)
     sun_azimuth = check_azimuth(DEFAULT_SUN_AZIMUTH_DEG if args.sun_azimuth is None
                                 else args.sun_azimuth)
+    scene_names = _scene_names(args.scene, SCENES)
+    if args.seabed_below is not None and scene_names != ("board",):
+        raise AquaspecError(f"--seabed-below with --scene {args.scene}; accepted: --scene "
+                            "board only (the other scenes have their own seabed)")
+    if args.view != "level" and scene_names != ("board",):
+        raise AquaspecError(f"--view {args.view} with --scene {args.scene}; accepted: "
+                            "--scene board only (the other scenes are level views)")
     out_dir = _output_dir(args.out, "tyler.json" if args.tyler else "validation.json")
     if args.tyler:
         return _run_tyler(out_dir)
@@ -165,12 +186,18 @@ def run(args):
                     **_seabed_below(args.seabed_below), view=args.view,
                     light=args.light, sun_elevation_deg=sun_elevation,
                     sun_azimuth_deg=sun_azimuth,
-                    gpu_timing=args.gpu_timing,
-                    cache_dir=cache, progress=lambda m: print(m, file=sys.stderr, flush=True))
+                    gpu_timing=args.gpu_timing, scene_names=scene_names,
+                    occlusion=args.occlusion, cache_dir=cache,
+                    progress=lambda m: print(m, file=sys.stderr, flush=True))
     for region in REGIONS:
         print(format_summary(res["rows"], region=region))
         print()
     print(format_converged(res["rows"], res["scenes"]))
+    print()
+    n_max = max(res["params"]["band_counts"])
+    shown = [f"{m}-n{n_max}" for m in ms_models] + [f"lightfield-deep-n{n_max}"]
+    print(format_scenes(res["rows"], res["scenes"],
+                        [m for m in shown if any(r["method"] == m for r in res["rows"])]))
     print()
     print(format_attenuation(res["waters"]))
     print()
@@ -203,6 +230,16 @@ def _run_tyler(out):
     png = plot_tyler(res, out / "tyler.png")
     print(f"wrote {js}, {png}")
     return 0
+
+
+def _scene_names(text, accepted) -> tuple:
+    """--scene NAME,... -> the scenes' names, each one of ``accepted``, none twice."""
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    bad = [n for n in names if n not in accepted]
+    if bad or not names or len(set(names)) != len(names):
+        raise AquaspecError(f"--scene {text!r}; accepted: a comma-separated list of "
+                            f"{', '.join(accepted)}, each at most once")
+    return names
 
 
 def _seabed_below(text) -> dict:

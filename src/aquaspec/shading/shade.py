@@ -33,6 +33,7 @@ import numpy as np
 from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.errors import AquaspecError
 from aquaspec.scene.camera import camera_depth
+from aquaspec.scene.occlusion import OcclusionMaps
 from aquaspec.shading.sun import sun_radiance
 from aquaspec.transport import monzon2022 as model
 from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer, hit_reflectance
@@ -40,6 +41,7 @@ from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer, hit_reflectance
 from aquaspec.transport.lightfield.conespread import (node_pyramid_weights, pyramid_weights,
                                                       spread_by_lambda)
 from aquaspec.transport.lightfield.conespread import spread as pyramid_spread
+from aquaspec.transport.lightfield.occlusion import occlusion_factor, weights_from_tables
 from aquaspec.transport.lightfield.shadow import ambient_shadow
 from aquaspec.transport.lightfield.tables import LightfieldTables
 
@@ -106,7 +108,8 @@ def check_medium(a, b, kd, e0, response_weights, material_bands, sigmoid_centers
 def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_bands,
                   sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
                   return_radiance: bool = False, lightfield: LightfieldTables | None = None,
-                  progress=None, shadow_rays=None, sun=None, sun_shadow=None) -> dict:
+                  progress=None, shadow_rays=None, sun=None, sun_shadow=None,
+                  occlusion: OcclusionMaps | None = None) -> dict:
     """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
 
     Parameters
@@ -146,6 +149,13 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     sun_shadow : (height_map, ShadowMapSpec), optional
         The sun's shadow map (:func:`aquaspec.scene.shadowmap.shadow_map_numpy`); None:
         nothing shadows the sun.
+    occlusion : OcclusionMaps, optional
+        The scene's occlusion of the ambient light field
+        (:func:`aquaspec.scene.occlusion.occlusion_maps`): each hit pixel's
+        light-field term (not the sun's direct light, which has its own
+        shadow map) is multiplied per band by
+        :func:`aquaspec.transport.lightfield.occlusion.occlusion_factor`.
+        Light-field model only (``lightfield`` given).
 
     Returns
     -------
@@ -165,6 +175,15 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     a, b, kd, e0, w, mb, t = check_medium(a, b, kd, e0, response_weights, material_bands,
                                           sigmoid_centers_t, ambient,
                                           n_materials=len(gbuffer.materials))
+    if occlusion is not None:
+        if lightfield is None:
+            raise AquaspecError("occlusion of the ambient light is part of the light-field "
+                                "model: give lightfield= tables (ms_model 'lightfield')")
+        if not isinstance(occlusion, OcclusionMaps):
+            raise AquaspecError(f"occlusion must be aquaspec.scene.occlusion.OcclusionMaps "
+                                f"(occlusion_maps(scene, camera)), got {type(occlusion).__name__}")
+    occ_weights = None if occlusion is None or occlusion.empty else weights_from_tables(
+        lightfield, occlusion.directions, occlusion.solid_angle, a=a, b=b)
     cam = gbuffer.camera
     d_o = camera_depth(cam)
     o_y = float(cam.position[1])
@@ -224,10 +243,17 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         if np.any(hit):
             rho = hit_reflectance(mat[hit], sig[hit], mb, t)
             surface_depth = -(o_y + s[hit] * v_y[hit])
+            occluded = {}
+            if occ_weights is not None:
+                normals = gbuffer.normal[r0:r1].reshape(-1, 3)[hit].astype(float)
+                normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+                points = cam.position + dirs[r0:r1].reshape(-1, 3)[hit] * s[hit, None]
+                occluded["surface_scale"] = occlusion_factor(
+                    occ_weights, surface_depth, normals, *occlusion.visibility(points, normals))
             lrad[hit] = split(radiance_of(
                 v_y=v_y[hit, None], s=s[hit, None], rho=rho,
-                surface_depth=surface_depth[:, None], n_y=n_y[hit, None], ambient=ambient),
-                hit, r0)
+                surface_depth=surface_depth[:, None], n_y=n_y[hit, None], ambient=ambient,
+                **occluded), hit, r0)
         if not np.all(np.isfinite(lrad)):
             raise AquaspecError("shading produced a non-finite radiance; check the water "
                                 "coefficients and the G-buffer")

@@ -3,7 +3,10 @@
 What :func:`aquaspec.validation.study.run_study` returns, summarised per
 scene and region (:func:`summarise`, :func:`converged_means`), printed
 (:func:`format_summary`, :func:`format_converged`, :func:`format_attenuation`,
-:func:`format_timing`) and written with its figures (:func:`write_results`).
+:func:`format_timing`, and per scene the errors the occlusion issue sets,
+:func:`format_scenes`) and written with its figures (:func:`write_results`).
+Scenes are told apart by their ``scene`` (:data:`.scenes.SCENES`), water and
+depth.
 """
 
 from __future__ import annotations
@@ -43,19 +46,29 @@ def format_attenuation(waters: dict, wavelengths_nm=(450.0, 550.0, 650.0)) -> st
     return "\n".join(lines)
 
 
+#: Errors of a region's mean colour (:mod:`.study`), averaged where the rows have them.
+MEAN_COLOUR_KEYS = ("mean_hue_deg", "ratio_r", "ratio_g", "ratio_b", "mean_abs_error")
+
+
+def _scene_of(r) -> tuple:
+    """(scene, water, depth) of a row or scene record."""
+    return (r.get("scene", "board"), r["water"], r["depth_m"])
+
+
 def summarise(rows, *, region="image") -> list[dict]:
-    """Mean over cameras per (water, depth, method, kd) for one region."""
+    """Mean over cameras per (scene, water, depth, method, kd) for one region."""
     groups = {}
     for r in rows:
         if r["region"] != region:
             continue
-        groups.setdefault((r["water"], r["depth_m"], r["method"], r["kd"]), []).append(r)
+        groups.setdefault((*_scene_of(r), r["method"], r["kd"]), []).append(r)
     out = []
-    for (w, d, mth, kd), rs in groups.items():
-        out.append({"water": w, "depth_m": d, "method": mth, "kd": kd, "cameras": len(rs),
-                    **{k: float(np.mean([r[k] for r in rs]))
-                       for k in ("rmse_rel", "hsv", "hue_deg", "ciede2000", "mean_ratio")
-                       + (("ssim",) if region == "image" else ())}})
+    for (sc, w, d, mth, kd), rs in groups.items():
+        keys = ("rmse_rel", "hsv", "hue_deg", "ciede2000", "mean_ratio") + (
+            ("ssim",) if region == "image" else ()) + tuple(
+            k for k in MEAN_COLOUR_KEYS if all(k in r for r in rs))
+        out.append({"scene": sc, "water": w, "depth_m": d, "method": mth, "kd": kd,
+                    "cameras": len(rs), **{k: float(np.mean([r[k] for r in rs])) for k in keys}})
     return out
 
 
@@ -66,30 +79,30 @@ def converged_means(rows, scenes, *, region) -> list[dict]:
     :func:`reference_stderr`); an error in a scene whose reference is
     mostly Monte Carlo noise says nothing about the model.
     """
-    ok = {(sc["water"], sc["depth_m"]) for sc in scenes if sc.get("converged")}
-    per_scene = [r for r in summarise(rows, region=region) if (r["water"], r["depth_m"]) in ok]
+    ok = {_scene_of(sc) for sc in scenes if sc.get("converged")}
+    per_scene = [r for r in summarise(rows, region=region) if _scene_of(r) in ok]
     groups = {}
     for r in per_scene:
-        groups.setdefault((r["method"], r["kd"]), []).append(r)
-    return [{"method": m, "kd": kd, "scenes": len(rs),
+        groups.setdefault((r["scene"], r["method"], r["kd"]), []).append(r)
+    return [{"scene": sc, "method": m, "kd": kd, "scenes": len(rs),
              **{k: float(np.mean([r[k] for r in rs]))
                 for k in ("rmse_rel", "hsv", "hue_deg", "ciede2000", "mean_ratio")}}
-            for (m, kd), rs in sorted(groups.items())]
+            for (sc, m, kd), rs in sorted(groups.items())]
 
 
 def format_converged(rows, scenes, regions=("grey", "patch_means", "background")) -> str:
     """Table of :func:`converged_means` for ``regions``, with the scenes left out."""
-    left_out = [f"{sc['water']} {sc['depth_m']:g} m" for sc in scenes if not sc.get("converged")]
+    left_out = [_scene_label(sc) for sc in scenes if not sc.get("converged")]
     lines = [f"mean over scenes whose reference converged (standard error of the grey and "
              f"background means <= {CONVERGED_STDERR:.0%}); left out: "
              + (", ".join(left_out) or "none")]
     cols = ["rmse_rel", "hue_deg", "mean_ratio", "hsv", "ciede2000"]
     for region in regions:
         lines.append(f"region: {region}")
-        lines.append(f"{'method':>20s} {'Kd':>9s} {'scenes':>6s} "
+        lines.append(f"{'scene':>6s} {'method':>20s} {'Kd':>9s} {'scenes':>6s} "
                      + " ".join(f"{c:>10s}" for c in cols))
         for r in converged_means(rows, scenes, region=region):
-            lines.append(f"{r['method']:>20s} {r['kd']:>9s} {r['scenes']:6d} "
+            lines.append(f"{r['scene']:>6s} {r['method']:>20s} {r['kd']:>9s} {r['scenes']:6d} "
                          + " ".join(f"{r[c]:10.4f}" for c in cols))
     return "\n".join(lines)
 
@@ -98,11 +111,74 @@ def format_summary(rows, region="image") -> str:
     s = summarise(rows, region=region)
     cols = ["rmse_rel", "hsv", "hue_deg", "ciede2000", "mean_ratio"]
     lines = [f"region: {region} (mean over cameras)",
-             f"{'water':>5s} {'depth':>5s} {'method':>20s} {'Kd':>9s} "
+             f"{'scene':>6s} {'water':>5s} {'depth':>5s} {'method':>20s} {'Kd':>9s} "
              + " ".join(f"{c:>10s}" for c in cols)]
-    for r in sorted(s, key=lambda r: (r["water"], r["depth_m"], r["method"], r["kd"])):
-        lines.append(f"{r['water']:>5s} {r['depth_m']:5.1f} {r['method']:>20s} {r['kd']:>9s} "
+    for r in sorted(s, key=lambda r: (r["scene"], r["water"], r["depth_m"], r["method"],
+                                      r["kd"])):
+        lines.append(f"{r['scene']:>6s} {r['water']:>5s} {r['depth_m']:5.1f} "
+                     f"{r['method']:>20s} {r['kd']:>9s} "
                      + " ".join(f"{r[c]:10.4f}" for c in cols))
+    return "\n".join(lines)
+
+
+def _scene_label(sc) -> str:
+    """``"IB 5 m"``, or ``"ledge IB 5 m"`` for a scene other than the thesis's board."""
+    name, w, d = _scene_of(sc)
+    return ("" if name == "board" else f"{name} ") + f"{w} {d:g} m"
+
+
+def scene_errors(rows, scenes, *, method: str, kd: str = "database") -> list[dict]:
+    """Per scene, ``method``'s errors as the occlusion issue tabulates them.
+
+    Mean over cameras (and the cameras' range) of the error of the region's
+    mean brightness (``mean_ratio - 1``) of the grey patch and of the shaded
+    seabed, the patches' mean absolute error (:func:`.study._patch_abs_error`),
+    and the hue angle between the region means; None where a region has no
+    pixel. Also whether the scene's reference converged.
+    """
+    by_scene = {}
+    for r in rows:
+        if r["method"] == method and r["kd"] == kd:
+            by_scene.setdefault(_scene_of(r), {}).setdefault(r["region"], []).append(r)
+    out = []
+    for sc in scenes:
+        regs = by_scene.get(_scene_of(sc))
+        if regs is None:
+            continue
+        rec = {"scene": _scene_of(sc)[0], "water": sc["water"], "depth_m": sc["depth_m"],
+               "converged": bool(sc.get("converged")), "method": method}
+        for region, field in (("grey", "mean_ratio"), ("shaded_seabed", "mean_ratio"),
+                              ("patch_means", "mean_abs_error")):
+            rs = regs.get(region, [])
+            err = [r[field] - (1.0 if field == "mean_ratio" else 0.0) for r in rs]
+            hue = [r["hue_deg" if region == "patch_means" else "mean_hue_deg"] for r in rs]
+            rec[region] = None if not rs else {
+                "error": float(np.mean(err)), "min": float(np.min(err)),
+                "max": float(np.max(err)), "hue_deg": float(np.mean(hue)),
+                **({"rgb_ratio": [float(np.mean([r[f"ratio_{c}"] for r in rs]))
+                                  for c in "rgb"]} if field == "mean_ratio" else {})}
+        out.append(rec)
+    return out
+
+
+def format_scenes(rows, scenes, methods) -> str:
+    """Table of :func:`scene_errors` for each of ``methods`` (database Kd)."""
+    def cell(v, signed=True):
+        if v is None:
+            return f"{'-':>24s}"
+        sign = "+" if signed else ""
+        return (f"{v['error']:{sign}7.1%} [{v['min']:{sign}.0%},{v['max']:{sign}.0%}]"
+                f" {v['hue_deg']:4.2f}deg").rjust(24)
+    lines = ["per scene: error of the region's mean brightness, mean over cameras "
+             "[their range], and hue between the region means; patches: mean absolute "
+             "error of the 24 patch means (* = reference not converged)",
+             f"{'scene':>18s} {'method':>20s} {'grey':>24s} {'patches (mean abs.)':>24s} "
+             f"{'shaded seabed':>24s}"]
+    for m in methods:
+        for r in scene_errors(rows, scenes, method=m):
+            label = _scene_label(r) + ("" if r["converged"] else " *")
+            lines.append(f"{label:>18s} {m:>20s} {cell(r['grey'])} "
+                         f"{cell(r['patch_means'], signed=False)} {cell(r['shaded_seabed'])}")
     return "\n".join(lines)
 
 
@@ -110,7 +186,8 @@ def format_timing(scenes) -> str:
     """Reference vs aquaspec time per scene at equal pixel count (and speed-ups)."""
     lines = ["time per image at equal pixel count (reference: Mitsuba; NumPy: shade_gbuffer "
              "in float64 at the largest n; GPU: one frame at the largest n)",
-             f"{'water':>5s} {'depth':>5s} {'pixels':>7s} {'spp':>5s} {'reference s':>11s} "
+             f"{'scene':>6s} {'water':>5s} {'depth':>5s} {'pixels':>7s} {'spp':>5s} "
+             f"{'reference s':>11s} "
              f"{'NumPy s':>11s} {'speed-up':>9s} {'GPU ms':>8s} {'speed-up':>9s}"]
     for sc in scenes:
         ref = sc["reference_seconds"]
@@ -120,7 +197,8 @@ def format_timing(scenes) -> str:
         t_np = np_s.get(key, np.nan) if key else np.nan
         gpu = sc.get("gpu_frame_seconds")
         gpu_txt = (f"{gpu * 1e3:8.1f} {ref / gpu:9.0f}" if gpu else f"{'-':>8s} {'-':>9s}")
-        lines.append(f"{sc['water']:>5s} {sc['depth_m']:5.1f} {sc['pixels']:7d} {sc['spp']:5d} "
+        lines.append(f"{_scene_of(sc)[0]:>6s} {sc['water']:>5s} {sc['depth_m']:5.1f} "
+                     f"{sc['pixels']:7d} {sc['spp']:5d} "
                      f"{ref:11.2f} {t_np:11.3f} {ref / t_np:9.0f} {gpu_txt}")
     return "\n".join(lines)
 
@@ -172,8 +250,9 @@ def plot_errors(rows, path, *, region="patch_means", kd="database", order=None):
     s = [r for r in summarise(rows, region=region)
          if r["kd"] == kd or r["method"] == "unreal"]
     order = list(order or [])
-    scenes = sorted({(r["water"], r["depth_m"]) for r in s},
-                    key=lambda x: (order.index(x[0]) if x[0] in order else len(order), x[0], x[1]))
+    scenes = sorted({_scene_of(r) for r in s},
+                    key=lambda x: (x[0], order.index(x[1]) if x[1] in order else len(order),
+                                   x[1], x[2]))
 
     def method_key(m):
         # Spectral then RGB per model, baselines last.
@@ -192,14 +271,16 @@ def plot_errors(rows, path, *, region="patch_means", kd="database", order=None):
     cmap = plt.get_cmap("tab10")
     for i, mth in enumerate(methods):
         for ax, (key, _, _) in zip(axes, metrics_):
-            vals = [next((r[key] for r in s if (r["water"], r["depth_m"]) == sc
+            vals = [next((r[key] for r in s if _scene_of(r) == sc
                           and r["method"] == mth), np.nan) for sc in scenes]
             ax.bar(x + i * width, vals, width, label=mth, color=cmap(colour_of[mth] % 10))
     for ax, (_, label, log) in zip(axes, metrics_):
         ax.set_ylabel(label)
         if log:
             ax.set_yscale("log")
-    axes[-1].set_xticks(x + 0.4 - width / 2, [f"{w} {d:g} m" for w, d in scenes], rotation=45)
+    axes[-1].set_xticks(x + 0.4 - width / 2,
+                        [_scene_label({"scene": n, "water": w, "depth_m": d})
+                         for n, w, d in scenes], rotation=45)
     axes[0].legend(fontsize=7, ncol=4)
     axes[0].set_title(f"error per scene, {region.replace('_', ' ')} (mean over cameras, "
                       f"{kd} Kd)")
@@ -241,7 +322,7 @@ def panel_columns(images, params) -> list[Panel]:
         cols.append(Panel(f"{m}-n{n}" + (f" ({canonical})" if canonical != m else ""),
                           f"{m}-n{n}"))
         deep = f"lightfield-deep-n{n}"
-        if m == "lightfield" and any(k[2] == deep for k in images):
+        if m == "lightfield" and any(k[3] == deep for k in images):
             cols.append(Panel(f"{deep} (no seabed)", deep))
     if models:
         main = next((m for m in models if ms_model_name(m) == DEFAULT_MS_MODEL), models[0])
@@ -255,24 +336,27 @@ def panel_columns(images, params) -> list[Panel]:
 
 
 def plot_panels(images, path, params):
-    """One row per scene (first camera), the columns of :func:`panel_columns`."""
+    """One row per scene (first camera), the columns of :func:`panel_columns`.
+
+    ``images`` are keyed ``(scene, water, depth, method, kd)`` (:mod:`.study`)."""
     import matplotlib  # deferred: matplotlib takes 0.3 s to import; only the plots need it
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # deferred: as matplotlib
-    scenes = sorted({(w, d) for (w, d, m, k) in images}, key=lambda x: (x[0], x[1]))
+    scenes = sorted({(n, w, d) for (n, w, d, m, k) in images})
     cols = panel_columns(images, params)
     fig, axes = plt.subplots(len(scenes), len(cols),
                              figsize=(2.5 * len(cols), 2.2 * len(scenes)), squeeze=False)
-    for i, (w, d) in enumerate(scenes):
-        ref = images[(w, d, "reference", "-")]
+    for i, (name, w, d) in enumerate(scenes):
+        ref = images[(name, w, d, "reference", "-")]
         scale = 0.8 / max(float(np.percentile(ref, 99)), 1e-300)
         for j, col in enumerate(cols):
-            img = images[(w, d, col.method, col.kd)]
+            img = images[(name, w, d, col.method, col.kd)]
             if col.difference:
                 img = np.abs(img - ref) * DIFFERENCE_GAIN
             ax = axes[i][j]
             ax.set_axis_off()
             ax.imshow(np.clip(img * scale, 0, 1) ** (1 / 2.2))
-            ax.set_title(f"{w} {d:g} m: {col.title}" if j == 0 else col.title, fontsize=8)
+            label = _scene_label({"scene": name, "water": w, "depth_m": d})
+            ax.set_title(f"{label}: {col.title}" if j == 0 else col.title, fontsize=8)
     fig.tight_layout()
     write_figure(path, fig, dpi=100)

@@ -18,12 +18,19 @@ going down or level: the reference's water surface has no refraction, so up
 rays see the sky at every angle, while the seeds' model sees it only through
 Snell's window; below the horizon both see only the water); ``patch_means``
 (the mean colour of each of the 24 patches, far less path-tracing noise than
-per-pixel errors).
+per-pixel errors). With the occluded scenes (``scene_names``,
+:data:`.scenes.SCENES`) also ``seabed``, ``shaded_seabed`` (the seabed the
+occluder shades) and ``occluder`` (:func:`.scenes.masks`). Every masked
+region's row also holds the error of the region's *mean* colour: its hue
+(``mean_hue_deg``) and per channel (``ratio_r``, ``ratio_g``, ``ratio_b``,
+model over reference); the patch means' row holds ``mean_abs_error``, the
+mean over patches of ``|mean_ratio - 1|`` of each patch's mean colour.
 """
 
 from __future__ import annotations
 
 import functools
+import inspect
 import time
 import warnings
 from pathlib import Path
@@ -53,7 +60,7 @@ from aquaspec.validation.reference import (FF_DEFAULT_BACKSCATTER, MAX_DEPTH, ME
                         bands_to_rgb, cache_key, check_phase, light_key, lightfield_phase,
                         measure_kd, phase_function, phase_key, preflight, render_reference,
                         spectra_digest, water_with_kd)
-from aquaspec.validation.scenes import board_scene, masks
+from aquaspec.validation.scenes import OCCLUDERS, SCENES, board_scene, masks
 
 DEFAULT_WATERS = ("I", "IA", "IB", "II", "3C")
 DEFAULT_DEPTHS = (3.0, 5.0, 9.0)
@@ -63,7 +70,8 @@ DEFAULT_SUN_ELEVATION_DEG = 60.0
 SCENE_VERSION = "board-v1"
 #: Depths of the irradiance meters that measure Kd in the reference, m.
 KD_DEPTHS_M = (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
-REGIONS = ("image", "patches", "grey", "background", "background_down", "patch_means")
+REGIONS = ("image", "patches", "grey", "background", "background_down", "seabed",
+           "shaded_seabed", "occluder", "patch_means")
 #: A scene's reference counts as converged when the standard error of the
 #: mean of its grey patch and of its open-water background, in each third
 #: of the spectrum, is at most this fraction of the mean (half of the 10 %
@@ -137,7 +145,7 @@ def _cached(cache_dir, key, compute):
 
 def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_cone_deg=None,
               cone_spread=False, seabed=None, spread_scattering="single", ambient_shadow=False,
-              sun_shadow=None):
+              sun_shadow=None, occlusion=None):
     setup = SpectralSetup(water, get_sensor("human"), light, Bands(n), ms_model=ms_model,
                           phase=phase_lf, phase_params=phase_params,
                           forward_cone_deg=forward_cone_deg,
@@ -149,8 +157,46 @@ def _spectral(gb, water, light, n, ms_model, phase_lf, phase_params=(), forward_
     out = shade_gbuffer(gb, **setup.medium(gb.materials), return_radiance=True,
                         lightfield=setup.lightfield_tables(),
                         shadow_rays=_shadow_rays(n) if setup.ambient_shadow else None,
-                        sun=setup.sun_inputs(), sun_shadow=sun_shadow)
+                        sun=setup.sun_inputs(), sun_shadow=sun_shadow,
+                        **({"occlusion": occlusion}
+                           if occlusion is not None and ms_model == "lightfield" else {}))
     return out["radiance"]
+
+
+def _occlusion_model():
+    """The function giving a scene's occlusion of the light field
+    (``--occlusion``, issue 36), ``occlusion_maps(scene, camera)`` of
+    ``aquaspec.scene.occlusion``, for
+    :func:`aquaspec.shading.shade.shade_gbuffer`'s ``occlusion``; a clear
+    error while that model does not exist yet."""
+    try:
+        # deferred: the occlusion model is optional here until it exists (issue 36)
+        from aquaspec.scene.occlusion import occlusion_maps
+    except ImportError as exc:
+        raise AquaspecError("--occlusion: the light field's occlusion model "
+                            "(aquaspec.scene.occlusion) is not available yet") from exc
+    if "occlusion" not in inspect.signature(shade_gbuffer).parameters:
+        raise AquaspecError("--occlusion: shade_gbuffer takes no occlusion maps yet "
+                            "(aquaspec.shading.shade); not available yet")
+    return occlusion_maps
+
+
+def _mean_colour_metrics(ref_rgb, rgb, mask) -> dict:
+    """Errors of a region's mean colour: hue angle between the means and the
+    ratio of each channel's mean (model over reference)."""
+    r = ref_rgb.reshape(-1, 3) if mask is None else ref_rgb[mask]
+    t = rgb.reshape(-1, 3) if mask is None else rgb[mask]
+    rm, tm = r.mean(axis=0), t.mean(axis=0)
+    ratio = tm / np.maximum(rm, 1e-300)
+    return {"mean_hue_deg": metrics.hue_difference_deg(rm[None], tm[None]),
+            "ratio_r": float(ratio[0]), "ratio_g": float(ratio[1]),
+            "ratio_b": float(ratio[2])}
+
+
+def _patch_abs_error(ref_means, test_means) -> float:
+    """Mean over patches of ``|brightness error|`` of each patch's mean colour."""
+    ratio = test_means.sum(axis=1) / np.maximum(ref_means.sum(axis=1), 1e-300)
+    return float(np.mean(np.abs(ratio - 1.0)))
 
 
 @functools.lru_cache(maxsize=4)
@@ -203,7 +249,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
               seabed_albedo: float = 0.2, view: str = "level", light: str = "overcast",
               sun_elevation_deg: float = DEFAULT_SUN_ELEVATION_DEG,
               sun_azimuth_deg: float = DEFAULT_SUN_AZIMUTH_DEG,
-              cache_dir=None, progress=None, gpu_timing: bool = False) -> dict:
+              cache_dir=None, progress=None, gpu_timing: bool = False,
+              scene_names=("board",), occlusion: bool = False) -> dict:
     """Run the study; returns ``{"rows": [...], "scenes": [...], "images": {...}}``.
 
     Each entry of ``scenes`` holds the reference's render time and the time
@@ -229,7 +276,11 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     first-order shadow in the light field (:mod:`aquaspec.transport.lightfield.shadow`); ``forward_cone_deg``
     None is the model's default cone (15 degrees, 40 with the spread).
     ``view`` is the board's view (:data:`.scenes.VIEWS`: facing the camera,
-    or lying flat seen from above).
+    or lying flat seen from above). ``scene_names`` are the scenes
+    (:data:`.scenes.SCENES`: the thesis's board, or the board over a seabed,
+    open or occluded; each row and scene record holds its ``scene``, and the
+    scene is in its reference's cache key); ``occlusion`` gives the light
+    field the scene's occlusion maps (:func:`_occlusion_model`).
 
     ``light`` (:data:`STUDY_LIGHTS`) is the surface light of both sides:
     ``overcast`` (the thesis's setting), or ``sun-sky`` with the sun at
@@ -260,6 +311,14 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
         raise AquaspecError(f"spread_scattering={spread_scattering!r} with cone_spread="
                             f"{cone_spread!r}; accepted: 'single', or 'multiple' with the "
                             "cone spread on")
+    scene_names = tuple(scene_names)
+    bad = [s for s in scene_names if s not in SCENES]
+    if bad or not scene_names:
+        raise AquaspecError(f"scene {', '.join(map(repr, bad)) or '(none)'}; accepted: "
+                            f"{', '.join(SCENES)}")
+    if occlusion and "lightfield" not in ms_models:
+        raise AquaspecError(f"occlusion is part of the light-field model; ms_models="
+                            f"{list(ms_models)}; accepted: a list with 'lightfield'")
     if light not in STUDY_LIGHTS:
         raise AquaspecError(f"study light {light!r}; accepted: {', '.join(STUDY_LIGHTS)}")
     light = (surface_light(light, sun_elevation_deg=sun_elevation_deg,
@@ -274,14 +333,16 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     phase_info = {**ph.describe(), "backscatter_fraction": ph.backscatter_fraction(),
                   "mean_cosine": float(ph.legendre_moments(1)[1])}
     pkey = phase_key(phase, g, backscatter)
+    occlusion_of = _occlusion_model() if occlusion else None
     rows, scenes, images, attenuation = [], [], {}, {}
-    total = len(waters) * len(depths)
+    total = len(waters) * len(depths) * len(scene_names)
     if waters and depths:
         # A broken scene should fail in a second, not after the Kd meters.
+        for name in scene_names:
+            scene0, cam0 = board_scene(depths[0], width=size[0], height=size[1],
+                                       seabed_below_m=seabed_below_m,
+                                       seabed_albedo=seabed_albedo, view=view, scene=name)
         say("checking the reference scene on an 8x6 test image")
-        scene0, cam0 = board_scene(depths[0], width=size[0], height=size[1],
-                                   seabed_below_m=seabed_below_m, seabed_albedo=seabed_albedo,
-                                   view=view)
         preflight(scene0, cam0, load_water(waters[0], source), light, phase=phase, g=g,
                   backscatter=backscatter)
     k = 0
@@ -308,20 +369,26 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
             "k_inf_lightfield": lf_att["k_inf"].tolist()}
         waters_by_mode = {"database": water,
                           "measured": water_with_kd(water, np.asarray(kd_res["kd"]))}
-        for depth in depths:
+        for depth, scene_name in ((d, n) for d in depths for n in scene_names):
             k += 1
             scene, cam = board_scene(depth, width=size[0], height=size[1],
                                      seabed_below_m=seabed_below_m,
-                                     seabed_albedo=seabed_albedo, view=view)
+                                     seabed_albedo=seabed_albedo, view=view,
+                                     scene=scene_name)
             gb = raycast_gbuffer(scene, cam)
+            occlusion_maps = occlusion_of(scene, cam) if occlusion_of else None
             sun_shadow = None
             if light.sun is not None:
                 sun_shadow = numpy_shadow_map(scene, cam, light.sun.to_sun)
-            m = masks(gb)
+            m = masks(gb, scene=scene_name)
             going_down = cam.ray_directions()[..., 1] <= 0
             region_masks = {"image": None, "patches": m["patches"].any(axis=0),
                             "grey": m["grey"], "background": m["background"],
                             "background_down": m["background"] & going_down}
+            if scene_name != "board":
+                region_masks.update({r: m[r] for r in ("seabed", "shaded_seabed")})
+            if scene_name in OCCLUDERS:
+                region_masks["occluder"] = m["occluder"]
             empty = [r for r, mk in region_masks.items() if mk is not None and not mk.any()]
             if empty:
                 say(f"  note: no pixel in region(s) {', '.join(empty)} at {size[0]}x{size[1]}; "
@@ -336,14 +403,15 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                             depth=depth, size=list(size), spp=spp, **pkey,
                             bands=REFERENCE_BANDS.describe(), max_depth=MAX_DEPTH,
                             data=data, geometry=geometry, **lkey,
-                            # (The level view's keys predate the views.)
+                            # (The level view's keys predate the views and scenes.)
                             **({} if view == "level" else
-                               {"camera": [cam.position.tolist(), cam.forward.tolist()]}))
+                               {"camera": [cam.position.tolist(), cam.forward.tolist()]}),
+                            **({} if scene_name == "board" else {"layout": scene_name}))
             t0 = time.perf_counter()
             ref, hit = _cached(cache_dir, key, lambda: render_reference(
                 scene, cam, water, light, spp=spp, phase=phase, g=g,
                 backscatter=backscatter))
-            say(f"[{k}/{total}] {wname} {depth:g} m: reference "
+            say(f"[{k}/{total}] {wname} {depth:g} m {scene_name}: reference "
                 f"{'from cache' if hit else f'{time.perf_counter() - t0:.1f} s'}")
             methods = {}
             numpy_seconds = {}
@@ -357,7 +425,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         methods[(name, mode)] = ("bands", n, _spectral(
                             gb, waters_by_mode[mode], light, n, ms, phase_lf,
                             phase_params, forward_cone_deg, cone_spread, scene.seabed,
-                            spread_scattering, ambient_shadow, sun_shadow))
+                            spread_scattering, ambient_shadow, sun_shadow, occlusion_maps))
                         numpy_seconds[name] = time.perf_counter() - t0
                         if ms == "lightfield" and scene.seabed is not None and n != 3:
                             # What leaving the seabed out of the light field costs.
@@ -365,7 +433,8 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                                 gb, waters_by_mode[mode], light, n, ms, phase_lf,
                                 phase_params, forward_cone_deg, cone_spread,
                                 spread_scattering=spread_scattering,
-                                ambient_shadow=ambient_shadow, sun_shadow=sun_shadow))
+                                ambient_shadow=ambient_shadow, sun_shadow=sun_shadow,
+                                occlusion=occlusion_maps))
             methods[("unreal", "database")] = ("baseline", "unreal", None)
             for mode in kd_modes:       # the image-formation model's B_inf and J use Kd
                 methods[("ifm", mode)] = ("baseline", "ifm", None)
@@ -381,20 +450,24 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                         met = metrics.all_metrics(ref_rgb, rgb, mask, matrix=mat)
                         if region == "image":
                             met["ssim"] = metrics.ssim(ref_rgb, rgb)
-                        rows.append({"water": wname, "depth_m": depth, "camera": cname,
-                                     "method": mname, "kd": mode, "region": region, **met})
+                        met.update(_mean_colour_metrics(ref_rgb, rgb, mask))
+                        rows.append({"scene": scene_name, "water": wname, "depth_m": depth,
+                                     "camera": cname, "method": mname, "kd": mode,
+                                     "region": region, **met})
                     # Mean colour of each patch: far less path-tracing noise
                     # than per-pixel errors.
                     if "patches" in region_masks:
-                        rows.append({"water": wname, "depth_m": depth, "camera": cname,
-                                     "method": mname, "kd": mode, "region": "patch_means",
-                                     **metrics.all_metrics(_region_means(ref_rgb, m),
-                                                           _region_means(rgb, m), matrix=mat)})
+                        ref_means, test_means = _region_means(ref_rgb, m), _region_means(rgb, m)
+                        rows.append({"scene": scene_name, "water": wname, "depth_m": depth,
+                                     "camera": cname, "method": mname, "kd": mode,
+                                     "region": "patch_means",
+                                     **metrics.all_metrics(ref_means, test_means, matrix=mat),
+                                     "mean_abs_error": _patch_abs_error(ref_means, test_means)})
                     if cname == next(iter(sensors)):
-                        images[(wname, depth, mname, mode)] = rgb
+                        images[(scene_name, wname, depth, mname, mode)] = rgb
                 if cname == next(iter(sensors)):
-                    images[(wname, depth, "reference", "-")] = ref_rgb
-            info = {"water": wname, "depth_m": depth, "reference_seconds":
+                    images[(scene_name, wname, depth, "reference", "-")] = ref_rgb
+            info = {"scene": scene_name, "water": wname, "depth_m": depth, "reference_seconds":
                     float(np.asarray(ref.get("seconds", np.nan))),
                     "pixels": size[0] * size[1], "spp": spp,
                     "numpy_shading_seconds": numpy_seconds,
@@ -402,7 +475,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                     "kd_measured_stderr": np.asarray(kd_res["kd_stderr"]).tolist(),
                     "kd_database": water.on_bands(REFERENCE_BANDS).kd.tolist()}
             stderr = {r: reference_stderr(ref["band_radiance"], region_masks[r])
-                      for r in ("grey", "background") if r in region_masks}
+                      for r in ("grey", "background", "shaded_seabed") if r in region_masks}
             info["reference_stderr"] = stderr
             info["converged"] = bool(stderr) and max(stderr.values()) <= CONVERGED_STDERR
             say("  reference standard error of the mean: " + ", ".join(
@@ -430,6 +503,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
                        "cone_spread": bool(cone_spread),
                        "spread_scattering": spread_scattering,
                        "ambient_shadow": bool(ambient_shadow), "view": view,
+                       "scenes": list(scene_names), "occlusion": bool(occlusion),
                        "light": light.describe(),
                        "seabed": None if seabed_below_m is None else
                        {"below_camera_m": float(seabed_below_m),

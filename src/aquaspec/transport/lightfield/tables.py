@@ -347,7 +347,8 @@ class LightfieldTables:
                         np.asarray(self.sky_radiance_per_e0, dtype=float) * e0, 0.0)
 
     def pixel_radiance(self, *, a, b, e0, depth_o, v_y, s, rho=None, surface_depth=None,
-                       n_y=None, form: str = "two_point", split_cone: bool = False):
+                       n_y=None, form: str = "two_point", split_cone: bool = False,
+                       surface_scale=None):
         """Band radiance along camera rays from the light-field tables.
 
         Same shape of call as :func:`aquaspec.transport.monzon2022.pixel_radiance` (per-ray
@@ -358,7 +359,9 @@ class LightfieldTables:
         ``v_y > window_cos``); a down ray in water with a seabed sees the seabed
         (``albedo E(H, +1)/pi``). A hit surface of reflectance ``rho`` at
         ``surface_depth`` with normal ``n_y`` gets ``rho E(d, n_y)/pi`` from the
-        irradiance table.
+        irradiance table, times ``surface_scale`` (per ray and band, e.g. the
+        scene's occlusion of the ambient light,
+        :func:`aquaspec.transport.lightfield.occlusion.occlusion_factor`) when given.
 
         ``split_cone=True`` returns ``(L without the cone, cone term)``: the
         radiance with the beam's full extinction ``c`` and the part the forward
@@ -385,6 +388,8 @@ class LightfieldTables:
             sd, ny = np.broadcast_arrays(sd, ny)
             l_surf = self.surface_radiance(rho, sd[..., 0] if sd.ndim else sd,
                                            ny[..., 0] if ny.ndim else ny, e0)
+            if surface_scale is not None:
+                l_surf = l_surf * np.asarray(surface_scale, dtype=float)
         f = np.asarray(self.forward_fraction, dtype=float)
         if form == "two_point" and np.any(f > 0):
             # The forward cone stays in the beam (extinction c - f b): with the
