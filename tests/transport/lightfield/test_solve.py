@@ -59,3 +59,20 @@ def test_bad_input():
         solve_lightfield([0.1], [0.1], phase="isotropic", surface="wavy")
     with pytest.raises(AquaspecError, match="seabed_depth_m"):
         solve_lightfield([0.1], [0.1], phase="isotropic", seabed_depth_m=-1)
+
+
+@pytest.mark.parametrize("g", [0.0, 0.3, 0.5])
+def test_weakly_forward_hg_gives_finite_tables_and_g0_is_isotropic(g):
+    """HG moments from quadrature end a few 1e-14 below 0 at order 2N for small g;
+    the delta-M fraction must not go negative (it made exp(-f b s) overflow and
+    the tables non-finite). HG with g = 0 is the isotropic phase function."""
+    from aquaspec.colour.bands import Bands
+    from aquaspec.medium.water import get_water
+    from aquaspec.transport.lightfield.bake import lightfield_tables
+    bw = get_water("IB").on_bands(Bands(4, 400, 700))
+    t = lightfield_tables(bw, phase="hg", g=g, n_depth=8, n_mu=9)
+    assert np.all(np.asarray(t.forward_fraction) >= 0)
+    assert np.all(np.isfinite(t.irradiance_per_e0)) and np.all(np.isfinite(t.ms_log_prefactor))
+    if g == 0.0:
+        iso = lightfield_tables(bw, phase="isotropic", n_depth=8, n_mu=9)
+        assert np.allclose(t.irradiance_per_e0, iso.irradiance_per_e0, rtol=1e-6)

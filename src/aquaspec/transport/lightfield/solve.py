@@ -223,7 +223,10 @@ def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
     w = np.concatenate([w_up, w_up])
 
     chi = band_moments(phase, 2 * n, b=b_arr, wavelength_nm=wavelength_nm, **phase_params)
-    f = chi[:, 2 * n]
+    # The delta-M truncation: the mass of p above order 2N. Moments computed by
+    # quadrature can come out a few 1e-14 below 0 where p has no such mass
+    # (Henyey-Greenstein g <= 0.5): a negative f would make exp(-f b s) grow.
+    f = np.maximum(chi[:, 2 * n], 0.0)
     chi_star = (chi[:, : 2 * n] - f[:, None]) / (1.0 - f[:, None])
     c = a_arr + b_arr
     c_star = c - f * b_arr
