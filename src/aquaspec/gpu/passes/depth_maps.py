@@ -5,7 +5,8 @@ Each layer is the scene rasterised depth-only along one direction
 heights ``h = p . w`` along it, depth ``(h_max - h) / (h_max - h_min)``)
 with ``depth_maps.wgsl`` beside this module, into a ``depth32float`` texture
 array of ``size`` texels a side. The sun's shadow map is one such layer; the
-ambient occlusion's maps (one per direction of its set) are many. NumPy twin:
+ambient occlusion's maps (one per direction of its set) are many
+(:class:`aquaspec.gpu.passes.sun_shadow.SunShadowPass` draws through this). NumPy twin:
 :func:`aquaspec.scene.shadowmap.shadow_map_numpy` (the same map per layer).
 
 Maps of static geometry are kept: :meth:`DepthMapArray.encode` draws again
@@ -76,6 +77,10 @@ class DepthMapArray:
         self._drawn = None
         #: Times the maps were drawn (the other encodes kept them).
         self.draw_count = 0
+
+    def layer_view(self, layer: int):
+        """Layer ``layer``'s own view (``texture_depth_2d``)."""
+        return self._layer_views[int(layer)]
 
     def pipeline(self, stride: int):
         """The render pipeline for vertices of ``stride`` bytes (made when first used)."""
