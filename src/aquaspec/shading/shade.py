@@ -44,6 +44,7 @@ from aquaspec.transport.lightfield.conespread import spread as pyramid_spread
 from aquaspec.transport.lightfield.occlusion import occlusion_factor, weights_from_tables
 from aquaspec.transport.lightfield.shadow import ambient_shadow
 from aquaspec.transport.lightfield.tables import LightfieldTables
+from aquaspec.transport.lightfield.water_occlusion import water_shadow, water_visibility
 
 #: Upper bound on float64 elements of one row chunk per band array.
 _CHUNK_ELEMENTS = 1 << 20
@@ -154,8 +155,11 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         (:func:`aquaspec.scene.occlusion.occlusion_maps`): each hit pixel's
         light-field term (not the sun's direct light, which has its own
         shadow map) is multiplied per band by
-        :func:`aquaspec.transport.lightfield.occlusion.occlusion_factor`.
-        Light-field model only (``lightfield`` given).
+        :func:`aquaspec.transport.lightfield.occlusion.occlusion_factor`,
+        and every pixel's in-scattering loses the water's own shadow
+        (:func:`aquaspec.transport.lightfield.water_occlusion.water_shadow`).
+        Light-field model only (``lightfield`` given), not together with the
+        tables' ``ambient_shadow``.
 
     Returns
     -------
@@ -182,8 +186,13 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         if not isinstance(occlusion, OcclusionMaps):
             raise AquaspecError(f"occlusion must be aquaspec.scene.occlusion.OcclusionMaps "
                                 f"(occlusion_maps(scene, camera)), got {type(occlusion).__name__}")
+        if lightfield.shadow is not None:
+            raise AquaspecError("occlusion and the ambient shadow (lightfield_tables("
+                                "ambient_shadow=True), --ambient-shadow) both take the scene's "
+                                "shadow out of the water's light; accepted: one of them")
     occ_weights = None if occlusion is None or occlusion.empty else weights_from_tables(
         lightfield, occlusion.directions, occlusion.solid_angle, a=a, b=b)
+    water_vis = None if occ_weights is None else water_visibility(occlusion)
     cam = gbuffer.camera
     d_o = camera_depth(cam)
     o_y = float(cam.position[1])
@@ -254,6 +263,11 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
                 v_y=v_y[hit, None], s=s[hit, None], rho=rho,
                 surface_depth=surface_depth[:, None], n_y=n_y[hit, None], ambient=ambient,
                 **occluded), hit, r0)
+        if water_vis is not None:
+            # The water's own ambient shadow (transport.lightfield.water_occlusion).
+            lrad -= water_shadow(lightfield, occ_weights, water_vis, cam.position,
+                                 dirs[r0:r1].reshape(-1, 3), s, a=a, b=b, e0=e0,
+                                 cone_cos=float(np.cos(np.radians(lightfield.forward_cone_deg))))
         if not np.all(np.isfinite(lrad)):
             raise AquaspecError("shading produced a non-finite radiance; check the water "
                                 "coefficients and the G-buffer")
