@@ -1,0 +1,313 @@
+"""The live view: the render loop of ``aquaspec view``, in a window or offscreen.
+
+:class:`LiveView` holds one :class:`aquaspec.rendering.renderer.Renderer`, the
+built-in scene, the spectral setups shown so far, a
+:class:`aquaspec.apps.flight.FlightController` and a
+:class:`aquaspec.gpu.passes.present.PresentPass`. Each frame
+(:meth:`LiveView.draw`, the draw function of a ``rendercanvas`` canvas)
+moves the camera by the keys held, records the renderer's displayed frame
+(:meth:`~aquaspec.rendering.renderer.Renderer.encode_frame`: geometry,
+shading with the display transform, the sun when on) and the present pass
+onto the canvas's current texture in one command encoder, and submits it:
+the image goes from the display buffer to the window's surface on the GPU,
+never through NumPy. The same object draws into a desktop window
+(``rendercanvas.glfw``) and into an offscreen canvas
+(``rendercanvas.offscreen``, whose context reads the presented texture back:
+that is how headless runs record frames).
+
+Frame rate: frames per second from the wall-clock time between frames
+(smoothed). Per-pass milliseconds: every :data:`PROFILE_EVERY` th frame is
+submitted pass by pass, each waited for (wall clock, as ``aquaspec bench
+--motion`` times passes; the GPU is lavapipe on the CPU here); the others are
+one submission. Both are in the window title (:meth:`LiveView.status`).
+
+The scene is fixed when the view starts (``builtin_scene(depth_m)``: the
+camera 1.5 m above the sand); the camera flies within it, bounded by the
+surface and the light field's seabed. Exposure and white balance are set
+automatically from the first frame and then held, so that frames compare.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from aquaspec.apps.flight import FlightController
+from aquaspec.colour.bands import Bands
+from aquaspec.colour.sensors import get_sensor
+from aquaspec.errors import AquaspecError
+from aquaspec.gpu.passes.present import PresentPass, plain_format
+from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
+from aquaspec.light.waves import WIND_RANGE, Waves
+from aquaspec.medium.water import get_water
+from aquaspec.rendering.appearance import check_ms_model
+from aquaspec.rendering.renderer import Renderer
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.builtin import builtin_scene
+from aquaspec.scene.camera import check_size
+from aquaspec.transport.models import DEFAULT_MS_MODEL
+
+#: Every this many frames, one is submitted and timed pass by pass.
+PROFILE_EVERY = 10
+#: Weight of the newest frame in the smoothed frame time.
+FPS_SMOOTHING = 0.2
+#: Below this sun elevation (degrees) the light is the overcast sky.
+OVERCAST_BELOW_DEG = 1.0
+
+
+@dataclasses.dataclass(frozen=True)
+class ViewSettings:
+    """What a live view shows (checked when made).
+
+    ``sun_elevation_deg`` below :data:`OVERCAST_BELOW_DEG` is the overcast
+    sky; ``wind`` 0 a flat surface, else a wind sea (m/s, within
+    :data:`aquaspec.light.waves.WIND_RANGE`) whose caustics move with the
+    frames' time (it needs the sun).
+    """
+
+    width: int = 640
+    height: int = 360
+    water: str = "IB"
+    depth_m: float = 5.0
+    bands: int = 8
+    sensor: str = "human"
+    camspec: object = None
+    ms_model: str = DEFAULT_MS_MODEL
+    cone_spread: bool | None = None
+    spread_scattering: str = "single"
+    sun_elevation_deg: float = 0.0
+    sun_azimuth_deg: float = DEFAULT_SUN_AZIMUTH_DEG
+    wind: float = 0.0
+
+    def __post_init__(self):
+        check_size(self.width, self.height)
+        object.__setattr__(self, "ms_model", check_ms_model(self.ms_model))
+        e, w = self.sun_elevation_deg, self.wind
+        if not (np.isfinite(e) and 0.0 <= e <= 90.0):
+            raise AquaspecError(f"sun elevation {e!r} deg; accepted: 0 (overcast) to 90")
+        if not np.isfinite(self.sun_azimuth_deg):
+            raise AquaspecError(f"sun azimuth {self.sun_azimuth_deg!r} deg; accepted: a "
+                                "finite angle")
+        if not (np.isfinite(w) and (w == 0 or WIND_RANGE[0] <= w <= WIND_RANGE[1])):
+            raise AquaspecError(f"wind {w!r} m/s; accepted: 0 (a flat surface) or "
+                                f"{WIND_RANGE[0]} to {WIND_RANGE[1]}")
+        if w > 0 and e < OVERCAST_BELOW_DEG:
+            raise AquaspecError(f"wind {w:g} m/s focuses the sun's beam into caustics: it "
+                                f"needs a sun elevation of at least {OVERCAST_BELOW_DEG:g} "
+                                f"deg, not {e:g}")
+        if self.spread_scattering not in ("single", "multiple"):
+            raise AquaspecError(f"spread_scattering={self.spread_scattering!r}; accepted: "
+                                "'single', 'multiple'")
+
+    @property
+    def has_sun(self) -> bool:
+        return self.sun_elevation_deg >= OVERCAST_BELOW_DEG
+
+    def describe(self) -> dict:
+        """The settings for a sidecar (JSON-ready)."""
+        out = dataclasses.asdict(self)
+        out["camspec"] = None if self.camspec is None else str(self.camspec)
+        out["light"] = "sun-sky" if self.has_sun else "overcast"
+        return out
+
+
+def display_buffer(renderer: Renderer):
+    """The GPU buffer holding ``renderer``'s last displayed frame (packed RGBA8,
+    what :meth:`~aquaspec.rendering.renderer.Renderer.read_display` reads).
+
+    The renderer names no such buffer publicly: its last display writer (the
+    shading pass with the display fused in, or its separate display pass) is
+    reached through ``_last_display``.
+    """
+    writer = renderer._last_display
+    if writer is None:
+        raise AquaspecError("no frame yet: encode one with Renderer.encode_frame() first")
+    buffer = getattr(writer, "output_buffer", None)     # a DisplayPass
+    return buffer if buffer is not None else writer.output.display_buffer
+
+
+class LiveView:
+    """The state and the frame of a live view (module docstring).
+
+    Parameters
+    ----------
+    settings : ViewSettings
+    progress : callable, optional
+        Called with a short message as slow steps start.
+    """
+
+    def __init__(self, settings: ViewSettings, progress=None):
+        self.settings = settings
+        self._say = progress or (lambda message: None)
+        s = settings
+        self.scene, start = builtin_scene(s.depth_m, width=s.width, height=s.height)
+        self.renderer = Renderer(s.width, s.height, s.bands)
+        self.device = self.renderer.deferred.device
+        self.flight = FlightController(start, seabed_depth_m=self.scene.seabed.depth_m)
+        self._setups: dict = {}
+        self.water = s.water
+        self.setup = self._setup(s.water)
+        self.display_settings = None
+        self.present = None         # PresentPass, made when a canvas is attached
+        self.canvas = self.context = None
+        #: Seconds of the view's own clock (moves the waves); advanced by draw().
+        self.time_s = 0.0
+        self.frame_index = 0
+        self.frame_ms = None        # smoothed wall time between frames
+        self.pass_ms: dict = {}     # the last profiled frame's passes
+        self._last = None
+        self.max_frames = None      # draw() closes the canvas after this many frames
+        #: A :class:`~aquaspec.apps.flight_script.FlightScript` driving the camera
+        #: (frame ``i`` at its time ``i / fps``) instead of the keys; None: the keys.
+        self.script = None
+        self._script_t = None
+        #: Called with the view after each frame is submitted (e.g. to record it).
+        self.on_frame = None
+
+    # ------------------------------------------------------------- physics
+    def _setup(self, water: str) -> SpectralSetup:
+        """The spectral setup of ``water`` with the view's other settings (made once)."""
+        if water not in self._setups:
+            s = self.settings
+            self._say(f"water {water}: loading and solving its light field ...")
+            light, waves = surface_light("overcast"), None
+            if s.has_sun:
+                light = surface_light("sun-sky", sun_elevation_deg=s.sun_elevation_deg,
+                                      sun_azimuth_deg=s.sun_azimuth_deg)
+                waves = Waves(s.wind) if s.wind > 0 else None
+            self._setups[water] = SpectralSetup(
+                get_water(water), get_sensor(s.sensor, s.camspec), light, Bands(s.bands),
+                ms_model=s.ms_model, cone_spread=s.cone_spread,
+                spread_scattering=s.spread_scattering,
+                seabed=self.scene.seabed if s.ms_model == "lightfield" else None, waves=waves)
+        return self._setups[water]
+
+    def set_water(self, water: str) -> None:
+        """Show ``water`` (a Jerlov type or a CSV path); the exposure is kept."""
+        self.setup = self._setup(water)
+        self.water = water
+        self.renderer.set_spectral(self.setup, self.scene.materials)
+        if self.display_settings is not None:
+            self.renderer.set_display(self.display_settings)
+
+    def auto_exposure(self) -> dict:
+        """Set exposure and white balance from a frame of the current pose."""
+        self._say("automatic exposure from one linear frame ...")
+        self.display_settings = self.renderer.auto_display(self.scene, self.flight.camera(),
+                                                           self.setup)
+        return self.display_settings
+
+    # -------------------------------------------------------------- canvas
+    def attach(self, canvas) -> None:
+        """Draw into ``canvas`` (a ``rendercanvas`` canvas): configure its wgpu
+        context on the renderer's device, route its events to the flight and
+        make :meth:`draw` its draw function."""
+        self.canvas = canvas
+        self.context = canvas.get_wgpu_context()
+        fmt = plain_format(self.context.get_preferred_format(self.device.adapter))
+        try:
+            self.context.configure(device=self.device, format=fmt)
+        except ValueError:
+            # The surface offers only the -srgb twin: the pass decodes first.
+            fmt = fmt + "-srgb"
+            self.context.configure(device=self.device, format=fmt)
+        self.present = PresentPass(self.device, fmt)
+        canvas.add_event_handler(self.handle_event, "key_down", "key_up", "pointer_down",
+                                 "pointer_up", "pointer_move")
+        if self.display_settings is None:
+            self.auto_exposure()
+        canvas.request_draw(self.draw)
+
+    def handle_event(self, event: dict) -> None:
+        """Keys and mouse to the flight; Escape closes the canvas."""
+        if event.get("event_type") == "key_down" and event.get("key") == "Escape":
+            self.canvas.close()
+            return
+        self.flight.handle_event(event)
+
+    def apply_script(self, frame: int) -> None:
+        """Take :attr:`script`'s pose at frame ``frame`` and the parameter changes
+        of the keyframes passed since the last call (water, then exposure)."""
+        t = self.script.time_of(frame)
+        auto = False
+        for key in self.script.changes_between(self._script_t, t):
+            if key.water is not None and key.water != self.water:
+                self.set_water(key.water)
+            auto = auto or key.auto_exposure
+        self._script_t = t
+        pose = self.script.pose_at(t)
+        self.flight.set_position(pose.position)
+        self.flight.set_view(pose.yaw_deg, pose.pitch_deg)
+        self.time_s = t
+        if auto:
+            self.auto_exposure()
+
+    def _split(self, name, encoder):
+        """Submit the pass ``name`` held in ``encoder``, wait, time it; a new encoder."""
+        self.device.queue.submit([encoder.finish()])
+        self.renderer.wait()
+        now = time.perf_counter()
+        self.pass_ms[name] = self.pass_ms.get(name, 0.0) + (now - self._pass_t0) * 1e3
+        self._pass_t0 = now
+        return self.device.create_command_encoder()
+
+    def draw(self) -> None:
+        """One frame: move, render, present onto the canvas's current texture."""
+        now = time.perf_counter()
+        dt = 0.0 if self._last is None else now - self._last
+        if self._last is not None:
+            ms = dt * 1e3
+            self.frame_ms = ms if self.frame_ms is None else \
+                (1 - FPS_SMOOTHING) * self.frame_ms + FPS_SMOOTHING * ms
+        self._last = now
+        if self.script is not None:
+            self.apply_script(self.frame_index)
+        else:
+            self.flight.advance(dt)
+            self.time_s += dt
+        self.encode_and_submit(profile=self.frame_index % PROFILE_EVERY == 0)
+        if self.on_frame is not None:
+            self.on_frame(self)
+        self.frame_index += 1
+        self.canvas.set_title(self.status())
+        if self.max_frames is not None and self.frame_index >= self.max_frames:
+            self.canvas.close()
+
+    def encode_and_submit(self, *, profile: bool = False) -> None:
+        """Record and submit the current pose's frame and its presentation;
+        ``profile``: pass by pass, timed into :attr:`pass_ms`."""
+        if self.setup.waves is not None:
+            self.renderer.set_wave_time(self.time_s)
+        camera = self.flight.camera()
+        encoder = self.device.create_command_encoder()
+        if profile:
+            self.pass_ms = {}
+            self._pass_t0 = time.perf_counter()
+        encoder = self.renderer.encode_frame(encoder, self.scene, camera, self.setup,
+                                             split=self._split if profile else None)
+        self.present.encode(encoder, display_buffer(self.renderer),
+                            (self.settings.width, self.settings.height),
+                            self.context.get_current_texture())
+        if profile:
+            self._split("present", encoder)
+        else:
+            self.device.queue.submit([encoder.finish()])
+
+    def status(self) -> str:
+        """Frame rate, per-pass milliseconds and the pose, for the title."""
+        fps = "-" if not self.frame_ms else f"{1e3 / self.frame_ms:.1f}"
+        passes = ", ".join(f"{k} {v:.0f}" for k, v in self.pass_ms.items())
+        f = self.flight
+        x, _, z = f.position
+        return (f"aquaspec view | {fps} fps | ms: {passes or '-'} | Jerlov {self.water} | "
+                f"depth {f.depth_m:.2f} m, x {x:.1f} z {z:.1f}, yaw {f.yaw_deg:.0f} "
+                f"pitch {f.pitch_deg:.0f} | speed {f.speed_m_s:.2f} m/s")
+
+    def pose(self) -> dict:
+        """The camera's pose and the view's state now (JSON-ready)."""
+        f = self.flight
+        return {"position_m": [float(v) for v in f.position], "depth_m": f.depth_m,
+                "yaw_deg": f.yaw_deg, "pitch_deg": f.pitch_deg, "speed_m_s": f.speed_m_s,
+                "water": self.water, "time_s": self.time_s}
