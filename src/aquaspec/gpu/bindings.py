@@ -23,12 +23,18 @@ _TEXTURES = {"float": (wgpu.TextureSampleType.unfilterable_float, wgpu.TextureVi
                                   wgpu.TextureViewDimension.d2_array),
              "filterable": (wgpu.TextureSampleType.float, wgpu.TextureViewDimension.d2),
              "filterable_3d": (wgpu.TextureSampleType.float, wgpu.TextureViewDimension.d3),
-             "depth": (wgpu.TextureSampleType.depth, wgpu.TextureViewDimension.d2)}
+             "depth": (wgpu.TextureSampleType.depth, wgpu.TextureViewDimension.d2),
+             "depth_array": (wgpu.TextureSampleType.depth, wgpu.TextureViewDimension.d2_array)}
 _SAMPLERS = {"sampler": wgpu.SamplerBindingType.filtering,
              "nonfiltering_sampler": wgpu.SamplerBindingType.non_filtering,
              "comparison_sampler": wgpu.SamplerBindingType.comparison}
 #: Every kind :func:`bind_group_layout` accepts.
-BINDING_KINDS = (*_BUFFERS, *_TEXTURES, "storage_rgba32float", *_SAMPLERS)
+#: Write-only storage textures: (format, view dimension).
+_STORAGE = {"storage_rgba32float": (wgpu.TextureFormat.rgba32float,
+                                    wgpu.TextureViewDimension.d2),
+            "storage_rgba16float_array": (wgpu.TextureFormat.rgba16float,
+                                          wgpu.TextureViewDimension.d2_array)}
+BINDING_KINDS = (*_BUFFERS, *_TEXTURES, *_STORAGE, *_SAMPLERS)
 
 
 def _entry(binding: int, kind: str) -> dict:
@@ -36,10 +42,10 @@ def _entry(binding: int, kind: str) -> dict:
     if kind in _TEXTURES:
         sample_type, dimension = _TEXTURES[kind]
         return {**visible, "texture": {"sample_type": sample_type, "view_dimension": dimension}}
-    if kind == "storage_rgba32float":
+    if kind in _STORAGE:
+        fmt, dimension = _STORAGE[kind]
         return {**visible, "storage_texture": {"access": wgpu.StorageTextureAccess.write_only,
-                                               "format": wgpu.TextureFormat.rgba32float,
-                                               "view_dimension": wgpu.TextureViewDimension.d2}}
+                                               "format": fmt, "view_dimension": dimension}}
     if kind in _SAMPLERS:
         return {**visible, "sampler": {"type": _SAMPLERS[kind]}}
     if kind in _BUFFERS:
@@ -55,7 +61,7 @@ def bind_group_layout(device, bindings):
     ``"float"`` / ``"uint"`` (unfilterable 2-D textures of that sample type),
     ``"filterable"`` (2-D filterable float), ``"float_array"`` /
     ``"filterable_array"`` (2-D array textures, unfilterable / filterable
-    float), ``"filterable_3d"`` (a 3-D filterable float texture), ``"depth"`` (a 2-D depth texture), ``"storage_rgba32float"`` (write-only
+    float), ``"filterable_3d"`` (a 3-D filterable float texture), ``"depth"`` / ``"depth_array"`` (a 2-D depth texture, or an array of them), ``"storage_rgba32float"``, ``"storage_rgba16float_array"`` (write-only
     storage texture),
     ``"sampler"`` / ``"nonfiltering_sampler"`` / ``"comparison_sampler"``.
     """

@@ -246,6 +246,50 @@ def _sample(hmap, spec: ShadowMapSpec, points, bias):
     return np.clip(1.0 - occ_w, 0.0, 1.0), occ_h
 
 
+def _direction_set(directions):
+    if isinstance(directions, tuple):
+        dirs, omega = (np.asarray(x, dtype=float) for x in directions)
+        if dirs.ndim != 2 or dirs.shape[1] != 3 or omega.shape != dirs.shape[:1] \
+                or not np.all(np.isfinite(dirs)) or not np.all(omega > 0):
+            raise AquaspecError(f"occlusion directions of shapes {dirs.shape}, {omega.shape}; "
+                                "accepted: (K, 3) unit vectors and (K,) solid angles > 0")
+        return dirs / np.linalg.norm(dirs, axis=1, keepdims=True), omega
+    return sphere_directions(directions)
+
+
+@dataclass(frozen=True, eq=False)
+class OcclusionLayout:
+    """What the occlusion maps of a scene are before they are drawn
+    (:func:`occlusion_layout`): the directions ``dirs`` (K, 3), their solid
+    angles (K,), the occluder triangles and one
+    :class:`~aquaspec.scene.shadowmap.ShadowMapSpec` per direction (None:
+    nothing to occlude along it). The NumPy maps and the GPU's
+    (:mod:`aquaspec.gpu.passes.occlusion`) are drawn from the same layout."""
+
+    directions: np.ndarray
+    solid_angle: np.ndarray
+    triangles: _Triangles
+    specs: tuple
+
+
+def occlusion_layout(scene, camera, *, directions=DEFAULT_DIRECTIONS,
+                     size: int = DEFAULT_OCCLUSION_MAP_SIZE,
+                     radius_m: float = DEFAULT_MAP_RADIUS_M,
+                     margin_m: float = DEFAULT_MAP_MARGIN_M) -> OcclusionLayout:
+    """The directions, occluders and map geometry of :func:`occlusion_maps`
+    (same arguments)."""
+    dirs, omega = _direction_set(directions)
+    tris = occluder_triangles(scene) if scene is not None else None
+    if tris is None or len(tris.corners) == 0:
+        empty = _Triangles(np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros(0, bool))
+        return OcclusionLayout(dirs, omega, empty, (None,) * len(dirs))
+    flat = tris.corners.reshape(-1, 3)
+    bounds = np.stack([flat.min(axis=0), flat.max(axis=0)])
+    specs = tuple(shadow_map_spec(bounds, camera.position, w, size=size, radius_m=radius_m,
+                                  margin_m=margin_m) for w in dirs)
+    return OcclusionLayout(dirs, omega, tris, specs)
+
+
 def occlusion_maps(scene, camera, *, directions=DEFAULT_DIRECTIONS,
                    size: int = DEFAULT_OCCLUSION_MAP_SIZE,
                    radius_m: float = DEFAULT_MAP_RADIUS_M,
@@ -259,33 +303,18 @@ def occlusion_maps(scene, camera, *, directions=DEFAULT_DIRECTIONS,
     (:func:`aquaspec.scene.shadowmap.shadow_map_spec`); receivers or
     occluders outside it count as seeing open water.
     """
-    if isinstance(directions, tuple):
-        dirs, omega = (np.asarray(x, dtype=float) for x in directions)
-        if dirs.ndim != 2 or dirs.shape[1] != 3 or omega.shape != dirs.shape[:1] \
-                or not np.all(np.isfinite(dirs)) or not np.all(omega > 0):
-            raise AquaspecError(f"occlusion directions of shapes {dirs.shape}, {omega.shape}; "
-                                "accepted: (K, 3) unit vectors and (K,) solid angles > 0")
-        dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
-    else:
-        dirs, omega = sphere_directions(directions)
-    tris = occluder_triangles(scene) if scene is not None else None
-    maps, specs = [], []
-    if tris is None or len(tris.corners) == 0:
-        return OcclusionMaps(dirs, omega, (None,) * len(dirs), (None,) * len(dirs))
-    flat = tris.corners.reshape(-1, 3)
-    bounds = np.stack([flat.min(axis=0), flat.max(axis=0)])
+    lay = occlusion_layout(scene, camera, directions=directions, size=size, radius_m=radius_m,
+                           margin_m=margin_m)
+    tris = lay.triangles
     soup = _Soup(tris.corners)
-    for w in dirs:
-        spec = shadow_map_spec(bounds, camera.position, w, size=size, radius_m=radius_m,
-                               margin_m=margin_m)
+    maps = []
+    for w, spec in zip(lay.directions, lay.specs):
         if spec is None:
             maps.append(None)
-            specs.append(None)
             continue
         keep = ~tris.closed | (tris.normals @ w < 0.0)
         maps.append(shadow_map_numpy(_Scene([soup.select(keep)]), spec))
-        specs.append(spec)
-    return OcclusionMaps(dirs, omega, tuple(maps), tuple(specs))
+    return OcclusionMaps(lay.directions, lay.solid_angle, tuple(maps), lay.specs)
 
 
 @dataclass(frozen=True)

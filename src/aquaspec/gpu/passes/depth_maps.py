@@ -11,6 +11,13 @@ ambient occlusion's maps (one per direction of its set) are many
 
 Maps of static geometry are kept: :meth:`DepthMapArray.encode` draws again
 only when the specs or the draw buffers change.
+
+A draw may carry ``stride`` (bytes per vertex, position first; default the
+geometry pass's :data:`aquaspec.gpu.passes.raster.VERTEX_STRIDE` of its
+``mode``) and ``cull``: ``"none"`` (default) or ``"toward"``, which keeps
+only the triangles whose outward normal (counter-clockwise winding) points
+away from the map's direction, i.e. the side facing a receiver below it
+(second-depth maps of closed occluders, :mod:`aquaspec.scene.occlusion`).
 """
 
 from __future__ import annotations
@@ -38,6 +45,20 @@ def spec_key(spec: ShadowMapSpec) -> tuple:
 def draws_key(draws) -> tuple:
     """The draw calls' buffers as a hashable value (same buffers, same geometry)."""
     return tuple((id(d.vertex), id(d.index), d.count) for d in draws)
+
+
+def _cull_mode(cull: str, spec: ShadowMapSpec) -> str:
+    """The raster's cull mode for a draw's ``cull`` in ``spec``'s map."""
+    if cull == "none":
+        return "none"
+    if cull != "toward":
+        raise AquaspecError(f"depth map cull {cull!r}; accepted: 'none', 'toward'")
+    # The clip matrix maps e1 to +x, e2 to -y and looks along -w (the viewer at
+    # +w): a triangle whose outward normal points to the viewer (n . w > 0,
+    # the side to cull) winds counter-clockwise on screen when (e1, -e2, w)
+    # is right-handed.
+    right_handed = float(np.dot(np.cross(spec.e1, -np.asarray(spec.e2)), spec.to_sun)) > 0
+    return "front" if right_handed else "back"
 
 
 class DepthMapArray:
@@ -82,21 +103,22 @@ class DepthMapArray:
         """Layer ``layer``'s own view (``texture_depth_2d``)."""
         return self._layer_views[int(layer)]
 
-    def pipeline(self, stride: int):
-        """The render pipeline for vertices of ``stride`` bytes (made when first used)."""
-        if stride not in self._pipelines:
-            self._pipelines[stride] = self.device.create_render_pipeline(
+    def pipeline(self, stride: int, cull: str = "none"):
+        """The render pipeline for vertices of ``stride`` bytes and ``cull``
+        mode (``"none"``, ``"front"``, ``"back"``; made when first used)."""
+        if (stride, cull) not in self._pipelines:
+            self._pipelines[stride, cull] = self.device.create_render_pipeline(
                 label="depth map", layout=self._layout,
                 vertex={"module": self._module, "entry_point": "vs_main", "buffers": [{
                     "array_stride": stride, "step_mode": wgpu.VertexStepMode.vertex,
                     "attributes": [{"format": wgpu.VertexFormat.float32x3, "offset": 0,
                                     "shader_location": 0}]}]},
                 primitive={"topology": wgpu.PrimitiveTopology.triangle_list,
-                           "cull_mode": wgpu.CullMode.none},
+                           "front_face": wgpu.FrontFace.ccw, "cull_mode": cull},
                 depth_stencil={"format": DEPTH_FORMAT, "depth_write_enabled": True,
                                "depth_compare": wgpu.CompareFunction.less},
                 multisample={"count": 1}, fragment=None)
-        return self._pipelines[stride]
+        return self._pipelines[stride, cull]
 
     def encode(self, encoder, draws, specs) -> bool:
         """Record the maps of ``draws`` (:meth:`aquaspec.gpu.passes.raster.RasterPass.draws`)
@@ -120,7 +142,9 @@ class DepthMapArray:
                                           "depth_load_op": wgpu.LoadOp.clear,
                                           "depth_store_op": wgpu.StoreOp.store})
             for d in draws:
-                rp.set_pipeline(self.pipeline(VERTEX_STRIDE[d.mode]))
+                stride = getattr(d, "stride", None) or VERTEX_STRIDE[d.mode]
+                rp.set_pipeline(self.pipeline(stride, _cull_mode(getattr(d, "cull", "none"),
+                                                                 spec)))
                 rp.set_bind_group(0, self._groups[k])
                 rp.set_vertex_buffer(0, d.vertex)
                 rp.set_index_buffer(d.index, d.index_format)
