@@ -1,8 +1,9 @@
-"""``aquaspec view``: the interactive window."""
+"""``aquaspec view``: the live view, in a window or offscreen (scripted, recorded)."""
 
 from __future__ import annotations
 
 import argparse
+import sys
 
 from aquaspec.cli.common import (DEFAULT_SUN_ELEVATION_DEG, MAX_OCEAN_DEPTH_M,
                                  add_camspec_option, add_spread_scattering_option,
@@ -12,17 +13,22 @@ from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
 from aquaspec.scene.camera import parse_size
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MS_MODEL_CHOICES
 
-#: The viewer's sun slider at 0 is its overcast sky.
+#: The live view's sun elevation 0 is its overcast sky.
 _OVERCAST_ELEVATION = 0.0
 
 
 def register(sub):
-    p = sub.add_parser("view", help="interactive window with live controls",
-                       description="Open a window showing the built-in scene, with sliders for "
-                                   "depth, bands, exposure, the sun and the wind (caustics) and "
-                                   "choices of water, sensor and multiple-scattering model. "
-                                   "Needs a display and a matplotlib GUI backend. The options "
-                                   "set where the controls start.")
+    p = sub.add_parser("view", help="live view of the built-in scene: fly the camera; "
+                                    "or offscreen, scripted and recorded",
+                       description="Render the built-in scene continuously into a window "
+                                   "(glfw; pip install 'aquaspec[view]') and fly the camera: "
+                                   "W/A/S/D/Q/E move, drag the mouse to look, +/- change the "
+                                   "speed, R resets, Esc quits. The title shows the frame rate, "
+                                   "per-pass milliseconds and the camera's depth. The options "
+                                   "set the physics (fixed for the run). --offscreen draws the "
+                                   "same frames without a display; --script drives the camera "
+                                   "and the water from a JSON flight script; --record writes "
+                                   "the frames as PNG with a run.json sidecar.")
     p.add_argument("--water", default="IB", metavar="TYPE|FILE.csv",
                    help="Jerlov water type (I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C) or a CSV "
                         "wavelength_nm,a,b[,Kd] (default IB)")
@@ -42,8 +48,7 @@ def register(sub):
                         "(default: on)")
     add_spread_scattering_option(p)
     p.add_argument("--light", default="overcast", choices=("overcast", "sun-sky"),
-                   help="light at the surface to start with, as for render (default overcast; "
-                        "the window's sun slider at 0 is the overcast sky)")
+                   help="light at the surface, as for render (default overcast)")
     p.add_argument("--sun-elevation", type=finite_float, default=None, metavar="DEG",
                    help=f"--light sun-sky: the sun's elevation, 1-90 (default "
                         f"{DEFAULT_SUN_ELEVATION_DEG:g})")
@@ -51,21 +56,45 @@ def register(sub):
                    help="--light sun-sky: the sun's compass angle, as for render (default "
                         f"{DEFAULT_SUN_AZIMUTH_DEG:g})")
     p.add_argument("--wind", type=finite_float, default=0.0, metavar="M_S",
-                   help="start the wind slider here: a wind sea's caustics under the sun "
+                   help="a wind sea's caustics under the sun, moving with the frames "
                         "(0 = a flat surface; default 0)")
     p.add_argument("--size", default="640x360", metavar="WxH",
-                   help="size of the rendered image (default 640x360)")
+                   help="size of the rendered image and of the window (default 640x360)")
+    p.add_argument("--offscreen", action="store_true",
+                   help="draw offscreen (no display needed; needs --frames)")
+    p.add_argument("--script", default=None, metavar="FLIGHT.json",
+                   help="a flight script: camera keyframes (position or depth_m, yaw_deg, "
+                        "pitch_deg) and changes (water, auto_exposure) over time; see "
+                        "docs/cli.md")
+    p.add_argument("--frames", type=int, default=None, metavar="N",
+                   help="stop after N frames (required with --offscreen)")
+    p.add_argument("--record", default=None, metavar="OUTDIR",
+                   help="write every frame as OUTDIR/frame_NNNNN.png and the run's "
+                        "parameters, poses and frame rate as OUTDIR/run.json")
+    p.add_argument("--mp4", action="store_true",
+                   help="with --record: also OUTDIR/flight.mp4 (imageio-ffmpeg)")
     p.set_defaults(func=run, command="view")
 
 
 def run(args):
-    # deferred: the viewer loads wgpu, rendercanvas and matplotlib; `aquaspec --help` need not
-    from aquaspec.apps.viewer import run_viewer
+    # deferred: the live view loads wgpu and rendercanvas; `aquaspec --help` need not
+    from aquaspec.apps.live import ViewSettings
+    from aquaspec.apps.view import run_view  # deferred: as above
     w, h = parse_size(args.size)
     elevation, azimuth = sun_from(args)
-    run_viewer(width=w, height=h, water=args.water, depth_m=args.depth, bands=args.bands,
-               sensor=args.sensor, ms_model=args.ms_model, cone_spread=args.cone_spread,
-               camspec=check_camspec(args.camspec), spread_scattering=args.spread_scattering,
-               sun_elevation_deg=elevation if args.light == "sun-sky" else _OVERCAST_ELEVATION,
-               sun_azimuth_deg=azimuth, wind=args.wind)
+    settings = ViewSettings(
+        width=w, height=h, water=args.water, depth_m=args.depth, bands=args.bands,
+        sensor=args.sensor, camspec=check_camspec(args.camspec), ms_model=args.ms_model,
+        cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
+        sun_elevation_deg=elevation if args.light == "sun-sky" else _OVERCAST_ELEVATION,
+        sun_azimuth_deg=azimuth, wind=args.wind)
+    summary = run_view(settings, offscreen=args.offscreen, script=args.script,
+                       frames=args.frames, record=args.record, mp4=args.mp4,
+                       progress=lambda m: print(m, file=sys.stderr))
+    final = summary["final"]
+    fps = "-" if summary["fps"] is None else f"{summary['fps']:.1f}"
+    print(f"{summary['frames_drawn']} frames ({summary['mode']}), median {fps} fps; camera at "
+          f"depth {final['depth_m']:.2f} m, position "
+          f"({', '.join(f'{v:.2f}' for v in final['position_m'])}) m"
+          + ("" if args.record is None else f"; recorded in {args.record}"))
     return 0

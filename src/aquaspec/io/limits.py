@@ -41,6 +41,7 @@ MAX_FILE_BYTES = {
     "mesh": 1024 * _MB,     # OBJ/PLY/glTF/GLB/STL/OFF (trimesh needs ~10x in memory)
     "image": 512 * _MB,     # the colour image of an RGB-D pair
     "depth": 1024 * _MB,    # its depth map (PNG, NPY, EXR)
+    "script": 10 * _MB,     # a flight script (JSON keyframes; a real one is a few KB)
 }
 
 #: Share of the available memory a job's estimate may take.

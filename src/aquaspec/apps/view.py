@@ -1,0 +1,143 @@
+"""``aquaspec view``: the live view in a desktop window or offscreen.
+
+:func:`run_view` is what the command calls. In a window (``rendercanvas``'s
+glfw backend, the ``view`` extra) the frames run continuously until the
+window is closed (or Escape, or ``frames`` frames); the camera flies with
+the keys and mouse (:mod:`aquaspec.apps.flight`) unless a flight script
+drives it. Offscreen (``rendercanvas``'s offscreen canvas; no display
+needed) the same :class:`aquaspec.apps.live.LiveView` draws ``frames``
+frames, the camera driven by a script (:mod:`aquaspec.apps.flight_script`)
+or standing still. With ``record`` each frame is written as a PNG (offscreen:
+the presented texture, as the canvas reads it back; in a window: the display
+buffer, read back only for recording), optionally an MP4, and a ``run.json``
+sidecar with the parameters, every frame's pose and the frame rate
+(:mod:`aquaspec.apps.record`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from aquaspec.apps.flight_script import FlightScript, Pose
+from aquaspec.apps.live import PROFILE_EVERY, LiveView, ViewSettings
+from aquaspec.apps.record import FrameRecorder
+from aquaspec.errors import AquaspecError
+from aquaspec.gpu.device import adapter_info
+
+#: Environment variable that forces the offscreen canvas (rendercanvas's own).
+FORCE_OFFSCREEN_ENV = "RENDERCANVAS_FORCE_OFFSCREEN"
+
+
+def _window_canvas(settings: ViewSettings):
+    try:
+        # deferred: glfw (the `view` extra) loads a windowing library; offscreen runs need none
+        from rendercanvas.glfw import RenderCanvas, loop
+    except ImportError as exc:
+        raise AquaspecError(f"a window needs glfw ({exc}); install the view extra: pip install "
+                            "'aquaspec[view]', or run with --offscreen") from None
+    try:
+        canvas = RenderCanvas(size=(settings.width, settings.height), title="aquaspec view",
+                              update_mode="continuous", max_fps=120, vsync=False)
+    except Exception as exc:         # glfw raises its own error types
+        raise AquaspecError(f"could not open a window ({type(exc).__name__}: {exc}); is there "
+                            "a display (DISPLAY / WAYLAND_DISPLAY)? Headless: --offscreen"
+                            ) from None
+    return canvas, loop
+
+
+def _start_pose(view: LiveView) -> Pose:
+    f = view.flight
+    return Pose(tuple(float(v) for v in f.position), f.yaw_deg, f.pitch_deg)
+
+
+def _summary(view: LiveView, walls_ms: list, mode: str) -> dict:
+    """The run's frame rate and last per-pass times (JSON-ready); ``walls_ms``
+    holds ``(frame index, ms)``. The first frame (pipelines compiled, tables
+    built) and the frames timed pass by pass are not the steady rate."""
+    steady = [ms for i, ms in walls_ms if i >= 1 and i % PROFILE_EVERY != 0]
+    median = float(np.median(steady)) if steady else None
+    return {"mode": mode, "frames_drawn": view.frame_index,
+            "median_frame_ms": median, "fps": None if not median else 1e3 / median,
+            "pass_ms": dict(view.pass_ms), "final": view.pose()}
+
+
+def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
+             frames: int | None = None, record=None, mp4: bool = False,
+             progress=None) -> dict:
+    """Run the live view; returns the run's summary (frame rate, final pose).
+
+    Parameters
+    ----------
+    settings : ViewSettings
+    offscreen : bool
+        Draw into ``rendercanvas``'s offscreen canvas (needs ``frames``).
+    script : path, optional
+        A flight script driving the camera and the parameters.
+    frames : int, optional
+        Stop after this many frames (a window: None runs until it is closed).
+    record : path, optional
+        Folder for the PNG frames, ``run.json`` and, with ``mp4``, the video.
+    progress : callable, optional
+        Called with short messages.
+    """
+    say = progress or (lambda message: None)
+    if frames is not None and (isinstance(frames, bool) or not isinstance(frames, int)
+                               or frames < 1):
+        raise AquaspecError(f"--frames {frames!r}; accepted: a whole number >= 1")
+    if offscreen and frames is None:
+        raise AquaspecError("--offscreen needs --frames N (there is no window to close)")
+    if mp4 and record is None:
+        raise AquaspecError("--mp4 needs --record OUTDIR (the video goes there)")
+    view = LiveView(settings, progress=say)
+    if script is not None:
+        view.script = FlightScript.load(script, _start_pose(view))
+        view.apply_script(0)
+    fps = view.script.fps if view.script is not None else 30.0
+    recorder = None if record is None else FrameRecorder(record, fps=fps, mp4=mp4)
+    walls_ms: list = []
+    mode = "offscreen" if offscreen else "window"
+    try:
+        if offscreen:
+            # deferred: rendercanvas's canvases are needed only when a view runs
+            from rendercanvas.offscreen import RenderCanvas
+            canvas = RenderCanvas(size=(settings.width, settings.height))
+            view.attach(canvas)
+            for i in range(frames):
+                t0 = time.perf_counter()
+                image = np.asarray(canvas.draw())
+                walls_ms.append((i, (time.perf_counter() - t0) * 1e3))
+                if recorder is not None:
+                    recorder.add(image, view.pose())
+                say(f"frame {i + 1}/{frames}: {view.status()}")
+            canvas.close()
+        else:
+            canvas, loop = _window_canvas(settings)
+            view.max_frames = frames
+            last = [None]
+
+            def after_frame(v):
+                now = time.perf_counter()
+                if last[0] is not None:
+                    walls_ms.append((v.frame_index, (now - last[0]) * 1e3))
+                last[0] = now
+                if recorder is not None:
+                    recorder.add(v.renderer.read_display(), v.pose())
+
+            view.on_frame = after_frame
+            view.attach(canvas)
+            say("window open: W/A/S/D/Q/E move, drag to look, +/- speed, R reset, Esc quit")
+            loop.run()
+    except BaseException:
+        if recorder is not None:
+            recorder.discard()
+        raise
+    summary = _summary(view, walls_ms, mode)
+    if recorder is not None:
+        recorder.close({"command": "view", "settings": settings.describe(), **summary,
+                        "image_source": "presented texture (offscreen canvas)" if offscreen
+                        else "display buffer (read back for recording)",
+                        "script": None if view.script is None else view.script.doc,
+                        "display": view.display_settings, "adapter": adapter_info()})
+    return summary

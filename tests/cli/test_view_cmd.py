@@ -1,0 +1,96 @@
+"""`aquaspec view`: the headless script mode (offscreen canvas, recorded frames)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from aquaspec.cli import main
+
+DESCENT = {"fps": 1, "keyframes": [
+    {"t": 0, "depth_m": 1.5, "yaw_deg": 0, "pitch_deg": 0},
+    {"t": 2, "depth_m": 3.0}]}
+
+
+def _blue_over_red(png, rows=0.2):
+    """Mean blue over mean red of the top ``rows`` of the frame: open water
+    above the horizon, the background (the camera looks level)."""
+    a = np.asarray(Image.open(png)).astype(float)
+    top = a[:max(1, int(a.shape[0] * rows))]
+    return top[..., 2].mean() / top[..., 0].mean()
+
+
+@pytest.mark.gpu
+class TestScriptMode:
+    def test_descent_in_jerlov_ib_turns_the_background_bluer(self, tmp_path, capsys):
+        """Three frames, the camera descending from 1.5 to 3 m in Jerlov IB with
+        the exposure held: red is absorbed faster than blue, so the background's
+        blue-to-red ratio grows frame by frame."""
+        script = tmp_path / "descent.json"
+        script.write_text(json.dumps(DESCENT))
+        out = tmp_path / "run"
+        assert main(["view", "--offscreen", "--script", str(script), "--frames", "3",
+                     "--record", str(out), "--water", "IB", "--size", "96x54",
+                     "--bands", "6"]) == 0
+        frames = [out / f"frame_{i:05d}.png" for i in range(3)]
+        assert all(f.is_file() for f in frames)
+        assert not list(out.glob(".*part*"))            # no temporary file left behind
+        ratios = [_blue_over_red(f) for f in frames]
+        assert ratios[0] < ratios[1] < ratios[2], ratios
+        run = json.loads((out / "run.json").read_text())
+        assert run["settings"]["water"] == "IB" and run["mode"] == "offscreen"
+        assert [f["file"] for f in run["frames"]] == [f.name for f in frames]
+        np.testing.assert_allclose([f["depth_m"] for f in run["frames"]], [1.5, 2.25, 3.0])
+        assert run["script"] == DESCENT
+        assert "3 frames (offscreen)" in capsys.readouterr().out
+
+    def test_water_change_in_the_script(self, tmp_path):
+        """A keyframe's water takes effect at its time; the exposure held, the
+        greener coastal water 3C looks less blue than IB from the same pose."""
+        script = tmp_path / "water.json"
+        script.write_text(json.dumps({"fps": 1, "keyframes": [
+            {"t": 0, "depth_m": 2, "pitch_deg": 0}, {"t": 1, "water": "3C"}]}))
+        out = tmp_path / "run"
+        assert main(["view", "--offscreen", "--script", str(script), "--frames", "2",
+                     "--record", str(out), "--size", "64x36", "--bands", "6"]) == 0
+        run = json.loads((out / "run.json").read_text())
+        assert [f["water"] for f in run["frames"]] == ["IB", "3C"]
+        a, b = (np.asarray(Image.open(out / f["file"])).astype(float)[:8].mean(axis=(0, 1))
+                for f in run["frames"])
+        assert b[2] / b[1] < a[2] / a[1]
+
+    def test_mp4_holds_the_frames(self, tmp_path):
+        imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg", reason="the view extra's "
+                                             "imageio-ffmpeg writes the MP4")
+        out = tmp_path / "run"
+        assert main(["view", "--offscreen", "--frames", "3", "--record", str(out), "--mp4",
+                     "--size", "64x36", "--bands", "3"]) == 0
+        reader = imageio_ffmpeg.read_frames(str(out / "flight.mp4"))
+        meta = next(reader)
+        assert tuple(meta["size"]) == (64, 36)
+        assert sum(1 for _ in reader) == 3
+        assert json.loads((out / "run.json").read_text())["video"] == "flight.mp4"
+
+
+class TestOptions:
+    @pytest.mark.parametrize("args, message", [
+        (["--offscreen"], "--offscreen needs --frames N"),
+        (["--offscreen", "--frames", "0"], "--frames 0; accepted: a whole number >= 1"),
+        (["--offscreen", "--frames", "2", "--mp4"], "--mp4 needs --record OUTDIR"),
+        (["--wind", "3"], "needs a sun elevation of at least 1"),
+    ])
+    def test_bad_combinations_are_refused_before_rendering(self, args, message, capsys):
+        assert main(["view", *args]) == 2
+        assert message in capsys.readouterr().err
+
+    @pytest.mark.gpu
+    def test_a_bad_script_names_the_file(self, tmp_path, capsys):
+        bad = tmp_path / "bad.json"
+        bad.write_text(json.dumps({"keyframes": [{"t": 0, "zoom": 3}]}))
+        assert main(["view", "--offscreen", "--frames", "1", "--script", str(bad),
+                     "--size", "32x18", "--bands", "3"]) == 2
+        err = capsys.readouterr().err
+        assert "bad.json" in err and "unknown key(s) ['zoom']" in err
