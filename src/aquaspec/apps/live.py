@@ -165,6 +165,9 @@ class LiveView:
         self._script_t = None
         #: Called with the view after each frame is submitted (e.g. to record it).
         self.on_frame = None
+        #: Moving waves: do not wait for the sea's caustic loop; frames read the
+        #: part built so far (a window stays live). False: every frame exact.
+        self.progressive_waves = False
 
     # ------------------------------------------------------------- physics
     def _setup(self, water: str) -> SpectralSetup:
@@ -279,7 +282,7 @@ class LiveView:
         """Record and submit the current pose's frame and its presentation;
         ``profile``: pass by pass, timed into :attr:`pass_ms`."""
         if self.setup.waves is not None:
-            self.renderer.set_wave_time(self.time_s)
+            self.renderer.set_wave_time(self.time_s, progressive=self.progressive_waves)
         camera = self.flight.camera()
         encoder = self.device.create_command_encoder()
         if profile:

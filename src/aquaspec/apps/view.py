@@ -115,6 +115,7 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         else:
             canvas, loop = _window_canvas(settings)
             view.max_frames = frames
+            view.progressive_waves = True
             last = [None]
 
             def after_frame(v):

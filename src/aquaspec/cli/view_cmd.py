@@ -64,8 +64,8 @@ def register(sub):
                    help="draw offscreen (no display needed; needs --frames)")
     p.add_argument("--script", default=None, metavar="FLIGHT.json",
                    help="a flight script: camera keyframes (position or depth_m, yaw_deg, "
-                        "pitch_deg) and changes (water, auto_exposure) over time; see "
-                        "docs/cli.md")
+                        "pitch_deg) and changes (water, auto_exposure) over time; format in "
+                        "docs/live-view.md")
     p.add_argument("--frames", type=int, default=None, metavar="N",
                    help="stop after N frames (required with --offscreen)")
     p.add_argument("--record", default=None, metavar="OUTDIR",
