@@ -140,3 +140,56 @@ def test_bad_inputs(device, ledge):
         from aquaspec.transport.lightfield.bake import lightfield_tables
         occ.set_weights(weights_from_tables(lightfield_tables(w4), lay.directions,
                                             lay.solid_angle, a=w4.a, b=w4.b))
+
+
+@pytest.mark.parametrize("cone,scale", [(0.0, 1), (15.0, 1), (15.0, 4)])
+def test_lightfield_pass_applies_the_factors(device, ledge, cone, scale):
+    """The light-field pass with the factors (both of its pipelines with the
+    cone spread) against its twin shade_compiled given the same factors
+    (scale 1: each pixel its own; 4: the grid upsampled as the shader
+    samples it, checked on the twin's side by sampling the same way)."""
+    from support.lightfield_passes import gpu_pass, setup_of
+    from aquaspec.transport.lightfield.compiled import shade_compiled
+    from aquaspec.transport.lightfield.conespread import pyramid_weights
+    scene, cam, gb, _, _ = ledge
+    setup = setup_of("IB", 5, "petzold", cone, cone_spread=cone > 0)
+    lp = gpu_pass(gb, setup)
+    assert lp.spread == (cone > 0)
+    lp.run()
+    plain = lp.read_rgb()
+    lay = occlusion_layout(scene, cam, directions=32, size=512)
+    medium = setup.medium(gb.materials)
+    weights = weights_from_tables(lp.tables, lay.directions, lay.solid_angle, a=medium["a"],
+                                  b=medium["b"])
+    occ, _, _ = _gpu(device, gb, scene, cam, weights, 512, scale)
+    lp.set_occlusion(occ)
+    lp.run()
+    got = lp.read_rgb()
+    factors = occ.read()
+    if scale > 1:
+        factors = _upsample(factors, scale, cam.height, cam.width)
+    pw = pyramid_weights(lp.tables.cone, cam.fy, cam.height, cam.width) if lp.spread else None
+    ref = shade_compiled(gb, lp.reference_compiled(), material_bands=medium["material_bands"],
+                         sigmoid_centers_t=medium["sigmoid_centers_t"], pyramid_weights=pw,
+                         start_level=lp.spread_start_level, surface_scale=factors)
+    np.testing.assert_allclose(got, ref, rtol=2e-3, atol=2e-6 * np.abs(ref).max())
+    board = gb.hit & (gb.material == 0)
+    assert np.all(got[board].mean(0) < 0.9 * plain[board].mean(0))
+    lp.set_occlusion(None)
+    lp.run()
+    np.testing.assert_array_equal(lp.read_rgb(), plain)
+
+
+def _upsample(grid, scale, h, w):
+    """Bilinear read of the factors' grid at every pixel, as occlusion_sample.wgsl
+    (cell coordinate (p - scale // 2) / scale, clamped at the edges)."""
+    gh, gw = grid.shape[:2]
+    y = np.clip((np.arange(h) - scale // 2) / scale, 0, gh - 1)
+    x = np.clip((np.arange(w) - scale // 2) / scale, 0, gw - 1)
+    y0 = np.minimum(np.floor(y).astype(int), gh - 2)
+    x0 = np.minimum(np.floor(x).astype(int), gw - 2)
+    fy, fx = (y - y0)[:, None, None], (x - x0)[None, :, None]
+    g = grid.astype(float)
+    top = g[y0][:, x0] * (1 - fx) + g[y0][:, x0 + 1] * fx
+    bot = g[y0 + 1][:, x0] * (1 - fx) + g[y0 + 1][:, x0 + 1] * fx
+    return top * (1 - fy) + bot * fy

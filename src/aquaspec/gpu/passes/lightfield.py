@@ -41,7 +41,9 @@ One invocation shades four horizontally adjacent pixels. Bindings:
 16  texture ``rgba32float``             the pyramid's result (full-resolution
                                         pass with the spread)
 17- the sun's (:meth:`set_sun`;             :data:`aquaspec.gpu.passes.sun.FUSED_BINDINGS`
-23  full-resolution pass only)
+25  full-resolution pass only)
+26  2-D array texture                   the occlusion factors' grid
+                                        (:meth:`set_occlusion`), both passes
 ==  ==================================  ==========================================
 
 With a sun (:meth:`set_sun`) the full-resolution pass adds the sun's light
@@ -101,6 +103,8 @@ PARAMS_LAYOUT = UniformLayout("LightfieldParams", CAMERA_FIELDS + [
 # table, aquaspec.gpu.materials; 6-10: the outputs, aquaspec.gpu.shading_output.)
 B_PARAMS, B_BANDS, B_WATER, B_BASIS = 0, 4, 11, 12
 B_SAMPLER, B_CONE, B_SPREAD = 14, 15, 16
+#: The occlusion factors' grid (after the sun's 17-25).
+B_OCCLUSION = 26
 
 
 def band_group_texture(table) -> np.ndarray:
@@ -179,9 +183,11 @@ class LightfieldPass(ShadingPass):
             B_CONE: "storage_rgba32float",
             B_SPREAD: "filterable" if self.filtering else "float"}
         self._layout = bind_group_layout(dev, self._kinds)
-        self._sun_layout = None
         #: The sun added in the full-resolution pass (:meth:`set_sun`), or None.
         self.sun = None
+        #: The occlusion factors applied to surfaces (:meth:`set_occlusion`), or None.
+        self.occlusion = None
+        self._layouts = {}
         mode = "linear" if self.filtering else "nearest"
         self._sampler = dev.create_sampler(label="lightfield tables", mag_filter=mode,
                                            min_filter=mode, address_mode_u="clamp-to-edge",
@@ -321,6 +327,37 @@ class LightfieldPass(ShadingPass):
                                 f"pass {self.width}x{self.height}")
         self.sun = sun
 
+    def set_occlusion(self, occlusion) -> None:
+        """Multiply every surface's light-field term per band by the factors
+        of ``occlusion`` (an :class:`aquaspec.gpu.passes.occlusion.OcclusionPass`
+        of this size and band count, encoded before each frame); None: no
+        occlusion. The sun's direct light is not affected (it has its own
+        shadow map)."""
+        if occlusion is not None and ((occlusion.width, occlusion.height, occlusion.n_bands)
+                                      != (self.width, self.height, self._shape["n_bands"]
+                                          if self._shape else None)):
+            raise AquaspecError(f"the occlusion pass is {occlusion.width}x{occlusion.height}"
+                                f" with {occlusion.n_bands} bands; the shading pass "
+                                f"{self.width}x{self.height}"
+                                + (f" with {self._shape['n_bands']}" if self._shape else
+                                   " (set_medium() first)"))
+        self.occlusion = occlusion
+
+    def _layout_for(self, sun: bool):
+        """The bind-group layout with or without the sun's and the occlusion's bindings."""
+        occ = self.occlusion is not None
+        if not sun and not occ:
+            return self._layout
+        key = (sun, occ)
+        if key not in self._layouts:
+            kinds = dict(self._kinds)
+            if sun:
+                kinds.update(SunPass.fused_layout())
+            if occ:
+                kinds[B_OCCLUSION] = "filterable_array" if self.filtering else "float_array"
+            self._layouts[key] = bind_group_layout(self.device, kinds)
+        return self._layouts[key]
+
     # ------------------------------------------------------------- dispatch
     def pipeline(self, per_pixel, tonemap, coarse=False, projected=False):
         """The compute pipeline for these compile-time constants (made when first used)."""
@@ -330,7 +367,9 @@ class LightfieldPass(ShadingPass):
         sun = self.sun is not None and not coarse
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
                self.filtering, self.spread, coarse, group, projected,
-               self.materials.in_uniform, self.nodes, sun)
+               self.materials.in_uniform, self.nodes, sun,
+               None if self.occlusion is None else (self.occlusion.scale,
+                                                    self.occlusion.layers_out))
         if key not in self._pipelines:
             band_vec4 = 2 + -(-sh["rank"] // 4)
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
@@ -352,9 +391,10 @@ class LightfieldPass(ShadingPass):
                             **sunlight_values(self.width, sh["n_bands"]),
                             sun_pixels="sun_pixels" if sun else "no_sun_pixels",
                             sun_surface="sun_surface" if sun else "no_sun_surface",
+                            **self._occlusion_values(),
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
-            self._pipelines[key] = compute_pipeline(self.device, self._sun_layout_() if sun
-                                                    else self._layout, src, "lightfield.wgsl")
+            self._pipelines[key] = compute_pipeline(self.device, self._layout_for(sun), src,
+                                                    "lightfield.wgsl")
         return self._pipelines[key]
 
     def reference_compiled(self) -> "lfc.Compiled":
@@ -367,11 +407,16 @@ class LightfieldPass(ShadingPass):
                                       depth_o=depth_o, factors=self.factors,
                                       alpha_nodes=np.array(alpha) if self.nodes else None)
 
-    def _sun_layout_(self):
-        if self._sun_layout is None:
-            self._sun_layout = bind_group_layout(self.device,
-                                                 {**self._kinds, **SunPass.fused_layout()})
-        return self._sun_layout
+    def _occlusion_values(self) -> dict:
+        """lightfield.wgsl's template values of the occlusion (off: none of its bindings)."""
+        occ = self.occlusion
+        if occ is None:
+            return dict(occlusion="false", occlusion_scale=1, occlusion_layers=1,
+                        occlusion_bands=1, occlusion_block="", occlusion_fill="no_occlusion")
+        return dict(occlusion="true", occlusion_scale=occ.scale,
+                    occlusion_layers=occ.layers_out, occlusion_bands=self._shape["n_bands"],
+                    occlusion_block=load_wgsl("occlusion_sample.wgsl"),
+                    occlusion_fill="fill_occlusion")
 
     def bind_group(self, coarse=False):
         """The bind group of the full-resolution pass, or of the COARSE one."""
@@ -379,18 +424,19 @@ class LightfieldPass(ShadingPass):
         cone = sp.cone_texture if (coarse and sp) else self._unused["storage"]
         spread_in = sp.result if (sp and not coarse) else self._unused["sampled"]
         sun = None if coarse or self.sun is None else self.sun.fused_resources()
+        occ = None if self.occlusion is None else self.occlusion.view
         key = (self.gbuffer.bindings_version, self.water.texture_version, id(cone),
-               id(spread_in), None if sun is None else tuple(id(x) for x in sun.values()))
+               id(spread_in), None if sun is None else tuple(id(x) for x in sun.values()),
+               id(occ))
         cache = self._groups
         if key not in cache:
             tex = self.gbuffer.textures
             resources = {B_PARAMS: self._uniform, B_SURFACE: tex["surface"],
                          B_SIGMOID: tex["sigmoid"], **self._buffers, **self.output.resources(),
                          B_WATER: self.water.texture, B_CONE: cone, B_SPREAD: spread_in,
-                         **(sun or {})}
+                         **(sun or {}), **({} if occ is None else {B_OCCLUSION: occ})}
             cache[key] = self.device.create_bind_group(
-                layout=self._layout if sun is None else self._sun_layout_(),
-                entries=bind_group_entries(resources))
+                layout=self._layout_for(sun is not None), entries=bind_group_entries(resources))
         return cache[key]
 
     def _update_spread(self, cam):

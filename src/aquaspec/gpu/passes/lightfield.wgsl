@@ -108,6 +108,13 @@ const PROJECTED: bool = {{ projected }};
 const NODES: u32 = {{ nodes }}u;
 const SLOTS: u32 = {{ slots }}u;
 const NODE_ARRAY: u32 = max(NODES, 1u);
+// The scene's occlusion of the ambient light (aquaspec.gpu.passes.occlusion):
+// each surface's light-field term times O_i, sampled from the factors' grid
+// (cells of OCC_SCALE pixels) once per pixel before the band loop.
+const OCCLUSION: bool = {{ occlusion }};
+const OCC_SCALE: u32 = {{ occlusion_scale }}u;
+const OCC_LAYERS: u32 = {{ occlusion_layers }}u;
+var<private> occ_band: array<vec4<f32>, {{ occlusion_bands }}>;
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // (Bindings 1 and 2, the G-buffer, and 6, 8, 9, 10, the outputs: shading4.wgsl.)
@@ -391,6 +398,9 @@ fn shade_band(i: u32, rho_m: vec4<f32>, p: BandPixels, acc: ptr<function, Rgb4>)
     }
     // (rho is 0 where there is no hit, and ln_e finite: no select needed.)
     var l = rho * exp(ln_e);
+    if (OCCLUSION) {
+        l = l * occ_band[i];
+    }
     if (COARSE && NODES > 0u) {
         // The rest, split between the nodes at this band's coordinate
         // (x_i = f_i b_i S, q0.z + mean f b = f_i b_i).
@@ -416,6 +426,12 @@ fn shade_band(i: u32, rho_m: vec4<f32>, p: BandPixels, acc: ptr<function, Rgb4>)
     (*acc).g = (*acc).g + l * wt.y;
     (*acc).b = (*acc).b + l * wt.z;
 }
+
+// Without occlusion.
+fn no_occlusion(px: vec4<u32>, py: vec4<u32>) {
+}
+
+{{ occlusion_block }}
 
 @compute @workgroup_size({{ workgroup_x }}, {{ workgroup_y }})
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>,
@@ -576,6 +592,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     let pix = BandPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk,
                          1.0 / max(1.0 - prm.alpha, 1e-12), mat.c0, mat.c1, mat.c2,
                          mat.use_sigmoid);
+    {{ occlusion_fill }}(px, py);
     band_loop(mat, any_hit, pix, &acc);
     let sr = acc.r;
     let sg = acc.g;

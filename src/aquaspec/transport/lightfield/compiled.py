@@ -412,10 +412,13 @@ def compile_lightfield(tables: LightfieldTables, *, a, b, e0, response_weights, 
 
 
 
-def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
+def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0,
+                surface_scale=None):
     """Camera RGB of the targets' own light, ``(P, 3)`` (and its spread share when split).
 
-    ``rho`` (P, n); ``s``, ``surface_depth``, ``n_y`` (P,). Returns
+    ``rho`` (P, n); ``s``, ``surface_depth``, ``n_y`` (P,); ``surface_scale``
+    (P, n) or None: the light-field term per band times it (the scene's
+    occlusion, :func:`aquaspec.transport.lightfield.occlusion.occlusion_factor`). Returns
     ``(kept, spread)``: without the split ``kept`` is all of it (``T'``) and
     ``spread`` zero; with it ``kept`` is ``T' dk exp(slope S (f_i b_i -
     mean f b))`` (:func:`kept_share`: ``T`` plus about ``alpha`` of the cone
@@ -441,6 +444,8 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
     ln_e = comp.k_depth * np.asarray(surface_depth, dtype=float)[:, None] \
         - comp.c_beam * s + u @ comp.g.T
     l = np.asarray(rho, dtype=float) * np.exp(ln_e)
+    if surface_scale is not None:
+        l = l * np.asarray(surface_scale, dtype=float)
     if comp.alpha_nodes is not None:
         z = lambda_coordinate(comp.fb[None, :] * s)
         dk, slope = kept_share(comp.fb.mean(), node_alpha(comp, s[:, 0]), s[:, 0])
@@ -460,7 +465,8 @@ def surface_rgb(comp: Compiled, rho, s, surface_depth, n_y, alpha: float = 0.0):
 
 
 def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t,
-                   pyramid_weights=None, start_level: int | None = None) -> np.ndarray:
+                   pyramid_weights=None, start_level: int | None = None,
+                   surface_scale=None) -> np.ndarray:
     """The NumPy twin of the GPU light-field pass: (H, W, 3) linear camera RGB.
 
     With ``comp.split`` the cone's share is spread over the image with the
@@ -471,6 +477,8 @@ def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t
     (:func:`aquaspec.transport.lightfield.conespread.node_pyramid_weights`), ``comp`` compiled
     with :func:`multiple_plan`'s ``alpha``, and one pyramid holds every node's image
     (:func:`aquaspec.transport.lightfield.conespread.spread_nodes`).
+    ``surface_scale`` (H, W, n) or None: each hit's light-field term per band
+    times it (:func:`surface_rgb`; the GPU's occlusion factors).
     """
     cam = gbuffer.camera
     alpha = 0.0
@@ -505,8 +513,11 @@ def shade_compiled(gbuffer, comp: Compiled, *, material_bands, sigmoid_centers_t
         rho = hit_reflectance(mat, gbuffer.sigmoid.reshape(-1, 3)[hit], mb,
                               np.asarray(sigmoid_centers_t, dtype=float))
         sd = np.maximum(d_o - s[hit] * v_y[hit], 0.0)
+        scale = None if surface_scale is None else np.asarray(
+            surface_scale, dtype=float).reshape(-1, comp.c_beam.size)[hit]
         parts = surface_rgb(comp, rho, s[hit], sd,
-                            gbuffer.normal[..., 1].reshape(-1)[hit].astype(float), alpha)
+                            gbuffer.normal[..., 1].reshape(-1)[hit].astype(float), alpha,
+                            surface_scale=scale)
         rgb[hit] += parts[0]
         if comp.split:
             cone[hit] += parts[1]
