@@ -1,7 +1,7 @@
 # aquaspec: make setup | make test | make demo | make bench
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
-DEBS   := mesa-vulkan-drivers libvulkan1 libllvm19
+DEBS   := mesa-vulkan-drivers libvulkan1 libllvm19 xvfb xdotool
 EXTRAS := test,exr,validation,view
 export XDG_RUNTIME_DIR ?= $(CURDIR)/.xdg-runtime
 
@@ -11,8 +11,9 @@ setup: debs $(VENV)/.installed
 
 # Installs the Debian packages when they are missing and we are root (otherwise
 # prints the exact command): Mesa's lavapipe Vulkan driver, so wgpu runs on
-# machines without a GPU, and LLVM 19 for Mitsuba's llvm_ad_spectral variant
-# (the validation's path tracer).
+# machines without a GPU, LLVM 19 for Mitsuba's llvm_ad_spectral variant
+# (the validation's path tracer), and Xvfb and xdotool for the test that drives
+# `aquaspec view` in a real window.
 debs:
 	@missing=""; for p in $(DEBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
 	if [ -n "$$missing" ]; then \
