@@ -19,7 +19,9 @@ Frame rate: frames per second from the wall-clock time between frames
 (smoothed). Per-pass milliseconds: every :data:`PROFILE_EVERY` th frame is
 submitted pass by pass, each waited for (wall clock, as ``aquaspec bench
 --motion`` times passes; the GPU is lavapipe on the CPU here); the others are
-one submission. Both are in the window title (:meth:`LiveView.status`).
+one submission. Both are in the window title (:meth:`LiveView.status`) and,
+with :attr:`LiveView.overlay` (H toggles it), drawn over the frame's corner
+by the present pass (:mod:`aquaspec.apps.overlay`).
 
 The scene is fixed when the view starts (``builtin_scene(depth_m)``: the
 camera 1.5 m above the sand); the camera flies within it, bounded by the
@@ -35,6 +37,7 @@ import time
 import numpy as np
 
 from aquaspec.apps.flight import FlightController
+from aquaspec.apps.overlay import text_overlay
 from aquaspec.colour.bands import Bands
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
@@ -55,6 +58,10 @@ PROFILE_EVERY = 10
 FPS_SMOOTHING = 0.2
 #: Below this sun elevation (degrees) the light is the overcast sky.
 OVERCAST_BELOW_DEG = 1.0
+#: Seconds between redraws of the on-screen text.
+OVERLAY_EVERY_S = 0.25
+#: The on-screen text's last line.
+OVERLAY_HELP = "W/A/S/D/Q/E move, drag: look, +/- speed, R reset, H text, Esc quit"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -168,6 +175,9 @@ class LiveView:
         #: Moving waves: do not wait for the sea's caustic loop; frames read the
         #: part built so far (a window stays live). False: every frame exact.
         self.progressive_waves = False
+        #: Draw the status text over the frame (:mod:`aquaspec.apps.overlay`).
+        self.overlay = False
+        self._overlay_t = None
 
     # ------------------------------------------------------------- physics
     def _setup(self, water: str) -> SpectralSetup:
@@ -224,10 +234,16 @@ class LiveView:
         canvas.request_draw(self.draw)
 
     def handle_event(self, event: dict) -> None:
-        """Keys and mouse to the flight; Escape closes the canvas."""
-        if event.get("event_type") == "key_down" and event.get("key") == "Escape":
-            self.canvas.close()
-            return
+        """Keys and mouse to the flight; H shows or hides the on-screen text,
+        Escape closes the canvas."""
+        if event.get("event_type") == "key_down":
+            if event.get("key") == "Escape":
+                self.canvas.close()
+                return
+            if event.get("key") in ("h", "H"):
+                self.overlay = not self.overlay
+                self._overlay_t = None
+                return
         self.flight.handle_event(event)
 
     def apply_script(self, frame: int) -> None:
@@ -275,6 +291,7 @@ class LiveView:
             self.on_frame(self)
         self.frame_index += 1
         self.canvas.set_title(self.status())
+        self._update_overlay()
         if self.max_frames is not None and self.frame_index >= self.max_frames:
             self.canvas.close()
 
@@ -298,15 +315,32 @@ class LiveView:
         else:
             self.device.queue.submit([encoder.finish()])
 
-    def status(self) -> str:
-        """Frame rate, per-pass milliseconds and the pose, for the title."""
+    def status_lines(self) -> list[str]:
+        """Frame rate, per-pass milliseconds, the physics and the pose, line by line."""
         fps = "-" if not self.frame_ms else f"{1e3 / self.frame_ms:.1f}"
         passes = ", ".join(f"{k} {v:.0f}" for k, v in self.pass_ms.items())
         f = self.flight
         x, _, z = f.position
-        return (f"aquaspec view | {fps} fps | ms: {passes or '-'} | Jerlov {self.water} | "
+        s = self.settings
+        light = f"sun {s.sun_elevation_deg:g} deg" if s.has_sun else "overcast"
+        return [f"{fps} fps | Jerlov {self.water}, {s.bands} bands, {s.ms_model}, {light}",
+                f"ms: {passes or '-'}",
                 f"depth {f.depth_m:.2f} m, x {x:.1f} z {z:.1f}, yaw {f.yaw_deg:.0f} "
-                f"pitch {f.pitch_deg:.0f} | speed {f.speed_m_s:.2f} m/s")
+                f"pitch {f.pitch_deg:.0f} | speed {f.speed_m_s:.2f} m/s"]
+
+    def status(self) -> str:
+        """:meth:`status_lines` on one line, for the window title."""
+        return " | ".join(["aquaspec view", *self.status_lines()])
+
+    def _update_overlay(self) -> None:
+        """Redraw the on-screen text when due (at most every :data:`OVERLAY_EVERY_S`)."""
+        now = time.perf_counter()
+        if self._overlay_t is not None and now - self._overlay_t < OVERLAY_EVERY_S:
+            return
+        self._overlay_t = now
+        self.present.set_overlay(text_overlay([*self.status_lines(), OVERLAY_HELP],
+                                              max_width=self.canvas.get_physical_size()[0])
+                                 if self.overlay else None)
 
     def pose(self) -> dict:
         """The camera's pose and the view's state now (JSON-ready)."""

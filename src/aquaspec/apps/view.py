@@ -116,6 +116,7 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
             canvas, loop = _window_canvas(settings)
             view.max_frames = frames
             view.progressive_waves = True
+            view.overlay = True
             last = [None]
 
             def after_frame(v):
@@ -128,7 +129,8 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
 
             view.on_frame = after_frame
             view.attach(canvas)
-            say("window open: W/A/S/D/Q/E move, drag to look, +/- speed, R reset, Esc quit")
+            say("window open: W/A/S/D/Q/E move, drag to look, +/- speed, R reset, H text, "
+                "Esc quit")
             loop.run()
     except BaseException:
         if recorder is not None:

@@ -109,6 +109,30 @@ def test_a_rendered_frame_matches_read_display(device):
     np.testing.assert_array_equal(out[..., :3], expected)
 
 
+def test_overlay_covers_the_corner_mixed_by_its_alpha(device, pattern):
+    from aquaspec.gpu.buffers import create_storage_buffer
+    from aquaspec.gpu.passes.present import PresentPass
+    h, w, _ = pattern.shape
+    source = create_storage_buffer(device, _packed(pattern))
+    ppass = PresentPass(device, "rgba8unorm")
+    over = np.zeros((9, 20, 4), np.uint8)
+    over[..., :3] = (200, 10, 90)
+    over[:, :10, 3] = 255          # opaque left half, transparent right half
+    over[4, 12, 3] = 128           # one half-covered pixel
+    ppass.set_overlay(over)
+    out = _present_and_read(device, ppass, source, (w, h), _target(device, w, h))[..., :3]
+    np.testing.assert_array_equal(out[:9, :10], over[:, :10, :3])
+    expected = pattern.copy()
+    expected[:9, :10] = over[:, :10, :3]
+    mixed = pattern[4, 12] + (over[4, 12, :3].astype(float) - pattern[4, 12]) * 128 / 255
+    assert np.abs(out[4, 12].astype(float) - mixed).max() <= 1
+    expected[4, 12] = out[4, 12]
+    np.testing.assert_array_equal(out, expected)          # nothing else touched
+    ppass.set_overlay(None)
+    out = _present_and_read(device, ppass, source, (w, h), _target(device, w, h))[..., :3]
+    np.testing.assert_array_equal(out, pattern)
+
+
 def test_bad_format_and_small_buffer_are_refused(device):
     from aquaspec.gpu.buffers import create_storage_buffer
     from aquaspec.gpu.passes.present import PresentPass
@@ -121,3 +145,5 @@ def test_bad_format_and_small_buffer_are_refused(device):
     with pytest.raises(AquaspecError, match="made for 'rgba8unorm'"):
         ppass.encode(enc, create_storage_buffer(device, 4096), (32, 32),
                      _target(device, 32, 32, "bgra8unorm"))
+    with pytest.raises(AquaspecError, match=r"accepted: uint8 \(height, width, 4\)"):
+        ppass.set_overlay(np.zeros((4, 4, 3), np.uint8))

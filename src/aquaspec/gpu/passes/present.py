@@ -17,6 +17,10 @@ size is sampled nearest-neighbour. A ``-srgb`` target format would encode the
 already encoded bytes again, so for one the shader decodes them first (the
 hardware's encoding then gives the bytes back, up to rounding): prefer the
 plain ``unorm`` format (:func:`plain_format`).
+
+An overlay (:meth:`PresentPass.set_overlay`: a small RGBA8 image such as the
+live view's status text, uploaded when it changes) is drawn one to one over
+the target's top-left corner, mixed by its alpha.
 """
 
 from __future__ import annotations
@@ -32,8 +36,9 @@ from aquaspec.scene.camera import check_size
 
 #: The pass's uniform: the image's and the target's sizes in pixels.
 PRESENT_LAYOUT = UniformLayout("PresentParams", [("image_size", "vec2<u32>"),
-                                                 ("target_size", "vec2<u32>")])
-B_PARAMS, B_RGBA8 = 0, 1
+                                                 ("target_size", "vec2<u32>"),
+                                                 ("overlay_size", "vec2<u32>")])
+B_PARAMS, B_RGBA8, B_OVERLAY = 0, 1, 2
 #: Colour formats a target may have: the 8-bit ones a surface offers.
 TARGET_FORMATS = ("bgra8unorm", "rgba8unorm", "bgra8unorm-srgb", "rgba8unorm-srgb")
 
@@ -73,7 +78,10 @@ class PresentPass:
             {"binding": B_PARAMS, "visibility": visibility,
              "buffer": {"type": wgpu.BufferBindingType.uniform}},
             {"binding": B_RGBA8, "visibility": visibility,
-             "buffer": {"type": wgpu.BufferBindingType.read_only_storage}}])
+             "buffer": {"type": wgpu.BufferBindingType.read_only_storage}},
+            {"binding": B_OVERLAY, "visibility": visibility,
+             "texture": {"sample_type": wgpu.TextureSampleType.float,
+                         "view_dimension": wgpu.TextureViewDimension.d2}}])
         module = device.create_shader_module(label="present.wgsl",
                                              code=shader_source(target_format))
         self._pipeline = device.create_render_pipeline(
@@ -88,6 +96,31 @@ class PresentPass:
                       "targets": [{"format": target_format}]})
         self._source = None
         self._bind_group = None
+        self.overlay_size = (0, 0)
+        self._overlay = None
+        self.set_overlay(None)
+
+    def set_overlay(self, rgba) -> None:
+        """Draw ``rgba`` ((h, w, 4) uint8, straight alpha, sRGB-encoded) over
+        the targets' top-left corner from now on; None: no overlay."""
+        if rgba is None:
+            data, self.overlay_size = np.zeros((1, 1, 4), np.uint8), (0, 0)
+        else:
+            data = np.ascontiguousarray(rgba)
+            if data.dtype != np.uint8 or data.ndim != 3 or data.shape[2] != 4 \
+                    or 0 in data.shape:
+                raise AquaspecError(f"overlay has dtype {data.dtype} and shape {data.shape}; "
+                                    "accepted: uint8 (height, width, 4)")
+            self.overlay_size = (data.shape[1], data.shape[0])
+        h, w = data.shape[:2]
+        if self._overlay is None or tuple(self._overlay.size[:2]) != (w, h):
+            self._overlay = self.device.create_texture(
+                label="present overlay", size=(w, h, 1), format=wgpu.TextureFormat.rgba8unorm,
+                usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST)
+            self._source = None         # the bind group names the texture
+        self.device.queue.write_texture(
+            {"texture": self._overlay, "mip_level": 0, "origin": (0, 0, 0)}, data,
+            {"offset": 0, "bytes_per_row": w * 4, "rows_per_image": h}, (w, h, 1))
 
     def _bind(self, source):
         if source is not self._source:
@@ -95,7 +128,8 @@ class PresentPass:
                 {"binding": B_PARAMS, "resource": {"buffer": self._uniform, "offset": 0,
                                                    "size": self._uniform.size}},
                 {"binding": B_RGBA8, "resource": {"buffer": source, "offset": 0,
-                                                  "size": source.size}}])
+                                                  "size": source.size}},
+                {"binding": B_OVERLAY, "resource": self._overlay.create_view()}])
             self._source = source
         return self._bind_group
 
@@ -123,6 +157,7 @@ class PresentPass:
         params = np.zeros((), PRESENT_LAYOUT.dtype)
         params["image_size"] = (width, height)
         params["target_size"] = (target.size[0], target.size[1])
+        params["overlay_size"] = self.overlay_size
         # A queue write lands before the next submission: one present per submission.
         upload_buffer(self.device, self._uniform, params)
         rp = encoder.begin_render_pass(color_attachments=[{
