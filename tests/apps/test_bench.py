@@ -262,3 +262,14 @@ def test_waves_need_the_sun():
     with pytest.raises(__import__("aquaspec.errors").errors.AquaspecError,
                        match=r"need light='sun-sky', not 'd65'"):
         run_bench(sizes=SIZE, bands=[3], light="d65", waves=3.0)
+
+
+def test_occlusion_rows():
+    """--occlusion: the occluded frame and the factors' pass in the same run."""
+    res = run_bench(sizes=SIZE, bands=[8], frames=1, warmup=0, numpy_reference=False,
+                    occlusion=True)
+    row = res["rows"][0]
+    assert row["occlusion_ms"] > 0 and row["shade_display_occluded_ms"] > 0
+    assert row["occluded_over_plain"] == pytest.approx(row["occluded_frame_ms"]
+                                                       / row["frame_ms"])
+    assert row["moving_occluded_frame_ms"] > row["occluded_frame_ms"]

@@ -90,15 +90,31 @@ class _Geometry:
 
 
 class _Fused:
-    """A shading pass with the display transform fused in (``encode(display=True)``)."""
+    """A shading pass with the display transform fused in (``encode(display=True)``),
+    with the occlusion factors of ``occlusion`` applied (an
+    :class:`~aquaspec.gpu.passes.occlusion.OcclusionPass`; None: without)."""
 
-    def __init__(self, shading):
-        self.shading = shading
+    def __init__(self, shading, occlusion=None):
+        self.shading, self.occlusion = shading, occlusion
 
     def encode(self, encoder, timestamp_writes=None):
         if hasattr(self.shading, "set_sun"):
             self.shading.set_sun(None)          # the frame without the sun
+        if hasattr(self.shading, "set_occlusion"):
+            self.shading.set_occlusion(self.occlusion)
         self.shading.encode(encoder, timestamp_writes, display=True)
+
+
+class _OcclusionFactors:
+    """The occlusion factors computed again (what a moving camera costs; the
+    maps of the static scene are kept), as one timed pass."""
+
+    def __init__(self, renderer, scene, camera):
+        self.r, self.scene, self.camera = renderer, scene, camera
+
+    def encode(self, encoder, timestamp_writes=None):
+        self.r.occlusion.recompute()
+        self.r.encode_occlusion(encoder, self.camera, self.scene, timestamp_writes)
 
 
 def _frame_wall_ms(renderer, passes, frames, warmup):
@@ -123,11 +139,17 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
               cone_spread: bool | None = None, spread_scattering: str = "single",
               light: str = "overcast", sun_elevation_deg: float = 60.0,
               sun_azimuth_deg: float | None = None, sun_shadow_map: int | None = None,
-              waves=None, progress=None) -> dict:
+              waves=None, occlusion: bool = False, progress=None) -> dict:
     """Run the cost study; returns a JSON-ready dict (see the module docstring).
 
     Parameters
     ----------
+    occlusion : bool
+        Also time the light-field frame with the scene's occlusion of the
+        ambient light (:meth:`aquaspec.rendering.renderer.Renderer.set_occlusion`,
+        default options): the frame of a static scene and still camera (the
+        factors kept) and the factors' pass itself (computed again each frame
+        when the camera moves), against the frame without it in the same run.
     light : {"overcast", "d65", "sun-sky"}
         The light at the surface (:func:`aquaspec.light.sky.surface_light`).
         ``sun-sky`` has a sun at ``sun_elevation_deg`` (1-90) and
@@ -209,6 +231,12 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                                     white_balance_gains=settings["white_balance_gains"],
                                     matrix=settings["matrix"], tonemap=settings["tonemap"])
                 passes["shade_display"] = _Fused(shading)
+                if occlusion and ms_model == "lightfield":
+                    r.set_occlusion(True)
+                    if not r.encode_occlusion_now(scene, camera):
+                        raise AquaspecError("bench --occlusion: the scene has no occluders")
+                    passes["occlusion"] = _OcclusionFactors(r, scene, camera)
+                    passes["shade_display_occluded"] = _Fused(shading, r.occlusion)
             if compare_seeds:
                 # The seeds' shading of the same G-buffer, with the same display
                 # settings, in the same timing run.
@@ -250,6 +278,15 @@ def run_bench(*, sizes=DEFAULT_SIZES, bands=DEFAULT_BANDS, frames: int = 20, war
                 frame = unfused
                 wall = _frame_wall_ms(r, [geometry, shading, disp], frames, warmup)
             extra = {}
+            if "occlusion" in passes:
+                still = times.ms["geometry"] + times.ms["shade_display_occluded"]
+                extra = {"occluded_frame_ms": still, "occluded_over_plain": still / frame,
+                         "moving_occluded_frame_ms": still + times.ms["occlusion"],
+                         "moving_occluded_over_plain": (still + times.ms["occlusion"]) / frame}
+                say(f"{width}x{height} n={n:3d}: occlusion: frame {still:.2f} ms "
+                    f"({still / frame:.3f}x the frame without it, factors kept), factors "
+                    f"{times.ms['occlusion']:.2f} ms when the camera moves "
+                    f"({(still + times.ms['occlusion']) / frame:.3f}x)")
             if sun is not None:
                 # The sun's frame: with the light field geometry + shadow map +
                 # froxels + shading with the sun and the display fused; with the

@@ -34,6 +34,11 @@ def register(sub):
                         "3,8,16,32,64; 8 with --motion)")
     p.add_argument("--frames", type=int, default=None, metavar="N",
                    help="timed frames per point (default 20; 36 of each kind with --motion)")
+    p.add_argument("--occlusion", action="store_true",
+                   help="also time the light-field frame with the scene's occlusion of the "
+                        "ambient light on surfaces (the factors kept for a still camera, and "
+                        "computed again as when the camera moves), against the frame without "
+                        "it in the same run"),
     p.add_argument("--motion", action="store_true",
                    help="time frames of a moving camera (a scripted path through the built-in "
                         "scene, its depth changing by up to 0.92 m per frame) with the waves "
@@ -104,7 +109,8 @@ def run(args):
                        cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
                        light=args.light, sun_elevation_deg=sun_elevation,
                        sun_azimuth_deg=sun_azimuth, sun_shadow_map=args.sun_shadow_map,
-                       waves=waves, progress=lambda m: print(m, file=sys.stderr, flush=True))
+                       waves=waves, occlusion=args.occlusion,
+                       progress=lambda m: print(m, file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:
         text = json.dumps(result, indent=2)

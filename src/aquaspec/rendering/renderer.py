@@ -20,6 +20,7 @@ from aquaspec.gpu.buffers import read_buffer
 from aquaspec.gpu.passes.deferred import DeferredPass
 from aquaspec.gpu.passes.display import DisplayPass
 from aquaspec.gpu.passes.lightfield import LightfieldPass
+from aquaspec.gpu.passes.occlusion import DEFAULT_SCALE, OcclusionPass
 from aquaspec.gpu.passes.raster import RasterPass
 from aquaspec.gpu.passes.shadow_rays import ShadowRays
 from aquaspec.gpu.passes.caustics import CausticLoopPass
@@ -28,8 +29,11 @@ from aquaspec.light.caustics import DEFAULT_LOOP_FRAMES, caustic_loop
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera, check_size
 from aquaspec.scene.gbuffer import GBuffer
-from aquaspec.scene.shadowmap import DEFAULT_MAP_SIZE
+from aquaspec.scene.occlusion import (DEFAULT_DIRECTIONS, DEFAULT_OCCLUSION_MAP_SIZE,
+                                      occluder_triangles, occlusion_layout)
+from aquaspec.scene.shadowmap import BIAS_TEXELS, DEFAULT_MAP_SIZE, NORMAL_OFFSET_TEXELS
 from aquaspec.shading.shade import scene_shadow
+from aquaspec.transport.lightfield.occlusion import weights_from_tables
 
 
 def _same(key, other) -> bool:
@@ -68,6 +72,10 @@ class Renderer:
         self.wave_time_s = None
         self._wave_loop = None      # CausticLoopPass of the moving sea
         self._loop_options = (DEFAULT_LOOP_FRAMES, True, False)
+        #: The scene's occlusion of the ambient light (:meth:`set_occlusion`): options or None.
+        self.occlusion_options = None
+        self.occlusion = None       # OcclusionPass, made when first needed
+        self._occ_cache = {}
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         """Upload ``setup``'s medium for a scene of ``materials`` to the shading
@@ -186,6 +194,60 @@ class Renderer:
             rgb = self.subtract_shadow(rgb, gbuffer, setup, progress)
         return rgb
 
+    def set_occlusion(self, enabled: bool, *, directions: int = DEFAULT_DIRECTIONS,
+                      scale: int = DEFAULT_SCALE,
+                      map_size: int = DEFAULT_OCCLUSION_MAP_SIZE) -> None:
+        """Occlude the ambient light field on the scene's surfaces in the
+        frames from now on (light-field model, scenes with meshes; RGB-D
+        G-buffers have no geometry behind what they show and get none):
+        ``directions`` maps of ``map_size`` texels
+        (:func:`aquaspec.scene.occlusion.occlusion_layout`, drawn once for a
+        static scene), factors on cells of ``scale`` pixels
+        (:class:`aquaspec.gpu.passes.occlusion.OcclusionPass`, computed again
+        when the camera moves). The water's own shadow
+        (:mod:`aquaspec.transport.lightfield.water_occlusion`) is NumPy only."""
+        if not enabled:
+            self.occlusion_options = None
+            return
+        if self.occlusion is None or self.occlusion.scale != scale:
+            self.occlusion = OcclusionPass(self.deferred.device, self.width, self.height,
+                                           self.deferred.n_bands, scale=scale)
+        self.occlusion_options = (int(directions), int(map_size))
+
+    def encode_occlusion_now(self, scene, camera) -> bool:
+        """Compute the occlusion factors of the G-buffer now (submitted); whether there are any."""
+        enc = self.deferred.device.create_command_encoder()
+        out = self.encode_occlusion(enc, camera, scene)
+        self.deferred.device.queue.submit([enc.finish()])
+        return out
+
+    def encode_occlusion(self, encoder, camera, scene, timestamp_writes=None) -> bool:
+        """Record the occlusion factors for this frame (:meth:`set_occlusion`)
+        of the G-buffer; whether there are any."""
+        if self.occlusion_options is None or not self._use_lightfield or scene is None:
+            return False
+        directions, map_size = self.occlusion_options
+        tables = self.lightfield.tables
+        key = (id(scene), directions)
+        if self._occ_cache.get("scene") != key:
+            self._occ_cache = {"scene": key, "scene_ref": scene,
+                               "triangles": occluder_triangles(scene)}
+        tris = self._occ_cache["triangles"]
+        if len(tris.corners) == 0:
+            return False
+        layout = occlusion_layout(scene, camera, directions=directions, size=map_size,
+                                  triangles=tris)
+        if self._occ_cache.get("tables") is not tables:
+            a, b = self.lightfield._medium[1], self.lightfield._medium[2]
+            self._occ_cache["tables"] = tables
+            self._occ_cache["weights"] = weights_from_tables(
+                tables, layout.directions, layout.solid_angle, a=a, b=b)
+        self.occlusion.set_weights(self._occ_cache["weights"])
+        self.occlusion.encode(encoder, self.deferred.gbuffer, layout,
+                              normal_offset_texels=NORMAL_OFFSET_TEXELS, bias_texels=BIAS_TEXELS,
+                              timestamp_writes=timestamp_writes)
+        return True
+
     def encode_shading(self, encoder, sun, camera, shadow_scene, *, split=None,
                        display: bool = False):
         """Record the shading of the G-buffer and, with ``sun`` (a
@@ -203,6 +265,10 @@ class Renderer:
         fused = sun is not None and self._use_lightfield
         if self.lightfield is not None:
             self.lightfield.set_sun(sun if fused else None)
+            occluded = self.encode_occlusion(encoder, camera, shadow_scene)
+            self.lightfield.set_occlusion(self.occlusion if occluded else None)
+            if occluded:
+                encoder = split("occlusion", encoder)
         if sun is None or fused:
             if sun is not None:
                 if shadow_scene is not None:

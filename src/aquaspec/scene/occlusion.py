@@ -275,11 +275,13 @@ class OcclusionLayout:
 def occlusion_layout(scene, camera, *, directions=DEFAULT_DIRECTIONS,
                      size: int = DEFAULT_OCCLUSION_MAP_SIZE,
                      radius_m: float = DEFAULT_MAP_RADIUS_M,
-                     margin_m: float = DEFAULT_MAP_MARGIN_M) -> OcclusionLayout:
+                     margin_m: float = DEFAULT_MAP_MARGIN_M, triangles=None) -> OcclusionLayout:
     """The directions, occluders and map geometry of :func:`occlusion_maps`
-    (same arguments)."""
+    (same arguments); ``triangles``: the scene's
+    :func:`occluder_triangles` when the caller keeps them (a static scene)."""
     dirs, omega = _direction_set(directions)
-    tris = occluder_triangles(scene) if scene is not None else None
+    tris = triangles if triangles is not None else (
+        occluder_triangles(scene) if scene is not None else None)
     if tris is None or len(tris.corners) == 0:
         empty = _Triangles(np.zeros((0, 3, 3)), np.zeros((0, 3)), np.zeros(0, bool))
         return OcclusionLayout(dirs, omega, empty, (None,) * len(dirs))

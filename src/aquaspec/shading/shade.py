@@ -110,7 +110,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
                   sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
                   return_radiance: bool = False, lightfield: LightfieldTables | None = None,
                   progress=None, shadow_rays=None, sun=None, sun_shadow=None,
-                  occlusion: OcclusionMaps | None = None) -> dict:
+                  occlusion: OcclusionMaps | None = None, occlude_water: bool = True) -> dict:
     """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
 
     Parameters
@@ -160,6 +160,9 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         (:func:`aquaspec.transport.lightfield.water_occlusion.water_shadow`).
         Light-field model only (``lightfield`` given), not together with the
         tables' ``ambient_shadow``.
+    occlude_water : bool
+        With ``occlusion``: also the water's own shadow (default; False: the
+        surfaces' factor alone, what the GPU pass computes).
 
     Returns
     -------
@@ -192,7 +195,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
                                 "shadow out of the water's light; accepted: one of them")
     occ_weights = None if occlusion is None or occlusion.empty else weights_from_tables(
         lightfield, occlusion.directions, occlusion.solid_angle, a=a, b=b)
-    water_vis = None if occ_weights is None else water_visibility(occlusion)
+    water_vis = None if occ_weights is None or not occlude_water else water_visibility(occlusion)
     cam = gbuffer.camera
     d_o = camera_depth(cam)
     o_y = float(cam.position[1])

@@ -193,3 +193,36 @@ def _upsample(grid, scale, h, w):
     top = g[y0][:, x0] * (1 - fx) + g[y0][:, x0 + 1] * fx
     bot = g[y0 + 1][:, x0] * (1 - fx) + g[y0 + 1][:, x0 + 1] * fx
     return top * (1 - fy) + bot * fy
+
+
+def test_renderer_occludes_surfaces_as_numpy_does(ledge):
+    """Renderer.set_occlusion: the frame's surfaces against shade_gbuffer with
+    the NumPy maps (surfaces only, occlude_water=False); open water unchanged;
+    a still camera keeps the factors, a moved one computes them again."""
+    from aquaspec.rendering.renderer import Renderer
+    from aquaspec.shading.shade import shade_gbuffer
+    from support.lightfield_passes import setup_of
+    scene, cam, gb, _, _ = ledge
+    setup = setup_of("IB", 5, "petzold")
+    r = Renderer(cam.width, cam.height, 5)
+    plain = r.render_scene(scene, cam, setup)
+    r.set_occlusion(True, directions=32, scale=1, map_size=512)
+    occ = r.render_scene(scene, cam, setup)
+    again = r.render_scene(scene, cam, setup)
+    assert r.occlusion.compute_count == 1
+    np.testing.assert_array_equal(again, occ)
+    medium = setup.medium(gb.materials)
+    tables = setup.lightfield_tables()
+    maps = occlusion_maps(scene, cam, directions=32, size=512)
+    base = shade_gbuffer(gb, **medium, lightfield=tables)["camera_rgb"]
+    ref = shade_gbuffer(gb, **medium, lightfield=tables, occlusion=maps,
+                        occlude_water=False)["camera_rgb"]
+    np.testing.assert_allclose(occ[~gb.hit], plain[~gb.hit], rtol=1e-6)
+    board = gb.hit & (gb.material == 0)
+    np.testing.assert_allclose(occ[board].mean(0) / plain[board].mean(0),
+                               ref[board].mean(0) / base[board].mean(0), rtol=0.02)
+    moved = Camera.look_at([0.3, -5.1, 0], [0, -5, -3], width=48, height=36, fov_y_deg=50)
+    r.render_scene(scene, moved, setup)
+    assert r.occlusion.compute_count == 2
+    r.set_occlusion(False)
+    np.testing.assert_array_equal(r.render_scene(scene, cam, setup), plain)

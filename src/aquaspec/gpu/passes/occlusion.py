@@ -32,7 +32,7 @@ from aquaspec.gpu.buffers import create_storage_buffer, create_uniform_buffer, u
 from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
 from aquaspec.gpu.dispatch import compute_pipeline
 from aquaspec.gpu.layout import UniformLayout
-from aquaspec.gpu.passes.depth_maps import DepthMapArray
+from aquaspec.gpu.passes.depth_maps import DepthMapArray, spec_key
 from aquaspec.gpu.shaders import load_wgsl
 
 PARAMS_LAYOUT = UniformLayout("OcclusionParams", CAMERA_FIELDS + [
@@ -152,7 +152,8 @@ class OcclusionPass:
             self._computed = None
         if specs:
             self._maps.encode(encoder, raster_free_draws, specs)
-        key = tuple(id(s) for s in layout.specs)
+        key = (tuple(None if s is None else spec_key(s) for s in layout.specs),
+               tuple(np.asarray(layout.directions, float).ravel()))
         if key != self._layout_key:
             rec = np.zeros((len(layout.directions), 16), np.float32)
             layer = 0
@@ -173,7 +174,7 @@ class OcclusionPass:
 
     # ---------------------------------------------------------------- frames
     def encode(self, encoder, gbuffer, layout, *, normal_offset_texels: float,
-               bias_texels: float) -> bool:
+               bias_texels: float, timestamp_writes=None) -> bool:
         """Record the factors of ``gbuffer`` (its camera and textures,
         :class:`aquaspec.gpu.gbuffer.GBufferTextures`) for ``layout``
         (:func:`aquaspec.scene.occlusion.occlusion_layout`, the scene's); the
@@ -215,7 +216,7 @@ class OcclusionPass:
         group = self.device.create_bind_group(layout=self._layout, entries=bind_group_entries({
             0: self._uniform, 1: gbuffer.textures["surface"], 2: self._dirs,
             3: self._weights[1], 4: self._weights[2], 5: self._maps.view, 6: self.view}))
-        cp = encoder.begin_compute_pass()
+        cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
         cp.set_pipeline(self._pipeline)
         cp.set_bind_group(0, group)
         cp.dispatch_workgroups(-(-self.out_width // _WORKGROUP), -(-self.out_height // _WORKGROUP),
@@ -224,6 +225,10 @@ class OcclusionPass:
         self._computed = key
         self.compute_count += 1
         return True
+
+    def recompute(self) -> None:
+        """Compute the factors again on the next :meth:`encode` (the maps are kept)."""
+        self._computed = None
 
     def forget(self) -> None:
         """Draw the maps and compute the factors again on the next
