@@ -142,12 +142,12 @@ def test_bad_inputs(device, ledge):
                                             lay.solid_angle, a=w4.a, b=w4.b))
 
 
-@pytest.mark.parametrize("cone,scale", [(0.0, 1), (15.0, 1), (15.0, 4)])
+@pytest.mark.parametrize("cone,scale", [(0.0, 1), (15.0, 1), (0.0, 4)])
 def test_lightfield_pass_applies_the_factors(device, ledge, cone, scale):
     """The light-field pass with the factors (both of its pipelines with the
     cone spread) against its twin shade_compiled given the same factors
-    (scale 1: each pixel its own; 4: the grid upsampled as the shader
-    samples it, checked on the twin's side by sampling the same way)."""
+    (scale 1: each pixel its own; 4: the grid read as the shader reads it,
+    one bilinear sample per four adjacent pixels at their centre)."""
     from support.lightfield_passes import gpu_pass, setup_of
     from aquaspec.transport.lightfield.compiled import shade_compiled
     from aquaspec.transport.lightfield.conespread import pyramid_weights
@@ -181,11 +181,12 @@ def test_lightfield_pass_applies_the_factors(device, ledge, cone, scale):
 
 
 def _upsample(grid, scale, h, w):
-    """Bilinear read of the factors' grid at every pixel, as occlusion_sample.wgsl
-    (cell coordinate (p - scale // 2) / scale, clamped at the edges)."""
+    """Bilinear read of the factors' grid as occlusion_sample.wgsl does with
+    cells of 4 pixels or more: cell coordinate (p - scale // 2) / scale,
+    clamped at the edges, one sample per four pixels of a row at p = 4 g + 1.5."""
     gh, gw = grid.shape[:2]
     y = np.clip((np.arange(h) - scale // 2) / scale, 0, gh - 1)
-    x = np.clip((np.arange(w) - scale // 2) / scale, 0, gw - 1)
+    x = np.clip((4 * (np.arange(w) // 4) + 1.5 - scale // 2) / scale, 0, gw - 1)
     y0 = np.minimum(np.floor(y).astype(int), gh - 2)
     x0 = np.minimum(np.floor(x).astype(int), gw - 2)
     fy, fx = (y - y0)[:, None, None], (x - x0)[None, :, None]

@@ -87,6 +87,10 @@ struct BandPixels {
 
 // Band i of the four pixels (material reflectance rho_m, 0 where none) added
 // to acc, and with WRITE_RADIANCE written out.
+// (No per-group data: shading4.wgsl's band_loop hook does nothing.)
+fn band_group_start(q: u32) {
+}
+
 fn shade_band(i: u32, rho_m: vec4<f32>, p: BandPixels, acc: ptr<function, Rgb4>) {
     let q0 = band_table[3u * i];
     let q1 = band_table[3u * i + 1u];

@@ -412,11 +412,12 @@ class LightfieldPass(ShadingPass):
         occ = self.occlusion
         if occ is None:
             return dict(occlusion="false", occlusion_scale=1, occlusion_layers=1,
-                        occlusion_bands=1, occlusion_block="", occlusion_fill="no_occlusion")
+                        occlusion_block="", occlusion_fill="no_occlusion",
+                        occlusion_coords="no_occlusion_coords")
         return dict(occlusion="true", occlusion_scale=occ.scale,
-                    occlusion_layers=occ.layers_out, occlusion_bands=self._shape["n_bands"],
+                    occlusion_layers=occ.layers_out,
                     occlusion_block=load_wgsl("occlusion_sample.wgsl"),
-                    occlusion_fill="fill_occlusion")
+                    occlusion_fill="fill_occlusion", occlusion_coords="occlusion_coords")
 
     def bind_group(self, coarse=False):
         """The bind group of the full-resolution pass, or of the COARSE one."""

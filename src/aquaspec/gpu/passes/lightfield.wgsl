@@ -114,7 +114,11 @@ const NODE_ARRAY: u32 = max(NODES, 1u);
 const OCCLUSION: bool = {{ occlusion }};
 const OCC_SCALE: u32 = {{ occlusion_scale }}u;
 const OCC_LAYERS: u32 = {{ occlusion_layers }}u;
-var<private> occ_band: array<vec4<f32>, {{ occlusion_bands }}>;
+// occ_band[j]: the four pixels' factor of band 4q + j of the current group
+// (band_group_start); occ_u, occ_v: the four pixels' texture coordinates.
+var<private> occ_band: array<vec4<f32>, 4>;
+var<private> occ_u: vec4<f32>;
+var<private> occ_v: vec4<f32>;
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 // (Bindings 1 and 2, the G-buffer, and 6, 8, 9, 10, the outputs: shading4.wgsl.)
@@ -399,7 +403,7 @@ fn shade_band(i: u32, rho_m: vec4<f32>, p: BandPixels, acc: ptr<function, Rgb4>)
     // (rho is 0 where there is no hit, and ln_e finite: no select needed.)
     var l = rho * exp(ln_e);
     if (OCCLUSION) {
-        l = l * occ_band[i];
+        l = l * occ_band[i % 4u];
     }
     if (COARSE && NODES > 0u) {
         // The rest, split between the nodes at this band's coordinate
@@ -428,7 +432,14 @@ fn shade_band(i: u32, rho_m: vec4<f32>, p: BandPixels, acc: ptr<function, Rgb4>)
 }
 
 // Without occlusion.
-fn no_occlusion(px: vec4<u32>, py: vec4<u32>) {
+fn no_occlusion_coords(px: vec4<u32>, py: vec4<u32>) {
+}
+
+fn no_occlusion(q: u32) {
+}
+
+fn band_group_start(q: u32) {
+    {{ occlusion_fill }}(q);
 }
 
 {{ occlusion_block }}
@@ -592,7 +603,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     let pix = BandPixels(d_e, s_e, u0, u1, u2, u3, u4, u5, u6, u7, kept_b, dk,
                          1.0 / max(1.0 - prm.alpha, 1e-12), mat.c0, mat.c1, mat.c2,
                          mat.use_sigmoid);
-    {{ occlusion_fill }}(px, py);
+    {{ occlusion_coords }}(px, py);
     band_loop(mat, any_hit, pix, &acc);
     let sr = acc.r;
     let sg = acc.g;

@@ -94,7 +94,11 @@ class OcclusionPass:
         self._uniform = create_uniform_buffer(device, PARAMS_LAYOUT, label="occlusion params")
         self._layout = bind_group_layout(device, {
             0: "uniform", 1: "uint", 2: "read", 3: "read", 4: "read", 5: "depth_array",
-            6: "storage_rgba16float_array"})
+            6: "storage_rgba16float_array", 7: "nonfiltering_sampler"})
+        self._sampler = device.create_sampler(label="occlusion maps", mag_filter="nearest",
+                                              min_filter="nearest",
+                                              address_mode_u="clamp-to-edge",
+                                              address_mode_v="clamp-to-edge")
         self._maps = None
         self._geometry = None      # (triangles object, draws)
         self._weights = None       # (weights object, log-radiance buffer, band buffer)
@@ -132,12 +136,16 @@ class OcclusionPass:
         if weights.n_bands != self.n_bands:
             raise AquaspecError(f"occlusion weights have {weights.n_bands} bands; this pass "
                                 f"{self.n_bands}")
-        band = np.zeros((self.n_bands, 4), np.float32)
-        band[:, 0] = weights.extinction
-        band[:, 1] = weights.k_inf
+        pad = 4 * self.layers_out
+        band = np.zeros((2, pad), np.float32)
+        band[0, :self.n_bands] = weights.extinction
+        band[1, :self.n_bands] = weights.k_inf
+        # Layer g: [c* of bands 4g .. 4g + 3], [k_inf of them].
+        band = np.ascontiguousarray(band.reshape(2, self.layers_out, 4).transpose(1, 0, 2))
+        lr = np.zeros(weights.log_radiance.shape[:2] + (pad,), np.float32)
+        lr[..., :self.n_bands] = weights.log_radiance
         self._weights = (weights,
-                         create_storage_buffer(self.device, np.ascontiguousarray(
-                             weights.log_radiance, np.float32), label="occlusion log radiance"),
+                         create_storage_buffer(self.device, lr, label="occlusion log radiance"),
                          create_storage_buffer(self.device, band, label="occlusion bands"))
         self._pipeline = None
         self._computed = None
@@ -215,7 +223,8 @@ class OcclusionPass:
             self._pipeline = compute_pipeline(self.device, self._layout, src, "occlusion.wgsl")
         group = self.device.create_bind_group(layout=self._layout, entries=bind_group_entries({
             0: self._uniform, 1: gbuffer.textures["surface"], 2: self._dirs,
-            3: self._weights[1], 4: self._weights[2], 5: self._maps.view, 6: self.view}))
+            3: self._weights[1], 4: self._weights[2], 5: self._maps.view, 6: self.view,
+            7: self._sampler}))
         cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
         cp.set_pipeline(self._pipeline)
         cp.set_bind_group(0, group)

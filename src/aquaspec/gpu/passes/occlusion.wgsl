@@ -37,11 +37,14 @@ struct Direction {
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var<storage, read> dirs: array<Direction>;
 // ln L (n_depth, K, n) per unit E0.
-@group(0) @binding(3) var<storage, read> log_radiance: array<f32>;
-// Per band: c* (x), k_inf (y).
+// ln L per unit E0: (n_depth, K, LAYERS_OUT) vec4s, bands 4g .. 4g + 3 in layer g.
+@group(0) @binding(3) var<storage, read> log_radiance: array<vec4<f32>>;
+// Per layer of four bands: c* (index 2g) and k_inf (2g + 1).
 @group(0) @binding(4) var<storage, read> band_data: array<vec4<f32>>;
 @group(0) @binding(5) var maps: texture_depth_2d_array;
 @group(0) @binding(6) var occ_out: texture_storage_2d_array<rgba16float, write>;
+// Nearest, clamp to edge: the four texels of a gather.
+@group(0) @binding(7) var map_sampler: sampler;
 
 fn decode_normal(oct: u32, n_y_bits: u32) -> vec3<f32> {
     let p = unpack2x16snorm(oct);
@@ -61,13 +64,46 @@ fn depth_index(d: f32) -> vec2<f32> {
     return vec2<f32>(i, x - i);
 }
 
-// L_i(d, w_k) from the table at depth index di (node, weight) and depth d.
-fn radiance(i: u32, k: u32, di: vec2<f32>, d: f32) -> f32 {
+// L of bands 4g .. 4g + 3 on direction k at depth d (its index di).
+fn radiance4(g: u32, k: u32, di: vec2<f32>, d: f32) -> vec4<f32> {
     let row = u32(di.x);
-    let lo = log_radiance[(row * N_DIRS + k) * N_BANDS + i];
-    let hi = log_radiance[((row + 1u) * N_DIRS + k) * N_BANDS + i];
-    let deep = select(0.0, band_data[i].y * max(d - prm.max_depth, 0.0), prm.deep != 0u);
+    let lo = log_radiance[(row * N_DIRS + k) * LAYERS_OUT + g];
+    let hi = log_radiance[((row + 1u) * N_DIRS + k) * LAYERS_OUT + g];
+    let deep = select(vec4<f32>(0.0), band_data[2u * g + 1u] * max(d - prm.max_depth, 0.0),
+                      prm.deep != 0u);
     return exp(mix(lo, hi, di.y) - deep);
+}
+
+// What occludes direction k seen from q: (hidden weight, occluder height
+// weighted by it) of the four texels around q, weights as the NumPy maps'
+// bilinear ones; texels outside the map hide nothing. One gather of the four
+// depths ((j0, i0) in w, (j0 + 1, i0) in z, (j0, i0 + 1) in x, (j0 + 1, i0 + 1)
+// in y); points off the map read nothing.
+fn occluded(dk: Direction, q: vec3<f32>) -> vec2<f32> {
+    let texel = dk.map.x;
+    let tx = (dot(q, dk.e1.xyz) - dk.e1.w) / texel - 0.5;
+    let ty = (dot(q, dk.e2.xyz) - dk.e2.w) / texel - 0.5;
+    if (tx < -1.0 || ty < -1.0 || tx >= prm.map_size || ty >= prm.map_size) {
+        return vec2<f32>(0.0);
+    }
+    let h = dot(q, dk.w.xyz);
+    let j0 = floor(tx);
+    let i0 = floor(ty);
+    let fx = tx - j0;
+    let fy = ty - i0;
+    let z = textureGather(maps, map_sampler, vec2<f32>(j0 + 1.0, i0 + 1.0) / prm.map_size,
+                          i32(dk.map.w));
+    let out_j0 = j0 < 0.0;
+    let out_j1 = j0 + 1.0 >= prm.map_size;
+    let out_i0 = i0 < 0.0;
+    let out_i1 = i0 + 1.0 >= prm.map_size;
+    let inside = !vec4<bool>(out_j0 || out_i1, out_j1 || out_i1, out_j1 || out_i0,
+                             out_j0 || out_i0);
+    let wt = vec4<f32>((1.0 - fx) * fy, fx * fy, fx * (1.0 - fy), (1.0 - fx) * (1.0 - fy));
+    let hm = dk.map.z - z * (dk.map.z - dk.map.y);
+    let hides = inside & (z < vec4<f32>(1.0)) & (vec4<f32>(h) < hm - prm.bias_texels * texel);
+    let w_hid = select(vec4<f32>(0.0), wt, hides);
+    return vec2<f32>(dot(w_hid, vec4<f32>(1.0)), dot(w_hid, hm));
 }
 
 @compute @workgroup_size(8, 8)
@@ -85,85 +121,59 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let d_o = -prm.position.y;
     let up_ray = v.y > 0.0;
     let hit = s_hit >= 0.0 && (!up_ray || s_hit <= d_o / select(1.0, v.y, up_ray));
-
-    var lost_w: array<f32, N_DIRS>;
-    var g: array<f32, N_DIRS>;
-    var s_k: array<f32, N_DIRS>;
-    var d_occ: array<f32, N_DIRS>;
-    var any_lost = false;
-    let p = prm.position + v * s_hit;
+    let p = prm.position + v * max(s_hit, 0.0);
     let n = decode_normal(surf.z, surf.y);
     let d = max(-p.y, 0.0);
-    if (hit) {
-        for (var k = 0u; k < N_DIRS; k = k + 1u) {
-            let dk = dirs[k];
-            let w = dk.w.xyz;
-            g[k] = max(dot(n, w), 0.0) * dk.w.w;
-            lost_w[k] = 0.0;
-            s_k[k] = 0.0;
-            d_occ[k] = d;
-            if (g[k] <= 0.0 || dk.map.w < 0.0) {
-                continue;
-            }
-            let texel = dk.map.x;
-            let q = p + n * (prm.normal_offset_texels * texel);
-            let tx = (dot(q, dk.e1.xyz) - dk.e1.w) / texel - 0.5;
-            let ty = (dot(q, dk.e2.xyz) - dk.e2.w) / texel - 0.5;
-            let h = dot(q, w);
-            let j0 = floor(tx);
-            let i0 = floor(ty);
-            let fx = tx - j0;
-            let fy = ty - i0;
-            let bias = prm.bias_texels * texel;
-            var occ_wt = 0.0;
-            var occ_h = 0.0;
-            for (var c = 0u; c < 4u; c = c + 1u) {
-                let jj = j0 + f32(c % 2u);
-                let ii = i0 + f32(c / 2u);
-                let wt = select(1.0 - fx, fx, c % 2u == 1u) * select(1.0 - fy, fy, c / 2u == 1u);
-                let inside = jj >= 0.0 && jj < prm.map_size && ii >= 0.0 && ii < prm.map_size;
-                let z = textureLoad(maps, vec2<i32>(i32(clamp(jj, 0.0, prm.map_size - 1.0)),
-                                                    i32(clamp(ii, 0.0, prm.map_size - 1.0))),
-                                    i32(dk.map.w), 0);
-                let hm = dk.map.z - z * (dk.map.z - dk.map.y);
-                let hides = inside && z < 1.0 && h < hm - bias;
-                occ_wt = occ_wt + select(0.0, wt, hides);
-                occ_h = occ_h + select(0.0, wt * hm, hides);
-            }
-            if (occ_wt <= 0.0) {
-                continue;
-            }
-            // The distance from the point itself, cut at the water surface.
-            var s = max(occ_h / occ_wt - dot(p, w), 0.0);
-            if (w.y > 0.0) {
-                s = min(s, d / w.y);
-            }
-            lost_w[k] = min(occ_wt, 1.0) * g[k];
-            s_k[k] = s;
-            d_occ[k] = clamp(d - s * w.y, 0.0, prm.seabed_depth);
-            any_lost = true;
-        }
-    }
     let di_here = depth_index(d);
-    var out: array<vec4<f32>, LAYERS_OUT>;
-    for (var i = 0u; i < N_BANDS; i = i + 1u) {
-        var o = 1.0;
-        if (any_lost) {
-            let c = band_data[i].x;
-            var total = 0.0;
-            var lost = 0.0;
-            for (var k = 0u; k < N_DIRS; k = k + 1u) {
-                total = total + g[k] * radiance(i, k, di_here, d);
-                if (lost_w[k] > 0.0) {
-                    lost = lost + lost_w[k] * radiance(i, k, depth_index(d_occ[k]), d_occ[k])
-                        * exp(-c * s_k[k]);
-                }
-            }
-            o = clamp(1.0 - select(0.0, lost / total, total > 0.0), 0.0, 1.0);
+    // Per layer of four bands: the total and the lost weighted radiance.
+    var total: array<vec4<f32>, LAYERS_OUT>;
+    var lost: array<vec4<f32>, LAYERS_OUT>;
+    var any_lost = false;
+    // The light the occluders take (directions they hide) ...
+    let n_dirs = select(0u, N_DIRS, hit);
+    for (var k = 0u; k < n_dirs; k = k + 1u) {
+        let dk = dirs[k];
+        let w = dk.w.xyz;
+        let g = max(dot(n, w), 0.0) * dk.w.w;
+        if (g <= 0.0 || dk.map.w < 0.0) {
+            continue;
         }
-        out[i / 4u][i % 4u] = o;
+        let occ = occluded(dk, p + n * (prm.normal_offset_texels * dk.map.x));
+        if (occ.x <= 0.0) {
+            continue;
+        }
+        // The distance from the point itself, cut at the water surface.
+        var s = max(occ.y / occ.x - dot(p, w), 0.0);
+        if (w.y > 0.0) {
+            s = min(s, d / w.y);
+        }
+        let d_occ = clamp(d - s * w.y, 0.0, prm.seabed_depth);
+        let di_occ = depth_index(d_occ);
+        let lw = min(occ.x, 1.0) * g;
+        for (var l = 0u; l < LAYERS_OUT; l = l + 1u) {
+            lost[l] = lost[l] + lw * radiance4(l, k, di_occ, d_occ)
+                * exp(-band_data[2u * l] * s);
+        }
+        any_lost = true;
+    }
+    // ... over all the light (only where some is taken).
+    let n_total = select(0u, N_DIRS, any_lost);
+    for (var k = 0u; k < n_total; k = k + 1u) {
+        let dk = dirs[k];
+        let g = max(dot(n, dk.w.xyz), 0.0) * dk.w.w;
+        if (g <= 0.0) {
+            continue;
+        }
+        for (var l = 0u; l < LAYERS_OUT; l = l + 1u) {
+            total[l] = total[l] + g * radiance4(l, k, di_here, d);
+        }
     }
     for (var l = 0u; l < LAYERS_OUT; l = l + 1u) {
-        textureStore(occ_out, vec2<u32>(gid.x, gid.y), l, out[l]);
+        let t = total[l];
+        let ratio = select(vec4<f32>(0.0), lost[l] / select(vec4<f32>(1.0), t, t > vec4<f32>(0.0)),
+                           t > vec4<f32>(0.0));
+        let o = select(vec4<f32>(1.0), clamp(1.0 - ratio, vec4<f32>(0.0), vec4<f32>(1.0)),
+                       any_lost);
+        textureStore(occ_out, vec2<u32>(gid.x, gid.y), l, o);
     }
 }

@@ -10,7 +10,10 @@
 // for the band loop a struct BandPixels (what a band needs of the four
 // pixels) and
 //   fn shade_band(i: u32, rho_m: vec4<f32>, p: BandPixels, acc: ptr<function, Rgb4>)
-// which adds band i (material reflectance rho_m, 0 where none) to acc.
+// which adds band i (material reflectance rho_m, 0 where none) to acc, and
+//   fn band_group_start(q: u32)
+// called before bands 4q .. 4q + 3 (per-group data of the four pixels,
+// such as the light-field pass's occlusion factors; may do nothing).
 // The per-band loop reads the band table (a uniform array) and the material
 // table by index inside shade_band: no array goes into a function by value
 // (on lavapipe an array argument in the band loop made 32 bands 20x slower).
@@ -134,6 +137,7 @@ fn band_loop(m: PixelMaterials, run: bool, p: BandPixels, acc: ptr<function, Rgb
             // (One vec4, read outside any loop: with 3 bands the outer loop's
             // single iteration cost 1.1-1.3 ms per 1280x720 frame.)
             let g = material_group(m.mrow, 0u, m.use_material);
+            band_group_start(0u);
             let n_in = select(0u, N_BANDS, run);
             for (var j = 0u; j < n_in; j = j + 1u) {
                 shade_band(j, group_band(g, j), p, acc);
@@ -142,6 +146,7 @@ fn band_loop(m: PixelMaterials, run: bool, p: BandPixels, acc: ptr<function, Rgb
             let n_outer = select(0u, MATERIAL_GROUPS, run);
             for (var q = 0u; q < n_outer; q = q + 1u) {
                 let g = material_group(m.mrow, q, m.use_material);
+                band_group_start(q);
                 let n_in = min(4u, N_BANDS - 4u * q);
                 for (var j = 0u; j < n_in; j = j + 1u) {
                     shade_band(4u * q + j, group_band(g, j), p, acc);
@@ -152,6 +157,7 @@ fn band_loop(m: PixelMaterials, run: bool, p: BandPixels, acc: ptr<function, Rgb
     let n_groups = select(0u, select(0u, FULL_GROUPS, run), GROUPED_BANDS);
     for (var q = 0u; q < n_groups; q = q + 1u) {
         let g = material_group(m.mrow, q, m.use_material);
+        band_group_start(q);
         shade_band(4u * q, group_band(g, 0u), p, acc);
         shade_band(4u * q + 1u, group_band(g, 1u), p, acc);
         shade_band(4u * q + 2u, group_band(g, 2u), p, acc);
@@ -160,6 +166,7 @@ fn band_loop(m: PixelMaterials, run: bool, p: BandPixels, acc: ptr<function, Rgb
     let n_rest = select(0u, select(0u, 1u, GROUPED_BANDS && REST_BANDS > 0u), run);
     for (var t = 0u; t < n_rest; t = t + 1u) {
         let g = material_group(m.mrow, FULL_GROUPS, m.use_material);
+        band_group_start(FULL_GROUPS);
         let i = 4u * FULL_GROUPS;
         shade_band(i, group_band(g, 0u), p, acc);
         if (REST_BANDS > 1u) {
