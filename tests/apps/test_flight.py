@@ -102,6 +102,29 @@ class TestBounds:
         _press(ctl, "q", 0.5)
         assert ctl.depth_m == pytest.approx(6.0 - flight.SEABED_MARGIN_M)
 
+    def test_stays_above_the_floor_and_climbs_over_it(self):
+        class Step:
+            """Sand at y = -8; a 2 m high block for z < -1."""
+            def floor_y(self, x, z):
+                return -6.0 if z < -1.0 else -8.0
+
+        ctl = FlightController(_level_camera(7.5), speed_m_s=1.0, floor=Step())
+        assert ctl.depth_m == pytest.approx(7.5)
+        _press(ctl, "q", 0.5)
+        assert ctl.depth_m == pytest.approx(8.0 - flight.SEABED_MARGIN_M)
+        for _ in range(4):                       # forward, over the block
+            _press(ctl, "w", 0.5)
+        assert ctl.position[2] < -1.0
+        assert ctl.depth_m == pytest.approx(6.0 - flight.SEABED_MARGIN_M)
+
+    def test_the_surface_wins_over_a_floor_above_it(self):
+        class High:
+            def floor_y(self, x, z):
+                return 1.0
+
+        ctl = FlightController(_level_camera(3.0), floor=High())
+        assert ctl.depth_m == pytest.approx(flight.SURFACE_MARGIN_M)
+
     def test_no_seabed_no_floor(self):
         ctl = FlightController(_level_camera(5.0), speed_m_s=20.0)
         for _ in range(4):

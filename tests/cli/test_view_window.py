@@ -2,9 +2,9 @@
 
 The command runs as a user runs it (``python -m aquaspec view``, a separate
 process) in a glfw window on a virtual X server; xdotool focuses the window
-and holds W (through the XTEST extension, as a keyboard does), then presses
-Escape, which closes it. The run's sidecar (``--record``) says where the
-camera went. Skipped, naming what is missing, where Xvfb or xdotool is not
+and presses keys (through the XTEST extension, as a keyboard does): W and Q
+fly, 7 switches the water, Escape closes the window. The run's sidecar and
+frames (``--record``) say where the camera went and what it saw. Skipped, naming what is missing, where Xvfb or xdotool is not
 installed (``make setup`` installs them as root) or no X server starts.
 """
 
@@ -19,13 +19,14 @@ import time
 
 import numpy as np
 import pytest
+from PIL import Image
 
 pytestmark = pytest.mark.gpu
 
 #: Seconds to wait for the server, the window, and the command to finish.
 SERVER_WAIT_S, WINDOW_WAIT_S, EXIT_WAIT_S = 10, 240, 120
-#: Seconds W is held down.
-HOLD_S = 2.0
+#: Seconds a movement key is held down, and given to a new water's loading.
+HOLD_S, WATER_WAIT_S = 2.0, 8.0
 
 
 @pytest.fixture()
@@ -64,27 +65,45 @@ def _xdotool(display, *args, timeout=30):
                           capture_output=True, text=True, timeout=timeout)
 
 
-def test_w_key_flies_the_camera_forward(x_display, tmp_path):
+def _hold(display, key, seconds):
+    _xdotool(display, "keydown", key)
+    time.sleep(seconds)
+    _xdotool(display, "keyup", key)
+    time.sleep(0.5)
+
+
+def _ratio(png, num, den, rows=0.2):
+    """Mean of channel ``num`` over mean of channel ``den`` in the top ``rows``
+    of a frame: open water (the camera looks 10 degrees down), the background."""
+    a = np.asarray(Image.open(png)).astype(float)
+    top = a[:max(1, int(a.shape[0] * rows))]
+    return top[..., num].mean() / top[..., den].mean()
+
+
+def test_keys_fly_the_camera_and_change_the_water(x_display, tmp_path):
+    """Q descends (the background turns bluer: red is absorbed faster), W flies
+    forward, 7 switches to Jerlov 3C (greener: less blue for the green), Escape
+    closes the window."""
     out = tmp_path / "run"
     env = {**os.environ, "DISPLAY": x_display}
     env.pop("RENDERCANVAS_FORCE_OFFSCREEN", None)
     # --frames: a cap, so that the window closes even if Escape is lost.
     view = subprocess.Popen([sys.executable, "-m", "aquaspec", "view", "--size", "160x90",
-                             "--bands", "3", "--frames", "5000", "--record", str(out)],
+                             "--bands", "6", "--depth", "1.5", "--frames", "5000",
+                             "--record", str(out)],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         found = _xdotool(x_display, "search", "--sync", "--name", "^aquaspec view",
                          timeout=WINDOW_WAIT_S)
         assert found.returncode == 0, f"no window appeared: {found.stderr}"
         window = found.stdout.split()[0]
-        # Let a few frames run, then hold W.
-        time.sleep(1.0)
+        time.sleep(1.0)                                   # a few frames first
         focus = _xdotool(x_display, "windowfocus", "--sync", window)
         assert focus.returncode == 0, focus.stderr
-        _xdotool(x_display, "keydown", "w")
-        time.sleep(HOLD_S)
-        _xdotool(x_display, "keyup", "w")
-        time.sleep(0.5)
+        _hold(x_display, "q", HOLD_S)
+        _hold(x_display, "w", HOLD_S)
+        _xdotool(x_display, "key", "7")
+        time.sleep(WATER_WAIT_S)
         _xdotool(x_display, "key", "Escape")
         stdout, stderr = view.communicate(timeout=EXIT_WAIT_S)
     finally:
@@ -95,13 +114,23 @@ def test_w_key_flies_the_camera_forward(x_display, tmp_path):
     run = json.loads((out / "run.json").read_text())
     assert run["mode"] == "window"
     assert run["frames_drawn"] < 5000, "Escape did not close the window"
-    poses = np.array([f["position_m"] for f in run["frames"]])
-    # The built-in camera looks along -z, 10 degrees down: W moves it that way.
-    start, end = poses[0], poses[-1]
-    travelled = end - start
-    assert travelled[2] < -0.3, f"the camera did not fly forward: {start} -> {end}"
-    assert abs(travelled[0]) < 1e-6
-    assert travelled[1] < 0                      # forward is slightly downward
-    # It moved while the window drew: the frames' poses change in between.
-    assert len({tuple(p) for p in poses}) > 2
+    frames = run["frames"]
+    poses = np.array([f["position_m"] for f in frames])
+    waters = [f["water"] for f in frames]
+    # Q first: straight down from the start, stopped above the sand.
+    assert waters[0] == "IB" and waters[-1] == "3C", sorted(set(waters))
+    start = [i for i in range(len(frames)) if np.allclose(poses[i, [0, 2]], poses[0, [0, 2]])]
+    low = start[-1]
+    assert poses[low, 1] < poses[0, 1] - 0.5, "Q did not take the camera down"
+    # Deeper, the open water above the horizon is bluer (red absorbed faster).
+    assert _ratio(out / frames[low]["file"], 2, 0) > _ratio(out / frames[0]["file"], 2, 0)
+    # W: along the view (-z, 10 degrees down, or along the sand); x never changes.
+    assert poses[:, 2].min() < poses[low, 2] - 0.5, "W did not fly the camera forward"
+    assert np.ptp(poses[:, 0]) < 1e-9
+    # 7: Jerlov 3C from the same pose, the exposure held: the frame turns greener.
+    first_3c = waters.index("3C")
+    np.testing.assert_array_equal(poses[first_3c], poses[first_3c - 1])
+    assert waters[first_3c - 1] == "IB"
+    assert (_ratio(out / frames[first_3c]["file"], 2, 1, rows=1.0)
+            < _ratio(out / frames[first_3c - 1]["file"], 2, 1, rows=1.0))
     assert "frames (window)" in stdout

@@ -15,7 +15,9 @@ them (forward ``(cos p sin y, sin p, -cos p cos y)``: yaw 0 looks along -z,
 positive yaw turns towards +x, positive pitch looks up). World units are
 metres, y is up, the water surface is y = 0: the camera stays at least
 ``surface_margin_m`` below it and, with a seabed, ``seabed_margin_m`` above
-the seabed's depth.
+the seabed's depth and (with a ``floor``, e.g. a
+:class:`aquaspec.apps.floor.FloorMap`) above the highest surface under it;
+the surface wins where the two cannot both hold.
 """
 
 from __future__ import annotations
@@ -78,13 +80,17 @@ class FlightController:
     speed_m_s : float
         Start speed, within [:data:`MIN_SPEED_M_S`, :data:`MAX_SPEED_M_S`].
     surface_margin_m, seabed_margin_m : float
-        Closest approach to the surface and to the seabed.
+        Closest approach to the surface and to the seabed (or floor).
+    floor : object, optional
+        Has ``floor_y(x, z)``: the height of the highest surface under a
+        point (-inf where none), e.g. a :class:`aquaspec.apps.floor.FloorMap`.
     """
 
     def __init__(self, camera: Camera, *, seabed_depth_m: float | None = None,
                  speed_m_s: float = 1.0, surface_margin_m: float = SURFACE_MARGIN_M,
-                 seabed_margin_m: float = SEABED_MARGIN_M):
+                 seabed_margin_m: float = SEABED_MARGIN_M, floor=None):
         self._start_camera = camera
+        self.floor = floor
         self.surface_margin_m = _positive("surface_margin_m", surface_margin_m)
         self.seabed_margin_m = _positive("seabed_margin_m", seabed_margin_m)
         self.seabed_depth_m = None if seabed_depth_m is None else _positive(
@@ -116,12 +122,15 @@ class FlightController:
         return self.surface_margin_m, deepest
 
     def set_position(self, position) -> None:
-        """Move to ``position`` (world metres), its depth clamped to :meth:`depth_range_m`."""
+        """Move to ``position`` (world metres), its depth clamped to
+        :meth:`depth_range_m` and kept above the floor."""
         p = np.asarray(position, dtype=float).reshape(3).copy()
         if not np.all(np.isfinite(p)):
             raise AquaspecError(f"camera position {p!r}; accepted: finite metres")
         lo, hi = self.depth_range_m()
-        p[1] = -float(np.clip(-p[1], lo, hi))
+        if self.floor is not None:
+            hi = min(hi, -(self.floor.floor_y(p[0], p[2]) + self.seabed_margin_m))
+        p[1] = -float(np.clip(-p[1], lo, max(lo, hi)))
         self.position = p
 
     def set_view(self, yaw_deg: float, pitch_deg: float) -> None:

@@ -25,7 +25,8 @@ by the present pass (:mod:`aquaspec.apps.overlay`).
 
 The scene is fixed when the view starts (``builtin_scene(depth_m)``: the
 camera 1.5 m above the sand); the camera flies within it, bounded by the
-surface and the light field's seabed. Exposure and white balance are set
+surface, the light field's seabed and the scene's floor
+(:class:`aquaspec.apps.floor.FloorMap`: it cannot fly into the sand or a rock). Exposure and white balance are set
 automatically from the first frame and then held, so that frames compare.
 """
 
@@ -33,10 +34,12 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from aquaspec.apps.flight import FlightController
+from aquaspec.apps.floor import FloorMap
 from aquaspec.apps.overlay import text_overlay
 from aquaspec.colour.bands import Bands
 from aquaspec.colour.sensors import get_sensor
@@ -44,7 +47,7 @@ from aquaspec.errors import AquaspecError
 from aquaspec.gpu.passes.present import PresentPass, plain_format
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
 from aquaspec.light.waves import WIND_RANGE, Waves
-from aquaspec.medium.water import get_water
+from aquaspec.medium.water import JERLOV_TYPES, get_water
 from aquaspec.rendering.appearance import check_ms_model
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.setup import SpectralSetup
@@ -61,7 +64,9 @@ OVERCAST_BELOW_DEG = 1.0
 #: Seconds between redraws of the on-screen text.
 OVERLAY_EVERY_S = 0.25
 #: The on-screen text's last line.
-OVERLAY_HELP = "W/A/S/D/Q/E move, drag: look, +/- speed, R reset, H text, Esc quit"
+OVERLAY_HELP = "W/A/S/D/Q/E move, drag: look, +/- speed, R reset, 1-0 water, H text, Esc quit"
+#: Keys 1-9 and 0 switch to the ten Jerlov types, clearest first.
+WATER_KEYS = dict(zip("1234567890", JERLOV_TYPES))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -152,7 +157,8 @@ class LiveView:
         self.scene, start = builtin_scene(s.depth_m, width=s.width, height=s.height)
         self.renderer = Renderer(s.width, s.height, s.bands)
         self.device = self.renderer.deferred.device
-        self.flight = FlightController(start, seabed_depth_m=self.scene.seabed.depth_m)
+        self.flight = FlightController(start, seabed_depth_m=self.scene.seabed.depth_m,
+                                       floor=FloorMap.from_scene(self.scene))
         self._setups: dict = {}
         self.water = s.water
         self.setup = self._setup(s.water)
@@ -177,25 +183,75 @@ class LiveView:
         self.progressive_waves = False
         #: Draw the status text over the frame (:mod:`aquaspec.apps.overlay`).
         self.overlay = False
+        #: A line of news for the status text (a water loading, an error), or None.
+        self.message = None
+        self._pending = None        # (water, Future) made on the worker thread
+        self._workers = None
         self._overlay_t = None
 
     # ------------------------------------------------------------- physics
+    def _make_setup(self, water: str) -> SpectralSetup:
+        """A new spectral setup of ``water`` with the view's other settings."""
+        s = self.settings
+        light, waves = surface_light("overcast"), None
+        if s.has_sun:
+            light = surface_light("sun-sky", sun_elevation_deg=s.sun_elevation_deg,
+                                  sun_azimuth_deg=s.sun_azimuth_deg)
+            waves = Waves(s.wind) if s.wind > 0 else None
+        return SpectralSetup(
+            get_water(water), get_sensor(s.sensor, s.camspec), light, Bands(s.bands),
+            ms_model=s.ms_model, cone_spread=s.cone_spread,
+            spread_scattering=s.spread_scattering,
+            seabed=self.scene.seabed if s.ms_model == "lightfield" else None, waves=waves)
+
     def _setup(self, water: str) -> SpectralSetup:
-        """The spectral setup of ``water`` with the view's other settings (made once)."""
+        """The spectral setup of ``water`` (made once, on this thread)."""
         if water not in self._setups:
-            s = self.settings
             self._say(f"water {water}: loading and solving its light field ...")
-            light, waves = surface_light("overcast"), None
-            if s.has_sun:
-                light = surface_light("sun-sky", sun_elevation_deg=s.sun_elevation_deg,
-                                      sun_azimuth_deg=s.sun_azimuth_deg)
-                waves = Waves(s.wind) if s.wind > 0 else None
-            self._setups[water] = SpectralSetup(
-                get_water(water), get_sensor(s.sensor, s.camspec), light, Bands(s.bands),
-                ms_model=s.ms_model, cone_spread=s.cone_spread,
-                spread_scattering=s.spread_scattering,
-                seabed=self.scene.seabed if s.ms_model == "lightfield" else None, waves=waves)
+            self._setups[water] = self._make_setup(water)
         return self._setups[water]
+
+    def _prepared_setup(self, water: str) -> SpectralSetup:
+        """:meth:`_make_setup` with its host-side work done (the light field's
+        tables, the per-band medium): what a worker thread runs."""
+        setup = self._make_setup(water)
+        setup.lightfield_tables()
+        setup.medium(self.scene.materials)
+        return setup
+
+    def request_water(self, water: str) -> None:
+        """Switch to ``water`` without stalling the frames: its setup is made on a
+        worker thread while the current water keeps rendering, then uploaded
+        by the next frame (:meth:`_poll_water`)."""
+        if water == self.water or (self._pending and self._pending[0] == water):
+            return
+        if water in self._setups:
+            self.set_water(water)
+            return
+        if self._workers is None:
+            self._workers = ThreadPoolExecutor(max_workers=1, thread_name_prefix="aquaspec-water")
+        self._pending = (water, self._workers.submit(self._prepared_setup, water))
+        self.message = f"loading water {water} ..."
+
+    def _poll_water(self) -> None:
+        """Take a water made on the worker thread once it is ready."""
+        if not self._pending or not self._pending[1].done():
+            return
+        water, future = self._pending
+        self._pending = None
+        try:
+            self._setups[water] = future.result()
+        except AquaspecError as exc:
+            self.message = f"water {water}: {exc}"
+            return
+        self.message = None
+        self.set_water(water)
+
+    def close(self) -> None:
+        """Stop the worker thread (a pending water is dropped)."""
+        if self._workers is not None:
+            self._workers.shutdown(wait=False, cancel_futures=True)
+            self._workers = None
 
     def set_water(self, water: str) -> None:
         """Show ``water`` (a Jerlov type or a CSV path); the exposure is kept."""
@@ -234,8 +290,9 @@ class LiveView:
         canvas.request_draw(self.draw)
 
     def handle_event(self, event: dict) -> None:
-        """Keys and mouse to the flight; H shows or hides the on-screen text,
-        Escape closes the canvas."""
+        """Keys and mouse to the flight; 1-9 and 0 switch the Jerlov water
+        (:data:`WATER_KEYS`), H shows or hides the on-screen text, Escape
+        closes the canvas."""
         if event.get("event_type") == "key_down":
             if event.get("key") == "Escape":
                 self.canvas.close()
@@ -243,6 +300,9 @@ class LiveView:
             if event.get("key") in ("h", "H"):
                 self.overlay = not self.overlay
                 self._overlay_t = None
+                return
+            if event.get("key") in WATER_KEYS:
+                self.request_water(WATER_KEYS[event["key"]])
                 return
         self.flight.handle_event(event)
 
@@ -284,6 +344,7 @@ class LiveView:
         if self.script is not None:
             self.apply_script(self.frame_index)
         else:
+            self._poll_water()
             self.flight.advance(dt)
             self.time_s += dt
         self.encode_and_submit(profile=self.frame_index % PROFILE_EVERY == 0)
@@ -326,7 +387,8 @@ class LiveView:
         return [f"{fps} fps | Jerlov {self.water}, {s.bands} bands, {s.ms_model}, {light}",
                 f"ms: {passes or '-'}",
                 f"depth {f.depth_m:.2f} m, x {x:.1f} z {z:.1f}, yaw {f.yaw_deg:.0f} "
-                f"pitch {f.pitch_deg:.0f} | speed {f.speed_m_s:.2f} m/s"]
+                f"pitch {f.pitch_deg:.0f} | speed {f.speed_m_s:.2f} m/s",
+                *([self.message] if self.message else [])]
 
     def status(self) -> str:
         """:meth:`status_lines` on one line, for the window title."""

@@ -4,7 +4,8 @@
 glfw backend, the ``view`` extra) the frames run continuously until the
 window is closed (or Escape, or ``frames`` frames); the camera flies with
 the keys and mouse (:mod:`aquaspec.apps.flight`) unless a flight script
-drives it. Offscreen (``rendercanvas``'s offscreen canvas; no display
+drives it, and the number keys switch the water (made on a worker thread
+while the frames go on). Offscreen (``rendercanvas``'s offscreen canvas; no display
 needed) the same :class:`aquaspec.apps.live.LiveView` draws ``frames``
 frames, the camera driven by a script (:mod:`aquaspec.apps.flight_script`)
 or standing still. With ``record`` each frame is written as a PNG (offscreen:
@@ -129,13 +130,15 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
 
             view.on_frame = after_frame
             view.attach(canvas)
-            say("window open: W/A/S/D/Q/E move, drag to look, +/- speed, R reset, H text, "
-                "Esc quit")
+            say("window open: W/A/S/D/Q/E move, drag to look, +/- speed, R reset, 1-0 water "
+                "(Jerlov I ... 9C), H text, Esc quit")
             loop.run()
     except BaseException:
         if recorder is not None:
             recorder.discard()
         raise
+    finally:
+        view.close()
     summary = _summary(view, walls_ms, mode)
     if recorder is not None:
         recorder.close({"command": "view", "settings": settings.describe(), **summary,

@@ -23,9 +23,11 @@ def register(sub):
                        description="Render the built-in scene continuously into a window "
                                    "(glfw; pip install 'aquaspec[view]') and fly the camera: "
                                    "W/A/S/D/Q/E move, drag the mouse to look, +/- change the "
-                                   "speed, R resets, Esc quits. The title shows the frame rate, "
-                                   "per-pass milliseconds and the camera's depth. The options "
-                                   "set the physics (fixed for the run). --offscreen draws the "
+                                   "speed, R resets, 1-9 and 0 switch the Jerlov water, H hides "
+                                   "the text, Esc quits. The text over the frame (and the title) "
+                                   "shows the frame rate, per-pass milliseconds and the camera's "
+                                   "pose. The other options set the physics for the run. "
+                                   "--offscreen draws the "
                                    "same frames without a display; --script drives the camera "
                                    "and the water from a JSON flight script; --record writes "
                                    "the frames as PNG with a run.json sidecar.")
@@ -97,4 +99,7 @@ def run(args):
           f"depth {final['depth_m']:.2f} m, position "
           f"({', '.join(f'{v:.2f}' for v in final['position_m'])}) m"
           + ("" if args.record is None else f"; recorded in {args.record}"))
+    if summary["pass_ms"]:
+        print("last frame timed pass by pass (ms): "
+              + ", ".join(f"{k} {v:.1f}" for k, v in summary["pass_ms"].items()))
     return 0
