@@ -17,6 +17,7 @@ sidecar with the parameters, every frame's pose and the frame rate
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -73,7 +74,8 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
     ----------
     settings : ViewSettings
     offscreen : bool
-        Draw into ``rendercanvas``'s offscreen canvas (needs ``frames``).
+        Draw into ``rendercanvas``'s offscreen canvas (needs ``frames``); also
+        when the environment sets :data:`FORCE_OFFSCREEN_ENV` to 1, true or yes.
     script : path, optional
         A flight script driving the camera and the parameters.
     frames : int, optional
@@ -84,6 +86,9 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         Called with short messages.
     """
     say = progress or (lambda message: None)
+    # rendercanvas's own switch (for tests and CI): offscreen, whatever is asked.
+    offscreen = offscreen or os.environ.get(FORCE_OFFSCREEN_ENV, "").lower() in ("1", "true",
+                                                                                 "yes")
     if frames is not None and (isinstance(frames, bool) or not isinstance(frames, int)
                                or frames < 1):
         raise AquaspecError(f"--frames {frames!r}; accepted: a whole number >= 1")

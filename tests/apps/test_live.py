@@ -1,0 +1,100 @@
+"""The live view's frame loop (aquaspec.apps.live) on rendercanvas's offscreen canvas."""
+
+from __future__ import annotations
+
+import gc
+import time
+import weakref
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.gpu
+
+W, H = 64, 36
+
+
+@pytest.fixture()
+def canvas_and_view(device):
+    from rendercanvas.offscreen import RenderCanvas
+
+    from aquaspec.apps.live import LiveView, ViewSettings
+    canvas = RenderCanvas(size=(W, H))
+    view = LiveView(ViewSettings(width=W, height=H, bands=3))
+    view.attach(canvas)
+    yield canvas, view
+    view.close()
+    canvas.close()
+
+
+def _key(view, key):
+    view.handle_event({"event_type": "key_down", "key": key, "modifiers": ()})
+    view.handle_event({"event_type": "key_up", "key": key, "modifiers": ()})
+
+
+def test_the_canvas_keeps_the_view_alive_through_garbage_collection(device):
+    """The old matplotlib viewer lost its controls to weak references; here the
+    canvas holds the draw function and the event handlers strongly."""
+    from rendercanvas.offscreen import RenderCanvas
+
+    from aquaspec.apps.live import LiveView, ViewSettings
+    canvas = RenderCanvas(size=(W, H))
+    view = LiveView(ViewSettings(width=W, height=H, bands=3))
+    view.attach(canvas)
+    ref = weakref.ref(view)
+    del view
+    gc.collect()
+    assert ref() is not None
+    # Offscreen, no scheduler flushes submitted events: flush them as it would.
+    canvas.submit_event({"event_type": "key_down", "key": "w", "modifiers": ()})
+    canvas._events.flush()
+    assert ref().flight.moving                   # the handler got the key
+    canvas.draw()
+    time.sleep(0.05)
+    canvas.draw()
+    assert ref().frame_index == 2
+    assert ref().flight.position[2] < 0          # and the frames flew the camera
+    ref().close()
+    canvas.close()
+
+
+def test_frames_are_the_renderers_display_image(canvas_and_view):
+    canvas, view = canvas_and_view
+    image = np.asarray(canvas.draw())
+    np.testing.assert_array_equal(image[..., :3], view.renderer.read_display())
+    assert view.frame_index == 1 and "fps" in view.status()
+
+
+def test_held_key_moves_between_frames(canvas_and_view):
+    canvas, view = canvas_and_view
+    canvas.draw()
+    view.handle_event({"event_type": "key_down", "key": "w", "modifiers": ()})
+    time.sleep(0.05)
+    canvas.draw()
+    assert view.flight.position[2] < 0          # forward is -z
+    view.handle_event({"event_type": "key_up", "key": "w", "modifiers": ()})
+
+
+def test_number_key_switches_the_water_off_the_frame_thread(canvas_and_view):
+    canvas, view = canvas_and_view
+    first = np.asarray(canvas.draw())[..., :3].astype(float)
+    _key(view, "7")                              # Jerlov 3C
+    assert view.water == "IB" and "loading water 3C" in view.message
+    view._pending[1].result(timeout=120)         # the worker's setup
+    image = np.asarray(canvas.draw())[..., :3].astype(float)
+    assert view.water == "3C" and view.message is None
+    # Coastal 3C is greener than oceanic IB, the exposure held.
+    assert (image[..., 2].mean() / image[..., 1].mean()
+            < first[..., 2].mean() / first[..., 1].mean())
+
+
+def test_h_toggles_the_text_and_escape_closes(canvas_and_view):
+    canvas, view = canvas_and_view
+    assert view.overlay is False
+    canvas.draw()
+    assert view.present.overlay_size == (0, 0)
+    _key(view, "h")
+    canvas.draw()
+    assert view.overlay is True and view.present.overlay_size[0] > 0
+    _key(view, "Escape")
+    assert canvas.get_closed()
