@@ -66,6 +66,12 @@ def register(sub):
                         "(goes with --spread-scattering multiple; planned in NumPy from the "
                         "G-buffer, its rays integrated on the GPU with --backend gpu: seconds "
                         "per image)")
+    p.add_argument("--occlusion", action="store_true",
+                   help="the scene's occlusion of the water's ambient light: surfaces under "
+                        "a ledge or before a wall get only the light of the directions they "
+                        "see (GPU and NumPy); with --backend numpy the water in the "
+                        "occluders' shadow scatters less too (light-field model; an RGB-D "
+                        "image's occluder is its visible surface)")
     p.add_argument("--seabed", default="scene", metavar="scene|none|DEPTH[,ALBEDO]",
                    help="the light field's lower boundary: the scene's (default; the "
                         "built-in scene's sand), none (deep water), or a flat Lambertian "
@@ -137,7 +143,7 @@ def run(args):
                  ms_model=args.ms_model, phase=args.phase,
                  forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
                  spread_scattering=args.spread_scattering, ambient_shadow=args.ambient_shadow,
-                 seabed=seabed,
+                 occlusion=args.occlusion, seabed=seabed,
                  exposure=args.exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
                  layers=bool(args.layers), backend=args.backend, progress=progress)

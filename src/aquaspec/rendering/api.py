@@ -60,6 +60,7 @@ from aquaspec.scene.load import load_mesh, place_in_front
 from aquaspec.scene.rgbd import gbuffer_from_rgbd, load_rgbd
 from aquaspec.scene.seabed import plane_radius_m, with_seabed_plane
 from aquaspec.scene.shadowmap import DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, numpy_shadow_map
+from aquaspec.scene.occlusion import occlusion_maps, visible_surface_occluders
 from aquaspec.shading.shade import shade_gbuffer
 from aquaspec.shading.sun import surface_visibility
 from aquaspec.transport import monzon2022 as model
@@ -117,7 +118,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
-           spread_scattering: str = "single", ambient_shadow: bool = False, seabed="scene",
+           spread_scattering: str = "single", ambient_shadow: bool = False,
+           occlusion: bool = False, seabed="scene",
            exposure="auto", white_balance="none", tonemap="filmic",
            colour_matrix="auto", return_radiance: bool = False, layers: bool = False,
            backend: str = "gpu", progress=None) -> RenderResult:
@@ -186,6 +188,15 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         (:mod:`aquaspec.transport.lightfield.shadow`; goes with ``spread_scattering="multiple"``).
         Integrated in NumPy from the G-buffer with either backend (the GPU's
         image has it subtracted in camera RGB): seconds per image.
+    occlusion : bool
+        The scene's occlusion of the ambient light field (light-field model,
+        scenes and meshes): surfaces under a ledge or before a wall get the
+        light of the directions they see
+        (:mod:`aquaspec.transport.lightfield.occlusion`; GPU and NumPy) and,
+        with ``backend="numpy"``, the water in the occluders' shadow scatters
+        less (:mod:`aquaspec.transport.lightfield.water_occlusion`). RGB-D
+        images hold no geometry behind what they show: their visible surface
+        is the occluder (:func:`aquaspec.scene.occlusion.visible_surface_occluders`).
     seabed : "scene", None or Seabed
         The light field's lower boundary (:class:`aquaspec.scene.seabed.Seabed`):
         ``"scene"`` takes the scene's (the built-in scene's sand; none for
@@ -239,7 +250,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         outside=outside,
         ms_model=ms_model, phase=phase, forward_cone_deg=forward_cone_deg,
         cone_spread=cone_spread, spread_scattering=spread_scattering,
-        ambient_shadow=ambient_shadow, say=say)
+        ambient_shadow=ambient_shadow, occlusion=occlusion, say=say)
     view = _view(scene=scene, camera=camera, mesh=mesh, albedo=albedo, rgbd=rgbd,
                  depth_m=depth, width=width, height=height, say=say)
     if rgbd is not None:
@@ -266,7 +277,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
 def _spectral_setup(*, water, source, sensor, camspec, bands, wavelength_range, light,
                     irradiance_w_m2, sun_elevation_deg, sun_azimuth_deg, sun_shadow_map,
                     waves, ambient, outside, ms_model, phase, forward_cone_deg, cone_spread,
-                    spread_scattering, ambient_shadow, say):
+                    spread_scattering, ambient_shadow, say, occlusion=False):
     """Step 1: the :class:`SpectralSetup` of :func:`render`'s arguments and the
     sun's shadow-map size; its ranges are checked (and the waves' caustics
     computed) before any geometry work."""
@@ -280,6 +291,7 @@ def _spectral_setup(*, water, source, sensor, camspec, bands, wavelength_range, 
                           ambient, outside, ms_model, phase,
                           forward_cone_deg=forward_cone_deg, cone_spread=cone_spread,
                           spread_scattering=spread_scattering, ambient_shadow=ambient_shadow,
+                          occlusion=occlusion,
                           waves=as_waves(waves))
     setup.medium([])  # fail early on ranges before any geometry work
     if setup.waves is not None:
@@ -430,13 +442,17 @@ def _shade_on_gpu(setup: SpectralSetup, view: _View, map_size, return_radiance,
                             "ms_model='seeds'; use backend='numpy' for the light field")
     r = Renderer(camera.width, camera.height, setup.bands.n, debug_radiance=return_radiance)
     r.sun_map_size = map_size
+    r.set_occlusion(setup.occlusion)
+    occluders = visible_surface_occluders(view.gbuffer) if (setup.occlusion
+                                                             and view.from_rgbd) else None
     if return_radiance and setup.light.sun is not None:
         raise AquaspecError("per-band radiance with a sun is available from "
                             "backend='numpy'")
     if view.gbuffer is None:
         linear = r.render_scene(view.scene, camera, setup, say).astype(np.float64)
     else:
-        linear = r.render_gbuffer(view.gbuffer, setup, say).astype(np.float64)
+        linear = r.render_gbuffer(view.gbuffer, setup, say,
+                                  occluders=occluders).astype(np.float64)
     radiance = r.read_radiance() if return_radiance else None
     return _Shaded(linear, radiance, view.gbuffer, renderer=r)
 
@@ -452,10 +468,15 @@ def _shade_in_numpy(setup: SpectralSetup, view: _View, map_size, return_radiance
     say(f"shading {camera.width}x{camera.height} pixels x {setup.bands.n} bands in NumPy"
         + (" with the scene's shadow in the light field" if setup.ambient_shadow else ""))
     sun_shadow = _numpy_sun_shadow(setup, view, map_size, say)
+    occlusion = None
+    if setup.occlusion:
+        say("the scene's occlusion maps (NumPy)")
+        occlusion = occlusion_maps(visible_surface_occluders(gbuffer) if view.from_rgbd
+                                   else view.scene, camera)
     out = shade_gbuffer(gbuffer, **setup.medium(gbuffer.materials),
                         return_radiance=return_radiance,
                         lightfield=setup.lightfield_tables(), progress=say,
-                        sun=setup.sun_inputs(), sun_shadow=sun_shadow)
+                        sun=setup.sun_inputs(), sun_shadow=sun_shadow, occlusion=occlusion)
     return _Shaded(out["camera_rgb"], out.get("radiance"), gbuffer, sun_shadow=sun_shadow)
 
 

@@ -173,12 +173,15 @@ class Renderer:
         return rgb
 
     def render_gbuffer(self, gbuffer: GBuffer, setup: SpectralSetup,
-                       progress=None, *, sun_scene=None) -> np.ndarray:
+                       progress=None, *, sun_scene=None, occluders=None) -> np.ndarray:
         """Shade a G-buffer made elsewhere (e.g. RGB-D) on the GPU (and subtract
         the shadow with ``setup.ambient_shadow``, as :meth:`render_scene`).
 
         With a sun, ``sun_scene`` (the scene the G-buffer shows, if any)
-        casts the sun's shadows; without it nothing does.
+        casts the sun's shadows; without it nothing does. With
+        :meth:`set_occlusion`, ``occluders`` (a scene; default ``sun_scene``)
+        occlude the ambient light, e.g. an RGB-D image's visible surface
+        (:func:`aquaspec.scene.occlusion.visible_surface_occluders`).
         """
         self._check_camera(gbuffer.camera)
         self.set_spectral(setup, gbuffer.materials)
@@ -187,7 +190,8 @@ class Renderer:
         enc = self.deferred.device.create_command_encoder()
         if sun is not None:
             self._advance_waves(enc, setup)
-        self.encode_shading(enc, sun, gbuffer.camera, sun_scene)
+        self.encode_shading(enc, sun, gbuffer.camera, sun_scene,
+                            occluders=sun_scene if occluders is None else occluders)
         self.deferred.device.queue.submit([enc.finish()])
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
@@ -249,7 +253,7 @@ class Renderer:
         return True
 
     def encode_shading(self, encoder, sun, camera, shadow_scene, *, split=None,
-                       display: bool = False):
+                       display: bool = False, occluders=None):
         """Record the shading of the G-buffer and, with ``sun`` (a
         :class:`~aquaspec.gpu.passes.sun.SunPass` with its inputs set), the sun:
         its shadow map of ``shadow_scene`` (None: nothing shadowed) and its
@@ -265,7 +269,8 @@ class Renderer:
         fused = sun is not None and self._use_lightfield
         if self.lightfield is not None:
             self.lightfield.set_sun(sun if fused else None)
-            occluded = self.encode_occlusion(encoder, camera, shadow_scene)
+            occluded = self.encode_occlusion(encoder, camera, shadow_scene if occluders is None
+                                             else occluders)
             self.lightfield.set_occlusion(self.occlusion if occluded else None)
             if occluded:
                 encoder = split("occlusion", encoder)

@@ -76,6 +76,11 @@ class SpectralSetup:
     #: integrates its rays on its device:
     #: :meth:`aquaspec.rendering.renderer.Renderer.subtract_shadow`).
     ambient_shadow: bool = False
+    #: The scene's occlusion of the ambient light field: on surfaces (the GPU's
+    #: :class:`aquaspec.gpu.passes.occlusion.OcclusionPass`, NumPy's
+    #: :func:`aquaspec.transport.lightfield.occlusion.occlusion_factor`) and, in
+    #: NumPy, the water's own shadow (:mod:`aquaspec.transport.lightfield.water_occlusion`).
+    occlusion: bool = False
     #: The light field's lower boundary (:class:`aquaspec.scene.seabed.Seabed`);
     #: None: deep water. The seeds' model has none.
     seabed: object = None
@@ -99,6 +104,12 @@ class SpectralSetup:
         if self.ambient_shadow and self.ms_model != "lightfield":
             raise AquaspecError(f"ambient_shadow is part of the light-field model; ms_model="
                                 f"{self.ms_model!r}; accepted: 'lightfield'")
+        if self.occlusion and self.ms_model != "lightfield":
+            raise AquaspecError(f"occlusion is part of the light-field model; ms_model="
+                                f"{self.ms_model!r}; accepted: 'lightfield'")
+        if self.occlusion and self.ambient_shadow:
+            raise AquaspecError("occlusion and ambient_shadow both take the scene's shadow out "
+                                "of the water's light; accepted: one of them")
 
     @property
     def cone_deg(self) -> float:
@@ -183,6 +194,7 @@ class SpectralSetup:
                               "cone_spread": self.cone_spread,
                               "spread_scattering": self.spread_scattering,
                               "ambient_shadow": self.ambient_shadow,
+                              "occlusion": self.occlusion,
                               "seabed": None if self.seabed is None
                               else self.seabed.describe()})
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),

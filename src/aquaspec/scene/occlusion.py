@@ -31,6 +31,12 @@ What occludes
   thickness: a 0.2 m ledge over a 0.3 m gap would read 0.5 m), and a point
   on a closed mesh cannot shadow itself. Open meshes (single quads) are
   drawn whole.
+- RGB-D photographs hold no geometry behind what they show. Their
+  approximation (:func:`visible_surface_occluders`) is the visible surface
+  itself as an open mesh, cut where the depth jumps: a crevice or an
+  overhang the camera sees into occludes, but what is hidden behind the
+  visible surfaces (the back of a rock, a ledge's top) does not, and the
+  surface's silhouettes hang in the water as thin sheets.
 - A point does not shadow itself: it is looked up ``normal_offset_texels``
   along its normal and counts as visible up to ``bias_texels`` below the
   map (as the sun's map). Directions behind the surface (``n . w_k <= 0``)
@@ -44,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.scene.shadowmap import (BIAS_TEXELS, DEFAULT_MAP_MARGIN_M, DEFAULT_MAP_RADIUS_M,
                                       NORMAL_OFFSET_TEXELS, ShadowMapSpec, shadow_map_numpy,
                                       shadow_map_spec)
@@ -317,6 +324,52 @@ def occlusion_maps(scene, camera, *, directions=DEFAULT_DIRECTIONS,
         keep = ~tris.closed | (tris.normals @ w < 0.0)
         maps.append(shadow_map_numpy(_Scene([soup.select(keep)]), spec))
     return OcclusionMaps(lay.directions, lay.solid_angle, tuple(maps), lay.specs)
+
+
+#: Visible-surface occluders of an RGB-D G-buffer: a vertex every this many pixels.
+RGBD_OCCLUDER_STEP = 2
+#: ... and no triangle seen more edge-on than this (``|cos|`` between its
+#: normal and the view ray): those bridge depth jumps (a board's edge and
+#: the wall behind it), not surfaces.
+RGBD_MIN_FACING = 0.1
+
+
+def visible_surface_occluders(gbuffer, *, step: int = RGBD_OCCLUDER_STEP,
+                              min_facing: float = RGBD_MIN_FACING):
+    """The visible surface of a G-buffer (an RGB-D photograph's) as an occluder
+    scene (module docstring): vertices every ``step`` pixels where the ray
+    hits, two triangles per cell of four hit corners, those seen more
+    edge-on than ``min_facing`` dropped (they bridge depth jumps). Returns a
+    :class:`aquaspec.scene.mesh.Scene` with one mesh (none if nothing qualifies)."""
+    if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
+        raise AquaspecError(f"occluder step {step!r}; accepted: an integer >= 1 (pixels)")
+    if not 0 <= min_facing < 1:
+        raise AquaspecError(f"occluder min_facing {min_facing!r}; accepted: 0 <= value < 1")
+    cam = gbuffer.camera
+    dist = np.asarray(gbuffer.distance, dtype=float)[::step, ::step]
+    ok = gbuffer.hit[::step, ::step] & np.isfinite(dist)
+    pts = cam.position + cam.ray_directions()[::step, ::step] * np.where(ok, dist, 0.0)[..., None]
+    h, w = dist.shape
+    idx = np.arange(h * w).reshape(h, w)
+    a, b, c, d = idx[:-1, :-1], idx[:-1, 1:], idx[1:, :-1], idx[1:, 1:]
+    cell = ok[:-1, :-1] & ok[:-1, 1:] & ok[1:, :-1] & ok[1:, 1:]
+    faces = np.concatenate([np.stack([a[cell], c[cell], b[cell]], 1),
+                            np.stack([b[cell], c[cell], d[cell]], 1)])
+    flat = pts.reshape(-1, 3)
+    tri = flat[faces]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    view = tri.mean(axis=1) - cam.position
+    with np.errstate(invalid="ignore", divide="ignore"):
+        facing = np.abs(np.einsum("ij,ij->i", normal, view)) / (
+            np.linalg.norm(normal, axis=1) * np.linalg.norm(view, axis=1))
+    faces = faces[np.nan_to_num(facing) > min_facing]
+    scene = Scene()
+    if len(faces) == 0:
+        return scene
+    used, inverse = np.unique(faces, return_inverse=True)
+    scene.add(Mesh.flat(flat[used], inverse.reshape(-1, 3), material=0,
+                        name="rgbd visible surface"))
+    return scene
 
 
 @dataclass(frozen=True)
