@@ -98,3 +98,27 @@ def test_h_toggles_the_text_and_escape_closes(canvas_and_view):
     assert view.overlay is True and view.present.overlay_size[0] > 0
     _key(view, "Escape")
     assert canvas.get_closed()
+
+
+def test_p_saves_the_frame_as_render_does(canvas_and_view, tmp_path):
+    import json
+
+    from PIL import Image
+    canvas, view = canvas_and_view
+    view.save_dir = tmp_path
+    view.flight.set_position([0.5, -4.0, -1.0])
+    canvas.draw()
+    shown = view.renderer.read_display()
+    _key(view, "p")
+    pngs = list(tmp_path.glob("aquaspec-view-*.png"))
+    assert len(pngs) == 1 and view.message == f"saved {pngs[0].name}"
+    np.testing.assert_array_equal(np.asarray(Image.open(pngs[0]))[..., :3], shown)
+    side = json.loads((tmp_path / (pngs[0].name + ".json")).read_text())
+    np.testing.assert_allclose(side["camera"]["position_m"], [0.5, -4.0, -1.0])
+    assert side["water"]["name"] == "IB" and side["display"]["tonemap"] == "filmic"
+    linear = side["files"]["linear"]
+    assert linear.endswith((".exr", ".npy")) and (tmp_path / linear).is_file()
+    canvas.draw()                                  # the view goes on after saving
+    view.save_dir = tmp_path / "missing"
+    _key(view, "p")
+    assert view.message.startswith("not saved: save folder")

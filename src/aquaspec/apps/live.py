@@ -35,12 +35,14 @@ from __future__ import annotations
 import dataclasses
 import time
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 
 from aquaspec.apps.flight import FlightController
 from aquaspec.apps.floor import FloorMap
 from aquaspec.apps.overlay import text_overlay
+from aquaspec.apps.record import save_snapshot
 from aquaspec.colour.bands import Bands
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
@@ -64,7 +66,8 @@ OVERCAST_BELOW_DEG = 1.0
 #: Seconds between redraws of the on-screen text.
 OVERLAY_EVERY_S = 0.25
 #: The on-screen text's last line.
-OVERLAY_HELP = "W/A/S/D/Q/E move, drag: look, +/- speed, R reset, 1-0 water, H text, Esc quit"
+OVERLAY_HELP = ("W/A/S/D/Q/E move, drag: look, +/- speed, R reset, 1-0 water, P save, H text, "
+                "Esc quit")
 #: Keys 1-9 and 0 switch to the ten Jerlov types, clearest first.
 WATER_KEYS = dict(zip("1234567890", JERLOV_TYPES))
 
@@ -185,6 +188,8 @@ class LiveView:
         self.overlay = False
         #: A line of news for the status text (a water loading, an error), or None.
         self.message = None
+        #: Where the P key saves frames.
+        self.save_dir = Path(".")
         self._pending = None        # (water, Future) made on the worker thread
         self._workers = None
         self._overlay_t = None
@@ -247,6 +252,20 @@ class LiveView:
         self.message = None
         self.set_water(water)
 
+    def save_frame(self) -> dict | None:
+        """Save the current frame into :attr:`save_dir` as ``aquaspec render``
+        saves an image (:func:`aquaspec.apps.record.save_snapshot`); the
+        outcome goes to :attr:`message`. Returns the files written (None on error)."""
+        try:
+            saved = save_snapshot(self, self.save_dir)
+        except AquaspecError as exc:
+            self.message = f"not saved: {exc}"
+            return None
+        self.message = f"saved {Path(saved['png']).name}"
+        self._say(f"saved {saved['png']} (+ {Path(saved['sidecar']).name}, "
+                  f"{Path(saved['linear']).name})")
+        return saved
+
     def close(self) -> None:
         """Stop the worker thread (a pending water is dropped)."""
         if self._workers is not None:
@@ -291,8 +310,8 @@ class LiveView:
 
     def handle_event(self, event: dict) -> None:
         """Keys and mouse to the flight; 1-9 and 0 switch the Jerlov water
-        (:data:`WATER_KEYS`), H shows or hides the on-screen text, Escape
-        closes the canvas."""
+        (:data:`WATER_KEYS`), P saves the frame (:meth:`save_frame`), H shows
+        or hides the on-screen text, Escape closes the canvas."""
         if event.get("event_type") == "key_down":
             if event.get("key") == "Escape":
                 self.canvas.close()
@@ -303,6 +322,9 @@ class LiveView:
                 return
             if event.get("key") in WATER_KEYS:
                 self.request_water(WATER_KEYS[event["key"]])
+                return
+            if event.get("key") in ("p", "P"):
+                self.save_frame()
                 return
         self.flight.handle_event(event)
 

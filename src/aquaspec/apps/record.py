@@ -7,10 +7,17 @@
 ``imageio-ffmpeg``, the ``view`` extra; written under a temporary name and
 renamed when the run ends), and at the end writes ``OUTDIR/run.json``: the
 run's parameters and every frame's pose and time.
+
+:func:`save_snapshot` saves one frame of a live view as ``aquaspec render``
+saves an image: the PNG as displayed, its linear camera RGB (EXR, or NPY
+without OpenEXR) rendered again for the same pose, and a JSON sidecar with
+the spectral setup, the camera (pose included) and the display settings, all
+written or none (:func:`aquaspec.io.save.save_image`).
 """
 
 from __future__ import annotations
 
+import datetime as _dt
 import os
 import secrets
 from pathlib import Path
@@ -18,9 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.gpu.device import adapter_info
 from aquaspec.io.atomic import write_file_atomically
 from aquaspec.io.metadata import stamped
 from aquaspec.io.png import write_png
+from aquaspec.io.save import save_image
 from aquaspec.io.sidecar import sidecar_writer
 
 #: The run's sidecar, in the output folder.
@@ -106,3 +115,26 @@ class FrameRecorder:
             self._video.close()
             self._video = None
             self._video_tmp.unlink(missing_ok=True)
+
+
+def save_snapshot(view, directory) -> dict:
+    """Save the live ``view``'s current frame into ``directory`` (module docstring).
+
+    ``view`` is a :class:`aquaspec.apps.live.LiveView` that has drawn a frame.
+    The files are ``aquaspec-view-<UTC time>.png`` with ``.png.json`` and
+    ``.exr``; returns :func:`aquaspec.io.save.save_image`'s result.
+    """
+    folder = Path(directory)
+    if not folder.is_dir():
+        raise AquaspecError(f"save folder {str(folder)!r} does not exist; accepted: an "
+                            "existing folder")
+    camera = view.flight.camera()
+    shown = view.renderer.read_display()
+    linear = view.renderer.render_scene(view.scene, camera, view.setup)
+    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%d-%H%M%S-%f")[:-3]
+    base = folder / f"aquaspec-view-{stamp}"
+    params = {**view.setup.describe(), "depth_m": camera.depth_m, "camera": camera.describe(),
+              "scene": "built-in", "backend": "gpu", "display": view.display_settings,
+              "adapter": adapter_info(), "command": "view", "view": view.pose()}
+    return save_image(base.with_suffix(".png"), shown, linear, params,
+                      linear_path=base.with_suffix(".exr"))

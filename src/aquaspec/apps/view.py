@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -66,7 +67,7 @@ def _summary(view: LiveView, walls_ms: list, mode: str) -> dict:
 
 
 def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
-             frames: int | None = None, record=None, mp4: bool = False,
+             frames: int | None = None, record=None, mp4: bool = False, save_dir=".",
              progress=None) -> dict:
     """Run the live view; returns the run's summary (frame rate, final pose).
 
@@ -82,6 +83,8 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         Stop after this many frames (a window: None runs until it is closed).
     record : path, optional
         Folder for the PNG frames, ``run.json`` and, with ``mp4``, the video.
+    save_dir : path
+        Where the P key saves the current frame (PNG, sidecar, linear EXR).
     progress : callable, optional
         Called with short messages.
     """
@@ -94,9 +97,12 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         raise AquaspecError(f"--frames {frames!r}; accepted: a whole number >= 1")
     if offscreen and frames is None:
         raise AquaspecError("--offscreen needs --frames N (there is no window to close)")
+    if not Path(save_dir).is_dir():
+        raise AquaspecError(f"--save-dir {str(save_dir)!r} is not an existing folder")
     if mp4 and record is None:
         raise AquaspecError("--mp4 needs --record OUTDIR (the video goes there)")
     view = LiveView(settings, progress=say)
+    view.save_dir = Path(save_dir)
     if script is not None:
         view.script = FlightScript.load(script, _start_pose(view))
         view.apply_script(0)
@@ -136,7 +142,7 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
             view.on_frame = after_frame
             view.attach(canvas)
             say("window open: W/A/S/D/Q/E move, drag to look, +/- speed, R reset, 1-0 water "
-                "(Jerlov I ... 9C), H text, Esc quit")
+                "(Jerlov I ... 9C), P save the frame, H text, Esc quit")
             loop.run()
     except BaseException:
         if recorder is not None:

@@ -23,7 +23,8 @@ def register(sub):
                        description="Render the built-in scene continuously into a window "
                                    "(glfw; pip install 'aquaspec[view]') and fly the camera: "
                                    "W/A/S/D/Q/E move, drag the mouse to look, +/- change the "
-                                   "speed, R resets, 1-9 and 0 switch the Jerlov water, H hides "
+                                   "speed, R resets, 1-9 and 0 switch the Jerlov water, P saves "
+                                   "the frame (PNG, sidecar, linear EXR), H hides "
                                    "the text, Esc quits. The text over the frame (and the title) "
                                    "shows the frame rate, per-pass milliseconds and the camera's "
                                    "pose. The other options set the physics for the run. "
@@ -73,6 +74,10 @@ def register(sub):
     p.add_argument("--record", default=None, metavar="OUTDIR",
                    help="write every frame as OUTDIR/frame_NNNNN.png and the run's "
                         "parameters, poses and frame rate as OUTDIR/run.json")
+    p.add_argument("--save-dir", default=".", metavar="DIR",
+                   help="where the P key saves the current frame: PNG, JSON sidecar (as "
+                        "render's, camera pose included) and linear EXR (default: the "
+                        "current folder)")
     p.add_argument("--mp4", action="store_true",
                    help="with --record: also OUTDIR/flight.mp4 (imageio-ffmpeg)")
     p.set_defaults(func=run, command="view")
@@ -92,6 +97,7 @@ def run(args):
         sun_azimuth_deg=azimuth, wind=args.wind)
     summary = run_view(settings, offscreen=args.offscreen, script=args.script,
                        frames=args.frames, record=args.record, mp4=args.mp4,
+                       save_dir=args.save_dir,
                        progress=lambda m: print(m, file=sys.stderr))
     final = summary["final"]
     fps = "-" if summary["fps"] is None else f"{summary['fps']:.1f}"
