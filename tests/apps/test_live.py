@@ -122,3 +122,20 @@ def test_p_saves_the_frame_as_render_does(canvas_and_view, tmp_path):
     view.save_dir = tmp_path / "missing"
     _key(view, "p")
     assert view.message.startswith("not saved: save folder")
+
+
+def test_half_scale_renders_half_and_stretches_to_the_canvas(canvas_and_view):
+    canvas, view = canvas_and_view
+    view.use_scale(0.5)
+    image = np.asarray(canvas.draw())[..., :3]
+    assert (view.renderer.width, view.renderer.height) == (W // 2, H // 2)
+    assert image.shape == (H, W, 3)
+    small = view.renderer.read_display()
+    np.testing.assert_array_equal(image, small.repeat(2, axis=0).repeat(2, axis=1))
+    # The same view, not a narrower one: intrinsics scale with the size.
+    cam, full = view.camera(), view.flight.camera()
+    assert cam.fx == pytest.approx(full.fx / 2) and cam.cx == pytest.approx(full.cx / 2)
+    _key(view, "]")                                # back up the ladder, auto off
+    canvas.draw()
+    assert (view.renderer.width, view.renderer.height) == (48, 28)
+    assert view.render_scale.target_fps is None

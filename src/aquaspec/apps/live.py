@@ -23,6 +23,12 @@ one submission. Both are in the window title (:meth:`LiveView.status`) and,
 with :attr:`LiveView.overlay` (H toggles it), drawn over the frame's corner
 by the present pass (:mod:`aquaspec.apps.overlay`).
 
+Render scale (:mod:`aquaspec.apps.scale`): the view may render fewer pixels
+than the canvas has (one :class:`~aquaspec.rendering.renderer.Renderer` per
+size, made when first needed and kept; the camera's intrinsics scaled) and
+the present pass stretches the image over the canvas; with a target frame
+rate the scale follows the frame times.
+
 The scene is fixed when the view starts (``builtin_scene(depth_m)``: the
 camera 1.5 m above the sand); the camera flies within it, bounded by the
 surface, the light field's seabed and the scene's floor
@@ -43,6 +49,7 @@ from aquaspec.apps.flight import FlightController
 from aquaspec.apps.floor import FloorMap
 from aquaspec.apps.overlay import text_overlay
 from aquaspec.apps.record import save_snapshot
+from aquaspec.apps.scale import SCALE_LEVELS, RenderScale, scaled_size
 from aquaspec.colour.bands import Bands
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
@@ -66,8 +73,10 @@ OVERCAST_BELOW_DEG = 1.0
 #: Seconds between redraws of the on-screen text.
 OVERLAY_EVERY_S = 0.25
 #: The on-screen text's last line.
-OVERLAY_HELP = ("W/A/S/D/Q/E move, drag: look, +/- speed, R reset, 1-0 water, P save, H text, "
-                "Esc quit")
+OVERLAY_HELP = ("W/A/S/D/Q/E move, drag: look, +/- speed, R reset, 1-0 water, [ ] scale, "
+                "P save, H text, Esc quit")
+#: Keys that step the render scale down ([) and up (]) the ladder.
+SCALE_KEYS = {"[": 1, "]": -1}
 #: Keys 1-9 and 0 switch to the ten Jerlov types, clearest first.
 WATER_KEYS = dict(zip("1234567890", JERLOV_TYPES))
 
@@ -160,6 +169,9 @@ class LiveView:
         self.scene, start = builtin_scene(s.depth_m, width=s.width, height=s.height)
         self.renderer = Renderer(s.width, s.height, s.bands)
         self.device = self.renderer.deferred.device
+        #: The render scale (:mod:`aquaspec.apps.scale`): fixed at 1 unless set.
+        self.render_scale = RenderScale()
+        self._renderers = {(s.width, s.height): self.renderer}
         self.flight = FlightController(start, seabed_depth_m=self.scene.seabed.depth_m,
                                        floor=FloorMap.from_scene(self.scene))
         self._setups: dict = {}
@@ -276,15 +288,48 @@ class LiveView:
         """Show ``water`` (a Jerlov type or a CSV path); the exposure is kept."""
         self.setup = self._setup(water)
         self.water = water
-        self.renderer.set_spectral(self.setup, self.scene.materials)
-        if self.display_settings is not None:
-            self.renderer.set_display(self.display_settings)
+        for r in self._renderers.values():
+            r.set_spectral(self.setup, self.scene.materials)
+            if self.display_settings is not None:
+                r.set_display(self.display_settings)
+
+    def camera(self):
+        """The flight's camera at the current render size (intrinsics scaled)."""
+        cam = self.flight.camera()
+        w, h = self.renderer.width, self.renderer.height
+        if (w, h) == (cam.width, cam.height):
+            return cam
+        sx, sy = w / cam.width, h / cam.height
+        return dataclasses.replace(cam, width=w, height=h, fx=cam.fx * sx, fy=cam.fy * sy,
+                                   cx=cam.cx * sx, cy=cam.cy * sy)
+
+    def use_scale(self, scale: float | None = None) -> None:
+        """Render at :attr:`render_scale` (set to ``scale`` if given): the
+        renderer of that size, made the first time (its passes compiled, the
+        setup and display settings uploaded) and kept."""
+        if scale is not None:
+            self.render_scale = RenderScale(scale, self.render_scale.target_fps)
+        s = self.settings
+        size = scaled_size(s.width, s.height, self.render_scale.scale)
+        if size not in self._renderers:
+            self._say(f"render scale {self.render_scale.scale:g}: a {size[0]}x{size[1]} "
+                      "renderer ...")
+            r = Renderer(*size, s.bands)
+            r.set_spectral(self.setup, self.scene.materials)
+            if self.display_settings is not None:
+                r.set_display(self.display_settings)
+            self._renderers[size] = r
+        self.renderer = self._renderers[size]
 
     def auto_exposure(self) -> dict:
         """Set exposure and white balance from a frame of the current pose."""
         self._say("automatic exposure from one linear frame ...")
-        self.display_settings = self.renderer.auto_display(self.scene, self.flight.camera(),
+        self.display_settings = self.renderer.auto_display(self.scene, self.camera(),
                                                            self.setup)
+        for r in self._renderers.values():
+            if r is not self.renderer:
+                r.set_spectral(self.setup, self.scene.materials)
+                r.set_display(self.display_settings)
         return self.display_settings
 
     # -------------------------------------------------------------- canvas
@@ -310,8 +355,9 @@ class LiveView:
 
     def handle_event(self, event: dict) -> None:
         """Keys and mouse to the flight; 1-9 and 0 switch the Jerlov water
-        (:data:`WATER_KEYS`), P saves the frame (:meth:`save_frame`), H shows
-        or hides the on-screen text, Escape closes the canvas."""
+        (:data:`WATER_KEYS`), P saves the frame (:meth:`save_frame`), [ and ]
+        render fewer or more pixels (:data:`SCALE_KEYS`; the automatic scale
+        off), H shows or hides the on-screen text, Escape closes the canvas."""
         if event.get("event_type") == "key_down":
             if event.get("key") == "Escape":
                 self.canvas.close()
@@ -325,6 +371,13 @@ class LiveView:
                 return
             if event.get("key") in ("p", "P"):
                 self.save_frame()
+                return
+            if event.get("key") in SCALE_KEYS:
+                # A chosen scale stays: the automatic control is off.
+                level = int(np.clip(self.render_scale.level + SCALE_KEYS[event["key"]], 0,
+                                    len(SCALE_LEVELS) - 1))
+                self.render_scale = RenderScale(SCALE_LEVELS[level])
+                self.use_scale()
                 return
         self.flight.handle_event(event)
 
@@ -362,6 +415,9 @@ class LiveView:
             ms = dt * 1e3
             self.frame_ms = ms if self.frame_ms is None else \
                 (1 - FPS_SMOOTHING) * self.frame_ms + FPS_SMOOTHING * ms
+            # (A frame timed pass by pass waited for each pass: not judged.)
+            if (self.frame_index - 1) % PROFILE_EVERY and self.render_scale.observe(ms):
+                self.use_scale()
         self._last = now
         if self.script is not None:
             self.apply_script(self.frame_index)
@@ -383,7 +439,7 @@ class LiveView:
         ``profile``: pass by pass, timed into :attr:`pass_ms`."""
         if self.setup.waves is not None:
             self.renderer.set_wave_time(self.time_s, progressive=self.progressive_waves)
-        camera = self.flight.camera()
+        camera = self.camera()
         encoder = self.device.create_command_encoder()
         if profile:
             self.pass_ms = {}
@@ -391,7 +447,7 @@ class LiveView:
         encoder = self.renderer.encode_frame(encoder, self.scene, camera, self.setup,
                                              split=self._split if profile else None)
         self.present.encode(encoder, display_buffer(self.renderer),
-                            (self.settings.width, self.settings.height),
+                            (self.renderer.width, self.renderer.height),
                             self.context.get_current_texture())
         if profile:
             self._split("present", encoder)
@@ -406,7 +462,12 @@ class LiveView:
         x, _, z = f.position
         s = self.settings
         light = f"sun {s.sun_elevation_deg:g} deg" if s.has_sun else "overcast"
-        return [f"{fps} fps | Jerlov {self.water}, {s.bands} bands, {s.ms_model}, {light}",
+        rs = self.render_scale
+        scale = (f"{self.renderer.width}x{self.renderer.height}"
+                 + (f" (scale {rs.scale:g}{', auto' if rs.target_fps else ''})"
+                    if rs.scale != 1.0 or rs.target_fps else ""))
+        return [f"{fps} fps at {scale} | Jerlov {self.water}, {s.bands} bands, {s.ms_model}, "
+                f"{light}",
                 f"ms: {passes or '-'}",
                 f"depth {f.depth_m:.2f} m, x {x:.1f} z {z:.1f}, yaw {f.yaw_deg:.0f} "
                 f"pitch {f.pitch_deg:.0f} | speed {f.speed_m_s:.2f} m/s",

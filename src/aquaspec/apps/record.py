@@ -128,7 +128,7 @@ def save_snapshot(view, directory) -> dict:
     if not folder.is_dir():
         raise AquaspecError(f"save folder {str(folder)!r} does not exist; accepted: an "
                             "existing folder")
-    camera = view.flight.camera()
+    camera = view.camera()
     shown = view.renderer.read_display()
     linear = view.renderer.render_scene(view.scene, camera, view.setup)
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%d-%H%M%S-%f")[:-3]

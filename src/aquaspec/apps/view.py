@@ -26,6 +26,7 @@ import numpy as np
 from aquaspec.apps.flight_script import FlightScript, Pose
 from aquaspec.apps.live import PROFILE_EVERY, LiveView, ViewSettings
 from aquaspec.apps.record import FrameRecorder
+from aquaspec.apps.scale import RenderScale
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.device import adapter_info
 
@@ -57,18 +58,25 @@ def _start_pose(view: LiveView) -> Pose:
 
 def _summary(view: LiveView, walls_ms: list, mode: str) -> dict:
     """The run's frame rate and last per-pass times (JSON-ready); ``walls_ms``
-    holds ``(frame index, ms)``. The first frame (pipelines compiled, tables
-    built) and the frames timed pass by pass are not the steady rate."""
-    steady = [ms for i, ms in walls_ms if i >= 1 and i % PROFILE_EVERY != 0]
+    holds ``(frame index, ms, render scale)``. The rate is that of the final
+    render scale; the first frame (pipelines compiled, tables built), the
+    first at a new scale and the frames timed pass by pass are not the
+    steady rate."""
+    final = view.render_scale.scale
+    steady = [ms for k, (i, ms, s) in enumerate(walls_ms)
+              if i >= 1 and i % PROFILE_EVERY != 0 and s == final
+              and k > 0 and walls_ms[k - 1][2] == s]
     median = float(np.median(steady)) if steady else None
     return {"mode": mode, "frames_drawn": view.frame_index,
+            "render_size": [view.renderer.width, view.renderer.height],
+            "render_scale": view.render_scale.scale,
             "median_frame_ms": median, "fps": None if not median else 1e3 / median,
             "pass_ms": dict(view.pass_ms), "final": view.pose()}
 
 
 def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
              frames: int | None = None, record=None, mp4: bool = False, save_dir=".",
-             progress=None) -> dict:
+             scale: float = 1.0, target_fps: float | None = None, progress=None) -> dict:
     """Run the live view; returns the run's summary (frame rate, final pose).
 
     Parameters
@@ -85,6 +93,11 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         Folder for the PNG frames, ``run.json`` and, with ``mp4``, the video.
     save_dir : path
         Where the P key saves the current frame (PNG, sidecar, linear EXR).
+    scale, target_fps : float
+        Render at ``scale`` times the window's size (one of
+        :data:`aquaspec.apps.scale.SCALE_LEVELS`), stretched to it; with
+        ``target_fps`` (a window only, and not while recording) the scale
+        follows the frame rate (:class:`aquaspec.apps.scale.RenderScale`).
     progress : callable, optional
         Called with short messages.
     """
@@ -101,8 +114,14 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         raise AquaspecError(f"--save-dir {str(save_dir)!r} is not an existing folder")
     if mp4 and record is None:
         raise AquaspecError("--mp4 needs --record OUTDIR (the video goes there)")
+    if target_fps is not None and (offscreen or record is not None):
+        raise AquaspecError("--target-fps changes the render size with the frame rate: for a "
+                            "window that is not recording (recorded frames keep one size)")
+    render_scale = RenderScale(scale, target_fps)     # checked before the scene is built
     view = LiveView(settings, progress=say)
     view.save_dir = Path(save_dir)
+    view.render_scale = render_scale
+    view.use_scale()
     if script is not None:
         view.script = FlightScript.load(script, _start_pose(view))
         view.apply_script(0)
@@ -119,7 +138,7 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
             for i in range(frames):
                 t0 = time.perf_counter()
                 image = np.asarray(canvas.draw())
-                walls_ms.append((i, (time.perf_counter() - t0) * 1e3))
+                walls_ms.append((i, (time.perf_counter() - t0) * 1e3, view.render_scale.scale))
                 if recorder is not None:
                     recorder.add(image, view.pose())
                 say(f"frame {i + 1}/{frames}: {view.status()}")
@@ -134,7 +153,8 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
             def after_frame(v):
                 now = time.perf_counter()
                 if last[0] is not None:
-                    walls_ms.append((v.frame_index, (now - last[0]) * 1e3))
+                    walls_ms.append((v.frame_index, (now - last[0]) * 1e3,
+                                     v.render_scale.scale))
                 last[0] = now
                 if recorder is not None:
                     recorder.add(v.renderer.read_display(), v.pose())

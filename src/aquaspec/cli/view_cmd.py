@@ -9,6 +9,7 @@ from aquaspec.cli.common import (DEFAULT_SUN_ELEVATION_DEG, MAX_OCEAN_DEPTH_M,
                                  add_camspec_option, add_spread_scattering_option,
                                  band_count, check_camspec, depth_metres,
                                  finite_float, sun_from)
+from aquaspec.apps.scale import SCALE_LEVELS
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
 from aquaspec.scene.camera import parse_size
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MS_MODEL_CHOICES
@@ -63,6 +64,13 @@ def register(sub):
                         "(0 = a flat surface; default 0)")
     p.add_argument("--size", default="640x360", metavar="WxH",
                    help="size of the rendered image and of the window (default 640x360)")
+    p.add_argument("--scale", type=finite_float, default=1.0, metavar="S",
+                   help="render S times the window's width and height and stretch the image "
+                        f"to it: one of {', '.join(f'{s:g}' for s in SCALE_LEVELS)} (default 1; "
+                        "[ and ] step it in the window)")
+    p.add_argument("--target-fps", type=finite_float, default=None, metavar="FPS",
+                   help="in a window: choose the render scale automatically to keep this frame "
+                        "rate (e.g. 12 on a CPU); not with --offscreen or --record")
     p.add_argument("--offscreen", action="store_true",
                    help="draw offscreen (no display needed; needs --frames)")
     p.add_argument("--script", default=None, metavar="FLIGHT.json",
@@ -97,11 +105,13 @@ def run(args):
         sun_azimuth_deg=azimuth, wind=args.wind)
     summary = run_view(settings, offscreen=args.offscreen, script=args.script,
                        frames=args.frames, record=args.record, mp4=args.mp4,
-                       save_dir=args.save_dir,
+                       save_dir=args.save_dir, scale=args.scale, target_fps=args.target_fps,
                        progress=lambda m: print(m, file=sys.stderr))
     final = summary["final"]
     fps = "-" if summary["fps"] is None else f"{summary['fps']:.1f}"
-    print(f"{summary['frames_drawn']} frames ({summary['mode']}), median {fps} fps; camera at "
+    size = "x".join(str(v) for v in summary["render_size"])
+    print(f"{summary['frames_drawn']} frames ({summary['mode']}), median {fps} fps, rendering "
+          f"{size} at the end (scale {summary['render_scale']:g}); camera at "
           f"depth {final['depth_m']:.2f} m, position "
           f"({', '.join(f'{v:.2f}' for v in final['position_m'])}) m"
           + ("" if args.record is None else f"; recorded in {args.record}"))
