@@ -86,6 +86,16 @@ class TestOptions:
         assert main(["view", *args]) == 2
         assert message in capsys.readouterr().err
 
+    def test_no_display_is_a_clear_error_not_a_crash(self, monkeypatch, capsys):
+        """glfw aborts the process when a window is made without a display; the
+        command checks first and says what to do."""
+        pytest.importorskip("glfw", reason="the view extra's glfw opens windows")
+        for var in ("DISPLAY", "WAYLAND_DISPLAY", "RENDERCANVAS_FORCE_OFFSCREEN"):
+            monkeypatch.delenv(var, raising=False)
+        assert main(["view", "--size", "32x18", "--bands", "3"]) == 2
+        err = capsys.readouterr().err
+        assert "no window can open here" in err and "--offscreen" in err
+
     @pytest.mark.gpu
     def test_a_bad_script_names_the_file(self, tmp_path, capsys):
         bad = tmp_path / "bad.json"

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -34,21 +35,35 @@ from aquaspec.gpu.device import adapter_info
 FORCE_OFFSCREEN_ENV = "RENDERCANVAS_FORCE_OFFSCREEN"
 
 
-def _window_canvas(settings: ViewSettings):
+def _window_backend():
+    """rendercanvas's glfw canvas class and loop, once glfw has found a display
+    (checked before anything is built: glfw aborts the process when a window
+    is made without one)."""
     try:
         # deferred: glfw (the `view` extra) loads a windowing library; offscreen runs need none
-        from rendercanvas.glfw import RenderCanvas, loop
+        import glfw
+        from rendercanvas.glfw import RenderCanvas, loop  # deferred: as glfw
     except ImportError as exc:
         raise AquaspecError(f"a window needs glfw ({exc}); install the view extra: pip install "
                             "'aquaspec[view]', or run with --offscreen") from None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ready = glfw.init()
+    if not ready:
+        why = "; ".join(str(w.message) for w in caught) or "no reason given"
+        raise AquaspecError(f"no window can open here (glfw: {why}); is there a display "
+                            "(DISPLAY or WAYLAND_DISPLAY)? Headless: --offscreen --frames N")
+    return RenderCanvas, loop
+
+
+def _window_canvas(canvas_class, settings: ViewSettings):
     try:
-        canvas = RenderCanvas(size=(settings.width, settings.height), title="aquaspec view",
-                              update_mode="continuous", max_fps=120, vsync=False)
+        return canvas_class(size=(settings.width, settings.height), title="aquaspec view",
+                            update_mode="continuous", max_fps=120, vsync=False)
     except Exception as exc:         # glfw raises its own error types
         raise AquaspecError(f"could not open a window ({type(exc).__name__}: {exc}); is there "
                             "a display (DISPLAY / WAYLAND_DISPLAY)? Headless: --offscreen"
                             ) from None
-    return canvas, loop
 
 
 def _start_pose(view: LiveView) -> Pose:
@@ -118,6 +133,7 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         raise AquaspecError("--target-fps changes the render size with the frame rate: for a "
                             "window that is not recording (recorded frames keep one size)")
     render_scale = RenderScale(scale, target_fps)     # checked before the scene is built
+    window = None if offscreen else _window_backend()
     view = LiveView(settings, progress=say)
     view.save_dir = Path(save_dir)
     view.render_scale = render_scale
@@ -144,7 +160,8 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
                 say(f"frame {i + 1}/{frames}: {view.status()}")
             canvas.close()
         else:
-            canvas, loop = _window_canvas(settings)
+            canvas_class, loop = window
+            canvas = _window_canvas(canvas_class, settings)
             view.max_frames = frames
             view.progressive_waves = True
             view.overlay = True
