@@ -139,3 +139,18 @@ def test_half_scale_renders_half_and_stretches_to_the_canvas(canvas_and_view):
     canvas.draw()
     assert (view.renderer.width, view.renderer.height) == (48, 28)
     assert view.render_scale.target_fps is None
+
+
+def test_exposure_steps_from_the_automatic_one(canvas_and_view):
+    canvas, view = canvas_and_view
+    auto_ev = view.display_settings["exposure_ev"]
+    dim = np.asarray(canvas.draw())[..., :3].astype(float).mean()
+    _key(view, ".")
+    _key(view, ".")
+    assert view.ev_offset == 1.0
+    assert view.display_settings["exposure_ev"] == pytest.approx(auto_ev + 1.0)
+    assert view.display_settings["exposure_scale"] == pytest.approx(2.0 ** (auto_ev + 1.0))
+    bright = np.asarray(canvas.draw())[..., :3].astype(float).mean()
+    assert bright > dim
+    _key(view, ",")
+    assert "EV +0.5 from auto" in view.status()

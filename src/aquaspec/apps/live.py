@@ -73,8 +73,10 @@ OVERCAST_BELOW_DEG = 1.0
 #: Seconds between redraws of the on-screen text.
 OVERLAY_EVERY_S = 0.25
 #: The on-screen text's last line.
-OVERLAY_HELP = ("W/A/S/D/Q/E move, drag: look, +/- speed, R reset, 1-0 water, [ ] scale, "
-                "P save, H text, Esc quit")
+OVERLAY_HELP = ("W/A/S/D/Q/E move, drag: look, +/- speed, R reset, 1-0 water, , . EV, "
+                "[ ] scale, P save, H text, Esc quit")
+#: Keys that step the exposure down (,) and up (.) from the automatic one, EV.
+EV_KEYS = {",": -0.5, ".": 0.5}
 #: Keys that step the render scale down ([) and up (]) the ladder.
 SCALE_KEYS = {"[": 1, "]": -1}
 #: Keys 1-9 and 0 switch to the ten Jerlov types, clearest first.
@@ -202,6 +204,9 @@ class LiveView:
         self.message = None
         #: Where the P key saves frames.
         self.save_dir = Path(".")
+        #: Stops of exposure above the automatic one (the , and . keys).
+        self.ev_offset = 0.0
+        self._auto_display = None
         self._pending = None        # (water, Future) made on the worker thread
         self._workers = None
         self._overlay_t = None
@@ -322,14 +327,26 @@ class LiveView:
         self.renderer = self._renderers[size]
 
     def auto_exposure(self) -> dict:
-        """Set exposure and white balance from a frame of the current pose."""
+        """Set exposure and white balance from a frame of the current pose (plus
+        :attr:`ev_offset`)."""
         self._say("automatic exposure from one linear frame ...")
-        self.display_settings = self.renderer.auto_display(self.scene, self.camera(),
-                                                           self.setup)
+        self._auto_display = self.renderer.auto_display(self.scene, self.camera(), self.setup)
+        return self.set_ev_offset(self.ev_offset)
+
+    def set_ev_offset(self, ev: float) -> dict:
+        """Expose ``ev`` stops above the automatic exposure (the , and . keys);
+        returns the display settings now in use."""
+        if not np.isfinite(ev):
+            raise AquaspecError(f"exposure offset {ev!r} EV; accepted: a finite number")
+        self.ev_offset = float(ev)
+        auto = self._auto_display
+        exposure = auto["exposure_ev"] + self.ev_offset
+        self.display_settings = {**auto, "exposure_ev": exposure,
+                                 "exposure_scale": float(2.0 ** exposure),
+                                 "exposure_offset_ev": self.ev_offset}
         for r in self._renderers.values():
-            if r is not self.renderer:
-                r.set_spectral(self.setup, self.scene.materials)
-                r.set_display(self.display_settings)
+            r.set_spectral(self.setup, self.scene.materials)
+            r.set_display(self.display_settings)
         return self.display_settings
 
     # -------------------------------------------------------------- canvas
@@ -355,7 +372,8 @@ class LiveView:
 
     def handle_event(self, event: dict) -> None:
         """Keys and mouse to the flight; 1-9 and 0 switch the Jerlov water
-        (:data:`WATER_KEYS`), P saves the frame (:meth:`save_frame`), [ and ]
+        (:data:`WATER_KEYS`), , and . step the exposure (:meth:`set_ev_offset`),
+        P saves the frame (:meth:`save_frame`), [ and ]
         render fewer or more pixels (:data:`SCALE_KEYS`; the automatic scale
         off), H shows or hides the on-screen text, Escape closes the canvas."""
         if event.get("event_type") == "key_down":
@@ -371,6 +389,9 @@ class LiveView:
                 return
             if event.get("key") in ("p", "P"):
                 self.save_frame()
+                return
+            if event.get("key") in EV_KEYS and self._auto_display is not None:
+                self.set_ev_offset(self.ev_offset + EV_KEYS[event["key"]])
                 return
             if event.get("key") in SCALE_KEYS:
                 # A chosen scale stays: the automatic control is off.
@@ -467,7 +488,7 @@ class LiveView:
                  + (f" (scale {rs.scale:g}{', auto' if rs.target_fps else ''})"
                     if rs.scale != 1.0 or rs.target_fps else ""))
         return [f"{fps} fps at {scale} | Jerlov {self.water}, {s.bands} bands, {s.ms_model}, "
-                f"{light}",
+                f"{light}, EV {self.ev_offset:+g} from auto",
                 f"ms: {passes or '-'}",
                 f"depth {f.depth_m:.2f} m, x {x:.1f} z {z:.1f}, yaw {f.yaw_deg:.0f} "
                 f"pitch {f.pitch_deg:.0f} | speed {f.speed_m_s:.2f} m/s",
