@@ -74,6 +74,21 @@ class TestScriptMode:
         assert sum(1 for _ in reader) == 3
         assert json.loads((out / "run.json").read_text())["video"] == "flight.mp4"
 
+    def test_a_mesh_in_open_water(self, tmp_path):
+        """--mesh: a white cube 3 m ahead in open water; the camera looks at it,
+        so the centre of the frame is the cube, lit, and the corners water."""
+        import trimesh
+        cube = tmp_path / "cube.obj"
+        trimesh.creation.box(extents=(1.0, 1.0, 1.0)).export(cube)
+        out = tmp_path / "run"
+        assert main(["view", "--offscreen", "--frames", "2", "--record", str(out), "--mesh",
+                     str(cube), "--depth", "4", "--size", "64x36", "--bands", "3"]) == 0
+        run = json.loads((out / "run.json").read_text())
+        assert run["settings"]["mesh"] == str(cube)
+        frame = np.asarray(Image.open(out / run["frames"][-1]["file"])).astype(float)
+        centre, corner = frame[16:20, 30:34].mean(axis=(0, 1)), frame[:4, :4].mean(axis=(0, 1))
+        assert np.abs(centre - corner).max() > 10
+
 
 class TestOptions:
     @pytest.mark.parametrize("args, message", [

@@ -2,10 +2,11 @@
 
 The command runs as a user runs it (``python -m aquaspec view``, a separate
 process) in a glfw window on a virtual X server; xdotool focuses the window
-and presses keys (through the XTEST extension, as a keyboard does): W and Q
+and presses keys (through the XTEST extension, as a keyboard does): Q and W
 fly, 7 switches the water, Escape closes the window. The run's sidecar and
-frames (``--record``) say where the camera went and what it saw. Skipped, naming what is missing, where Xvfb or xdotool is not
-installed (``make setup`` installs them as root) or no X server starts.
+frames (``--record``) say where the camera went and what it saw. Skipped,
+naming what is missing, where Xvfb or xdotool is not installed (``make
+setup`` installs them as root) or no X server starts.
 """
 
 from __future__ import annotations

@@ -30,10 +30,12 @@ the present pass stretches the image over the canvas; with a target frame
 rate the scale follows the frame times.
 
 The scene is fixed when the view starts (``builtin_scene(depth_m)``: the
-camera 1.5 m above the sand); the camera flies within it, bounded by the
-surface, the light field's seabed and the scene's floor
-(:class:`aquaspec.apps.floor.FloorMap`: it cannot fly into the sand or a rock). Exposure and white balance are set
-automatically from the first frame and then held, so that frames compare.
+camera 1.5 m above the sand; or a mesh file placed in front of the camera in
+open water); the camera flies within it, bounded by the surface, the light
+field's seabed (if any) and the scene's floor
+(:class:`aquaspec.apps.floor.FloorMap`: it cannot fly into the sand or a
+rock). Exposure and white balance are set automatically from the first
+frame and then held (plus an offset from the keys), so that frames compare.
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ from aquaspec.rendering.appearance import check_ms_model
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.builtin import builtin_scene
+from aquaspec.scene.load import load_mesh, place_in_front
 from aquaspec.scene.camera import check_size
 from aquaspec.transport.models import DEFAULT_MS_MODEL
 
@@ -106,6 +109,10 @@ class ViewSettings:
     sun_elevation_deg: float = 0.0
     sun_azimuth_deg: float = DEFAULT_SUN_AZIMUTH_DEG
     wind: float = 0.0
+    #: A mesh file (OBJ/PLY/glTF/GLB/STL/OFF) shown instead of the built-in
+    #: scene, placed 3 m in front of the camera in open water
+    #: (:func:`aquaspec.scene.load.place_in_front`); None: the built-in scene.
+    mesh: str | None = None
 
     def __post_init__(self):
         check_size(self.width, self.height)
@@ -135,6 +142,7 @@ class ViewSettings:
         """The settings for a sidecar (JSON-ready)."""
         out = dataclasses.asdict(self)
         out["camspec"] = None if self.camspec is None else str(self.camspec)
+        out["mesh"] = None if self.mesh is None else str(self.mesh)
         out["light"] = "sun-sky" if self.has_sun else "overcast"
         return out
 
@@ -168,13 +176,20 @@ class LiveView:
         self.settings = settings
         self._say = progress or (lambda message: None)
         s = settings
-        self.scene, start = builtin_scene(s.depth_m, width=s.width, height=s.height)
+        if s.mesh is None:
+            self.scene, start = builtin_scene(s.depth_m, width=s.width, height=s.height)
+        else:
+            self._say(f"loading {s.mesh} ...")
+            self.scene = place_in_front(load_mesh(s.mesh), depth_m=s.depth_m, width=s.width,
+                                        height=s.height)
+            start = self.scene.camera
         self.renderer = Renderer(s.width, s.height, s.bands)
         self.device = self.renderer.deferred.device
         #: The render scale (:mod:`aquaspec.apps.scale`): fixed at 1 unless set.
         self.render_scale = RenderScale()
         self._renderers = {(s.width, s.height): self.renderer}
-        self.flight = FlightController(start, seabed_depth_m=self.scene.seabed.depth_m,
+        bed = self.scene.seabed
+        self.flight = FlightController(start, seabed_depth_m=None if bed is None else bed.depth_m,
                                        floor=FloorMap.from_scene(self.scene))
         self._setups: dict = {}
         self.water = s.water

@@ -21,8 +21,9 @@ _OVERCAST_ELEVATION = 0.0
 def register(sub):
     p = sub.add_parser("view", help="live view of the built-in scene: fly the camera; "
                                     "or offscreen, scripted and recorded",
-                       description="Render the built-in scene continuously into a window "
-                                   "(glfw; pip install 'aquaspec[view]') and fly the camera: "
+                       description="Render the built-in scene (or --mesh) continuously into a "
+                                   "window (glfw; pip install 'aquaspec[view]') and fly the "
+                                   "camera: "
                                    "W/A/S/D/Q/E move, drag the mouse to look, +/- change the "
                                    "speed, R resets, 1-9 and 0 switch the Jerlov water, , and . "
                                    "step the exposure, P saves "
@@ -63,6 +64,9 @@ def register(sub):
     p.add_argument("--wind", type=finite_float, default=0.0, metavar="M_S",
                    help="a wind sea's caustics under the sun, moving with the frames "
                         "(0 = a flat surface; default 0)")
+    p.add_argument("--mesh", metavar="FILE",
+                   help="show this OBJ/PLY/glTF/GLB/STL/OFF instead of the built-in scene, "
+                        "placed 3 m in front of the camera at --depth, in open water")
     p.add_argument("--size", default="640x360", metavar="WxH",
                    help="size of the rendered image and of the window (default 640x360)")
     p.add_argument("--scale", type=finite_float, default=1.0, metavar="S",
@@ -103,7 +107,7 @@ def run(args):
         sensor=args.sensor, camspec=check_camspec(args.camspec), ms_model=args.ms_model,
         cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
         sun_elevation_deg=elevation if args.light == "sun-sky" else _OVERCAST_ELEVATION,
-        sun_azimuth_deg=azimuth, wind=args.wind)
+        sun_azimuth_deg=azimuth, wind=args.wind, mesh=args.mesh)
     summary = run_view(settings, offscreen=args.offscreen, script=args.script,
                        frames=args.frames, record=args.record, mp4=args.mp4,
                        save_dir=args.save_dir, scale=args.scale, target_fps=args.target_fps,
