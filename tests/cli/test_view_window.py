@@ -135,3 +135,56 @@ def test_keys_fly_the_camera_and_change_the_water(x_display, tmp_path):
     assert (_ratio(out / frames[first_3c]["file"], 2, 1, rows=1.0)
             < _ratio(out / frames[first_3c - 1]["file"], 2, 1, rows=1.0))
     assert "frames (window)" in stdout
+
+
+#: Where the panel's "sun" checkbox is, from the panel's top-left corner (logical
+#: pixels, ImGui's default font and style: read off docs/images/live-view-panel.png).
+SUN_CHECKBOX_FROM_PANEL = (17, 313)
+
+
+def test_a_click_on_the_panel_turns_the_sun_on(x_display, tmp_path):
+    """The controls panel is in the window the command opens: a click on its sun
+    checkbox turns the sun on (made on the worker thread; the frames go on) and
+    the frames turn brighter, the exposure held; the click does not turn the
+    camera."""
+    pytest.importorskip("imgui_bundle")
+    from aquaspec.apps.panel import PANEL_MARGIN_PX, PANEL_WIDTH_PX
+    out = tmp_path / "run"
+    env = {**os.environ, "DISPLAY": x_display}
+    env.pop("RENDERCANVAS_FORCE_OFFSCREEN", None)
+    w, h = 640, 360
+    view = subprocess.Popen([sys.executable, "-m", "aquaspec", "view", "--size", f"{w}x{h}",
+                             "--scale", "0.25", "--bands", "3", "--frames", "5000",
+                             "--record", str(out)],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        found = _xdotool(x_display, "search", "--sync", "--name", "^aquaspec view",
+                         timeout=WINDOW_WAIT_S)
+        assert found.returncode == 0, f"no window appeared: {found.stderr}"
+        window = found.stdout.split()[0]
+        time.sleep(1.0)
+        x = w - PANEL_WIDTH_PX - PANEL_MARGIN_PX + SUN_CHECKBOX_FROM_PANEL[0]
+        y = PANEL_MARGIN_PX + SUN_CHECKBOX_FROM_PANEL[1]
+        _xdotool(x_display, "mousemove", "--window", window, str(x), str(y))
+        time.sleep(1.0)                                   # hovered: the panel takes the mouse
+        _xdotool(x_display, "click", "1")
+        time.sleep(WATER_WAIT_S)
+        _xdotool(x_display, "key", "Escape")
+        stdout, stderr = view.communicate(timeout=EXIT_WAIT_S)
+    finally:
+        if view.poll() is None:
+            view.kill()
+            view.communicate()
+    assert view.returncode == 0, stderr[-3000:]
+    assert "no controls panel" not in stderr
+    frames = json.loads((out / "run.json").read_text())["frames"]
+    suns = [f["sun_elevation_deg"] for f in frames]
+    assert suns[0] == 0 and suns[-1] > 0, "the click did not turn the sun on"
+    first_sun = next(i for i, e in enumerate(suns) if e > 0)
+    assert first_sun > 0
+
+    def mean(i):
+        return np.asarray(Image.open(out / frames[i]["file"])).astype(float).mean()
+    assert mean(first_sun) > 1.05 * mean(first_sun - 1)
+    assert {f["yaw_deg"] for f in frames} == {frames[0]["yaw_deg"]}
+    assert {f["pitch_deg"] for f in frames} == {frames[0]["pitch_deg"]}

@@ -36,6 +36,9 @@ field's seabed (if any) and the scene's floor
 (:class:`aquaspec.apps.floor.FloorMap`: it cannot fly into the sand or a
 rock). Exposure and white balance are set automatically from the first
 frame and then held (plus an offset from the keys), so that frames compare.
+A change of physics (the number keys, the controls panel of
+:mod:`aquaspec.apps.controls`) is made on a worker thread while the frames go
+on (:meth:`LiveView.request_setup`); :attr:`LiveView.gui` draws the panel.
 """
 
 from __future__ import annotations
@@ -58,7 +61,8 @@ from aquaspec.errors import AquaspecError
 from aquaspec.gpu.passes.present import PresentPass, plain_format
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
 from aquaspec.light.waves import WIND_RANGE, Waves
-from aquaspec.medium.water import JERLOV_TYPES, get_water
+from aquaspec.medium.phase import PHASE_FUNCTIONS
+from aquaspec.medium.water import DEFAULT_SOURCE, JERLOV_TYPES, SOURCES, get_water
 from aquaspec.rendering.appearance import check_ms_model
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.setup import SpectralSetup
@@ -67,6 +71,8 @@ from aquaspec.scene.load import load_mesh, place_in_front
 from aquaspec.scene.camera import check_size
 from aquaspec.transport.models import DEFAULT_MS_MODEL
 
+#: Spectral setups kept for switching back (the oldest others dropped).
+KEEP_SETUPS = 12
 #: Every this many frames, one is submitted and timed pass by pass.
 PROFILE_EVERY = 10
 #: Weight of the newest frame in the smoothed frame time.
@@ -99,6 +105,8 @@ class ViewSettings:
     width: int = 640
     height: int = 360
     water: str = "IB"
+    #: Where a Jerlov type's data come from (:data:`aquaspec.medium.water.SOURCES`).
+    water_source: str = DEFAULT_SOURCE
     depth_m: float = 5.0
     bands: int = 8
     sensor: str = "human"
@@ -106,6 +114,10 @@ class ViewSettings:
     ms_model: str = DEFAULT_MS_MODEL
     cone_spread: bool | None = None
     spread_scattering: str = "single"
+    #: The light field's phase function (:data:`aquaspec.medium.phase.PHASE_FUNCTIONS`)
+    #: and its parameters, e.g. ``(("g", 0.92),)`` for ``hg``.
+    phase: str = "petzold"
+    phase_params: tuple = ()
     sun_elevation_deg: float = 0.0
     sun_azimuth_deg: float = DEFAULT_SUN_AZIMUTH_DEG
     wind: float = 0.0
@@ -130,6 +142,12 @@ class ViewSettings:
             raise AquaspecError(f"wind {w:g} m/s focuses the sun's beam into caustics: it "
                                 f"needs a sun elevation of at least {OVERCAST_BELOW_DEG:g} "
                                 f"deg, not {e:g}")
+        if self.water_source not in SOURCES:
+            raise AquaspecError(f"water source {self.water_source!r}; accepted: "
+                                f"{', '.join(SOURCES)}")
+        if self.phase not in PHASE_FUNCTIONS:
+            raise AquaspecError(f"phase function {self.phase!r}; accepted: "
+                                f"{', '.join(PHASE_FUNCTIONS)}")
         if self.spread_scattering not in ("single", "multiple"):
             raise AquaspecError(f"spread_scattering={self.spread_scattering!r}; accepted: "
                                 "'single', 'multiple'")
@@ -221,67 +239,118 @@ class LiveView:
         self.save_dir = Path(".")
         #: Stops of exposure above the automatic one (the , and . keys).
         self.ev_offset = 0.0
+        #: The display's tone map (:data:`aquaspec.colour.display.TONEMAPS`).
+        self.tonemap = "filmic"
+        #: Wave time per second of wall time (0: the waves stand still).
+        self.wave_speed = 1.0
+        #: Called after each frame is presented, to draw over it (the controls panel).
+        self.gui = None
         self._auto_display = None
-        self._pending = None        # (water, Future) made on the worker thread
+        self._pending = None        # ((water, settings), Future) made on the worker thread
+        self._pending_t0 = None
         self._workers = None
         self._overlay_t = None
 
     # ------------------------------------------------------------- physics
-    def _make_setup(self, water: str) -> SpectralSetup:
-        """A new spectral setup of ``water`` with the view's other settings."""
-        s = self.settings
+    def _make_setup(self, water: str, settings: ViewSettings | None = None) -> SpectralSetup:
+        """A new spectral setup of ``water`` with ``settings`` (default: the view's)."""
+        s = settings or self.settings
         light, waves = surface_light("overcast"), None
         if s.has_sun:
             light = surface_light("sun-sky", sun_elevation_deg=s.sun_elevation_deg,
                                   sun_azimuth_deg=s.sun_azimuth_deg)
             waves = Waves(s.wind) if s.wind > 0 else None
         return SpectralSetup(
-            get_water(water), get_sensor(s.sensor, s.camspec), light, Bands(s.bands),
-            ms_model=s.ms_model, cone_spread=s.cone_spread,
+            get_water(water, s.water_source), get_sensor(s.sensor, s.camspec), light,
+            Bands(s.bands), ms_model=s.ms_model, phase=s.phase, phase_params=s.phase_params,
+            cone_spread=s.cone_spread,
             spread_scattering=s.spread_scattering,
             seabed=self.scene.seabed if s.ms_model == "lightfield" else None, waves=waves)
 
     def _setup(self, water: str) -> SpectralSetup:
-        """The spectral setup of ``water`` (made once, on this thread)."""
-        if water not in self._setups:
+        """The spectral setup of ``water`` with the view's settings (made once, on
+        this thread)."""
+        key = (water, self.settings)
+        if key not in self._setups:
             self._say(f"water {water}: loading and solving its light field ...")
-            self._setups[water] = self._make_setup(water)
-        return self._setups[water]
+            self._setups[key] = self._make_setup(water)
+        return self._setups[key]
 
-    def _prepared_setup(self, water: str) -> SpectralSetup:
+    def _prepared_setup(self, water: str, settings: ViewSettings) -> SpectralSetup:
         """:meth:`_make_setup` with its host-side work done (the light field's
-        tables, the per-band medium): what a worker thread runs."""
-        setup = self._make_setup(water)
+        tables, the sun's inputs and caustics, the per-band medium): what a
+        worker thread runs."""
+        setup = self._make_setup(water, settings)
         setup.lightfield_tables()
+        setup.sun_inputs()
         setup.medium(self.scene.materials)
         return setup
 
+    @property
+    def pending(self):
+        """``(water, settings)`` being made on the worker thread, or None."""
+        return None if self._pending is None else self._pending[0]
+
+    def target(self) -> tuple:
+        """``(water, settings)`` the view is heading for: the pending change, else
+        what it shows."""
+        return self.pending or (self.water, self.settings)
+
     def request_water(self, water: str) -> None:
-        """Switch to ``water`` without stalling the frames: its setup is made on a
-        worker thread while the current water keeps rendering, then uploaded
-        by the next frame (:meth:`_poll_water`)."""
-        if water == self.water or (self._pending and self._pending[0] == water):
+        """Switch to ``water`` (with the settings in use or pending) without
+        stalling the frames (:meth:`request_setup`)."""
+        self.request_setup(water, self.target()[1])
+
+    def request_setup(self, water: str, settings: ViewSettings) -> None:
+        """Show ``water`` with ``settings`` without stalling the frames: the
+        setup is made on a worker thread while the last one keeps rendering,
+        then taken by the next frame (:meth:`_poll_setup`); a newer request
+        supersedes a pending one. Only the physics may differ from the
+        view's settings (size, depth and mesh are fixed when it starts)."""
+        key = (water, settings)
+        if key == self.target():
             return
-        if water in self._setups:
-            self.set_water(water)
+        if key == (self.water, self.settings) or key in self._setups:
+            self._pending = None
+            self._use(water, settings)
             return
         if self._workers is None:
             self._workers = ThreadPoolExecutor(max_workers=1, thread_name_prefix="aquaspec-water")
-        self._pending = (water, self._workers.submit(self._prepared_setup, water))
-        self.message = f"loading water {water} ..."
+        self._pending = (key, self._workers.submit(self._prepared_setup, water, settings))
+        self._pending_t0 = time.perf_counter()
+        self.message = f"loading water {water} ..." if settings == self.settings else \
+            f"computing the light for {water} ..."
 
-    def _poll_water(self) -> None:
-        """Take a water made on the worker thread once it is ready."""
+    def pending_s(self) -> float | None:
+        """Seconds the pending change has been running, or None."""
+        return None if self._pending is None else time.perf_counter() - self._pending_t0
+
+    def _poll_setup(self) -> None:
+        """Take a setup made on the worker thread once it is ready (a failure
+        goes to :attr:`message`; the last setup stays)."""
         if not self._pending or not self._pending[1].done():
             return
-        water, future = self._pending
+        (water, settings), future = self._pending
         self._pending = None
         try:
-            self._setups[water] = future.result()
+            self._setups[(water, settings)] = future.result()
         except AquaspecError as exc:
             self.message = f"water {water}: {exc}"
             return
+        for key in list(self._setups)[:max(0, len(self._setups) - KEEP_SETUPS)]:
+            if key != (self.water, self.settings):
+                del self._setups[key]
         self.message = None
+        self._use(water, settings)
+
+    def _use(self, water: str, settings: ViewSettings) -> None:
+        """Show ``water`` with ``settings`` (its setup made already, or made
+        here); a new band count makes new renderers."""
+        bands_changed = settings.bands != self.settings.bands
+        self.settings = settings
+        if bands_changed:
+            self._renderers = {}
+            self.use_scale()
         self.set_water(water)
 
     def save_frame(self) -> dict | None:
@@ -305,7 +374,8 @@ class LiveView:
             self._workers = None
 
     def set_water(self, water: str) -> None:
-        """Show ``water`` (a Jerlov type or a CSV path); the exposure is kept."""
+        """Show ``water`` (a Jerlov type or a CSV path) on this thread; the exposure
+        is kept."""
         self.setup = self._setup(water)
         self.water = water
         for r in self._renderers.values():
@@ -335,9 +405,10 @@ class LiveView:
             self._say(f"render scale {self.render_scale.scale:g}: a {size[0]}x{size[1]} "
                       "renderer ...")
             r = Renderer(*size, s.bands)
-            r.set_spectral(self.setup, self.scene.materials)
-            if self.display_settings is not None:
-                r.set_display(self.display_settings)
+            if self.setup.bands.n == s.bands:       # (a new band count: set_water uploads)
+                r.set_spectral(self.setup, self.scene.materials)
+                if self.display_settings is not None:
+                    r.set_display(self.display_settings)
             self._renderers[size] = r
         self.renderer = self._renderers[size]
 
@@ -356,7 +427,7 @@ class LiveView:
         self.ev_offset = float(ev)
         auto = self._auto_display
         exposure = auto["exposure_ev"] + self.ev_offset
-        self.display_settings = {**auto, "exposure_ev": exposure,
+        self.display_settings = {**auto, "tonemap": self.tonemap, "exposure_ev": exposure,
                                  "exposure_scale": float(2.0 ** exposure),
                                  "exposure_offset_ev": self.ev_offset}
         for r in self._renderers.values():
@@ -458,10 +529,12 @@ class LiveView:
         if self.script is not None:
             self.apply_script(self.frame_index)
         else:
-            self._poll_water()
+            self._poll_setup()
             self.flight.advance(dt)
-            self.time_s += dt
+            self.time_s += dt * self.wave_speed
         self.encode_and_submit(profile=self.frame_index % PROFILE_EVERY == 0)
+        if self.gui is not None:
+            self.gui()
         if self.on_frame is not None:
             self.on_frame(self)
         self.frame_index += 1
@@ -524,8 +597,10 @@ class LiveView:
                                  if self.overlay else None)
 
     def pose(self) -> dict:
-        """The camera's pose and the view's state now (JSON-ready)."""
+        """The camera's pose and the view's state now (JSON-ready; sun elevation 0:
+        overcast)."""
         f = self.flight
         return {"position_m": [float(v) for v in f.position], "depth_m": f.depth_m,
                 "yaw_deg": f.yaw_deg, "pitch_deg": f.pitch_deg, "speed_m_s": f.speed_m_s,
-                "water": self.water, "time_s": self.time_s}
+                "water": self.water, "time_s": self.time_s,
+                "sun_elevation_deg": self.settings.sun_elevation_deg, "bands": self.settings.bands}

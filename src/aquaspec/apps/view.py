@@ -24,8 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
+from aquaspec.apps.controls import ViewControls
 from aquaspec.apps.flight_script import FlightScript, Pose
 from aquaspec.apps.live import PROFILE_EVERY, LiveView, ViewSettings
+from aquaspec.apps.panel import ControlsPanel
 from aquaspec.apps.record import FrameRecorder
 from aquaspec.apps.scale import RenderScale
 from aquaspec.errors import AquaspecError
@@ -66,6 +68,17 @@ def _window_canvas(canvas_class, settings: ViewSettings):
                             ) from None
 
 
+def _attach_panel(view: LiveView, canvas, say) -> None:
+    """The controls panel over ``canvas``, or a note when imgui-bundle is missing."""
+    try:
+        # deferred: imgui-bundle (the `view` extra) only where a panel is drawn
+        import imgui_bundle  # noqa: F401
+    except ImportError as exc:
+        say(f"no controls panel ({exc}); pip install 'aquaspec[view]' for it")
+        return
+    ControlsPanel(ViewControls(view)).attach(canvas)
+
+
 def _start_pose(view: LiveView) -> Pose:
     f = view.flight
     return Pose(tuple(float(v) for v in f.position), f.yaw_deg, f.pitch_deg)
@@ -91,7 +104,8 @@ def _summary(view: LiveView, walls_ms: list, mode: str) -> dict:
 
 def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
              frames: int | None = None, record=None, mp4: bool = False, save_dir=".",
-             scale: float = 1.0, target_fps: float | None = None, progress=None) -> dict:
+             scale: float = 1.0, target_fps: float | None = None, panel: bool = True,
+             progress=None) -> dict:
     """Run the live view; returns the run's summary (frame rate, final pose).
 
     Parameters
@@ -113,6 +127,9 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         :data:`aquaspec.apps.scale.SCALE_LEVELS`), stretched to it; with
         ``target_fps`` (a window only, and not while recording) the scale
         follows the frame rate (:class:`aquaspec.apps.scale.RenderScale`).
+    panel : bool
+        In a window: the controls panel (:mod:`aquaspec.apps.panel`, needs
+        ``imgui-bundle``; without it the view runs with the keys alone and says so).
     progress : callable, optional
         Called with short messages.
     """
@@ -178,6 +195,8 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
 
             view.on_frame = after_frame
             view.attach(canvas)
+            if panel:
+                _attach_panel(view, canvas, say)
             say("window open: W/A/S/D/Q/E move, drag to look, +/- speed, R reset, 1-0 water "
                 "(Jerlov I ... 9C), P save the frame, H text, Esc quit")
             loop.run()

@@ -30,7 +30,10 @@ def register(sub):
                                    "the frame (PNG, sidecar, linear EXR), H hides "
                                    "the text, Esc quits. The text over the frame (and the title) "
                                    "shows the frame rate, per-pass milliseconds and the camera's "
-                                   "pose. The other options set the physics for the run. "
+                                   "pose; the controls panel beside it (--no-panel: none) changes the water, "
+                                   "sensor, bands, models, exposure, tone map, sun, waves "
+                                   "and render scale live. The other options set the "
+                                   "physics the run starts with. "
                                    "--offscreen draws the "
                                    "same frames without a display; --script drives the camera "
                                    "and the water from a JSON flight script; --record writes "
@@ -76,6 +79,9 @@ def register(sub):
     p.add_argument("--target-fps", type=finite_float, default=None, metavar="FPS",
                    help="in a window: choose the render scale automatically to keep this frame "
                         "rate (e.g. 12 on a CPU); not with --offscreen or --record")
+    p.add_argument("--panel", action=argparse.BooleanOptionalAction, default=True,
+                   help="in a window: the controls panel (imgui-bundle): water, sensor, bands, "
+                        "models, exposure, tone map, sun, waves, render scale (default: on)")
     p.add_argument("--offscreen", action="store_true",
                    help="draw offscreen (no display needed; needs --frames)")
     p.add_argument("--script", default=None, metavar="FLIGHT.json",
@@ -111,7 +117,7 @@ def run(args):
     summary = run_view(settings, offscreen=args.offscreen, script=args.script,
                        frames=args.frames, record=args.record, mp4=args.mp4,
                        save_dir=args.save_dir, scale=args.scale, target_fps=args.target_fps,
-                       progress=lambda m: print(m, file=sys.stderr))
+                       panel=args.panel, progress=lambda m: print(m, file=sys.stderr))
     final = summary["final"]
     fps = "-" if summary["fps"] is None else f"{summary['fps']:.1f}"
     size = "x".join(str(v) for v in summary["render_size"])
