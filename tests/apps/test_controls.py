@@ -185,6 +185,7 @@ def test_the_panel_draws_over_the_right_of_the_frame_only(device):
     view.close()
     canvas.close()
     assert panel.frames == 1
+    assert view.pass_ms["panel"] > 0            # timed on the profiled frame
     left = w - PANEL_WIDTH_PX - PANEL_MARGIN_PX
     np.testing.assert_array_equal(image[:, :left], frame[:, :left])
     assert (image[:, left + 10:] != frame[:, left + 10:]).any(axis=-1).mean() > 0.5

@@ -318,8 +318,10 @@ class LiveView:
             self._workers = ThreadPoolExecutor(max_workers=1, thread_name_prefix="aquaspec-water")
         self._pending = (key, self._workers.submit(self._prepared_setup, water, settings))
         self._pending_t0 = time.perf_counter()
-        self.message = f"loading water {water} ..." if settings == self.settings else \
-            f"computing the light for {water} ..."
+        new = [f.name for f in dataclasses.fields(settings)
+               if getattr(settings, f.name) != getattr(self.settings, f.name)]
+        self.message = (f"computing the light for {water} with new {', '.join(new)} ..." if new
+                        else f"loading water {water} ...")
 
     def pending_s(self) -> float | None:
         """Seconds the pending change has been running, or None."""
@@ -532,9 +534,13 @@ class LiveView:
             self._poll_setup()
             self.flight.advance(dt)
             self.time_s += dt * self.wave_speed
-        self.encode_and_submit(profile=self.frame_index % PROFILE_EVERY == 0)
+        profile = self.frame_index % PROFILE_EVERY == 0
+        self.encode_and_submit(profile=profile)
         if self.gui is not None:
             self.gui()
+            if profile:     # (the panel's own submission, timed as the passes are)
+                self.renderer.wait()
+                self.pass_ms["panel"] = (time.perf_counter() - self._pass_t0) * 1e3
         if self.on_frame is not None:
             self.on_frame(self)
         self.frame_index += 1
