@@ -224,3 +224,27 @@ def test_the_panel_shows_a_change_in_progress(device):
     assert not np.array_equal(busy, idle)                   # the panel shows more
     left = w - 300
     np.testing.assert_array_equal(busy[:, :left], frame[:, :left])
+
+
+def test_the_sensors_are_the_built_in_cameras_and_the_camspec_ones(device, camspec_path):
+    from rendercanvas.offscreen import RenderCanvas
+
+    from aquaspec.apps.controls import ViewControls
+    from aquaspec.apps.live import LiveView, ViewSettings
+    from aquaspec.colour.sensors import builtin_sensors, load_camspec
+    canvas = RenderCanvas(size=(W, H))
+    view = LiveView(ViewSettings(width=W, height=H, bands=3, camspec=camspec_path))
+    view.attach(canvas)
+    controls = ViewControls(view)
+    try:
+        names = controls.sensors()
+        cams = list(load_camspec(camspec_path))
+        assert set(builtin_sensors()) <= set(names) and set(cams) <= set(names)
+        human = _frame(canvas)
+        assert controls.set_sensor(cams[0])
+        other = _settle(canvas, view)
+        assert view.settings.sensor == cams[0]
+        assert not np.array_equal(other, human)      # another camera, other colours
+    finally:
+        view.close()
+        canvas.close()
