@@ -16,7 +16,8 @@ def live(device):
     from rendercanvas.offscreen import RenderCanvas
 
     from aquaspec.apps.controls import ViewControls
-    from aquaspec.apps.live import LiveView, ViewSettings
+    from aquaspec.apps.live import LiveView
+    from aquaspec.apps.settings import ViewSettings
     canvas = RenderCanvas(size=(W, H))
     view = LiveView(ViewSettings(width=W, height=H, bands=3))
     view.attach(canvas)
@@ -60,7 +61,10 @@ def test_the_sun_on_brightens_the_frame(live):
     canvas, view, controls = live
     overcast = _frame(canvas)
     assert controls.set_sun(True, elevation_deg=60.0)
+    # A first sun: the worker made a renderer with the sun's passes compiled.
+    _, prepared = view._pending[1].result(timeout=300)
     sunny = _settle(canvas, view)
+    assert view.renderer is prepared and view.renderer.sun is not None
     assert view.settings.has_sun and view.settings.sun_elevation_deg == 60.0
     assert sunny.mean() > 1.05 * overcast.mean()
     assert controls.set_sun(False)
@@ -85,7 +89,10 @@ def test_bands_make_new_renderers_and_the_colour_holds(live):
     canvas, view, controls = live
     _frame(canvas)
     assert controls.set_bands(12)
+    # The worker made (and compiled, by one frame) the renderer of the new count.
+    _, prepared = view._pending[1].result(timeout=300)
     twelve = _settle(canvas, view)
+    assert view.renderer is prepared
     assert view.renderer.deferred.n_bands == 12 and view.setup.bands.n == 12
     assert controls.set_bands(24)
     many = _settle(canvas, view)
@@ -172,7 +179,8 @@ def test_the_panel_draws_over_the_right_of_the_frame_only(device):
     from rendercanvas.offscreen import RenderCanvas
 
     from aquaspec.apps.controls import ViewControls
-    from aquaspec.apps.live import LiveView, ViewSettings
+    from aquaspec.apps.live import LiveView
+    from aquaspec.apps.settings import ViewSettings
     from aquaspec.apps.panel import PANEL_MARGIN_PX, PANEL_WIDTH_PX, ControlsPanel
     w, h = 480, 270
     canvas = RenderCanvas(size=(w, h))
@@ -200,7 +208,8 @@ def test_the_panel_shows_a_change_in_progress(device):
     from rendercanvas.offscreen import RenderCanvas
 
     from aquaspec.apps.controls import ViewControls
-    from aquaspec.apps.live import LiveView, ViewSettings
+    from aquaspec.apps.live import LiveView
+    from aquaspec.apps.settings import ViewSettings
     from aquaspec.apps.panel import ControlsPanel
     w, h = 480, 270
     canvas = RenderCanvas(size=(w, h))
@@ -230,7 +239,8 @@ def test_the_sensors_are_the_built_in_cameras_and_the_camspec_ones(device, camsp
     from rendercanvas.offscreen import RenderCanvas
 
     from aquaspec.apps.controls import ViewControls
-    from aquaspec.apps.live import LiveView, ViewSettings
+    from aquaspec.apps.live import LiveView
+    from aquaspec.apps.settings import ViewSettings
     from aquaspec.colour.sensors import builtin_sensors, load_camspec
     canvas = RenderCanvas(size=(W, H))
     view = LiveView(ViewSettings(width=W, height=H, bands=3, camspec=camspec_path))

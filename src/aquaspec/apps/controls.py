@@ -25,7 +25,8 @@ import dataclasses
 
 import numpy as np
 
-from aquaspec.apps.live import LiveView, OVERCAST_BELOW_DEG
+from aquaspec.apps.live import LiveView
+from aquaspec.apps.settings import OVERCAST_BELOW_DEG
 from aquaspec.apps.scale import SCALE_LEVELS, RenderScale
 from aquaspec.colour.bands import MAX_BANDS, MIN_BANDS
 from aquaspec.colour.display import TONEMAPS
@@ -91,7 +92,7 @@ class ViewControls:
     def set(self, water: str | None = None, **fields) -> bool:
         """Ask for ``water`` (default: the one in use or pending) with the
         settings in use or pending changed by ``fields`` (names of
-        :class:`~aquaspec.apps.live.ViewSettings`), made off the frame
+        :class:`~aquaspec.apps.settings.ViewSettings`), made off the frame
         thread. False (and the reason in the view's message) if refused."""
         cur_water, cur = self.view.target()
         try:

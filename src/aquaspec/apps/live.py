@@ -55,21 +55,18 @@ from aquaspec.apps.floor import FloorMap
 from aquaspec.apps.overlay import text_overlay
 from aquaspec.apps.record import save_snapshot
 from aquaspec.apps.scale import SCALE_LEVELS, RenderScale, scaled_size
+from aquaspec.apps.settings import ViewSettings
 from aquaspec.colour.bands import Bands
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.passes.present import PresentPass, plain_format
-from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, surface_light
-from aquaspec.light.waves import WIND_RANGE, Waves
-from aquaspec.medium.phase import PHASE_FUNCTIONS
-from aquaspec.medium.water import DEFAULT_SOURCE, JERLOV_TYPES, SOURCES, get_water
-from aquaspec.rendering.appearance import check_ms_model
+from aquaspec.light.sky import surface_light
+from aquaspec.light.waves import Waves
+from aquaspec.medium.water import JERLOV_TYPES, get_water
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.builtin import builtin_scene
 from aquaspec.scene.load import load_mesh, place_in_front
-from aquaspec.scene.camera import check_size
-from aquaspec.transport.models import DEFAULT_MS_MODEL
 
 #: Spectral setups kept for switching back (the oldest others dropped).
 KEEP_SETUPS = 12
@@ -77,8 +74,6 @@ KEEP_SETUPS = 12
 PROFILE_EVERY = 10
 #: Weight of the newest frame in the smoothed frame time.
 FPS_SMOOTHING = 0.2
-#: Below this sun elevation (degrees) the light is the overcast sky.
-OVERCAST_BELOW_DEG = 1.0
 #: Seconds between redraws of the on-screen text.
 OVERLAY_EVERY_S = 0.25
 #: The on-screen text's last line.
@@ -90,79 +85,6 @@ EV_KEYS = {",": -0.5, ".": 0.5}
 SCALE_KEYS = {"[": 1, "]": -1}
 #: Keys 1-9 and 0 switch to the ten Jerlov types, clearest first.
 WATER_KEYS = dict(zip("1234567890", JERLOV_TYPES))
-
-
-@dataclasses.dataclass(frozen=True)
-class ViewSettings:
-    """What a live view shows (checked when made).
-
-    ``sun_elevation_deg`` below :data:`OVERCAST_BELOW_DEG` is the overcast
-    sky; ``wind`` 0 a flat surface, else a wind sea (m/s, within
-    :data:`aquaspec.light.waves.WIND_RANGE`) whose caustics move with the
-    frames' time (it needs the sun).
-    """
-
-    width: int = 640
-    height: int = 360
-    water: str = "IB"
-    #: Where a Jerlov type's data come from (:data:`aquaspec.medium.water.SOURCES`).
-    water_source: str = DEFAULT_SOURCE
-    depth_m: float = 5.0
-    bands: int = 8
-    sensor: str = "human"
-    camspec: object = None
-    ms_model: str = DEFAULT_MS_MODEL
-    cone_spread: bool | None = None
-    spread_scattering: str = "single"
-    #: The light field's phase function (:data:`aquaspec.medium.phase.PHASE_FUNCTIONS`)
-    #: and its parameters, e.g. ``(("g", 0.92),)`` for ``hg``.
-    phase: str = "petzold"
-    phase_params: tuple = ()
-    sun_elevation_deg: float = 0.0
-    sun_azimuth_deg: float = DEFAULT_SUN_AZIMUTH_DEG
-    wind: float = 0.0
-    #: A mesh file (OBJ/PLY/glTF/GLB/STL/OFF) shown instead of the built-in
-    #: scene, placed 3 m in front of the camera in open water
-    #: (:func:`aquaspec.scene.load.place_in_front`); None: the built-in scene.
-    mesh: str | None = None
-
-    def __post_init__(self):
-        check_size(self.width, self.height)
-        object.__setattr__(self, "ms_model", check_ms_model(self.ms_model))
-        e, w = self.sun_elevation_deg, self.wind
-        if not (np.isfinite(e) and 0.0 <= e <= 90.0):
-            raise AquaspecError(f"sun elevation {e!r} deg; accepted: 0 (overcast) to 90")
-        if not np.isfinite(self.sun_azimuth_deg):
-            raise AquaspecError(f"sun azimuth {self.sun_azimuth_deg!r} deg; accepted: a "
-                                "finite angle")
-        if not (np.isfinite(w) and (w == 0 or WIND_RANGE[0] <= w <= WIND_RANGE[1])):
-            raise AquaspecError(f"wind {w!r} m/s; accepted: 0 (a flat surface) or "
-                                f"{WIND_RANGE[0]} to {WIND_RANGE[1]}")
-        if w > 0 and e < OVERCAST_BELOW_DEG:
-            raise AquaspecError(f"wind {w:g} m/s focuses the sun's beam into caustics: it "
-                                f"needs a sun elevation of at least {OVERCAST_BELOW_DEG:g} "
-                                f"deg, not {e:g}")
-        if self.water_source not in SOURCES:
-            raise AquaspecError(f"water source {self.water_source!r}; accepted: "
-                                f"{', '.join(SOURCES)}")
-        if self.phase not in PHASE_FUNCTIONS:
-            raise AquaspecError(f"phase function {self.phase!r}; accepted: "
-                                f"{', '.join(PHASE_FUNCTIONS)}")
-        if self.spread_scattering not in ("single", "multiple"):
-            raise AquaspecError(f"spread_scattering={self.spread_scattering!r}; accepted: "
-                                "'single', 'multiple'")
-
-    @property
-    def has_sun(self) -> bool:
-        return self.sun_elevation_deg >= OVERCAST_BELOW_DEG
-
-    def describe(self) -> dict:
-        """The settings for a sidecar (JSON-ready)."""
-        out = dataclasses.asdict(self)
-        out["camspec"] = None if self.camspec is None else str(self.camspec)
-        out["mesh"] = None if self.mesh is None else str(self.mesh)
-        out["light"] = "sun-sky" if self.has_sun else "overcast"
-        return out
 
 
 def display_buffer(renderer: Renderer):
@@ -276,15 +198,28 @@ class LiveView:
             self._setups[key] = self._make_setup(water)
         return self._setups[key]
 
-    def _prepared_setup(self, water: str, settings: ViewSettings) -> SpectralSetup:
+    def _prepared_setup(self, water: str, settings: ViewSettings, camera=None,
+                        display=None) -> tuple:
         """:meth:`_make_setup` with its host-side work done (the light field's
         tables, the sun's inputs and caustics, the per-band medium): what a
-        worker thread runs."""
+        worker thread runs. With ``camera`` (a new band count, a first sun) also a renderer
+        of its size, its passes compiled by one frame (seconds on lavapipe),
+        shown with ``display``. Returns ``(setup, renderer or None)``."""
         setup = self._make_setup(water, settings)
         setup.lightfield_tables()
         setup.sun_inputs()
         setup.medium(self.scene.materials)
-        return setup
+        if camera is None:
+            return setup, None
+        # A renderer no other thread holds yet: only the device is shared.
+        renderer = Renderer(camera.width, camera.height, settings.bands)
+        renderer.set_spectral(setup, self.scene.materials)
+        renderer.set_display(display)
+        encoder = renderer.encode_frame(self.device.create_command_encoder(), self.scene,
+                                        camera, setup)
+        self.device.queue.submit([encoder.finish()])
+        renderer.wait()
+        return setup, renderer
 
     @property
     def pending(self):
@@ -316,7 +251,12 @@ class LiveView:
             return
         if self._workers is None:
             self._workers = ThreadPoolExecutor(max_workers=1, thread_name_prefix="aquaspec-water")
-        self._pending = (key, self._workers.submit(self._prepared_setup, water, settings))
+        # A new band count, or a first sun (its passes compiled), is a new renderer.
+        fresh = settings.bands != self.settings.bands or (settings.has_sun
+                                                           and self.renderer.sun is None)
+        camera = self.camera() if fresh and self.display_settings is not None else None
+        self._pending = (key, self._workers.submit(self._prepared_setup, water, settings, camera,
+                                                   self.display_settings))
         self._pending_t0 = time.perf_counter()
         new = [f.name for f in dataclasses.fields(settings)
                if getattr(settings, f.name) != getattr(self.settings, f.name)]
@@ -335,7 +275,7 @@ class LiveView:
         (water, settings), future = self._pending
         self._pending = None
         try:
-            self._setups[(water, settings)] = future.result()
+            self._setups[(water, settings)], renderer = future.result()
         except AquaspecError as exc:
             self.message = f"water {water}: {exc}"
             return
@@ -343,14 +283,18 @@ class LiveView:
             if key != (self.water, self.settings):
                 del self._setups[key]
         self.message = None
-        self._use(water, settings)
+        self._use(water, settings, renderer)
 
-    def _use(self, water: str, settings: ViewSettings) -> None:
+    def _use(self, water: str, settings: ViewSettings, renderer=None) -> None:
         """Show ``water`` with ``settings`` (its setup made already, or made
-        here); a new band count makes new renderers."""
+        here); a new band count needs new renderers; ``renderer``: one made
+        on the worker thread for them, replacing the others."""
         bands_changed = settings.bands != self.settings.bands
         self.settings = settings
-        if bands_changed:
+        if renderer is not None and renderer.deferred.n_bands == settings.bands:
+            self._renderers = {(renderer.width, renderer.height): renderer}
+            self.use_scale()
+        elif bands_changed:
             self._renderers = {}
             self.use_scale()
         self.set_water(water)

@@ -26,7 +26,8 @@ import numpy as np
 
 from aquaspec.apps.controls import ViewControls
 from aquaspec.apps.flight_script import FlightScript, Pose
-from aquaspec.apps.live import PROFILE_EVERY, LiveView, ViewSettings
+from aquaspec.apps.live import PROFILE_EVERY, LiveView
+from aquaspec.apps.settings import ViewSettings
 from aquaspec.apps.panel import ControlsPanel
 from aquaspec.apps.record import FrameRecorder
 from aquaspec.apps.scale import RenderScale

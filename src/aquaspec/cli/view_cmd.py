@@ -104,7 +104,7 @@ def register(sub):
 
 def run(args):
     # deferred: the live view loads wgpu and rendercanvas; `aquaspec --help` need not
-    from aquaspec.apps.live import ViewSettings
+    from aquaspec.apps.settings import ViewSettings
     from aquaspec.apps.view import run_view  # deferred: as above
     w, h = parse_size(args.size)
     elevation, azimuth = sun_from(args)

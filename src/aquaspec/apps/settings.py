@@ -1,0 +1,98 @@
+"""What a live view shows: :class:`ViewSettings`, the physics and the image size.
+
+A frozen, hashable dataclass checked when made (each bad value named with what
+is accepted): the live view keys its spectral setups by it, and the controls
+panel (:mod:`aquaspec.apps.controls`) makes a changed copy with
+``dataclasses.replace`` for every change, refused there if a value is wrong.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from aquaspec.errors import AquaspecError
+from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
+from aquaspec.light.waves import WIND_RANGE
+from aquaspec.medium.phase import PHASE_FUNCTIONS
+from aquaspec.medium.water import DEFAULT_SOURCE, SOURCES
+from aquaspec.rendering.appearance import check_ms_model
+from aquaspec.scene.camera import check_size
+from aquaspec.transport.models import DEFAULT_MS_MODEL
+
+#: Below this sun elevation (degrees) the light is the overcast sky.
+OVERCAST_BELOW_DEG = 1.0
+
+
+@dataclasses.dataclass(frozen=True)
+class ViewSettings:
+    """What a live view shows (checked when made).
+
+    ``sun_elevation_deg`` below :data:`OVERCAST_BELOW_DEG` is the overcast
+    sky; ``wind`` 0 a flat surface, else a wind sea (m/s, within
+    :data:`aquaspec.light.waves.WIND_RANGE`) whose caustics move with the
+    frames' time (it needs the sun).
+    """
+
+    width: int = 640
+    height: int = 360
+    water: str = "IB"
+    #: Where a Jerlov type's data come from (:data:`aquaspec.medium.water.SOURCES`).
+    water_source: str = DEFAULT_SOURCE
+    depth_m: float = 5.0
+    bands: int = 8
+    sensor: str = "human"
+    camspec: object = None
+    ms_model: str = DEFAULT_MS_MODEL
+    cone_spread: bool | None = None
+    spread_scattering: str = "single"
+    #: The light field's phase function (:data:`aquaspec.medium.phase.PHASE_FUNCTIONS`)
+    #: and its parameters, e.g. ``(("g", 0.92),)`` for ``hg``.
+    phase: str = "petzold"
+    phase_params: tuple = ()
+    sun_elevation_deg: float = 0.0
+    sun_azimuth_deg: float = DEFAULT_SUN_AZIMUTH_DEG
+    wind: float = 0.0
+    #: A mesh file (OBJ/PLY/glTF/GLB/STL/OFF) shown instead of the built-in
+    #: scene, placed 3 m in front of the camera in open water
+    #: (:func:`aquaspec.scene.load.place_in_front`); None: the built-in scene.
+    mesh: str | None = None
+
+    def __post_init__(self):
+        check_size(self.width, self.height)
+        object.__setattr__(self, "ms_model", check_ms_model(self.ms_model))
+        e, w = self.sun_elevation_deg, self.wind
+        if not (np.isfinite(e) and 0.0 <= e <= 90.0):
+            raise AquaspecError(f"sun elevation {e!r} deg; accepted: 0 (overcast) to 90")
+        if not np.isfinite(self.sun_azimuth_deg):
+            raise AquaspecError(f"sun azimuth {self.sun_azimuth_deg!r} deg; accepted: a "
+                                "finite angle")
+        if not (np.isfinite(w) and (w == 0 or WIND_RANGE[0] <= w <= WIND_RANGE[1])):
+            raise AquaspecError(f"wind {w!r} m/s; accepted: 0 (a flat surface) or "
+                                f"{WIND_RANGE[0]} to {WIND_RANGE[1]}")
+        if w > 0 and e < OVERCAST_BELOW_DEG:
+            raise AquaspecError(f"wind {w:g} m/s focuses the sun's beam into caustics: it "
+                                f"needs a sun elevation of at least {OVERCAST_BELOW_DEG:g} "
+                                f"deg, not {e:g}")
+        if self.water_source not in SOURCES:
+            raise AquaspecError(f"water source {self.water_source!r}; accepted: "
+                                f"{', '.join(SOURCES)}")
+        if self.phase not in PHASE_FUNCTIONS:
+            raise AquaspecError(f"phase function {self.phase!r}; accepted: "
+                                f"{', '.join(PHASE_FUNCTIONS)}")
+        if self.spread_scattering not in ("single", "multiple"):
+            raise AquaspecError(f"spread_scattering={self.spread_scattering!r}; accepted: "
+                                "'single', 'multiple'")
+
+    @property
+    def has_sun(self) -> bool:
+        return self.sun_elevation_deg >= OVERCAST_BELOW_DEG
+
+    def describe(self) -> dict:
+        """The settings for a sidecar (JSON-ready)."""
+        out = dataclasses.asdict(self)
+        out["camspec"] = None if self.camspec is None else str(self.camspec)
+        out["mesh"] = None if self.mesh is None else str(self.mesh)
+        out["light"] = "sun-sky" if self.has_sun else "overcast"
+        return out
