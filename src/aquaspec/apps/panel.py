@@ -46,9 +46,11 @@ class ControlsPanel:
         """Draw the panel over every frame of the view's ``canvas`` (attached
         to the view already: its context is configured)."""
         # deferred: imgui-bundle is the `view` extra's; views without a panel need none
-        from wgpu.utils.imgui import ImguiRenderer
+        from imgui_bundle import imgui
+        from wgpu.utils.imgui import ImguiRenderer  # deferred: it imports imgui-bundle
         view = self.controls.view
-        self.renderer = ImguiRenderer(view.device, canvas)
+        self.renderer = ImguiRenderer(view.device, canvas)     # its context is now current
+        imgui.get_io().set_ini_filename(None)   # no imgui.ini left in the user's folder
         self.renderer.set_gui(self.draw)
         view.gui = self.renderer.render
 
