@@ -182,7 +182,7 @@ def test_the_panel_draws_over_the_right_of_the_frame_only(device):
     from aquaspec.apps.live import LiveView
     from aquaspec.apps.settings import ViewSettings
     from aquaspec.apps.panel import PANEL_MARGIN_PX, PANEL_WIDTH_PX, ControlsPanel
-    w, h = 480, 270
+    w, h = 960, 540
     canvas = RenderCanvas(size=(w, h))
     view = LiveView(ViewSettings(width=w, height=h, bands=3))
     view.attach(canvas)
@@ -211,7 +211,7 @@ def test_the_panel_shows_a_change_in_progress(device):
     from aquaspec.apps.live import LiveView
     from aquaspec.apps.settings import ViewSettings
     from aquaspec.apps.panel import ControlsPanel
-    w, h = 480, 270
+    w, h = 960, 540
     canvas = RenderCanvas(size=(w, h))
     view = LiveView(ViewSettings(width=w, height=h, bands=3))
     view.attach(canvas)
@@ -258,3 +258,26 @@ def test_the_sensors_are_the_built_in_cameras_and_the_camspec_ones(device, camsp
     finally:
         view.close()
         canvas.close()
+
+
+def test_a_narrow_window_starts_with_the_panel_collapsed(device):
+    pytest.importorskip("imgui_bundle")
+    from rendercanvas.offscreen import RenderCanvas
+
+    from aquaspec.apps.controls import ViewControls
+    from aquaspec.apps.live import LiveView
+    from aquaspec.apps.panel import OPEN_FROM_WIDTH_PX, ControlsPanel
+    from aquaspec.apps.settings import ViewSettings
+    w, h = OPEN_FROM_WIDTH_PX // 2, OPEN_FROM_WIDTH_PX // 4
+    canvas = RenderCanvas(size=(w, h))
+    view = LiveView(ViewSettings(width=w, height=h, bands=3))
+    view.attach(canvas)
+    ControlsPanel(ViewControls(view)).attach(canvas)
+    image = np.asarray(canvas.draw())[..., :3]
+    frame = view.renderer.read_display()
+    view.close()
+    canvas.close()
+    covered = (image != frame).any(axis=-1)
+    # Only its title bar (one line of text, about 20 pixels) hides the frame.
+    rows = np.flatnonzero(covered.any(axis=1))
+    assert rows.size and rows.max() < 40

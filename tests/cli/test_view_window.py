@@ -152,7 +152,7 @@ def test_a_click_on_the_panel_turns_the_sun_on(x_display, tmp_path):
     out = tmp_path / "run"
     env = {**os.environ, "DISPLAY": x_display}
     env.pop("RENDERCANVAS_FORCE_OFFSCREEN", None)
-    w, h = 640, 360
+    w, h = 960, 540                          # (narrower windows start with it collapsed)
     view = subprocess.Popen([sys.executable, "-m", "aquaspec", "view", "--size", f"{w}x{h}",
                              "--scale", "0.25", "--bands", "3", "--frames", "5000",
                              "--record", str(out)],

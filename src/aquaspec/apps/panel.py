@@ -24,6 +24,9 @@ from aquaspec.apps.controls import ViewControls
 PANEL_BANDS = (3, 64)
 #: The panel's width and margin, logical pixels.
 PANEL_WIDTH_PX, PANEL_MARGIN_PX = 290, 8
+#: Narrower windows start with the panel collapsed to its title bar (a click
+#: opens it), so that it hides neither the frame nor the text in its corner.
+OPEN_FROM_WIDTH_PX = 960
 _WARN_RGBA = (1.0, 0.85, 0.3, 1.0)
 
 
@@ -82,6 +85,7 @@ class ControlsPanel:
                                   imgui.Cond_.first_use_ever)
         imgui.set_next_window_size((PANEL_WIDTH_PX, height - 2 * PANEL_MARGIN_PX),
                                    imgui.Cond_.first_use_ever)
+        imgui.set_next_window_collapsed(width < OPEN_FROM_WIDTH_PX, imgui.Cond_.first_use_ever)
         imgui.begin("controls")
         imgui.push_item_width(-110)
 
