@@ -11,6 +11,7 @@ from aquaspec.rendering.api import render
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.colour.reflectance import Reflectance
+from aquaspec.validation.scenes import cuboid
 
 
 @pytest.fixture(scope="module")
@@ -21,12 +22,7 @@ def ledge():
     scene.add(Mesh(np.array([[-0.6, -5.5, -3], [0.6, -5.5, -3], [0.6, -4.5, -3],
                              [-0.6, -4.5, -3]], float), np.array([[0, 1, 2], [0, 2, 3]]),
                    np.tile([0.0, 0.0, 1.0], (4, 1)), 0, name="board"))
-    lo, hi = np.array([-1.5, -4.2, -3.5]), np.array([1.5, -4.0, -1.5])
-    c = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                  for z in (lo[2], hi[2])])
-    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
-    scene.add(Mesh.flat(c, faces, material=1, name="ledge"))
+    scene.add(cuboid([-1.5, -4.2, -3.5], [1.5, -4.0, -1.5], 1, "ledge"))
     cam = Camera.look_at([0, -5, 0], [0, -5, -3], width=40, height=30, fov_y_deg=40)
     return scene, cam
 

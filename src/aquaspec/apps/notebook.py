@@ -23,9 +23,8 @@ from __future__ import annotations
 
 import dataclasses
 
-from aquaspec.apps.controls import ViewControls
 from aquaspec.apps.live import LiveView
-from aquaspec.apps.panel import ControlsPanel
+from aquaspec.apps.panel import attach_panel
 from aquaspec.apps.scale import RenderScale
 from aquaspec.apps.settings import ViewSettings
 from aquaspec.errors import AquaspecError
@@ -54,16 +53,6 @@ def _settings(settings, options: dict) -> ViewSettings:
         raise AquaspecError(f"notebook_view: settings={settings!r}; accepted: a ViewSettings "
                             "or None (then the keyword options make one)")
     return dataclasses.replace(settings, **options)
-
-
-def _attach_panel(view: LiveView, canvas, say) -> None:
-    try:
-        # deferred: imgui-bundle (the `view` extra) only where a panel is drawn
-        import imgui_bundle  # noqa: F401
-    except ImportError as exc:
-        say(f"no controls panel ({exc}); pip install 'aquaspec[view]' for it")
-        return
-    ControlsPanel(ViewControls(view)).attach(canvas)
 
 
 def notebook_view(settings: ViewSettings | None = None, *, scale: float = 1.0,
@@ -106,7 +95,7 @@ def notebook_view(settings: ViewSettings | None = None, *, scale: float = 1.0,
                           update_mode="continuous", max_fps=max_fps)
     view.attach(canvas)
     if panel:
-        _attach_panel(view, canvas, progress or (lambda message: None))
+        attach_panel(view, canvas, progress or (lambda message: None))
     canvas.add_event_handler(lambda event: view.close(), "close")   # looked up on close
     canvas.live_view = view
     return canvas

@@ -146,3 +146,15 @@ class ControlsPanel:
         imgui.pop_item_width()
         imgui.end()
         self.frames += 1
+
+
+def attach_panel(view, canvas, say) -> None:
+    """The controls panel of ``view`` (a :class:`aquaspec.apps.live.LiveView`)
+    over ``canvas``, or a note through ``say`` when imgui-bundle is missing."""
+    try:
+        # deferred: imgui-bundle (the `view` extra) only where a panel is drawn
+        import imgui_bundle  # noqa: F401
+    except ImportError as exc:
+        say(f"no controls panel ({exc}); pip install 'aquaspec[view]' for it")
+        return
+    ControlsPanel(ViewControls(view)).attach(canvas)

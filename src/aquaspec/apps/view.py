@@ -24,11 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from aquaspec.apps.controls import ViewControls
 from aquaspec.apps.flight_script import FlightScript, Pose
 from aquaspec.apps.live import PROFILE_EVERY, LiveView
 from aquaspec.apps.settings import ViewSettings
-from aquaspec.apps.panel import ControlsPanel
+from aquaspec.apps.panel import attach_panel
 from aquaspec.apps.record import FrameRecorder
 from aquaspec.apps.scale import RenderScale
 from aquaspec.errors import AquaspecError
@@ -67,17 +66,6 @@ def _window_canvas(canvas_class, settings: ViewSettings):
         raise AquaspecError(f"could not open a window ({type(exc).__name__}: {exc}); is there "
                             "a display (DISPLAY / WAYLAND_DISPLAY)? Headless: --offscreen"
                             ) from None
-
-
-def _attach_panel(view: LiveView, canvas, say) -> None:
-    """The controls panel over ``canvas``, or a note when imgui-bundle is missing."""
-    try:
-        # deferred: imgui-bundle (the `view` extra) only where a panel is drawn
-        import imgui_bundle  # noqa: F401
-    except ImportError as exc:
-        say(f"no controls panel ({exc}); pip install 'aquaspec[view]' for it")
-        return
-    ControlsPanel(ViewControls(view)).attach(canvas)
 
 
 def _start_pose(view: LiveView) -> Pose:
@@ -197,7 +185,7 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
             view.on_frame = after_frame
             view.attach(canvas)
             if panel:
-                _attach_panel(view, canvas, say)
+                attach_panel(view, canvas, say)
             say("window open: W/A/S/D/Q/E move, drag to look, +/- speed, R reset, 1-0 water "
                 "(Jerlov I ... 9C), P save the frame, H text, Esc quit")
             loop.run()

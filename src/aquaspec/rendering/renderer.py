@@ -239,10 +239,16 @@ class Renderer:
         tris = self._occ_cache["triangles"]
         if len(tris.corners) == 0:
             return False
-        layout = occlusion_layout(scene, camera, directions=directions, size=map_size,
-                                  triangles=tris)
+        # The maps' geometry follows the camera's position only (snapped to
+        # cells): made again when it moves, not every frame.
+        where = (tuple(camera.position), map_size)
+        if self._occ_cache.get("where") != where:
+            self._occ_cache["where"] = where
+            self._occ_cache["layout"] = occlusion_layout(scene, camera, directions=directions,
+                                                         size=map_size, triangles=tris)
+        layout = self._occ_cache["layout"]
         if self._occ_cache.get("tables") is not tables:
-            a, b = self.lightfield._medium[1], self.lightfield._medium[2]
+            a, b = self.lightfield.band_coefficients
             self._occ_cache["tables"] = tables
             self._occ_cache["weights"] = weights_from_tables(
                 tables, layout.directions, layout.solid_angle, a=a, b=b)

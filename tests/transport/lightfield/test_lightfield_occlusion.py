@@ -1,8 +1,6 @@
 """The water's part of the occlusion (aquaspec.transport.lightfield.occlusion):
 closed form under a roof, open water, occluders behind, the compressed form."""
 
-import warnings
-
 import numpy as np
 import pytest
 
@@ -11,7 +9,6 @@ from aquaspec.scene.occlusion import sphere_directions
 from aquaspec.transport.lightfield import occlusion as lo
 from aquaspec.transport.lightfield.bake import lightfield_tables
 from aquaspec.transport.lightfield.field import clamped_cosine_azimuth
-from aquaspec.transport.lightfield.solve import solve_lightfield
 
 DEPTH_M, ROOF_M = 5.0, 0.5
 #: Measured (IB, 4 bands, 5 m, roof 0.5 m): |O_K - O_quadrature| <= 0.0035
@@ -22,18 +19,6 @@ TABLE_RTOL = 0.05
 #: Compressed form (hats, M = 6, two extinction nodes) against the direct
 #: sum under the roof, measured 0.0007 (up) and 0.013 (sideways).
 COMPRESSED_TOL = 0.02
-
-
-@pytest.fixture(scope="module")
-def ib():
-    from aquaspec.colour.bands import Bands
-    from aquaspec.medium.water import load_water
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        bw = load_water("IB").on_bands(Bands(4))
-    lf = solve_lightfield(bw.a, bw.b, phase="petzold", wavelength_nm=bw.bands.centers_nm,
-                          n_streams=32)
-    return bw, lf
 
 
 def roof(dirs):

@@ -2,8 +2,6 @@
 the blocked share under a roof against quadrature, the ray integral against
 the transfer equation's closed form, open water, and the map lookup."""
 
-import warnings
-
 import numpy as np
 import pytest
 
@@ -14,7 +12,6 @@ from aquaspec.scene.occlusion import occlusion_maps, sphere_directions
 from aquaspec.transport.lightfield import occlusion as lo
 from aquaspec.transport.lightfield import water_occlusion as wo
 from aquaspec.transport.lightfield.bake import lightfield_tables
-from aquaspec.transport.lightfield.solve import solve_lightfield
 
 DEPTH_M, ROOF_M = 5.0, 0.5
 #: K = 64 Fibonacci directions against Gauss-Legendre in mu (measured
@@ -28,22 +25,17 @@ RAY_RTOL = 0.04
 
 
 @pytest.fixture(scope="module")
-def ib():
-    from aquaspec.colour.bands import Bands
-    from aquaspec.medium.water import load_water
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        bw = load_water("IB").on_bands(Bands(4))
-    lf = solve_lightfield(bw.a, bw.b, phase="petzold", wavelength_nm=bw.bands.centers_nm,
-                          n_streams=32)
+def ib_tables(ib):
+    """The conftest's IB water and field, with the renderer's tables."""
+    bw, lf = ib
     return bw, lf, lightfield_tables(bw, phase="petzold")
 
 
-def test_share_under_a_roof_is_the_integral(ib):
+def test_share_under_a_roof_is_the_integral(ib_tables):
     """A roof ROOF_M above takes the upper hemisphere: ``R`` is the light it
     lets through from above, attenuated over the roof's distance, over the
     whole sphere's light (isotropic weighting, no cone)."""
-    _, lf, _ = ib
+    _, lf, _ = ib_tables
     dirs, om = sphere_directions(64)
     w = lo.weights_from_field(lf, dirs, om)
     up = dirs[:, 1] > 0
@@ -62,8 +54,8 @@ def test_share_under_a_roof_is_the_integral(ib):
     np.testing.assert_allclose(got, ref, atol=SHARE_TOL)
 
 
-def test_open_water_loses_nothing(ib):
-    _, lf, _ = ib
+def test_open_water_loses_nothing(ib_tables):
+    _, lf, _ = ib_tables
     dirs, om = sphere_directions(32)
     w = lo.weights_from_field(lf, dirs, om)
     rng = np.random.default_rng(3)
@@ -83,11 +75,11 @@ def test_open_water_loses_nothing(ib):
                                           ([0.6, -0.8, 0.0], np.inf),
                                           ([0.0, 0.6, -0.8], 4.0),
                                           ([0.8, 0.0, -0.6], 3.0)])
-def test_everything_blocked_removes_the_whole_in_scattering(ib, view, length):
+def test_everything_blocked_removes_the_whole_in_scattering(ib_tables, view, length):
     """All directions blocked at zero distance (no cone): the ray loses its
     whole in-scattering, which by the transfer equation along the ray is
     ``L(o, v) - T(S) L(y(S), v)`` of the tables' open-water radiance."""
-    bw, _, tab = ib
+    bw, _, tab = ib_tables
     dirs, om = sphere_directions(16)
     w = lo.weights_from_tables(tab, dirs, om, a=bw.a, b=bw.b)
     o = np.array([0.0, -DEPTH_M, 0.0])
@@ -130,8 +122,8 @@ def test_water_visibility_under_a_slab():
     assert np.all(vis[:, down] == 1.0) and np.all(np.isinf(dist[:, down]))
 
 
-def test_bad_inputs(ib):
-    bw, lf, tab = ib
+def test_bad_inputs(ib_tables):
+    bw, lf, tab = ib_tables
     dirs, om = sphere_directions(16)
     w = lo.weights_from_field(lf, dirs, om)
     with pytest.raises(AquaspecError, match="one each per point"):

@@ -221,6 +221,11 @@ class LightfieldPass(ShadingPass):
         return None if self._medium is None else self._medium[0]
 
     @property
+    def band_coefficients(self):
+        """``(a, b)`` (n,) 1/m of the last :meth:`set_medium` (None before)."""
+        return None if self._medium is None else (self._medium[1], self._medium[2])
+
+    @property
     def rank(self) -> int:
         """The rank of the irradiance factorisation (:attr:`factors`)."""
         return self._shape["rank"]

@@ -16,6 +16,8 @@
 // the full-resolution pixel (SCALE x + SCALE / 2, SCALE y + SCALE / 2); no
 // hit (or a hit past the water surface): O = 1.
 
+#include "gbuffer_normal.wgsl"
+
 const N_BANDS: u32 = {{ n_bands }}u;
 const N_DIRS: u32 = {{ n_dirs }}u;
 const N_DEPTH: u32 = {{ n_depth }}u;
@@ -46,16 +48,6 @@ struct Direction {
 // Nearest, clamp to edge: the four texels of a gather.
 @group(0) @binding(7) var map_sampler: sampler;
 
-fn decode_normal(oct: u32, n_y_bits: u32) -> vec3<f32> {
-    let p = unpack2x16snorm(oct);
-    let y = 1.0 - abs(p.x) - abs(p.y);
-    let s = select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
-    let xz = select(p, (1.0 - abs(p.yx)) * s, y < 0.0);
-    let n_y = clamp(bitcast<f32>(n_y_bits), -1.0, 1.0);
-    let h = length(xz);
-    let scale = select(0.0, sqrt(max(1.0 - n_y * n_y, 0.0)) / h, h > 0.0);
-    return vec3<f32>(xz.x * scale, n_y, xz.y * scale);
-}
 
 // Lower depth node and weight (tables.table_depth_index).
 fn depth_index(d: f32) -> vec2<f32> {

@@ -50,7 +50,7 @@ fn interleaved_row(wg_y: u32, lid_y: u32, nwg_y: u32) -> u32 {
 }
 
 // The G-buffer at four pixels (columns px, rows py): the hit distance S
-// (negative: none), n_y, the octahedral normal's word (sunlight.wgsl's
+// (negative: none), n_y, the octahedral normal's word (gbuffer_normal.wgsl's
 // decode_normal), the material index and (PER_PIXEL_MATERIALS) the sigmoid
 // coefficients.
 struct GbufferPixels {

@@ -25,6 +25,7 @@
 // in sqrt(d / D).
 
 #include "common.wgsl"
+#include "gbuffer_normal.wgsl"
 
 {{ sun_params_struct }}
 
@@ -45,19 +46,6 @@ const SUN_N_BANDS: u32 = {{ sun_n_bands }}u;
 // Comparing depths (less-equal, clamped to the edge): the four texels of a
 // shadow-map footprint compared in one gather.
 @group(0) @binding({{ sun_b_shadow_sampler }}) var shadow_sampler: sampler_comparison;
-
-// aquaspec.gpu.gbuffer.oct_decode of the G-buffer's normal word, then n_y kept exact
-// (unpack_surface).
-fn decode_normal(oct: u32, n_y_bits: u32) -> vec3<f32> {
-    let p = unpack2x16snorm(oct);
-    let y = 1.0 - abs(p.x) - abs(p.y);
-    let s = select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
-    let xz = select(p, (1.0 - abs(p.yx)) * s, y < 0.0);
-    let n_y = clamp(bitcast<f32>(n_y_bits), -1.0, 1.0);
-    let h = length(xz);
-    let scale = select(0.0, sqrt(max(1.0 - n_y * n_y, 0.0)) / h, h > 0.0);
-    return vec3<f32>(xz.x * scale, n_y, xz.y * scale);
-}
 
 // Share of the sun that reaches point p (1 where no map or outside it). A
 // texel lets the beam through when h >= h_texel - bias, i.e. when the
