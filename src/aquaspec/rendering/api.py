@@ -122,7 +122,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            occlusion: bool = False, seabed="scene",
            exposure="auto", white_balance="none", tonemap="filmic",
            colour_matrix="auto", return_radiance: bool = False, layers: bool = False,
-           backend: str = "gpu", progress=None) -> RenderResult:
+           backend: str = "gpu", progress=None, renderer: Renderer | None = None
+           ) -> RenderResult:
     """Render one image.
 
     Parameters
@@ -233,6 +234,11 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         The WGSL passes through wgpu, or the NumPy reference.
     progress : callable, optional
         Called with a short message at each stage.
+    renderer : Renderer, optional
+        A :class:`aquaspec.rendering.renderer.Renderer` of the image's size and
+        band count to shade with (``backend="gpu"``): kept by the caller
+        across renders, its compiled passes and uploaded tables are reused
+        (``aquaspec synth``'s workers). None: one is made for this image.
     """
     say = progress or (lambda msg: None)
     if backend not in BACKENDS:
@@ -260,7 +266,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     setup = _with_seabed(setup, seabed, view)
     reference, white_card_info = _white_patch_reference(setup, view.camera, white_balance)
     if backend == "gpu":
-        shaded = _shade_on_gpu(setup, view, map_size, return_radiance, say)
+        shaded = _shade_on_gpu(setup, view, map_size, return_radiance, say, renderer)
     else:
         shaded = _shade_in_numpy(setup, view, map_size, return_radiance, say)
     _check_finite_image(shaded.linear)
@@ -430,7 +436,7 @@ class _Shaded:
 
 
 def _shade_on_gpu(setup: SpectralSetup, view: _View, map_size, return_radiance,
-                  say) -> _Shaded:
+                  say, renderer: Renderer | None = None) -> _Shaded:
     """Step 3 on the GPU: rasterise (unless the G-buffer came from an RGB-D
     image), shade, add the sun (:class:`Renderer`)."""
     camera = view.camera
@@ -440,7 +446,10 @@ def _shade_on_gpu(setup: SpectralSetup, view: _View, map_size, return_radiance,
     if return_radiance and setup.ms_model != MONZON2022:
         raise AquaspecError("per-band radiance from the GPU is available for "
                             "ms_model='seeds'; use backend='numpy' for the light field")
-    r = Renderer(camera.width, camera.height, setup.bands.n, debug_radiance=return_radiance)
+    if renderer is None:
+        r = Renderer(camera.width, camera.height, setup.bands.n, debug_radiance=return_radiance)
+    else:
+        r = _reusable(renderer, camera, setup.bands.n, return_radiance)
     r.sun_map_size = map_size
     r.set_occlusion(setup.occlusion)
     occluders = visible_surface_occluders(view.gbuffer) if (setup.occlusion
@@ -455,6 +464,20 @@ def _shade_on_gpu(setup: SpectralSetup, view: _View, map_size, return_radiance,
                                   occluders=occluders).astype(np.float64)
     radiance = r.read_radiance() if return_radiance else None
     return _Shaded(linear, radiance, view.gbuffer, renderer=r)
+
+
+def _reusable(renderer: Renderer, camera: Camera, n_bands: int, return_radiance) -> Renderer:
+    """``render(renderer=)``: the caller's renderer, if it fits this image."""
+    fits = ((renderer.width, renderer.height, renderer.deferred.n_bands)
+            == (camera.width, camera.height, n_bands))
+    if not fits or (return_radiance and not renderer.deferred.debug_radiance):
+        raise AquaspecError(
+            f"renderer={renderer.width}x{renderer.height}, {renderer.deferred.n_bands} bands "
+            f"cannot shade this {camera.width}x{camera.height} image of {n_bands} bands"
+            + (" with return_radiance" if return_radiance else "")
+            + "; accepted: a Renderer of the image's size and band count (made with "
+            "debug_radiance for return_radiance), or None")
+    return renderer
 
 
 def _shade_in_numpy(setup: SpectralSetup, view: _View, map_size, return_radiance,

@@ -93,6 +93,17 @@ def check_depth_map(depth_m, what: str = "depth map") -> np.ndarray:
     return d
 
 
+def _holes_as_nan(depth_m, what: str) -> np.ndarray:
+    """A (H, W) depth map as float64 with its non-finite and non-positive values NaN."""
+    d = np.asarray(depth_m)
+    if not (np.issubdtype(d.dtype, np.floating) or np.issubdtype(d.dtype, np.integer)):
+        check_depth_map(d, what)        # refuses the dtype, naming it
+    d = d.astype(np.float64)
+    valid = np.isfinite(d) & (d > 0)
+    shape = check_depth_map(np.where(valid, d, 1.0), what).shape   # the shape, holes aside
+    return np.where(valid, d, np.nan).reshape(shape)
+
+
 def _tangent(points, axis):
     """Finite-difference tangent along ``axis``: the shorter one-sided step."""
     p = np.moveaxis(points, axis, 0)
@@ -225,7 +236,7 @@ def _read_depth(path, suffix):
     return arr.astype(np.float64) * 1e-3
 
 
-def load_rgbd(image_path, depth_path):
+def load_rgbd(image_path, depth_path, *, allow_holes: bool = False):
     """Read a colour image and a depth map from files.
 
     Parameters
@@ -236,12 +247,17 @@ def load_rgbd(image_path, depth_path):
         A single-channel 16-bit PNG in **millimetres** (the usual depth-camera
         format), a ``.npy`` array in metres, or an OpenEXR file in metres
         (channel Z, depth, Y or R, or its only channel).
+    allow_holes : bool
+        Return depth values that are NaN, infinite, zero or negative (holes:
+        no reading) as NaN instead of refusing them; the caller fills or
+        masks them (``aquaspec synth``).
 
     Returns
     -------
     rgb : (H, W, 3) uint8 array, or (H, W) uint16 for a 16-bit grey image
     depth_m : (H, W) float64 array, metres
-        Checked: same size as the image, every value finite and > 0.
+        Checked: same size as the image, every value finite and > 0 (or NaN
+        with ``allow_holes``).
     """
     image_path, _ = _check_file(image_path, IMAGE_FORMATS, "image file", "image")
     depth_path, suffix = _check_file(depth_path, DEPTH_FORMATS, "depth file", "depth")
@@ -251,7 +267,9 @@ def load_rgbd(image_path, depth_path):
     except Exception as exc:
         raise AquaspecError(f"could not read image file {image_path!r} ({exc}); accepted: "
                             f"{', '.join(IMAGE_FORMATS)}") from exc
-    depth = check_depth_map(_read_depth(depth_path, suffix), what=f"depth map {depth_path!r}")
+    what = f"depth map {depth_path!r}"
+    raw = _read_depth(depth_path, suffix)
+    depth = _holes_as_nan(raw, what) if allow_holes else check_depth_map(raw, what=what)
     if depth.shape != rgb.shape[:2]:
         raise AquaspecError(f"image {image_path!r} is {rgb.shape[1]}x{rgb.shape[0]} but depth "
                             f"{depth_path!r} is {depth.shape[1]}x{depth.shape[0]}; they must "
