@@ -2,13 +2,16 @@
 
 ``import colour`` takes 1.2-1.5 s (colour-science 0.4.7 imports its plotting
 module, hence matplotlib, pandas and much of SciPy), longer than the rest of a
-one-image render's start. aquaspec needs only four datasets from it, all
+one-image render's start. aquaspec needs only a few datasets from it, all
 wavelength tables:
 
 - ``MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]`` (CIE 015:2018),
 - ``SDS_ILLUMINANTS["D65"]`` (CIE 015:2018),
 - ``SDS_COLOURCHECKERS["BabelColor Average"]`` (BabelColor, Pascale 2012),
-- ``MSDS_CAMERA_SENSITIVITIES`` (two DSLRs measured by Darrodi et al. 2015).
+- ``MSDS_CAMERA_SENSITIVITIES`` (two DSLRs measured by Darrodi et al. 2015),
+- ``SDS_ILLUMINANTS`` ``"LED-B4"`` and ``"HP5"`` (CIE 015:2018: a phosphor-converted
+  white LED, 5111 K, and a metal-halide high-pressure lamp, 4050 K), the
+  lamps' spectra of :mod:`aquaspec.light.lamp`.
 
 The first call imports colour-science once, copies those tables into a
 ``.npz`` file in the user's cache (named by the installed colour-science
@@ -30,11 +33,13 @@ from aquaspec.cache import cached_arrays, package_version
 CMFS_NAME = "CIE 1931 2 Degree Standard Observer"
 CHECKER_NAME = "BabelColor Average"
 # Bumped when the file's layout changes.
-_LAYOUT = 1
+_LAYOUT = 2
+#: CIE 015:2018 illuminants kept for the lamps (:func:`cie_illuminant`).
+LAMP_ILLUMINANTS = ("LED-B4", "HP5")
 
 
 def _from_colour() -> dict:
-    """The four datasets from colour-science, flattened to named arrays."""
+    """The datasets from colour-science, flattened to named arrays."""
     import colour  # deferred: colour-science takes 1.2-1.5 s to import; only a cache miss needs it
     out = {}
     cmfs = colour.MSDS_CMFS[CMFS_NAME]
@@ -43,6 +48,10 @@ def _from_colour() -> dict:
     d65 = colour.SDS_ILLUMINANTS["D65"]
     out["d65/wl"] = np.asarray(d65.wavelengths, float)
     out["d65/values"] = np.asarray(d65.values, float)
+    for name in LAMP_ILLUMINANTS:
+        sd = colour.SDS_ILLUMINANTS[name]
+        out[f"illuminant/{name}/wl"] = np.asarray(sd.wavelengths, float)
+        out[f"illuminant/{name}/values"] = np.asarray(sd.values, float)
     sds = colour.SDS_COLOURCHECKERS[CHECKER_NAME]
     out["checker/names"] = np.array(list(sds.keys()))
     out["checker/wl"] = np.stack([np.asarray(sd.wavelengths, float) for sd in sds.values()])
@@ -58,7 +67,7 @@ def _from_colour() -> dict:
 
 @functools.lru_cache(maxsize=1)
 def tables() -> dict:
-    """All four datasets as ``name -> array`` (read from the cache when it is there).
+    """All the datasets as ``name -> array`` (read from the cache when it is there).
 
     Shared between calls: the functions below hand out copies.
     """
@@ -76,6 +85,12 @@ def d65() -> tuple[np.ndarray, np.ndarray]:
     """CIE illuminant D65: wavelengths (nm), relative spectral power."""
     t = tables()
     return t["d65/wl"].copy(), t["d65/values"].copy()
+
+
+def cie_illuminant(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """A CIE 015:2018 illuminant of :data:`LAMP_ILLUMINANTS`: wavelengths (nm), relative power."""
+    t = tables()
+    return t[f"illuminant/{name}/wl"].copy(), t[f"illuminant/{name}/values"].copy()
 
 
 def colorchecker_spectra() -> list[tuple[str, np.ndarray, np.ndarray]]:

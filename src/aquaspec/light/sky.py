@@ -1,6 +1,6 @@
 """Light at the surface: E0(lambda), the downwelling irradiance just below it.
 
-Three kinds (:data:`LIGHTS`), each scaled by a total irradiance:
+Four kinds (:data:`LIGHTS`), each but ``none`` scaled by a total irradiance:
 
 - ``overcast``: an equal-energy spectrum, the thesis's validation setting
   (a uniform sky of constant spectral radiance).
@@ -13,6 +13,8 @@ Three kinds (:data:`LIGHTS`), each scaled by a total irradiance:
   carried through the flat water surface with its Fresnel transmittance
   (unpolarised light, n = 1.33, :func:`aquaspec.medium.interface.fresnel_transmittance`):
   the sun's at its zenith angle, the sky's averaged over a uniform sky (0.934).
+- ``none``: no daylight at all (the deep sea, night): ``E0 = 0``; the scene
+  is lit by its lamps alone (:mod:`aquaspec.light.lamp`).
 
 ``total_w_m2`` is the irradiance integrated over 400-700 nm (W m^-2) after
 scaling; by default 100 W m^-2 for ``overcast`` and ``d65``, and SPECTRL2's
@@ -37,7 +39,7 @@ from aquaspec.errors import AquaspecError
 from aquaspec.light.sun import Sun, check_azimuth, check_elevation, refracted_to_sun
 from aquaspec.medium.interface import fresnel_transmittance
 
-LIGHTS = ("overcast", "d65", "sun-sky")
+LIGHTS = ("overcast", "d65", "sun-sky", "none")
 DEFAULT_TOTAL_W_M2 = 100.0
 #: Range over which ``total_w_m2`` is measured.
 TOTAL_RANGE_NM = (400.0, 700.0)
@@ -135,9 +137,9 @@ def surface_light(kind: str = "overcast", *, total_w_m2: float | None = None,
 
     Parameters
     ----------
-    kind : {"overcast", "d65", "sun-sky"}
+    kind : {"overcast", "d65", "sun-sky", "none"}
     total_w_m2 : float, optional
-        Irradiance over 400-700 nm after scaling, W m^-2 (> 0).
+        Irradiance over 400-700 nm after scaling, W m^-2 (> 0); not for ``none``.
     sun_elevation_deg : float
         For ``sun-sky``: elevation of the sun above the horizon, 1-90 deg.
     sun_azimuth_deg : float
@@ -149,6 +151,12 @@ def surface_light(kind: str = "overcast", *, total_w_m2: float | None = None,
     if total_w_m2 is not None and not (np.isfinite(total_w_m2) and total_w_m2 > 0):
         raise AquaspecError(f"total irradiance {total_w_m2!r} W/m^2 must be a positive number")
     sun = None
+    if kind == "none":
+        if total_w_m2 is not None:
+            raise AquaspecError(f"light 'none' has no daylight; total irradiance {total_w_m2!r} "
+                                "W/m^2 is not accepted with it")
+        return SurfaceLight(kind, np.array([300.0, 830.0]), np.zeros(2),
+                            {"daylight": "none: lit by lamps alone"})
     if kind == "overcast":
         wl, val, params = np.array([300.0, 830.0]), np.ones(2), {}
     elif kind == "d65":
