@@ -117,3 +117,45 @@ def test_a_new_setup_is_uploaded_even_at_a_reused_address(scene_and_path):
         del s
         gc.collect()
     assert not np.allclose(got, first, rtol=0.05)
+
+
+def _displayed(device, settings, linear):
+    from aquaspec.gpu.passes.display import DisplayPass
+    disp = DisplayPass(W, H, device=device)
+    disp.set_settings(exposure_ev=settings["exposure_ev"],
+                      white_balance_gains=settings["white_balance_gains"],
+                      matrix=settings["matrix"], tonemap=settings["tonemap"])
+    disp.upload(linear)
+    disp.run()
+    return disp.read().astype(int)
+
+
+def test_a_gbuffer_seen_from_a_moved_camera(scene_and_path):
+    """A G-buffer made elsewhere (here ray cast in NumPy; an RGB-D photograph in
+    the live view) as a frame's source: uploaded once, then shown from its
+    camera moved 1.5 m deeper, its frame is render_gbuffer's image of the
+    G-buffer with that camera through the display transform; a scene frame in
+    between does not leave stale textures; a turned camera is refused."""
+    import dataclasses
+    from aquaspec.scene.raycast import raycast_gbuffer
+    scene, path = scene_and_path
+    gb = raycast_gbuffer(scene, path[0])
+    setup = setup_for(scene)
+    r = Renderer(W, H, N)
+    settings = r.auto_display(gb, gb.camera, setup)
+    deeper = dataclasses.replace(gb.camera, position=gb.camera.position - [0.0, 1.5, 0.0])
+    shown = []
+    for cam in (gb.camera, deeper):
+        r.draw_frame(gb, cam, setup)
+        shown.append(r.read_display().astype(int))
+        lin = Renderer(W, H, N).render_gbuffer(dataclasses.replace(gb, camera=cam), setup)
+        assert np.abs(shown[-1] - _displayed(r.deferred.device, settings, lin)).max() <= 1
+    # Deeper in Jerlov IB the frame is darker and bluer: the move is seen.
+    assert shown[1].mean() < shown[0].mean() - 2
+    r.draw_frame(scene, path[2], setup)
+    r.draw_frame(gb, deeper, setup)
+    assert np.abs(r.read_display().astype(int) - shown[1]).max() <= 1
+    turned = dataclasses.replace(gb.camera, forward=path[2].forward)
+    enc = r.deferred.device.create_command_encoder()
+    with pytest.raises(AquaspecError, match="its own rays"):
+        r.encode_frame(enc, gb, turned, setup)

@@ -243,3 +243,29 @@ def test_gbuffer_positions_are_inf_in_open_water_and_exact_on_hits():
     assert np.all(np.isinf(p[~g.hit]))
     ray = cam.ray_directions()[2, 3]
     assert np.allclose(p[2, 3], cam.position + 2.0 * ray)
+
+
+class TestResized:
+    def test_camera_keeps_its_field_of_view(self):
+        cam = Camera.look_at((0, -5, 0), (0, -5, -1), width=640, height=360, fov_y_deg=50)
+        half = cam.resized(320, 180)
+        assert (half.width, half.height) == (320, 180)
+        # The same rays through the same fractions of the image.
+        np.testing.assert_allclose(half.ray_directions()[45, 80],
+                                   cam.ray_directions()[90:92, 160:162].mean(axis=(0, 1)),
+                                   atol=2e-3)
+        assert cam.resized(640, 360) is cam
+        with pytest.raises(AquaspecError, match="width 0"):
+            cam.resized(0, 10)
+
+    def test_gbuffer_takes_the_pixel_under_each_centre(self):
+        scene, cam = builtin_scene(5.0, width=64, height=36)
+        gb = raycast_gbuffer(scene, cam)
+        small = gb.resized(16, 9)
+        assert small.camera.width == 16 and small.distance.shape == (9, 16)
+        # Pixel (i, j) of the quarter-size image holds pixel (4i + 2, 4j + 2).
+        np.testing.assert_array_equal(small.distance, gb.distance[2::4, 2::4])
+        np.testing.assert_array_equal(small.material, gb.material[2::4, 2::4])
+        np.testing.assert_array_equal(small.normal, gb.normal[2::4, 2::4])
+        assert small.materials == gb.materials
+        assert gb.resized(64, 36) is gb

@@ -11,6 +11,8 @@ interactive viewer and ``aquaspec bench`` keep one for many frames.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from aquaspec.colour.display import display_settings
@@ -40,6 +42,28 @@ def _same(key, other) -> bool:
     """Whether two ``(setup, materials)`` keys hold the very same objects."""
     return (other is not None and key[0] is other[0] and len(key[1]) == len(other[1])
             and all(a is b for a, b in zip(key[1], other[1])))
+
+
+def _check_moved_only(own: Camera, camera: Camera) -> None:
+    """Refuse ``camera`` unless it is ``own`` moved: a G-buffer made elsewhere
+    (an RGB-D photograph) holds distances along its own rays only."""
+    same_view = ((camera.width, camera.height) == (own.width, own.height)
+                 and np.allclose([camera.fx, camera.fy, camera.cx, camera.cy],
+                                 [own.fx, own.fy, own.cx, own.cy])
+                 and np.allclose(camera.forward, own.forward)
+                 and np.allclose(camera.true_up, own.true_up))
+    if not same_view:
+        raise AquaspecError("a G-buffer made elsewhere (an RGB-D photograph) is seen only "
+                            "along its own rays: the camera may move, not turn, zoom or "
+                            "change size")
+
+
+def _seen_from(gbuffer: GBuffer, camera: Camera) -> GBuffer:
+    """``gbuffer`` with ``camera``, its own camera moved (:func:`_check_moved_only`)."""
+    if camera is gbuffer.camera:
+        return gbuffer
+    _check_moved_only(gbuffer.camera, camera)
+    return dataclasses.replace(gbuffer, camera=camera)
 
 
 class Renderer:
@@ -76,6 +100,7 @@ class Renderer:
         self.occlusion_options = None
         self.occlusion = None       # OcclusionPass, made when first needed
         self._occ_cache = {}
+        self._shown_gbuffer = None  # the host G-buffer whose textures the frames read
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         """Upload ``setup``'s medium for a scene of ``materials`` to the shading
@@ -153,15 +178,22 @@ class Renderer:
                      progress=None) -> np.ndarray:
         """Rasterise and shade on the GPU; returns linear camera RGB (H, W, 3) float32.
 
+        ``scene`` may also be a :class:`~aquaspec.scene.gbuffer.GBuffer` made
+        elsewhere (an RGB-D photograph), seen from ``camera`` as in
+        :meth:`encode_frame`.
+
         With ``setup.ambient_shadow`` the frame's G-buffer is read back and the
         scene's shadow in the light field subtracted (:meth:`subtract_shadow`,
         which calls ``progress`` with a short message per step).
         """
+        if isinstance(scene, GBuffer):
+            return self.render_gbuffer(_seen_from(scene, camera), setup, progress)
         self._check_camera(camera)
         self.set_spectral(setup, scene.materials)
         sun = self._sun_pass(setup, scene.materials)
         enc = self.deferred.device.create_command_encoder()
         self.raster.render_to(self.deferred.gbuffer, scene, camera, encoder=enc)
+        self._shown_gbuffer = None
         if sun is not None:
             self._advance_waves(enc, setup)
         self.encode_shading(enc, sun, camera, scene)
@@ -186,6 +218,7 @@ class Renderer:
         self._check_camera(gbuffer.camera)
         self.set_spectral(setup, gbuffer.materials)
         self.deferred.gbuffer.upload(gbuffer)
+        self._shown_gbuffer = None
         sun = self._sun_pass(setup, gbuffer.materials)
         enc = self.deferred.device.create_command_encoder()
         if sun is not None:
@@ -361,6 +394,12 @@ class Renderer:
         the encoder for the next one: a benchmark submits and times each pass
         with it. Returns the encoder last returned by ``split`` (``encoder``
         itself without it).
+
+        ``scene`` may instead be a :class:`~aquaspec.scene.gbuffer.GBuffer`
+        made elsewhere (an RGB-D photograph): it is uploaded once and shaded
+        as seen from ``camera``, which must be its camera moved (its
+        direction, size and intrinsics kept: e.g. the same view at another
+        depth); there is no geometry pass, and nothing shadows the sun.
         """
         split = split or (lambda name, enc: enc)
         self._check_camera(camera)
@@ -370,8 +409,13 @@ class Renderer:
         if shading.display_settings is None:
             raise AquaspecError("no display settings: call set_display() or auto_display() "
                                 "before encode_frame()")
-        self.raster.render_to(self.deferred.gbuffer, scene, camera, encoder=encoder)
-        encoder = split("geometry", encoder)
+        if isinstance(scene, GBuffer):
+            self._show_gbuffer(scene, camera)
+            scene = None
+        else:
+            self.raster.render_to(self.deferred.gbuffer, scene, camera, encoder=encoder)
+            self._shown_gbuffer = None
+            encoder = split("geometry", encoder)
         if sun is not None and self._advance_waves(encoder, setup):
             encoder = split("waves", encoder)
         if sun is None or self._use_lightfield:
@@ -385,6 +429,16 @@ class Renderer:
         self._display.encode(encoder)
         self._last_display = self._display
         return split("display", encoder)
+
+    def _show_gbuffer(self, gbuffer: GBuffer, camera: Camera) -> None:
+        """Have the shading read ``gbuffer`` seen from ``camera`` (uploaded only
+        when it is another G-buffer; the camera set when it moved)."""
+        if self._shown_gbuffer is not gbuffer:
+            self.deferred.gbuffer.upload(_seen_from(gbuffer, camera))
+            self._shown_gbuffer = gbuffer
+        elif not np.array_equal(self.deferred.gbuffer.camera.position, camera.position):
+            _check_moved_only(gbuffer.camera, camera)
+            self.deferred.gbuffer.set_camera(camera)
 
     def draw_frame(self, scene, camera: Camera, setup: SpectralSetup, *, split=None) -> None:
         """Record one displayed frame (:meth:`encode_frame`, ``split`` as

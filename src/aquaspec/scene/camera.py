@@ -9,6 +9,7 @@ fy, cx, cy`` in pixels, image y pointing down).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -152,6 +153,16 @@ class Camera:
         p[2, 3] = n * f / (n - f)
         p[3, 2] = -1.0
         return p
+
+    def resized(self, width: int, height: int) -> "Camera":
+        """The same view on an image of ``width`` x ``height`` pixels: the
+        intrinsics scaled with the image (the field of view kept)."""
+        width, height = check_size(width, height)
+        if (width, height) == (self.width, self.height):
+            return self
+        sx, sy = width / self.width, height / self.height
+        return dataclasses.replace(self, width=width, height=height, fx=self.fx * sx,
+                                   fy=self.fy * sy, cx=self.cx * sx, cy=self.cy * sy)
 
     def describe(self) -> dict:
         return {"position_m": self.position.tolist(), "forward": self.forward.tolist(),

@@ -68,6 +68,22 @@ class GBuffer:
         """(H, W) bool: the ray hit a surface."""
         return np.isfinite(self.distance)
 
+    def resized(self, width: int, height: int) -> "GBuffer":
+        """This G-buffer on a ``width`` x ``height`` image of the same view
+        (:meth:`Camera.resized`): each pixel takes the values of the pixel
+        of this one that holds its centre (nearest, no blending across
+        edges; its distance is then read along its own ray)."""
+        cam = self.camera.resized(width, height)
+        if cam is self.camera:
+            return self
+        rows = np.minimum(((np.arange(cam.height) + 0.5) * self.camera.height
+                           / cam.height).astype(int), self.camera.height - 1)
+        cols = np.minimum(((np.arange(cam.width) + 0.5) * self.camera.width
+                           / cam.width).astype(int), self.camera.width - 1)
+        pick = np.ix_(rows, cols)
+        return GBuffer(cam, self.distance[pick], self.normal[pick], self.material[pick],
+                       self.sigmoid[pick], list(self.materials))
+
     def positions(self) -> np.ndarray:
         """(H, W, 3) world positions of the hits (inf where open water)."""
         d = self.camera.ray_directions()
