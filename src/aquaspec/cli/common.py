@@ -284,3 +284,34 @@ def light_from(args):
     elevation, azimuth = sun_from(args)
     return surface_light(args.light, total_w_m2=args.irradiance,
                          sun_elevation_deg=elevation, sun_azimuth_deg=azimuth)
+
+
+def add_rgbd_options(p, what="the photograph is seen through the water"):
+    """``--rgbd IMAGE DEPTH`` and ``--intrinsics fx,fy,cx,cy`` (:func:`rgbd_from`)."""
+    p.add_argument("--rgbd", nargs=2, metavar=("IMAGE", "DEPTH"),
+                   help="an RGB image and its metric depth map (16-bit PNG in mm, .npy or .exr "
+                        f"in m): {what}")
+    p.add_argument("--intrinsics", metavar="fx,fy,cx,cy",
+                   help="pinhole intrinsics for --rgbd, pixels")
+
+
+def comma_floats(text, n: int, what: str) -> tuple:
+    """``n`` comma-separated finite numbers (an option's value named ``what``)."""
+    try:
+        vals = tuple(float(x) for x in str(text).split(","))
+    except ValueError:
+        vals = ()
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise AquaspecError(f"{what} {text!r} must be {n} comma-separated finite numbers")
+    return vals
+
+
+def rgbd_from(args):
+    """``(image, depth, (fx, fy, cx, cy))`` of ``--rgbd`` and ``--intrinsics``, or None."""
+    if args.rgbd:
+        if not args.intrinsics:
+            raise AquaspecError("--rgbd needs --intrinsics fx,fy,cx,cy (pixels)")
+        return args.rgbd[0], args.rgbd[1], comma_floats(args.intrinsics, 4, "--intrinsics")
+    if args.intrinsics:
+        raise AquaspecError("--intrinsics is only used with --rgbd")
+    return None

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 
 from aquaspec.cli.common import (MAX_OCEAN_DEPTH_M, add_band_options, add_light_options,
-                                add_sensor_options, add_spread_scattering_option,
-                                add_sun_rendering_options, add_water_options, check_camspec,
-                                depth_metres, exposure_value, parse_depth_albedo, parse_range,
+                                add_rgbd_options, add_sensor_options,
+                                add_spread_scattering_option, add_sun_rendering_options,
+                                add_water_options, check_camspec, comma_floats, depth_metres,
+                                exposure_value, parse_depth_albedo, parse_range, rgbd_from,
                                 shadow_map_from, sun_from, waves_from)
 from aquaspec.colour.display import TONEMAPS, WHITE_BALANCE_METHODS
 from aquaspec.errors import AquaspecError
@@ -52,10 +52,7 @@ def register(sub):
     p.add_argument("--mesh", metavar="FILE", help="render this OBJ/PLY/glTF/GLB instead of the "
                                                    "built-in scene (placed 3 m in front)")
     p.add_argument("--albedo", metavar="R,G,B", help="linear RGB albedo for --mesh, e.g. 0.5,0.4,0.3")
-    p.add_argument("--rgbd", nargs=2, metavar=("IMAGE", "DEPTH"),
-                   help="an RGB image and its metric depth map (16-bit PNG in mm, .npy or .exr "
-                        "in m): the photograph is seen through the water")
-    p.add_argument("--intrinsics", metavar="fx,fy,cx,cy", help="pinhole intrinsics for --rgbd, pixels")
+    add_rgbd_options(p)
     p.add_argument("--cone-spread", action=argparse.BooleanOptionalAction, default=None,
                    help="--ms-model lightfield: the forward cone's light comes from where the "
                         "cone points in the image (an image pyramid; default: on for the "
@@ -95,16 +92,6 @@ def register(sub):
     p.set_defaults(func=run, command="render")
 
 
-def _floats(text, n, what):
-    try:
-        vals = tuple(float(x) for x in str(text).split(","))
-    except ValueError:
-        vals = ()
-    if len(vals) != n or not all(math.isfinite(v) for v in vals):
-        raise AquaspecError(f"{what} {text!r} must be {n} comma-separated finite numbers")
-    return vals
-
-
 def run(args):
     # deferred: the renderer loads wgpu and every GPU pass; `aquaspec --help` need not
     from aquaspec.rendering.api import render
@@ -118,14 +105,8 @@ def run(args):
     check_camspec(args.camspec)
     sun_elevation, sun_azimuth = sun_from(args)
     shadow_map = shadow_map_from(args, _max_texture(args.backend, args.sun_shadow_map))
-    rgbd = None
-    if args.rgbd:
-        if not args.intrinsics:
-            raise AquaspecError("--rgbd needs --intrinsics fx,fy,cx,cy (pixels)")
-        rgbd = (args.rgbd[0], args.rgbd[1], _floats(args.intrinsics, 4, "--intrinsics"))
-    elif args.intrinsics:
-        raise AquaspecError("--intrinsics is only used with --rgbd")
-    albedo = _floats(args.albedo, 3, "--albedo") if args.albedo else None
+    rgbd = rgbd_from(args)
+    albedo = comma_floats(args.albedo, 3, "--albedo") if args.albedo else None
     seabed = _seabed(args.seabed)
     if albedo and not args.mesh:
         raise AquaspecError("--albedo is only used with --mesh")
