@@ -20,7 +20,8 @@ from aquaspec.errors import AquaspecError, GPUUnavailableError
 #: Exit status after Ctrl-C: 128 + SIGINT.
 EXIT_INTERRUPTED = 130
 
-COMMANDS = ("list", "spectra", "colour", "render", "view", "bench", "validate", "cache")
+COMMANDS = ("list", "spectra", "colour", "render", "view", "synth", "bench", "validate",
+            "cache")
 
 DESCRIPTION = """\
 aquaspec renders underwater scenes spectrally: light is carried in n

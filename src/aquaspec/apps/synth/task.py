@@ -1,0 +1,181 @@
+"""The sample task: render one synth sample and write its files.
+
+:class:`SampleTask` is what a worker holds, in a local pool process or a
+Ray actor alike: it keeps, across the samples it is given, the spectral
+objects of each group (water, sensor, light, waves) and a
+:class:`aquaspec.rendering.renderer.Renderer` per image size and band count,
+so the compiled passes and the light-field tables are made once per worker
+and group (:func:`aquaspec.rendering.api.render` with ``renderer=``).
+
+A sample's outputs carry no time stamp and no timing (``timestamp`` is
+null, ``render_seconds`` dropped), so the same sample gives the same bytes
+on every run and every worker; times are in the run's summary. The
+sidecar's ``synth`` entry holds the sample's id, input, parameters, hole
+count and files: the manifest's row of a done sample.
+
+A sample that fails (unreadable input, mismatched sizes, depth in the wrong
+unit, a render error) is recorded in ``failures/ID.json`` with its error and
+the run goes on; a later success removes the record.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from aquaspec.apps.synth.config import SynthConfig
+from aquaspec.apps.synth.files import SampleFiles
+from aquaspec.apps.synth.inputs import RGBD, read_pair
+from aquaspec.apps.synth.plan import SUN_LIGHTS, Sample
+from aquaspec.colour.sensors import Sensor, get_sensor
+from aquaspec.io.atomic import write_atomically, write_file_atomically
+from aquaspec.io.metadata import metadata_json, to_jsonable
+from aquaspec.io.png import png_writer
+from aquaspec.io.save import save_image
+from aquaspec.io.sidecar import sidecar_writer
+from aquaspec.light.sky import SurfaceLight, surface_light
+from aquaspec.light.waves import Waves
+from aquaspec.medium.water import Water, get_water
+from aquaspec.rendering.api import render
+from aquaspec.rendering.renderer import Renderer
+
+#: Groups (spectral objects) and renderers a worker keeps, least recently used dropped.
+KEEP_GROUPS = 8
+KEEP_RENDERERS = 2
+
+
+@dataclass(frozen=True)
+class GroupObjects:
+    """The spectral objects a group of samples shares."""
+
+    water: Water
+    sensor: Sensor
+    light: SurfaceLight
+    waves: Waves | None
+
+
+class SampleTask:
+    """Renders samples of one configuration into its output folder.
+
+    Parameters
+    ----------
+    cfg : SynthConfig
+    """
+
+    def __init__(self, cfg: SynthConfig):
+        self.cfg = cfg
+        self.root = Path(cfg.output.folder)
+        self._groups: OrderedDict = OrderedDict()
+        self._renderers: OrderedDict = OrderedDict()
+
+    def run(self, samples: list[Sample]) -> list[dict]:
+        """Render ``samples`` (skipping those done meanwhile); one record each:
+        ``sample_id``, ``status`` (``done``, ``failed``), ``error``,
+        ``seconds`` and, when done, ``synth`` (the sidecar's entry)."""
+        return [self.run_one(s) for s in samples]
+
+    def run_one(self, sample: Sample) -> dict:
+        files = SampleFiles(self.root, sample.sample_id)
+        t0 = time.perf_counter()
+        try:
+            synth = self._render_and_write(sample, files)
+        except Exception as exc:    # any failure is the sample's, recorded; the run goes on
+            error = f"{type(exc).__name__}: {exc}"
+            _record_failure(files, sample, error)
+            return {"sample_id": sample.sample_id, "status": "failed", "error": error,
+                    "seconds": time.perf_counter() - t0, "synth": None}
+        files.failure.unlink(missing_ok=True)
+        return {"sample_id": sample.sample_id, "status": "done", "error": None,
+                "seconds": time.perf_counter() - t0, "synth": synth}
+
+    def _objects(self, sample: Sample) -> GroupObjects:
+        key = sample.group
+        if key not in self._groups:
+            p = sample.params
+            sun = {} if p["light"] not in SUN_LIGHTS else {
+                "sun_elevation_deg": p["sun_elevation_deg"],
+                "sun_azimuth_deg": p["sun_azimuth_deg"]}
+            self._groups[key] = GroupObjects(
+                get_water(p["water"], p["source"]), get_sensor(p["sensor"], self.cfg.render.camspec),
+                surface_light(p["light"], **sun),
+                None if p["wind_m_s"] is None else Waves(p["wind_m_s"]))
+            if len(self._groups) > KEEP_GROUPS:
+                self._groups.popitem(last=False)
+        self._groups.move_to_end(key)
+        return self._groups[key]
+
+    def _renderer(self, width: int, height: int, n_bands: int) -> Renderer | None:
+        if self.cfg.render.backend != "gpu":
+            return None
+        key = (width, height, n_bands)
+        if key not in self._renderers:
+            self._renderers[key] = Renderer(width, height, n_bands)
+            if len(self._renderers) > KEEP_RENDERERS:
+                self._renderers.popitem(last=False)
+        self._renderers.move_to_end(key)
+        return self._renderers[key]
+
+    def _render_and_write(self, sample: Sample, files: SampleFiles) -> dict:
+        cfg, p = self.cfg, sample.params
+        rgbd = read_pair(sample.pair, cfg.inputs)
+        height, width = rgbd.depth_m.shape
+        objs = self._objects(sample)
+        res = render(water=objs.water, depth_m=p["depth_m"], sensor=objs.sensor,
+                     bands=p["bands"], wavelength_range=cfg.render.wavelength_range,
+                     rgbd=(rgbd.rgb, rgbd.depth_m, sample.pair.intrinsics), light=objs.light,
+                     waves=objs.waves, ms_model=cfg.render.ms_model, phase=cfg.render.phase,
+                     exposure=p["exposure"], white_balance=p["white_balance"],
+                     tonemap=cfg.render.tonemap,
+                     colour_matrix=None if cfg.render.colour_matrix == "none" else "auto",
+                     layers=cfg.output.layers, backend=cfg.render.backend,
+                     renderer=self._renderer(width, height, p["bands"]))
+        display, linear, layers = _masked(res.display, res.linear_rgb, res.layers, rgbd,
+                                          cfg.inputs.holes == "mask")
+        files.folder.mkdir(parents=True, exist_ok=True)
+        written = {"png": files.png, "sidecar": files.sidecar,
+                   "linear": files.linear if cfg.output.linear else None,
+                   "layers": files.layers if cfg.output.layers else None,
+                   "mask": files.mask if rgbd.hole_count else None}
+        synth = {"sample_id": sample.sample_id, **sample.pair.describe(), **p,
+                 "seed": cfg.plan.seed, "width": width, "height": height,
+                 "depth_holes": rgbd.hole_count, "holes": cfg.inputs.holes,
+                 "exposure_ev": res.params["display"].get("exposure_ev"),
+                 "files": {k: None if v is None else files.relative(v)
+                           for k, v in written.items()}}
+        synth = to_jsonable(synth, "synth")
+        params = {k: v for k, v in res.params.items() if k != "render_seconds"}
+        params.update(synth=synth, timestamp=None)
+        if rgbd.hole_count:
+            valid = np.where(rgbd.holes, 0, 255).astype(np.uint8)
+            write_file_atomically(files.mask, png_writer(
+                valid, metadata_json({"sample_id": sample.sample_id, "valid": 255, "hole": 0})))
+        save_image(files.png, display, linear if cfg.output.linear else None, params,
+                   linear_path=written["linear"], layers=layers,
+                   layers_path=written["layers"])
+        return synth
+
+
+def _masked(display, linear, layers, rgbd: RGBD, mask: bool):
+    """The outputs with the depth holes set to 0 (``mask``), else as they are."""
+    if not mask or not rgbd.hole_count:
+        return display, linear, layers
+    holes = rgbd.holes
+
+    def zeroed(arr):
+        arr = np.array(arr, copy=True)
+        arr[holes] = 0
+        return arr
+    return (zeroed(display), zeroed(linear),
+            None if layers is None else {k: zeroed(v) for k, v in layers.items()})
+
+
+def _record_failure(files: SampleFiles, sample: Sample, error: str) -> None:
+    files.failure.parent.mkdir(parents=True, exist_ok=True)
+    doc = {"sample_id": sample.sample_id, "input": sample.pair.name,
+           "params": sample.params, "error": error}
+    write_atomically([(files.failure, sidecar_writer(doc))])
+
