@@ -2,7 +2,7 @@
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 DEBS   := mesa-vulkan-drivers libvulkan1 libllvm19 xvfb xdotool
-EXTRAS := test,exr,validation,view
+EXTRAS := test,exr,validation,view,synth
 export XDG_RUNTIME_DIR ?= $(CURDIR)/.xdg-runtime
 
 .PHONY: setup debs test demo bench clean

@@ -6,15 +6,18 @@ and one :class:`aquaspec.apps.synth.task.SampleTask`, kept from one work
 unit to the next, so its renderers and spectral set-ups serve every unit
 of their group it is given.
 
-If the driver is killed the workers find their queue closed and stop after
-the sample they are writing (its files are written atomically); if a
-worker is killed the pool is broken, the driver stops, and a rerun goes on
-from the samples done.
+If the driver is killed its workers end within :data:`PARENT_POLL_S`
+(a sample being written is left as temporary files, removed by the next
+run); if a worker is killed the pool is broken, the driver stops after
+writing the manifest, and a rerun goes on from the samples done.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import os
+import threading
+import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 
@@ -22,6 +25,8 @@ from aquaspec.apps.synth.config import SynthConfig
 from aquaspec.apps.synth.task import SampleTask
 from aquaspec.errors import AquaspecError
 
+#: How often a worker checks that the driver is alive, s.
+PARENT_POLL_S = 0.5
 #: The worker process's task (set by :func:`_start_worker`).
 _TASK: SampleTask | None = None
 
@@ -29,6 +34,16 @@ _TASK: SampleTask | None = None
 def _start_worker(cfg: SynthConfig) -> None:
     global _TASK
     _TASK = SampleTask(cfg)
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+
+
+def _exit_with_parent(parent: int) -> None:
+    """End this worker soon after the driver dies (killed: its queue never
+    closes, since the worker holds an end of it too). A sample being written
+    is left as temporary files, which never count as done."""
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL_S)
+    os._exit(1)
 
 
 def _run_unit(unit) -> list[dict]:

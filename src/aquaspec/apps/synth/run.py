@@ -85,10 +85,25 @@ def synth(config, *, output=None, layers: bool | None = None, workers: int | Non
             failed.append(s)
         else:
             todo.append(s)
+    before = {"skipped_done": len(done), "skipped_failed": len(failed), "inputs": len(pairs),
+              "inputs_without_depth": missing, "temporary_files_removed": temporaries}
     records: dict = {}
     t0 = time.perf_counter()
-    executor = _execute(cfg, todo, workers, ray, records, progress)
-    seconds = time.perf_counter() - t0
+    executor = {"kind": "ray" if ray else "local"}
+    try:
+        executor = _execute(cfg, todo, workers, ray, records, progress)
+    finally:
+        # Also when the run is interrupted: the manifest says what is done.
+        summary = _finish(cfg, root, samples, records, before, executor,
+                          seconds=time.perf_counter() - t0,
+                          total_seconds=time.perf_counter() - t_start)
+    return summary
+
+
+def _finish(cfg, root, samples, records, before: dict, executor: dict, *, seconds,
+            total_seconds) -> dict:
+    """Write the manifest and the summary (``before``: what the run found
+    done or failed, its inputs); the summary."""
     rows = manifest_rows(samples, root, cfg.plan.seed, records)
     manifest = write_manifest(root, rows, cfg.output.manifest)
     counts = {status: sum(r["status"] == status for r in rows)
@@ -97,11 +112,8 @@ def synth(config, *, output=None, layers: bool | None = None, workers: int | Non
     summary = {
         "config": None if cfg.path is None else str(cfg.path),
         "output": str(root), "planned": len(samples), **counts,
-        "rendered": rendered, "failed_now": len(records) - rendered,
-        "skipped_done": len(done), "skipped_failed": len(failed),
-        "inputs": len(pairs), "inputs_without_depth": missing,
-        "temporary_files_removed": temporaries,
-        "seconds": seconds, "total_seconds": time.perf_counter() - t_start,
+        "rendered": rendered, "failed_now": len(records) - rendered, **before,
+        "seconds": seconds, "total_seconds": total_seconds,
         "samples_per_second": len(records) / seconds if records and seconds > 0 else None,
         "sample_seconds": sum(r["seconds"] for r in records.values()),
         "executor": executor, "manifest": manifest,
