@@ -181,3 +181,33 @@ class TestSpeedAndReset:
         cam = FlightController(start).camera()
         assert (cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy) == \
             (start.width, start.height, start.fx, start.fy, start.cx, start.cy)
+
+
+class TestFixedView:
+    """An RGB-D photograph's view: only up and down."""
+
+    def test_only_q_and_e_move(self):
+        ctl = FlightController(_level_camera(), fixed_view=True)
+        for key in "wasd":
+            _press(ctl, key, 0.5)
+        np.testing.assert_allclose(ctl.position, [0.0, -5.0, 0.0])
+        _press(ctl, "q", 0.5)
+        np.testing.assert_allclose(ctl.position, [0.0, -5.5, 0.0])
+        _press(ctl, "e", 0.25)
+        np.testing.assert_allclose(ctl.position, [0.0, -5.25, 0.0])
+
+    def test_the_mouse_does_not_turn_and_the_camera_keeps_its_view(self):
+        start = _level_camera()
+        ctl = FlightController(start, fixed_view=True)
+        ctl.handle_event({"event_type": "pointer_down", "x": 0, "y": 0})
+        ctl.handle_event({"event_type": "pointer_move", "x": 50, "y": 20, "buttons": (1,)})
+        cam = ctl.camera()
+        np.testing.assert_array_equal(cam.forward, start.forward)
+        assert (cam.fx, cam.cx, cam.width) == (start.fx, start.cx, start.width)
+
+    def test_a_turn_is_refused_and_the_same_view_accepted(self):
+        ctl = FlightController(_level_camera(), fixed_view=True)
+        ctl.set_view(0.0, 0.0)
+        with pytest.raises(AquaspecError, match="keeps its direction"):
+            ctl.set_view(10.0, 0.0)
+

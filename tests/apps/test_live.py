@@ -154,3 +154,49 @@ def test_exposure_steps_from_the_automatic_one(canvas_and_view):
     assert bright > dim
     _key(view, ",")
     assert "EV +0.5 from auto" in view.status()
+
+
+def test_an_rgbd_view_saves_renders_at_scale_and_moves_only_in_depth(device, tmp_path):
+    """An RGB-D photograph as the view's scene: Q moves the camera down (W does
+    nothing), P saves a sidecar naming the photograph and the linear image of
+    the frame shown, and at half scale the photograph is shown at half size;
+    a size of another aspect ratio is refused."""
+    import json
+
+    from PIL import Image
+    from rendercanvas.offscreen import RenderCanvas
+
+    from aquaspec.apps.live import LiveView, ViewSettings
+    from aquaspec.errors import AquaspecError
+    rgb = np.zeros((H, W, 3), np.uint8)
+    rgb[:, : W // 2] = (200, 90, 40)
+    Image.fromarray(rgb).save(tmp_path / "rgb.png")
+    np.save(tmp_path / "depth.npy", np.full((H, W), 3.0))
+    photo = (str(tmp_path / "rgb.png"), str(tmp_path / "depth.npy"), (40.0, 40.0, W / 2, H / 2))
+    with pytest.raises(AquaspecError, match="would stretch it"):
+        LiveView(ViewSettings(width=W, height=W, bands=3, rgbd=photo))
+    canvas = RenderCanvas(size=(W, H))
+    view = LiveView(ViewSettings(width=W, height=H, bands=3, depth_m=4.0, rgbd=photo))
+    view.attach(canvas)
+    try:
+        canvas.draw()
+        for key in ("w", "q"):
+            view.handle_event({"event_type": "key_down", "key": key, "modifiers": ()})
+            time.sleep(0.05)
+            canvas.draw()
+            view.handle_event({"event_type": "key_up", "key": key, "modifiers": ()})
+        x, y, z = view.flight.position
+        assert x == 0 and z == 0 and y < -4.0
+        view.save_dir = tmp_path
+        view.save_frame()
+        side = json.loads(next(tmp_path.glob("aquaspec-view-*.png.json")).read_text())
+        assert side["scene"]["kind"] == "rgbd" and side["scene"]["rgbd_image"] == photo[0]
+        assert side["camera"]["position_m"][1] == pytest.approx(y)
+        view.use_scale(0.5)
+        image = np.asarray(canvas.draw())[..., :3]
+        assert (view.renderer.width, view.renderer.height) == (W // 2, H // 2)
+        # The photograph's warm left half and blue right half survive the scaling.
+        assert image[:, : W // 2 - 2, 0].mean() > image[:, W // 2 + 2:, 0].mean() + 5
+    finally:
+        view.close()
+        canvas.close()

@@ -89,6 +89,43 @@ class TestScriptMode:
         centre, corner = frame[16:20, 30:34].mean(axis=(0, 1)), frame[:4, :4].mean(axis=(0, 1))
         assert np.abs(centre - corner).max() > 10
 
+    def test_an_rgbd_photograph_seen_deeper(self, tmp_path):
+        """--rgbd: the photograph's own view at its own size; the script takes
+        the camera from 2 to 8 m (exposure held): the whole frame darkens and
+        the red of the photograph's left half fades faster than its blue
+        (Jerlov IB); the sidecar names the photograph."""
+        rgb = np.zeros((36, 48, 3), np.uint8)
+        rgb[:, :24] = (220, 120, 60)
+        rgb[:, 24:] = (60, 120, 220)
+        Image.fromarray(rgb).save(tmp_path / "rgb.png")
+        np.save(tmp_path / "depth.npy", np.full((36, 48), 2.5))
+        script = tmp_path / "down.json"
+        script.write_text(json.dumps({"fps": 1, "keyframes": [{"t": 0, "depth_m": 2},
+                                                              {"t": 1, "depth_m": 8}]}))
+        out = tmp_path / "run"
+        assert main(["view", "--offscreen", "--frames", "2", "--record", str(out), "--rgbd",
+                     str(tmp_path / "rgb.png"), str(tmp_path / "depth.npy"), "--intrinsics",
+                     "50,50,24,18", "--bands", "6", "--script", str(script)]) == 0
+        run = json.loads((out / "run.json").read_text())
+        assert run["settings"]["rgbd"]["intrinsics"] == [50.0, 50.0, 24.0, 18.0]
+        assert [f["depth_m"] for f in run["frames"]] == [2.0, 8.0]
+        near, deep = (np.asarray(Image.open(out / f["file"])).astype(float)
+                      for f in run["frames"])
+        assert near.shape == (36, 48, 3)
+        assert deep.mean() < near.mean() - 5
+        left = [im[:, :20].mean(axis=(0, 1)) for im in (near, deep)]
+        assert left[1][0] / left[1][2] < left[0][0] / left[0][2]
+
+    def test_an_rgbd_script_that_turns_is_refused(self, tmp_path, capsys):
+        Image.fromarray(np.full((18, 32, 3), 128, np.uint8)).save(tmp_path / "rgb.png")
+        np.save(tmp_path / "depth.npy", np.full((18, 32), 2.0))
+        script = tmp_path / "turn.json"
+        script.write_text(json.dumps({"keyframes": [{"t": 0, "yaw_deg": 30}]}))
+        assert main(["view", "--offscreen", "--frames", "1", "--rgbd",
+                     str(tmp_path / "rgb.png"), str(tmp_path / "depth.npy"), "--intrinsics",
+                     "30,30,16,9", "--bands", "3", "--script", str(script)]) == 2
+        assert "keeps its direction" in capsys.readouterr().err
+
 
 class TestOptions:
     @pytest.mark.parametrize("args, message", [
@@ -96,6 +133,12 @@ class TestOptions:
         (["--offscreen", "--frames", "0"], "--frames 0; accepted: a whole number >= 1"),
         (["--offscreen", "--frames", "2", "--mp4"], "--mp4 needs --record OUTDIR"),
         (["--wind", "3"], "needs a sun elevation of at least 1"),
+        (["--intrinsics", "1,1,1,1"], "--intrinsics is only used with --rgbd"),
+        (["--rgbd", "a.png", "d.npy"], "--rgbd needs --intrinsics"),
+        (["--rgbd", "a.png", "d.npy", "--intrinsics", "1,1,1,1", "--mesh", "m.obj"],
+         "a view shows one of them"),
+        (["--rgbd", "missing.png", "d.npy", "--intrinsics", "1,1,1,1"],
+         "could not read image file 'missing.png'"),
     ])
     def test_bad_combinations_are_refused_before_rendering(self, args, message, capsys):
         assert main(["view", *args]) == 2

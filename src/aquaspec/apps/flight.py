@@ -18,6 +18,10 @@ metres, y is up, the water surface is y = 0: the camera stays at least
 the seabed's depth and (with a ``floor``, e.g. a
 :class:`aquaspec.apps.floor.FloorMap`) above the highest surface under it;
 the surface wins where the two cannot both hold.
+
+With ``fixed_view`` (an RGB-D photograph, seen only along its own rays) the
+camera keeps its start direction: Q/E move it up and down, W/A/S/D and the
+mouse do nothing, and a script that turns it is refused.
 """
 
 from __future__ import annotations
@@ -84,12 +88,16 @@ class FlightController:
     floor : object, optional
         Has ``floor_y(x, z)``: the height of the highest surface under a
         point (-inf where none), e.g. a :class:`aquaspec.apps.floor.FloorMap`.
+    fixed_view : bool
+        Keep the start direction; only up and down moves (module docstring).
     """
 
     def __init__(self, camera: Camera, *, seabed_depth_m: float | None = None,
                  speed_m_s: float = 1.0, surface_margin_m: float = SURFACE_MARGIN_M,
-                 seabed_margin_m: float = SEABED_MARGIN_M, floor=None):
+                 seabed_margin_m: float = SEABED_MARGIN_M, floor=None,
+                 fixed_view: bool = False):
         self._start_camera = camera
+        self.fixed_view = bool(fixed_view)
         self.floor = floor
         self.surface_margin_m = _positive("surface_margin_m", surface_margin_m)
         self.seabed_margin_m = _positive("seabed_margin_m", seabed_margin_m)
@@ -138,6 +146,12 @@ class FlightController:
         if not (np.isfinite(yaw_deg) and np.isfinite(pitch_deg)):
             raise AquaspecError(f"view yaw {yaw_deg!r}, pitch {pitch_deg!r} deg; accepted: "
                                 "finite angles")
+        if self.fixed_view:
+            start = yaw_pitch_deg(self._start_camera.forward)
+            if not np.allclose(np.radians([yaw_deg, pitch_deg]), np.radians(start), atol=1e-6):
+                raise AquaspecError(f"view yaw {yaw_deg:g}, pitch {pitch_deg:g} deg: this view "
+                                    f"keeps its direction (yaw {start[0]:g}, pitch "
+                                    f"{start[1]:g}); only its depth changes")
         self.yaw_deg = float((yaw_deg + 180.0) % 360.0 - 180.0)
         self.pitch_deg = float(np.clip(pitch_deg, -MAX_PITCH_DEG, MAX_PITCH_DEG))
 
@@ -148,6 +162,8 @@ class FlightController:
 
     def camera(self) -> Camera:
         """The camera of the current pose (the start camera's size and intrinsics)."""
+        if self.fixed_view:
+            return dataclasses.replace(self._start_camera, position=self.position.copy())
         return dataclasses.replace(self._start_camera, position=self.position.copy(),
                                    forward=forward_of(self.yaw_deg, self.pitch_deg),
                                    up=np.array([0.0, 1.0, 0.0]))
@@ -157,7 +173,8 @@ class FlightController:
         """A key pressed (rendercanvas key names; letters in either case)."""
         k = key.lower() if len(key) == 1 else key
         if k in MOVE_KEYS:
-            self._held.add(k)
+            if not self.fixed_view or MOVE_KEYS[k][:2] == (0, 0):
+                self._held.add(k)
         elif key in FASTER_KEYS:
             self.speed_m_s = min(self.speed_m_s * SPEED_STEP, MAX_SPEED_M_S)
         elif key in SLOWER_KEYS:
@@ -182,7 +199,7 @@ class FlightController:
             self.key_down(event["key"])
         elif kind == "key_up":
             self.key_up(event["key"])
-        elif kind == "pointer_down":
+        elif kind == "pointer_down" and not self.fixed_view:
             self._drag = (event["x"], event["y"])
         elif kind == "pointer_up":
             self._drag = None

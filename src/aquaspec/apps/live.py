@@ -30,8 +30,9 @@ the present pass stretches the image over the canvas; with a target frame
 rate the scale follows the frame times.
 
 The scene is fixed when the view starts (``builtin_scene(depth_m)``: the
-camera 1.5 m above the sand; or a mesh file placed in front of the camera in
-open water); the camera flies within it, bounded by the surface, the light
+camera 1.5 m above the sand; a mesh file placed in front of the camera in
+open water; or an RGB-D photograph's G-buffer, seen from its own camera,
+which then moves only up and down); the camera flies within it, bounded by the surface, the light
 field's seabed (if any) and the scene's floor
 (:class:`aquaspec.apps.floor.FloorMap`: it cannot fly into the sand or a
 rock). Exposure and white balance are set automatically from the first
@@ -50,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aquaspec.apps.flight import FlightController
+from aquaspec.apps.flight import SURFACE_MARGIN_M, FlightController
 from aquaspec.apps.floor import FloorMap
 from aquaspec.apps.overlay import text_overlay
 from aquaspec.apps.record import save_snapshot
@@ -66,7 +67,9 @@ from aquaspec.medium.water import JERLOV_TYPES, get_water
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.builtin import builtin_scene
+from aquaspec.scene.gbuffer import GBuffer
 from aquaspec.scene.load import load_mesh, place_in_front
+from aquaspec.scene.rgbd import gbuffer_from_rgbd, load_rgbd
 
 #: Spectral setups kept for switching back (the oldest others dropped).
 KEEP_SETUPS = 12
@@ -116,21 +119,43 @@ class LiveView:
         self.settings = settings
         self._say = progress or (lambda message: None)
         s = settings
-        if s.mesh is None:
-            self.scene, start = builtin_scene(s.depth_m, width=s.width, height=s.height)
+        if s.rgbd is not None:
+            self._say(f"reading the RGB-D photograph {s.rgbd[0]} ...")
+            photo = gbuffer_from_rgbd(*load_rgbd(s.rgbd[0], s.rgbd[1]), s.rgbd[2],
+                                      camera_depth_m=s.depth_m)
+            w, h = photo.camera.width, photo.camera.height
+            if abs(s.width / s.height - w / h) > 0.01 * w / h:
+                raise AquaspecError(f"the photograph is {w}x{h}; a {s.width}x{s.height} view "
+                                    "would stretch it: accepted, a size of its aspect ratio")
+            photo = photo.resized(s.width, s.height)
+            #: What the frames show: a :class:`~aquaspec.scene.mesh.Scene` or
+            #: an RGB-D photograph's :class:`~aquaspec.scene.gbuffer.GBuffer`.
+            self.scene = photo
+            # Its highest point stays under the surface as the camera rises.
+            rise = max(0.0, float(np.max(photo.positions()[photo.hit][:, 1], initial=-np.inf)
+                                  - photo.camera.position[1]))
+            self.flight = FlightController(photo.camera, fixed_view=True,
+                                           surface_margin_m=SURFACE_MARGIN_M + rise)
+            self.seabed = None
         else:
-            self._say(f"loading {s.mesh} ...")
-            self.scene = place_in_front(load_mesh(s.mesh), depth_m=s.depth_m, width=s.width,
-                                        height=s.height)
-            start = self.scene.camera
+            if s.mesh is None:
+                self.scene, start = builtin_scene(s.depth_m, width=s.width, height=s.height)
+            else:
+                self._say(f"loading {s.mesh} ...")
+                self.scene = place_in_front(load_mesh(s.mesh), depth_m=s.depth_m,
+                                            width=s.width, height=s.height)
+                start = self.scene.camera
+            #: The light field's seabed (the scene's), or None.
+            self.seabed = self.scene.seabed
+            self.flight = FlightController(
+                start, seabed_depth_m=None if self.seabed is None else self.seabed.depth_m,
+                floor=FloorMap.from_scene(self.scene))
         self.renderer = Renderer(s.width, s.height, s.bands)
         self.device = self.renderer.deferred.device
         #: The render scale (:mod:`aquaspec.apps.scale`): fixed at 1 unless set.
         self.render_scale = RenderScale()
         self._renderers = {(s.width, s.height): self.renderer}
-        bed = self.scene.seabed
-        self.flight = FlightController(start, seabed_depth_m=None if bed is None else bed.depth_m,
-                                       floor=FloorMap.from_scene(self.scene))
+        self._photos = {}           # an RGB-D photograph at each render size
         self._setups: dict = {}
         self.water = s.water
         self.setup = self._setup(s.water)
@@ -187,7 +212,7 @@ class LiveView:
             Bands(s.bands), ms_model=s.ms_model, phase=s.phase, phase_params=s.phase_params,
             cone_spread=s.cone_spread,
             spread_scattering=s.spread_scattering,
-            seabed=self.scene.seabed if s.ms_model == "lightfield" else None, waves=waves)
+            seabed=self.seabed if s.ms_model == "lightfield" else None, waves=waves)
 
     def _setup(self, water: str) -> SpectralSetup:
         """The spectral setup of ``water`` with the view's settings (made once, on
@@ -215,7 +240,7 @@ class LiveView:
         renderer = Renderer(camera.width, camera.height, settings.bands)
         renderer.set_spectral(setup, self.scene.materials)
         renderer.set_display(display)
-        encoder = renderer.encode_frame(self.device.create_command_encoder(), self.scene,
+        encoder = renderer.encode_frame(self.device.create_command_encoder(), self.shown(camera),
                                         camera, setup)
         self.device.queue.submit([encoder.finish()])
         renderer.wait()
@@ -331,13 +356,25 @@ class LiveView:
 
     def camera(self):
         """The flight's camera at the current render size (intrinsics scaled)."""
-        cam = self.flight.camera()
-        w, h = self.renderer.width, self.renderer.height
-        if (w, h) == (cam.width, cam.height):
-            return cam
-        sx, sy = w / cam.width, h / cam.height
-        return dataclasses.replace(cam, width=w, height=h, fx=cam.fx * sx, fy=cam.fy * sy,
-                                   cx=cam.cx * sx, cy=cam.cy * sy)
+        return self.flight.camera().resized(self.renderer.width, self.renderer.height)
+
+    def shown(self, camera):
+        """What a frame of ``camera``'s size shows: the scene, or the RGB-D
+        photograph at that size (made once per size)."""
+        if not isinstance(self.scene, GBuffer):
+            return self.scene
+        size = (camera.width, camera.height)
+        if size not in self._photos:
+            self._photos[size] = self.scene.resized(*size)
+        return self._photos[size]
+
+    def describe_source(self) -> dict:
+        """What the view shows, for a sidecar (as ``aquaspec render`` says it)."""
+        s = self.settings
+        if s.rgbd is not None:
+            return {"kind": "rgbd", "rgbd_image": s.rgbd[0], "rgbd_depth": s.rgbd[1],
+                    "intrinsics": list(s.rgbd[2])}
+        return {"kind": "mesh", "mesh": s.mesh} if s.mesh else {"kind": "builtin"}
 
     def use_scale(self, scale: float | None = None) -> None:
         """Render at :attr:`render_scale` (set to ``scale`` if given): the
@@ -362,7 +399,8 @@ class LiveView:
         """Set exposure and white balance from a frame of the current pose (plus
         :attr:`ev_offset`)."""
         self._say("automatic exposure from one linear frame ...")
-        self._auto_display = self.renderer.auto_display(self.scene, self.camera(), self.setup)
+        camera = self.camera()
+        self._auto_display = self.renderer.auto_display(self.shown(camera), camera, self.setup)
         return self.set_ev_offset(self.ev_offset)
 
     def set_ev_offset(self, ev: float) -> dict:
@@ -503,7 +541,7 @@ class LiveView:
         if profile:
             self.pass_ms = {}
             self._pass_t0 = time.perf_counter()
-        encoder = self.renderer.encode_frame(encoder, self.scene, camera, self.setup,
+        encoder = self.renderer.encode_frame(encoder, self.shown(camera), camera, self.setup,
                                              split=self._split if profile else None)
         self.present.encode(encoder, display_buffer(self.renderer),
                             (self.renderer.width, self.renderer.height),

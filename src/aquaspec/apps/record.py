@@ -130,11 +130,11 @@ def save_snapshot(view, directory) -> dict:
                             "existing folder")
     camera = view.camera()
     shown = view.renderer.read_display()
-    linear = view.renderer.render_scene(view.scene, camera, view.setup)
+    linear = view.renderer.render_scene(view.shown(camera), camera, view.setup)
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%d-%H%M%S-%f")[:-3]
     base = folder / f"aquaspec-view-{stamp}"
     params = {**view.setup.describe(), "depth_m": camera.depth_m, "camera": camera.describe(),
-              "scene": "built-in", "backend": "gpu", "display": view.display_settings,
+              "scene": view.describe_source(), "backend": "gpu", "display": view.display_settings,
               "adapter": adapter_info(), "command": "view", "view": view.pose()}
     return save_image(base.with_suffix(".png"), shown, linear, params,
                       linear_path=base.with_suffix(".exr"))

@@ -58,9 +58,22 @@ class ViewSettings:
     #: scene, placed 3 m in front of the camera in open water
     #: (:func:`aquaspec.scene.load.place_in_front`); None: the built-in scene.
     mesh: str | None = None
+    #: An RGB-D photograph shown instead of a scene: ``(image path, depth path,
+    #: (fx, fy, cx, cy))`` as :func:`aquaspec.scene.rgbd.load_rgbd` and
+    #: :func:`~aquaspec.scene.rgbd.gbuffer_from_rgbd` take them; the view is
+    #: the photograph's own (the camera moves only up and down).
+    rgbd: tuple | None = None
 
     def __post_init__(self):
         check_size(self.width, self.height)
+        if self.rgbd is not None:
+            if self.mesh is not None:
+                raise AquaspecError("a view shows a mesh or an RGB-D photograph, not both")
+            if len(self.rgbd) != 3 or len(tuple(self.rgbd[2])) != 4:
+                raise AquaspecError(f"rgbd={self.rgbd!r}; accepted: (image path, depth path, "
+                                    "(fx, fy, cx, cy))")
+            object.__setattr__(self, "rgbd", (str(self.rgbd[0]), str(self.rgbd[1]),
+                                              tuple(float(v) for v in self.rgbd[2])))
         object.__setattr__(self, "ms_model", check_ms_model(self.ms_model))
         e, w = self.sun_elevation_deg, self.wind
         if not (np.isfinite(e) and 0.0 <= e <= 90.0):
@@ -94,5 +107,8 @@ class ViewSettings:
         out = dataclasses.asdict(self)
         out["camspec"] = None if self.camspec is None else str(self.camspec)
         out["mesh"] = None if self.mesh is None else str(self.mesh)
+        if self.rgbd is not None:
+            out["rgbd"] = {"image": self.rgbd[0], "depth": self.rgbd[1],
+                           "intrinsics": list(self.rgbd[2])}
         out["light"] = "sun-sky" if self.has_sun else "overcast"
         return out

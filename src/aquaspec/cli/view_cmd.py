@@ -6,14 +6,17 @@ import argparse
 import sys
 
 from aquaspec.cli.common import (DEFAULT_SUN_ELEVATION_DEG, MAX_OCEAN_DEPTH_M,
-                                 add_camspec_option, add_spread_scattering_option,
-                                 band_count, check_camspec, depth_metres,
-                                 finite_float, sun_from)
+                                 add_camspec_option, add_rgbd_options,
+                                 add_spread_scattering_option, band_count, check_camspec,
+                                 depth_metres, finite_float, rgbd_from, sun_from)
 from aquaspec.apps.scale import SCALE_LEVELS
+from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
 from aquaspec.scene.camera import parse_size
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MS_MODEL_CHOICES
 
+#: The window's size without --size (and without --rgbd).
+DEFAULT_SIZE = "640x360"
 #: The live view's sun elevation 0 is its overcast sky.
 _OVERCAST_ELEVATION = 0.0
 
@@ -21,7 +24,8 @@ _OVERCAST_ELEVATION = 0.0
 def register(sub):
     p = sub.add_parser("view", help="live view of the built-in scene: fly the camera; "
                                     "or offscreen, scripted and recorded",
-                       description="Render the built-in scene (or --mesh) continuously into a "
+                       description="Render the built-in scene (or --mesh, or --rgbd's photograph) "
+                                   "continuously into a "
                                    "window (glfw; pip install 'aquaspec[view]') and fly the "
                                    "camera: "
                                    "W/A/S/D/Q/E move, drag the mouse to look, +/- change the "
@@ -70,8 +74,11 @@ def register(sub):
     p.add_argument("--mesh", metavar="FILE",
                    help="show this OBJ/PLY/glTF/GLB/STL/OFF instead of the built-in scene, "
                         "placed 3 m in front of the camera at --depth, in open water")
-    p.add_argument("--size", default="640x360", metavar="WxH",
-                   help="size of the rendered image and of the window (default 640x360)")
+    add_rgbd_options(p, "show this photograph through the water instead of a scene, from its "
+                        "own camera (Q/E move it up and down; the rest of the flight is off)")
+    p.add_argument("--size", default=None, metavar="WxH",
+                   help="size of the rendered image and of the window (default 640x360; "
+                        "with --rgbd the photograph's size)")
     p.add_argument("--scale", type=finite_float, default=1.0, metavar="S",
                    help="render S times the window's width and height and stretch the image "
                         f"to it: one of {', '.join(f'{s:g}' for s in SCALE_LEVELS)} (default 1; "
@@ -102,18 +109,32 @@ def register(sub):
     p.set_defaults(func=run, command="view")
 
 
+def _photo_size(path) -> str:
+    """``WxH`` of an image file (its header read)."""
+    # deferred: Pillow only when a photograph is shown
+    from PIL import Image
+    try:
+        with Image.open(path) as im:
+            return f"{im.width}x{im.height}"
+    except Exception as exc:         # Pillow raises many types for unreadable files
+        raise AquaspecError(f"could not read image file {str(path)!r} ({exc})") from None
+
+
 def run(args):
     # deferred: the live view loads wgpu and rendercanvas; `aquaspec --help` need not
     from aquaspec.apps.settings import ViewSettings
     from aquaspec.apps.view import run_view  # deferred: as above
-    w, h = parse_size(args.size)
+    rgbd = rgbd_from(args)
+    if rgbd is not None and args.mesh:
+        raise AquaspecError("--rgbd and --mesh: a view shows one of them")
+    w, h = parse_size(args.size or (_photo_size(rgbd[0]) if rgbd else DEFAULT_SIZE))
     elevation, azimuth = sun_from(args)
     settings = ViewSettings(
         width=w, height=h, water=args.water, depth_m=args.depth, bands=args.bands,
         sensor=args.sensor, camspec=check_camspec(args.camspec), ms_model=args.ms_model,
         cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
         sun_elevation_deg=elevation if args.light == "sun-sky" else _OVERCAST_ELEVATION,
-        sun_azimuth_deg=azimuth, wind=args.wind, mesh=args.mesh)
+        sun_azimuth_deg=azimuth, wind=args.wind, mesh=args.mesh, rgbd=rgbd)
     summary = run_view(settings, offscreen=args.offscreen, script=args.script,
                        frames=args.frames, record=args.record, mp4=args.mp4,
                        save_dir=args.save_dir, scale=args.scale, target_fps=args.target_fps,
