@@ -45,7 +45,7 @@ class TestLoadConfig:
 class TestErrors:
     @pytest.mark.parametrize("doc, match", [
         ({"inputs": INPUTS, "plann": {}}, "unknown key 'plann'.*accepted: inputs, plan"),
-        ({"inputs": {"folder": "a", "manifest": "b.csv"}}, "exactly one of folder"),
+        ({"inputs": {"folder": "a", "manifest": "b.csv"}}, "needs one of folder .* and/or meshes"),
         ({"inputs": {**INPUTS, "depth_unit": "inch"}}, "depth_unit = 'inch'; accepted: mm, cm, m"),
         ({"inputs": {**INPUTS, "holes": "ignore"}}, "holes = 'ignore'; accepted: mask, fill"),
         ({"inputs": {**INPUTS, "depth_scale": 0}}, "depth_scale = 0; accepted: a finite number > 0"),

@@ -130,3 +130,29 @@ class TestReadPair:
         cfg = inputs(tmp_path)
         with pytest.raises(AquaspecError, match="expected a single-channel 16-bit PNG"):
             read_pair(discover(cfg)[0][0], cfg)
+
+
+class TestMeshes:
+    def test_folder_and_files(self, tmp_path):
+        trimesh = pytest.importorskip("trimesh")
+        (tmp_path / "models" / "sub").mkdir(parents=True)
+        trimesh.creation.box().export(tmp_path / "models" / "box.ply")
+        trimesh.creation.icosphere().export(tmp_path / "models" / "sub" / "ball.obj")
+        (tmp_path / "models" / "notes.txt").write_text("not a mesh")
+        cfg = InputsConfig(meshes=(tmp_path / "models",), mesh_size=(32, 24))
+        found, _ = discover(cfg)
+        assert [(m.name, m.mesh, m.size) for m in found] == [
+            ("mesh:box", "box.ply", (32, 24)), ("mesh:sub/ball", "sub/ball.obj", (32, 24))]
+
+    def test_rgbd_and_meshes_together(self, tmp_path):
+        trimesh = pytest.importorskip("trimesh")
+        make_folder(tmp_path, 1)
+        trimesh.creation.box().export(tmp_path / "box.glb")
+        found, _ = discover(inputs(tmp_path, meshes=(tmp_path / "box.glb",)))
+        assert [f.describe()["kind"] for f in found] == ["rgbd", "mesh"]
+
+    def test_not_a_mesh(self, tmp_path):
+        (tmp_path / "a.txt").write_text("x")
+        with pytest.raises(AquaspecError, match="neither a folder nor a mesh file; accepted "
+                                                "suffixes: .obj"):
+            discover(InputsConfig(meshes=(tmp_path / "a.txt",)))

@@ -10,6 +10,8 @@ The file has four tables (paths are relative to the file's folder)::
     intrinsics = [518.8, 519.5, 325.6, 253.7]   # fx, fy, cx, cy (pixels) of every image
     holes = "mask"                 # depth holes: mask | fill | error
     missing_depth = "error"        # an image without a depth map: error | skip
+    # meshes = "models"            # and/or meshes (a folder or a list of files) as scenes
+    # mesh_size = [640, 480]       # their image size
 
     [plan]                         # what each sample is
     mode = "random"                # random | grid
@@ -84,6 +86,11 @@ class InputsConfig:
     intrinsics: tuple | None = None
     holes: str = "mask"
     missing_depth: str = "error"
+    #: A folder of meshes (or a list of mesh files) rendered as scenes: each
+    #: placed 3 m in front of the camera (:func:`aquaspec.scene.load.place_in_front`).
+    meshes: tuple = ()
+    #: Image size of the mesh samples (width, height), pixels.
+    mesh_size: tuple = (640, 480)
 
 
 @dataclass(frozen=True)
@@ -216,10 +223,22 @@ def _number(value, what, *, positive=False) -> float:
 
 def _inputs(t: dict, base: Path) -> InputsConfig:
     _only(t, ("folder", "manifest", "depth_unit", "depth_scale", "intrinsics", "holes",
-              "missing_depth"), "[inputs]")
-    if ("folder" in t) == ("manifest" in t):
-        raise AquaspecError("[inputs] needs exactly one of folder (with rgb/ and depth/ in it) "
-                            "or manifest (a CSV or Parquet list of image and depth paths)")
+              "missing_depth", "meshes", "mesh_size"), "[inputs]")
+    if ("folder" in t and "manifest" in t) or not ({"folder", "manifest", "meshes"} & set(t)):
+        raise AquaspecError("[inputs] needs one of folder (with rgb/ and depth/ in it) or "
+                            "manifest (a CSV or Parquet list of image and depth paths), "
+                            "and/or meshes (a folder or list of mesh files)")
+    meshes = t.get("meshes", ())
+    if isinstance(meshes, str):
+        meshes = (meshes,)
+    if not isinstance(meshes, (list, tuple)) or not all(isinstance(m, str) for m in meshes):
+        raise AquaspecError(f"[inputs] meshes = {meshes!r}; accepted: a folder or a list of "
+                            "mesh files")
+    size = t.get("mesh_size", [640, 480])
+    if not isinstance(size, list) or len(size) != 2 or not all(
+            isinstance(v, int) and not isinstance(v, bool) and v >= 2 for v in size):
+        raise AquaspecError(f"[inputs] mesh_size = {size!r}; accepted: [width, height] in "
+                            "pixels, at least 2 each")
     intr = t.get("intrinsics")
     if intr is not None:
         if not isinstance(intr, list) or len(intr) != 4:
@@ -235,7 +254,8 @@ def _inputs(t: dict, base: Path) -> InputsConfig:
         depth_scale=_number(t.get("depth_scale", 1.0), "[inputs] depth_scale", positive=True),
         intrinsics=intr,
         holes=_choice(t, "holes", HOLE_RULES, "mask", "[inputs]"),
-        missing_depth=_choice(t, "missing_depth", MISSING_DEPTH_RULES, "error", "[inputs]"))
+        missing_depth=_choice(t, "missing_depth", MISSING_DEPTH_RULES, "error", "[inputs]"),
+        meshes=tuple(base / m for m in meshes), mesh_size=tuple(size))
 
 
 def _dimension(key: str, value) -> Dimension:

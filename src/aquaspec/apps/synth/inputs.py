@@ -1,6 +1,6 @@
 """``aquaspec synth``'s inputs: finding the RGB-D pairs and reading one.
 
-Two layouts are read (:class:`aquaspec.apps.synth.config.InputsConfig`):
+Two layouts of RGB-D pairs are read (:class:`aquaspec.apps.synth.config.InputsConfig`):
 
 - a folder with ``rgb/`` and ``depth/`` in it, an image and its depth map
   matched by their path below those folders without the suffix
@@ -9,6 +9,9 @@ Two layouts are read (:class:`aquaspec.apps.synth.config.InputsConfig`):
 - a manifest, CSV or Parquet, with the columns ``image`` and ``depth``
   (paths relative to the manifest's folder) and optionally ``name`` and the
   intrinsics ``fx, fy, cx, cy`` of each image (all four, in pixels).
+
+Meshes (``[inputs] meshes``: folders or files) are inputs too, rendered as
+scenes: :class:`MeshInput`.
 
 Depth is metric z-depth. Its unit is ``[inputs] depth_unit`` (default: mm for
 16-bit PNG, as depth cameras write it, and m for ``.npy`` and ``.exr``),
@@ -34,6 +37,7 @@ from scipy import ndimage
 
 from aquaspec.apps.synth.config import DEPTH_UNITS, InputsConfig
 from aquaspec.errors import AquaspecError
+from aquaspec.scene.load import MESH_FORMATS
 from aquaspec.scene.rgbd import DEPTH_FORMATS, IMAGE_FORMATS, check_depth_map, load_rgbd
 
 #: Median depths outside this range (m) mean the unit is wrong.
@@ -57,8 +61,23 @@ class InputPair:
 
     def describe(self) -> dict:
         fx, fy, cx, cy = self.intrinsics
-        return {"input": self.name, "image": self.image, "depth": self.depth,
+        return {"input": self.name, "kind": "rgbd", "image": self.image, "depth": self.depth,
                 "fx": fx, "fy": fy, "cx": cx, "cy": cy}
+
+
+@dataclass(frozen=True)
+class MeshInput:
+    """A mesh rendered as a scene (:func:`aquaspec.scene.load.place_in_front`:
+    3 m in front of the camera), its image ``size`` (width, height)."""
+
+    name: str
+    root: Path
+    mesh: str
+    size: tuple
+
+    def describe(self) -> dict:
+        return {"input": self.name, "kind": "mesh", "mesh": self.mesh,
+                "width": self.size[0], "height": self.size[1]}
 
 
 @dataclass(frozen=True)
@@ -75,14 +94,17 @@ class RGBD:
         return int(self.holes.sum())
 
 
-def discover(cfg: InputsConfig) -> tuple[list[InputPair], list[str]]:
-    """The pairs of ``cfg`` sorted by name, and the names of images without a
-    depth map that ``missing_depth = "skip"`` left out (with ``"error"`` they
-    are an :class:`AquaspecError` naming them)."""
+def discover(cfg: InputsConfig) -> tuple[list, list[str]]:
+    """The inputs of ``cfg`` sorted by name (:class:`InputPair` and
+    :class:`MeshInput`), and the names of images without a depth map that
+    ``missing_depth = "skip"`` left out (with ``"error"`` they are an
+    :class:`AquaspecError` naming them)."""
     if cfg.folder is not None:
         found = _from_folder(cfg.folder)
-    else:
+    elif cfg.manifest is not None:
         found = _from_manifest(cfg.manifest)
+    else:
+        found = []
     pairs, missing = [], []
     for name, root, image, depth, intr in found:
         if depth is None or not (root / depth).is_file():
@@ -100,7 +122,36 @@ def discover(cfg: InputsConfig) -> tuple[list[InputPair], list[str]]:
             + (" ..." if len(missing) > SHOWN else "") + "; accepted: a depth file of the same "
             f"name with suffix {', '.join(DEPTH_FORMATS)} (in depth/, or the manifest's depth "
             "column), or [inputs] missing_depth = 'skip'")
-    return sorted(pairs, key=lambda p: p.name), missing
+    return sorted(pairs + _meshes(cfg), key=lambda p: p.name), missing
+
+
+def _meshes(cfg: InputsConfig) -> list[MeshInput]:
+    """The mesh inputs: the mesh files of each folder (sub-folders followed)
+    or each file in ``cfg.meshes``, named ``mesh:`` and their path without
+    the suffix."""
+    out = []
+    for entry in cfg.meshes:
+        if entry.is_dir():
+            files = [(entry, p) for p in sorted(entry.rglob("*"))
+                     if p.is_file() and p.suffix.lower() in MESH_FORMATS]
+            if not files:
+                raise AquaspecError(f"[inputs] meshes folder {str(entry)!r} has no mesh file; "
+                                    f"accepted suffixes: {', '.join(MESH_FORMATS)}")
+        elif entry.is_file() and entry.suffix.lower() in MESH_FORMATS:
+            files = [(entry.parent, entry)]
+        else:
+            raise AquaspecError(f"[inputs] meshes entry {str(entry)!r} is neither a folder nor "
+                                f"a mesh file; accepted suffixes: {', '.join(MESH_FORMATS)}")
+        for root, p in files:
+            rel = p.relative_to(root).as_posix()
+            out.append(MeshInput(f"mesh:{p.relative_to(root).with_suffix('').as_posix()}",
+                                 root, rel, tuple(cfg.mesh_size)))
+    names = [m.name for m in out]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise AquaspecError(f"[inputs] meshes name {twice[0]!r} twice; accepted: one file per "
+                            "name")
+    return out
 
 
 def _stems(folder: Path, formats, what: str) -> dict:

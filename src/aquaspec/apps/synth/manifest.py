@@ -2,7 +2,8 @@
 
 The manifest has one row per planned sample, in plan order, whatever ran
 when: its id, ``status`` (``done``, ``failed``, ``pending``), the error of a
-failed one, its input and intrinsics, every plan parameter, the seed, the
+failed one, its input (``kind`` ``rgbd`` with image, depth and intrinsics, or
+``mesh``), every plan parameter, the seed, the
 image size, the depth holes (count and rule), the exposure applied and the
 files written (relative to the output folder; empty when not written). A
 done sample's row is its sidecar's ``synth`` entry, so a manifest rebuilt
@@ -29,7 +30,7 @@ from aquaspec.io.sidecar import sidecar_writer
 #: The manifest's columns and their types (``str``, ``float``, ``int``).
 COLUMNS = (
     ("sample_id", "str"), ("status", "str"), ("error", "str"),
-    ("input", "str"), ("image", "str"), ("depth", "str"),
+    ("input", "str"), ("kind", "str"), ("image", "str"), ("depth", "str"), ("mesh", "str"),
     ("fx", "float"), ("fy", "float"), ("cx", "float"), ("cy", "float"),
     ("water", "str"), ("source", "str"), ("depth_m", "float"), ("sensor", "str"),
     ("bands", "int"), ("light", "str"), ("sun_elevation_deg", "float"),

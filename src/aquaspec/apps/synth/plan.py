@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aquaspec.apps.synth.config import DRAW_DECIMALS, PLAN_KEYS, Dimension, SynthConfig
-from aquaspec.apps.synth.inputs import InputPair, depth_unit_of
+from aquaspec.apps.synth.inputs import InputPair, MeshInput, depth_unit_of
 from aquaspec.colour.bands import MAX_BANDS, MIN_BANDS
 from aquaspec.colour.display import EV_LIMIT, WHITE_BALANCE_METHODS
 from aquaspec.colour.sensors import get_sensor
@@ -54,11 +54,11 @@ ID_DIGITS = 16
 
 @dataclass(frozen=True)
 class Sample:
-    """One sample: its id, its input and its parameters (a dict over
-    :data:`aquaspec.apps.synth.config.PLAN_KEYS`)."""
+    """One sample: its id, its input (an RGB-D pair or a mesh) and its
+    parameters (a dict over :data:`aquaspec.apps.synth.config.PLAN_KEYS`)."""
 
     sample_id: str
-    pair: InputPair
+    pair: InputPair | MeshInput
     params: dict
 
     @property
@@ -67,7 +67,7 @@ class Sample:
         return tuple(self.params[k] for k in GROUP_KEYS)
 
 
-def plan_samples(cfg: SynthConfig, pairs: list[InputPair]) -> list[Sample]:
+def plan_samples(cfg: SynthConfig, pairs: list) -> list[Sample]:
     """Every sample of ``cfg``'s plan over ``pairs``, in plan order (inputs
     by name, then draws or grid combinations).
 
@@ -160,13 +160,14 @@ def canonical_json(obj) -> str:
                       allow_nan=False)
 
 
-def sample_id(cfg: SynthConfig, pair: InputPair, params: dict) -> str:
+def sample_id(cfg: SynthConfig, pair: InputPair | MeshInput, params: dict) -> str:
     """The id of ``params`` on ``pair`` under ``cfg`` (see the module docstring)."""
     inputs = cfg.inputs
     identity = {
         "input": pair.describe(),
-        "depth": {"unit": depth_unit_of(pair, inputs), "scale": inputs.depth_scale,
-                  "holes": inputs.holes},
+        "depth": None if isinstance(pair, MeshInput) else {
+            "unit": depth_unit_of(pair, inputs), "scale": inputs.depth_scale,
+            "holes": inputs.holes},
         "params": params,
         "render": cfg.render.describe(),
         "output": {"linear": cfg.output.linear, "layers": cfg.output.layers},

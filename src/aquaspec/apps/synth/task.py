@@ -13,6 +13,9 @@ on every run and every worker; times are in the run's summary. The
 sidecar's ``synth`` entry holds the sample's id, input, parameters, hole
 count and files: the manifest's row of a done sample.
 
+An RGB-D pair is rendered from its own camera (``rgbd=``), a mesh placed
+3 m in front of the camera (``mesh=``) at ``[inputs] mesh_size``.
+
 A sample that fails (unreadable input, mismatched sizes, depth in the wrong
 unit, a render error) is recorded in ``failures/ID.json`` with its error and
 the run goes on; a later success removes the record.
@@ -29,7 +32,7 @@ import numpy as np
 
 from aquaspec.apps.synth.config import SynthConfig
 from aquaspec.apps.synth.files import SampleFiles
-from aquaspec.apps.synth.inputs import RGBD, read_pair
+from aquaspec.apps.synth.inputs import RGBD, MeshInput, read_pair
 from aquaspec.apps.synth.plan import SUN_LIGHTS, Sample
 from aquaspec.colour.sensors import Sensor, get_sensor
 from aquaspec.io.atomic import write_atomically, write_file_atomically
@@ -121,12 +124,19 @@ class SampleTask:
 
     def _render_and_write(self, sample: Sample, files: SampleFiles) -> dict:
         cfg, p = self.cfg, sample.params
-        rgbd = read_pair(sample.pair, cfg.inputs)
-        height, width = rgbd.depth_m.shape
+        if isinstance(sample.pair, MeshInput):
+            rgbd = None
+            width, height = sample.pair.size
+            view = {"mesh": sample.pair.root / sample.pair.mesh, "size": (width, height)}
+        else:
+            rgbd = read_pair(sample.pair, cfg.inputs)
+            height, width = rgbd.depth_m.shape
+            view = {"rgbd": (rgbd.rgb, rgbd.depth_m, sample.pair.intrinsics)}
+        holes = 0 if rgbd is None else rgbd.hole_count
         objs = self._objects(sample)
         res = render(water=objs.water, depth_m=p["depth_m"], sensor=objs.sensor,
                      bands=p["bands"], wavelength_range=cfg.render.wavelength_range,
-                     rgbd=(rgbd.rgb, rgbd.depth_m, sample.pair.intrinsics), light=objs.light,
+                     **view, light=objs.light,
                      waves=objs.waves, ms_model=cfg.render.ms_model, phase=cfg.render.phase,
                      exposure=p["exposure"], white_balance=p["white_balance"],
                      tonemap=cfg.render.tonemap,
@@ -134,22 +144,22 @@ class SampleTask:
                      layers=cfg.output.layers, backend=cfg.render.backend,
                      renderer=self._renderer(width, height, p["bands"]))
         display, linear, layers = _masked(res.display, res.linear_rgb, res.layers, rgbd,
-                                          cfg.inputs.holes == "mask")
+                                          cfg.inputs.holes == "mask" and holes > 0)
         files.folder.mkdir(parents=True, exist_ok=True)
         written = {"png": files.png, "sidecar": files.sidecar,
                    "linear": files.linear if cfg.output.linear else None,
                    "layers": files.layers if cfg.output.layers else None,
-                   "mask": files.mask if rgbd.hole_count else None}
+                   "mask": files.mask if holes else None}
         synth = {"sample_id": sample.sample_id, **sample.pair.describe(), **p,
                  "seed": cfg.plan.seed, "width": width, "height": height,
-                 "depth_holes": rgbd.hole_count, "holes": cfg.inputs.holes,
+                 "depth_holes": holes, "holes": None if rgbd is None else cfg.inputs.holes,
                  "exposure_ev": res.params["display"].get("exposure_ev"),
                  "files": {k: None if v is None else files.relative(v)
                            for k, v in written.items()}}
         synth = to_jsonable(synth, "synth")
         params = {k: v for k, v in res.params.items() if k != "render_seconds"}
         params.update(synth=synth, timestamp=None)
-        if rgbd.hole_count:
+        if holes:
             valid = np.where(rgbd.holes, 0, 255).astype(np.uint8)
             write_file_atomically(files.mask, png_writer(
                 valid, metadata_json({"sample_id": sample.sample_id, "valid": 255, "hole": 0})))
@@ -159,9 +169,9 @@ class SampleTask:
         return synth
 
 
-def _masked(display, linear, layers, rgbd: RGBD, mask: bool):
+def _masked(display, linear, layers, rgbd: RGBD | None, mask: bool):
     """The outputs with the depth holes set to 0 (``mask``), else as they are."""
-    if not mask or not rgbd.hole_count:
+    if not mask:
         return display, linear, layers
     holes = rgbd.holes
 
