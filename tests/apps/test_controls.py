@@ -166,6 +166,28 @@ def test_waves_pause_and_play_at_their_speed(live):
     assert not controls.set_wave_speed(0.0)
 
 
+def test_the_depth_control_moves_the_camera_within_the_water(live):
+    """The built-in scene's camera goes straight down (the background bluer,
+    the exposure held) but not through the rock under it: the control's range ends at the
+    seabed, and a value beyond it is clamped as flying is."""
+    canvas, view, controls = live
+    first = _frame(canvas)
+    x, _, z = view.flight.position
+    lo, hi = controls.depth_range()
+    assert lo == pytest.approx(0.3) and view.flight.depth_m < hi < 20
+    # (the bound is the floor under the camera: here a rock above the seabed)
+    assert controls.set_depth(hi)
+    deeper = _frame(canvas)
+    assert view.flight.depth_m == pytest.approx(hi, abs=0.05)
+    assert (view.flight.position[0], view.flight.position[2]) == (x, z)
+    # The open water above the horizon loses red faster than blue as it goes down.
+    top = [im[:4].mean(axis=(0, 1)) for im in (first, deeper)]
+    assert top[1][0] / top[1][2] < top[0][0] / top[0][2]
+    controls.set_depth(hi + 50)
+    assert view.flight.depth_m <= hi + 1e-9
+    assert not controls.set_depth(float("nan")) and "nan" in view.message
+
+
 def test_render_scale_from_the_panel(live):
     canvas, view, controls = live
     assert controls.set_render_scale(0.5)

@@ -4,8 +4,8 @@
 (:mod:`aquaspec.apps.panel`) change a :class:`aquaspec.apps.live.LiveView`;
 tests call the same methods. Two kinds of change:
 
-- *cheap* ones apply at once, on the frame thread: exposure offset, tone
-  map, wave play/pause and speed, render scale;
+- *cheap* ones apply at once, on the frame thread: the camera's depth,
+  exposure offset, tone map, wave play/pause and speed, render scale;
 - *expensive* ones make a new :class:`~aquaspec.rendering.setup.SpectralSetup`
   (a water's data and light field, bands, sensor, the multiple-scattering
   model and phase function, the sun, the wind's caustics): they go through
@@ -42,6 +42,8 @@ from aquaspec.transport.models import MS_MODELS
 PHASE_CHOICES = {"petzold": (), "ff": (), "hg": (("g", 0.92),), "isotropic": ()}
 #: The sun's elevation when it is switched on without one, degrees.
 DEFAULT_SUN_ON_DEG = 45.0
+#: The depth control's deepest value where nothing below bounds the camera, m.
+OPEN_DEPTH_LIMIT_M = 200.0
 
 
 class ViewControls:
@@ -151,6 +153,24 @@ class ViewControls:
         return self.set(wind=float(wind_m_s))
 
     # ---------------------------------------------------------- cheap ones
+    def depth_range(self) -> tuple[float, float]:
+        """The depths the camera may take where it is (m): the flight's bounds
+        (the floor under it included), at most :data:`OPEN_DEPTH_LIMIT_M`
+        where nothing below bounds it."""
+        f = self.view.flight
+        lo, hi = f.depth_range_m(at=(f.position[0], f.position[2]))
+        return lo, float(min(hi, max(OPEN_DEPTH_LIMIT_M, lo + 1.0)))
+
+    def set_depth(self, depth_m: float) -> bool:
+        """Move the camera straight up or down to ``depth_m`` (clamped into the
+        water, above the seabed and the floor under it, as flying is)."""
+        if not np.isfinite(depth_m):
+            self.view.message = f"not changed: depth {depth_m!r} m; accepted: a finite number"
+            return False
+        f = self.view.flight
+        f.set_position([f.position[0], -float(depth_m), f.position[2]])
+        return True
+
     def set_ev_offset(self, ev: float) -> bool:
         """Stops above the automatic exposure."""
         try:

@@ -123,11 +123,14 @@ class FlightController:
         self.speed_m_s = self._start_speed
         self.set_position(c.position)
 
-    def depth_range_m(self) -> tuple[float, float]:
-        """The depths the camera may take, (shallowest, deepest) in metres."""
+    def depth_range_m(self, at=None) -> tuple[float, float]:
+        """The depths the camera may take, (shallowest, deepest) in metres;
+        ``at`` (x, z): there, above the floor too (the surface wins)."""
         deepest = np.inf if self.seabed_depth_m is None else \
             self.seabed_depth_m - self.seabed_margin_m
-        return self.surface_margin_m, deepest
+        if at is not None and self.floor is not None:
+            deepest = min(deepest, -(self.floor.floor_y(*at) + self.seabed_margin_m))
+        return self.surface_margin_m, max(self.surface_margin_m, deepest)
 
     def set_position(self, position) -> None:
         """Move to ``position`` (world metres), its depth clamped to
@@ -135,10 +138,8 @@ class FlightController:
         p = np.asarray(position, dtype=float).reshape(3).copy()
         if not np.all(np.isfinite(p)):
             raise AquaspecError(f"camera position {p!r}; accepted: finite metres")
-        lo, hi = self.depth_range_m()
-        if self.floor is not None:
-            hi = min(hi, -(self.floor.floor_y(p[0], p[2]) + self.seabed_margin_m))
-        p[1] = -float(np.clip(-p[1], lo, max(lo, hi)))
+        lo, hi = self.depth_range_m(at=(p[0], p[2]))
+        p[1] = -float(np.clip(-p[1], lo, hi))
         self.position = p
 
     def set_view(self, yaw_deg: float, pitch_deg: float) -> None:

@@ -90,21 +90,6 @@ SCALE_KEYS = {"[": 1, "]": -1}
 WATER_KEYS = dict(zip("1234567890", JERLOV_TYPES))
 
 
-def display_buffer(renderer: Renderer):
-    """The GPU buffer holding ``renderer``'s last displayed frame (packed RGBA8,
-    what :meth:`~aquaspec.rendering.renderer.Renderer.read_display` reads).
-
-    The renderer names no such buffer publicly: its last display writer (the
-    shading pass with the display fused in, or its separate display pass) is
-    reached through ``_last_display``.
-    """
-    writer = renderer._last_display
-    if writer is None:
-        raise AquaspecError("no frame yet: encode one with Renderer.encode_frame() first")
-    buffer = getattr(writer, "output_buffer", None)     # a DisplayPass
-    return buffer if buffer is not None else writer.output.display_buffer
-
-
 class LiveView:
     """The state and the frame of a live view (module docstring).
 
@@ -543,7 +528,7 @@ class LiveView:
             self._pass_t0 = time.perf_counter()
         encoder = self.renderer.encode_frame(encoder, self.shown(camera), camera, self.setup,
                                              split=self._split if profile else None)
-        self.present.encode(encoder, display_buffer(self.renderer),
+        self.present.encode(encoder, self.renderer.display_buffer(),
                             (self.renderer.width, self.renderer.height),
                             self.context.get_current_texture())
         if profile:

@@ -98,6 +98,10 @@ class ControlsPanel:
         self._combo(imgui, "phase", c.phases(), s.phase, c.set_phase)
 
         imgui.separator_text("camera")
+        changed, depth = imgui.slider_float("depth", view.flight.depth_m, *c.depth_range(),
+                                            "%.2f m")
+        if changed:
+            c.set_depth(depth)
         self._combo(imgui, "sensor", c.sensors(), s.sensor, c.set_sensor)
         self._on_release(imgui, "bands", s.bands,
                          lambda v: imgui.slider_int("bands", v, *PANEL_BANDS), c.set_bands)

@@ -454,6 +454,16 @@ class Renderer:
         read_buffer(self.deferred.device, self._shading_pass().output.status_buffer,
                     np.uint32, (4,))
 
+    def display_buffer(self):
+        """The GPU buffer holding the last :meth:`encode_frame`'s 8-bit image
+        (packed RGBA8, row by row: what :meth:`read_display` reads), for a
+        pass that shows it without a read-back (a live view's present pass)."""
+        if self._last_display is None:
+            raise AquaspecError("no frame yet: encode one with encode_frame() first")
+        if isinstance(self._last_display, DisplayPass):
+            return self._last_display.output_buffer
+        return self._last_display.output.display_buffer
+
     def read_display(self) -> np.ndarray:
         """The 8-bit display image (H, W, 3) of the last :meth:`encode_frame`."""
         if self._last_display is None:

@@ -92,7 +92,7 @@ def test_srgb_target_decodes_so_the_bytes_come_back(device, pattern):
 def test_a_rendered_frame_matches_read_display(device):
     """The renderer's own frame (built-in scene, light field, display fused):
     presented, it is read_display() byte for byte."""
-    from aquaspec.apps.live import LiveView, ViewSettings, display_buffer
+    from aquaspec.apps.live import LiveView, ViewSettings
     from aquaspec.gpu.passes.present import PresentPass
     w, h = 72, 40
     view = LiveView(ViewSettings(width=w, height=h, bands=4))
@@ -102,7 +102,7 @@ def test_a_rendered_frame_matches_read_display(device):
                          view.setup)
     device.queue.submit([enc.finish()])
     assert view.device is device
-    out = _present_and_read(device, PresentPass(device, "rgba8unorm"), display_buffer(r),
+    out = _present_and_read(device, PresentPass(device, "rgba8unorm"), r.display_buffer(),
                             (w, h), _target(device, w, h))
     expected = r.read_display()
     assert expected.std() > 5                   # a real image, not a flat one
