@@ -39,8 +39,8 @@ view space of :meth:`aquaspec.scene.camera.Camera.view_matrix`), and
 presets (:data:`PRESETS`, e.g. ``rov-pair``).
 
 Where the light goes: on surfaces and scattered once in the water,
-``aquaspec.transport.lamp_scattering``; its shadows,
-``aquaspec.scene.lamp_shadow``.
+:mod:`aquaspec.transport.lamp_scattering`; its shadows,
+:mod:`aquaspec.scene.lamp_shadow`.
 
 References
 ----------

@@ -4,7 +4,8 @@
 geometry, and derives per band what the shading passes need: the medium's
 coefficients and the sensor's weights (:meth:`SpectralSetup.medium`), the
 light field's tables (:meth:`SpectralSetup.lightfield_tables`) and the sun's
-inputs (:meth:`SpectralSetup.sun_inputs`). The two latter cost up to
+inputs (:meth:`SpectralSetup.sun_inputs`), and the lamps' per camera
+(:meth:`SpectralSetup.lamp_inputs`). The light field and the sun cost up to
 seconds, so a setup computes them once and keeps them in its
 :class:`SetupCache`, the one mutable part of an otherwise frozen object.
 """
@@ -20,6 +21,7 @@ from aquaspec.colour.reflectance import normalised_wavelength
 from aquaspec.colour.sensors import Sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.light.caustics import cached_caustic_map
+from aquaspec.light.lamp import Lamp
 from aquaspec.light.sky import SurfaceLight
 from aquaspec.medium.water import Water
 from aquaspec.transport import monzon2022 as model
@@ -27,7 +29,15 @@ from aquaspec.transport.lightfield.bake import lightfield_tables
 from aquaspec.transport.lightfield.cone import forward_cone
 from aquaspec.transport.lightfield.tables import LightfieldTables
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MONZON2022, cone_spread_for, ms_model_name
+from aquaspec.transport.lamp_scattering import LampInputs
 from aquaspec.transport.sun_scattering import SunInputs, log_phase_table
+
+
+#: How the lamps are rendered, for a render's metadata.
+LAMP_MODEL = ("aquaspec.transport.lamp_scattering: direct light on surfaces "
+              "I(alpha) exp(-c' r) max(0, n.l) / r^2 with a shadow map per lamp, and "
+              "single scattering along each view ray (equiangular midpoint rule, "
+              "c' = the surfaces' extinction towards the camera); no multiple scattering")
 
 
 @dataclass
@@ -43,6 +53,8 @@ class SetupCache:
 
     lightfield_tables: LightfieldTables | None = None
     sun_inputs: SunInputs | None = None
+    #: The lamps' per-band quantities that do not depend on the camera.
+    lamp_bands: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -87,6 +99,10 @@ class SpectralSetup:
     #: A wind-roughened surface (:class:`aquaspec.light.waves.Waves`) focusing the
     #: sun's beam into caustics; None: a flat surface. Needs a sun.
     waves: object = None
+    #: Lamps (:class:`aquaspec.light.lamp.Lamp`), in the world or fixed to the
+    #: camera: their light on surfaces and scattered once in the water
+    #: (:mod:`aquaspec.transport.lamp_scattering`).
+    lamps: tuple = ()
     #: What the setup derived and keeps (:class:`SetupCache`); not a parameter.
     cache: SetupCache = field(default_factory=SetupCache, init=False, repr=False,
                               compare=False)
@@ -107,6 +123,11 @@ class SpectralSetup:
         if self.occlusion and self.ms_model != "lightfield":
             raise AquaspecError(f"occlusion is part of the light-field model; ms_model="
                                 f"{self.ms_model!r}; accepted: 'lightfield'")
+        object.__setattr__(self, "lamps", tuple(self.lamps))
+        for k, lamp in enumerate(self.lamps):
+            if not isinstance(lamp, Lamp):
+                raise AquaspecError(f"lamps[{k}] is {lamp!r}; accepted: aquaspec.light.lamp.Lamp "
+                                    "(aquaspec.light.lamp.parse_lamps for --lamp specs)")
         if self.occlusion and self.ambient_shadow:
             raise AquaspecError("occlusion and ambient_shadow both take the scene's shadow out "
                                 "of the water's light; accepted: one of them")
@@ -174,6 +195,32 @@ class SpectralSetup:
                 to_sun=sun.to_sun, caustics=caustics)
         return self.cache.sun_inputs
 
+    def lamp_inputs(self, camera) -> list[LampInputs]:
+        """The lamps placed for ``camera`` with what their terms need per band
+        (:class:`aquaspec.transport.lamp_scattering.LampInputs`); [] without lamps.
+
+        The light's extinction, from the lamp and on the way to the camera, is
+        the one surfaces' light has on its way to the camera: ``c - f b`` with
+        the light field's forward cone (scattering within it stays in the
+        beam), ``c`` with the seeds' model.
+        """
+        if not self.lamps:
+            return []
+        if self.cache.lamp_bands is None:
+            bw = self.water.on_bands(self.bands)
+            a, b = np.asarray(bw.a, dtype=float), np.asarray(bw.b, dtype=float)
+            tables = self.lightfield_tables()
+            c_ray = a + b if tables is None else np.asarray(tables.ray_extinction(a, b), float)
+            self.cache.lamp_bands = {
+                "b": b, "c": c_ray,
+                "log_phase": log_phase_table(self.phase, b=b,
+                                             wavelength_nm=self.bands.centers_nm,
+                                             **dict(self.phase_params)),
+                "intensity": [lamp.intensity_on(self.bands) for lamp in self.lamps]}
+        lb = self.cache.lamp_bands
+        return [LampInputs(lamp.placed(camera), lb["intensity"][k], lb["c"], lb["c"], lb["b"],
+                           lb["log_phase"]) for k, lamp in enumerate(self.lamps)]
+
     def medium(self, materials) -> dict:
         """Keyword arguments of :func:`aquaspec.shading.shade.shade_gbuffer` and the
         shading passes' ``set_medium`` for a scene of ``materials``."""
@@ -201,5 +248,7 @@ class SpectralSetup:
                 "light": self.light.describe(), "bands": self.bands.describe(),
                 "ms_model": self.ms_model, **model_params,
                 "sensor_outside_range": self.outside,
+                **({} if not self.lamps else {"lamps": [lamp.describe() for lamp in self.lamps],
+                                              "lamp_model": LAMP_MODEL}),
                 **({} if self.waves is None else {"caustics": self.sun_inputs().caustics
                                                   .describe()})}

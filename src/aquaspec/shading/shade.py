@@ -34,6 +34,7 @@ from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.errors import AquaspecError
 from aquaspec.scene.camera import camera_depth
 from aquaspec.scene.occlusion import OcclusionMaps
+from aquaspec.shading.lamp import lamp_radiance
 from aquaspec.shading.sun import sun_radiance
 from aquaspec.transport import monzon2022 as model
 from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer, hit_reflectance
@@ -110,7 +111,8 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
                   sigmoid_centers_t, ambient: str = model.DEFAULT_AMBIENT,
                   return_radiance: bool = False, lightfield: LightfieldTables | None = None,
                   progress=None, shadow_rays=None, sun=None, sun_shadow=None,
-                  occlusion: OcclusionMaps | None = None, occlude_water: bool = True) -> dict:
+                  occlusion: OcclusionMaps | None = None, occlude_water: bool = True,
+                  lamps=(), lamp_shadows=None) -> dict:
     """Shade a G-buffer spectrally: the NumPy reference of the deferred pass.
 
     Parameters
@@ -163,6 +165,12 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     occlude_water : bool
         With ``occlusion``: also the water's own shadow (default; False: the
         surfaces' factor alone, what the GPU pass computes).
+    lamps : sequence of aquaspec.transport.lamp_scattering.LampInputs
+        Lamps placed in the world: their light on surfaces and scattered once
+        along each ray (:func:`aquaspec.shading.lamp.lamp_radiance`).
+    lamp_shadows : list, optional
+        Per lamp ``(faces, maps)`` (:mod:`aquaspec.scene.lamp_shadow`) or None;
+        None: nothing shadows the lamps.
 
     Returns
     -------
@@ -222,7 +230,7 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
     # The scene's shadow in the light field (lightfield_tables(ambient_shadow=True)):
     # scene_shadow, subtracted once the image is whole.
     shadow = lightfield is not None and lightfield.shadow is not None
-    whole = spread or shadow
+    whole = spread or shadow or bool(lamps)
     rgb = np.empty((hgt, wid, 3))
     radiance = np.empty((hgt, wid, n)) if (return_radiance or whole) else None
     cone_flat = np.zeros((hgt * wid, n)) if spread else None
@@ -304,6 +312,14 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
             radiance += l_sun
         if not whole:
             rgb += radiance_to_rgb(l_sun.reshape(-1, n), w).reshape(hgt, wid, 3)
+    if lamps:
+        if progress is not None:
+            progress(f"{len(lamps)} lamp(s): lit surfaces and single scattering")
+        radiance += lamp_radiance(gbuffer, lamps, shadows=lamp_shadows,
+                                  rho_of_hits=lambda m: hit_reflectance(
+                                      gbuffer.material[m], gbuffer.sigmoid[m], mb, t))
+        if not np.all(np.isfinite(radiance)):
+            raise AquaspecError("the lamps' light is not finite; check the lamps and the water")
     if whole:
         rgb = radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}

@@ -1,0 +1,64 @@
+"""The lamps' terms of a G-buffer, per pixel (NumPy reference of the GPU's lamp pass).
+
+Each pixel gets, for every lamp, the lit surface's light carried to the
+camera, ``rho / pi E exp(-c_view S)`` with ``E`` the lamp's irradiance
+(:func:`aquaspec.transport.lamp_scattering.lamp_irradiance`), plus the lamp's
+light scattered once along the pixel's ray up to the surface it meets, or
+the water surface for an open-water ray going up
+(:func:`aquaspec.transport.lamp_scattering.single_scattering`). Shadows come
+from the lamp's depth maps (:mod:`aquaspec.scene.lamp_shadow`) when they are
+given. Conventions: metres, y up, the water surface at y = 0; radiance in
+W m^-2 sr^-1 nm^-1 per band. The GPU twin is ``aquaspec.gpu.passes.lamps``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.scene.camera import camera_depth
+from aquaspec.scene.lamp_shadow import lamp_visibility
+from aquaspec.transport import monzon2022 as model
+from aquaspec.transport.lamp_scattering import (DEFAULT_SAMPLES, LampInputs, lamp_irradiance,
+                                                single_scattering)
+
+
+def lamp_radiance(gbuffer, lamps, *, rho_of_hits, shadows=None,
+                  n_samples: int = DEFAULT_SAMPLES) -> np.ndarray:
+    """The lamps' band radiance per pixel, (H, W, n).
+
+    ``lamps``: :class:`aquaspec.transport.lamp_scattering.LampInputs`, one
+    per lamp (placed in the world); ``rho_of_hits(mask)`` returns the band
+    reflectance (P, n) of the pixels in ``mask`` (H, W); ``shadows``: per
+    lamp ``(faces, maps)`` of :mod:`aquaspec.scene.lamp_shadow` or None (no
+    shadow), or None for no shadows at all.
+    """
+    cam = gbuffer.camera
+    d_o = camera_depth(cam)
+    dirs = cam.ray_directions().astype(float)
+    v_y = dirs[..., 1]
+    s = gbuffer.distance.astype(float)
+    hit = model.hit_before_surface(s, v_y, d_o)
+    s = np.where(hit, s, np.inf)
+    # Open water going up ends at the water surface.
+    s_ray = model.ray_length(s, np.full(s.shape, d_o), v_y)
+    lamps = list(lamps)
+    n = np.asarray(lamps[0].b).size if lamps else 0
+    out = np.zeros(s.shape + (n,))
+    if not lamps:
+        return out
+    rho = rho_of_hits(hit) if np.any(hit) else None
+    pos = cam.position + dirs[hit] * s[hit, None]
+    normal = gbuffer.normal[hit].astype(float)
+    for k, inp in enumerate(lamps):
+        if not isinstance(inp, LampInputs):
+            raise TypeError(f"lamps[{k}] is {type(inp).__name__}; expected LampInputs")
+        shadow = None if shadows is None else shadows[k]
+        vis_fn = None if shadow is None else (lambda x, sh=shadow: lamp_visibility(*sh, x))
+        veil = single_scattering(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
+                                 n_samples=n_samples, visibility=vis_fn)
+        out += veil.reshape(out.shape)
+        if rho is not None:
+            vis = 1.0 if shadow is None else lamp_visibility(*shadow, pos, normals=normal)
+            e = lamp_irradiance(inp, pos, normal, vis)
+            out[hit] += rho / np.pi * e * np.exp(-np.asarray(inp.c_view) * s[hit, None])
+    return out
