@@ -87,6 +87,7 @@ def test_shade_gbuffer_adds_the_lamps_and_setup_places_them():
     np.testing.assert_allclose(lamps[1].lamp.position, g.camera.position + [0.5, 0, 0])
     bw = setup.water.on_bands(setup.bands)
     np.testing.assert_allclose(lamps[0].c_view, bw.a + bw.b)
+    np.testing.assert_allclose(lamps[0].c_lamp, bw.a + bw.b)
     medium = setup.medium([])
     medium["material_bands"] = np.full((1, 4), 0.4)
     dark = shade_gbuffer(g, **medium)["camera_rgb"]
@@ -96,3 +97,23 @@ def test_shade_gbuffer_adds_the_lamps_and_setup_places_them():
                                                            medium["response_weights"])
                                .reshape(dark.shape), rtol=1e-12)
     assert np.all(dark == 0) and lit.min() > 0
+
+
+def test_light_field_carries_the_lamps_as_the_sun():
+    """With the light field the lamps' light leaves with the sun beam's delta-M
+    c* and reaches the camera with the surfaces' c - f b, both below c."""
+    from aquaspec.colour.bands import Bands
+    from aquaspec.colour.sensors import get_sensor
+    from aquaspec.light.lamp import parse_lamps
+    from aquaspec.light.sky import surface_light
+    from aquaspec.medium.water import get_water
+    from aquaspec.rendering.setup import SpectralSetup
+    setup = SpectralSetup(get_water("II"), get_sensor("human"), surface_light("none"),
+                          Bands(4), lamps=parse_lamps(["torch"]))
+    (inp,) = setup.lamp_inputs(wall_gbuffer().camera)
+    tables = setup.lightfield_tables()
+    bw = setup.water.on_bands(setup.bands)
+    np.testing.assert_allclose(inp.c_lamp, tables.beam_extinction)
+    np.testing.assert_allclose(inp.c_view, tables.ray_extinction(bw.a, bw.b))
+    assert np.all(inp.c_lamp < bw.a + bw.b) and np.all(inp.c_view < bw.a + bw.b)
+    assert setup.describe()["lamps"][0]["name"] == "torch"

@@ -35,9 +35,10 @@ from aquaspec.transport.sun_scattering import SunInputs, log_phase_table
 
 #: How the lamps are rendered, for a render's metadata.
 LAMP_MODEL = ("aquaspec.transport.lamp_scattering: direct light on surfaces "
-              "I(alpha) exp(-c' r) max(0, n.l) / r^2 with a shadow map per lamp, and "
-              "single scattering along each view ray (equiangular midpoint rule, "
-              "c' = the surfaces' extinction towards the camera); no multiple scattering")
+              "I(alpha) exp(-c_lamp r) max(0, n.l) / r^2 with a shadow map per lamp, and "
+              "single scattering along each view ray (equiangular midpoint rule); c_lamp "
+              "and c_view as the sun's beam and view (delta-M c* and c - f b with the "
+              "light field, c with monzon2022); no multiple scattering")
 
 
 @dataclass
@@ -199,10 +200,12 @@ class SpectralSetup:
         """The lamps placed for ``camera`` with what their terms need per band
         (:class:`aquaspec.transport.lamp_scattering.LampInputs`); [] without lamps.
 
-        The light's extinction, from the lamp and on the way to the camera, is
-        the one surfaces' light has on its way to the camera: ``c - f b`` with
-        the light field's forward cone (scattering within it stays in the
-        beam), ``c`` with the seeds' model.
+        The lamps' light is carried as the sun's beam is
+        (:meth:`sun_inputs`): from the lamp with the light field's delta-M
+        ``c* = c - f_2N b`` (scattering into the phase function's narrowest
+        forward peak stays in the beam), on its way to the camera with the
+        extinction surfaces' light has (``c - f b`` with the forward cone);
+        ``c`` for both with the seeds' model.
         """
         if not self.lamps:
             return []
@@ -210,16 +213,17 @@ class SpectralSetup:
             bw = self.water.on_bands(self.bands)
             a, b = np.asarray(bw.a, dtype=float), np.asarray(bw.b, dtype=float)
             tables = self.lightfield_tables()
-            c_ray = a + b if tables is None else np.asarray(tables.ray_extinction(a, b), float)
+            c_lamp = a + b if tables is None else np.asarray(tables.beam_extinction, float)
+            c_view = a + b if tables is None else np.asarray(tables.ray_extinction(a, b), float)
             self.cache.lamp_bands = {
-                "b": b, "c": c_ray,
+                "b": b, "c_lamp": c_lamp, "c_view": c_view,
                 "log_phase": log_phase_table(self.phase, b=b,
                                              wavelength_nm=self.bands.centers_nm,
                                              **dict(self.phase_params)),
                 "intensity": [lamp.intensity_on(self.bands) for lamp in self.lamps]}
         lb = self.cache.lamp_bands
-        return [LampInputs(lamp.placed(camera), lb["intensity"][k], lb["c"], lb["c"], lb["b"],
-                           lb["log_phase"]) for k, lamp in enumerate(self.lamps)]
+        return [LampInputs(lamp.placed(camera), lb["intensity"][k], lb["c_lamp"], lb["c_view"],
+                           lb["b"], lb["log_phase"]) for k, lamp in enumerate(self.lamps)]
 
     def medium(self, materials) -> dict:
         """Keyword arguments of :func:`aquaspec.shading.shade.shade_gbuffer` and the

@@ -43,12 +43,13 @@ integral is the midpoint rule on ``n_samples`` equal steps of ``theta``
 (``p = 1 / 4 pi``, ``c = 0``, ``V = 1``) the integrand is constant and the
 rule exact: ``L_SS = b I0 (theta_b - theta_a) / (4 pi D)``.
 
-Which extinctions: the renderer takes ``c_view`` as the surfaces' light
-has it on its way to the camera (``c - f b`` with the light field's
-forward cone, else ``c``; as the sun does), and ``c_lamp`` the same: light
-scattered within the forward cone on its way from the lamp stays in the
-beam (:meth:`aquaspec.rendering.setup.SpectralSetup.lamp_inputs`). The
-light scattered more than once (the halo) is not here.
+Which extinctions: the renderer carries a lamp's light as it carries the
+sun's beam (:meth:`aquaspec.rendering.setup.SpectralSetup.lamp_inputs`):
+``c_lamp`` is the light field's delta-M ``c*`` (scattering into the phase
+function's narrowest forward peak stays in the beam), ``c_view`` the
+extinction of the surfaces' light on its way to the camera (``c - f b``
+with the forward cone); both ``c`` with the thesis's model. The light
+scattered more than once (the halo) is not here.
 
 References
 ----------
