@@ -20,6 +20,7 @@ from aquaspec.io.linear import LINEAR_SUFFIXES
 from aquaspec.io.png import PNG_SUFFIXES
 from aquaspec.io.save import save_image
 from aquaspec.io.sidecar import sidecar_path
+from aquaspec.light.lamp import PRESETS, SPEC_KEYS, parse_lamps
 from aquaspec.scene.camera import parse_size
 from aquaspec.scene.seabed import Seabed
 
@@ -76,6 +77,14 @@ def register(sub):
                         "a --mesh also stands on that seabed, a plane the camera sees out to "
                         "where the water hides it (the built-in scene keeps its sand, an "
                         "RGB-D photograph its own surfaces)")
+    p.add_argument("--lamp", action="append", default=[], metavar="SPEC",
+                   help="a lamp (repeatable): a preset ("
+                        + "; ".join(f"{k}: {v[0]}" for k, v in PRESETS.items())
+                        + ") or key=value pairs separated by ';', e.g. "
+                        "'pos=0.25,0,0;dir=0,0,-1;cone=30;power=20;spectrum=led'; keys: "
+                        + "; ".join(f"{k}: {v}" for k, v in SPEC_KEYS.items())
+                        + ". Its light on surfaces (shadowed) and scattered once in the water; "
+                        "with --light none the scene is lit by the lamps alone")
     add_sun_rendering_options(
         p, wind_help="--light sun-sky: a wind sea on the surface (wind speed in m/s at 19.5 m, "
                      "Pierson-Moskowitz spectrum) whose waves focus the sun into caustics on "
@@ -111,6 +120,7 @@ def run(args):
     if albedo and not args.mesh:
         raise AquaspecError("--albedo is only used with --mesh")
     waves = waves_from(args)
+    lamps = parse_lamps(args.lamp)     # bad specs fail before any rendering
 
     def progress(msg):
         print(f"aquaspec render: {msg}", file=sys.stderr, flush=True)
@@ -124,7 +134,7 @@ def run(args):
                  ms_model=args.ms_model, phase=args.phase,
                  forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
                  spread_scattering=args.spread_scattering, ambient_shadow=args.ambient_shadow,
-                 occlusion=args.occlusion, seabed=seabed,
+                 occlusion=args.occlusion, seabed=seabed, lamps=lamps,
                  exposure=args.exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
                  layers=bool(args.layers), backend=args.backend, progress=progress)

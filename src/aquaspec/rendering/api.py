@@ -44,10 +44,12 @@ from aquaspec.errors import AquaspecError
 from aquaspec.gpu.device import adapter_info
 from aquaspec.scene.raycast import raycast_gbuffer
 from aquaspec.io.layers_file import LAYER_NAMES
+from aquaspec.light.lamp import parse_lamps
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, SurfaceLight, surface_light
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import DEFAULT_SOURCE, Water, get_water
 from aquaspec.rendering.appearance import check_depth, colour_of_setup
+from aquaspec.rendering.lamps import add_gpu_lamps, gpu_lamp_light, lamp_params, numpy_lamp_terms
 from aquaspec.rendering.layers import black_gbuffer, image_layers
 from aquaspec.rendering.limits import check_render_memory
 from aquaspec.rendering.renderer import Renderer
@@ -119,7 +121,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            ms_model: str = DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
            spread_scattering: str = "single", ambient_shadow: bool = False,
-           occlusion: bool = False, seabed="scene",
+           occlusion: bool = False, seabed="scene", lamps=(),
            exposure="auto", white_balance="none", tonemap="filmic",
            colour_matrix="auto", return_radiance: bool = False, layers: bool = False,
            backend: str = "gpu", progress=None, renderer: Renderer | None = None
@@ -150,10 +152,13 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         and pinhole intrinsics ``(fx, fy, cx, cy)``: a photograph becomes an
         underwater one with the camera at ``depth_m``.
     light : str or SurfaceLight
-        ``overcast``, ``d65`` or ``sun-sky`` (see :mod:`aquaspec.light.sky`).
+        ``overcast``, ``d65``, ``sun-sky`` or ``none`` (no daylight: the deep
+        sea or night, lit by ``lamps`` alone; see :mod:`aquaspec.light.sky`).
         ``sun-sky`` has a sun (at ``sun_elevation_deg``, ``sun_azimuth_deg``):
         its refracted beam lights the surfaces, is shadowed by the scene and
         is scattered once towards the camera (:mod:`aquaspec.transport.sun_scattering`).
+    lamps : sequence of Lamp or str
+        Lamps or ``--lamp`` specs (``"rov-pair"``): :mod:`aquaspec.rendering.lamps`.
     sun_shadow_map : int, optional
         Side of the sun's shadow map in texels (default
         :data:`aquaspec.scene.shadowmap.DEFAULT_MAP_SIZE`); shadows are resolved within
@@ -256,7 +261,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         outside=outside,
         ms_model=ms_model, phase=phase, forward_cone_deg=forward_cone_deg,
         cone_spread=cone_spread, spread_scattering=spread_scattering,
-        ambient_shadow=ambient_shadow, occlusion=occlusion, say=say)
+        ambient_shadow=ambient_shadow, occlusion=occlusion, say=say, lamps=lamps)
     view = _view(scene=scene, camera=camera, mesh=mesh, albedo=albedo, rgbd=rgbd,
                  depth_m=depth, width=width, height=height, say=say)
     if rgbd is not None:
@@ -283,7 +288,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
 def _spectral_setup(*, water, source, sensor, camspec, bands, wavelength_range, light,
                     irradiance_w_m2, sun_elevation_deg, sun_azimuth_deg, sun_shadow_map,
                     waves, ambient, outside, ms_model, phase, forward_cone_deg, cone_spread,
-                    spread_scattering, ambient_shadow, say, occlusion=False):
+                    spread_scattering, ambient_shadow, say, occlusion=False, lamps=()):
     """Step 1: the :class:`SpectralSetup` of :func:`render`'s arguments and the
     sun's shadow-map size; its ranges are checked (and the waves' caustics
     computed) before any geometry work."""
@@ -298,7 +303,7 @@ def _spectral_setup(*, water, source, sensor, camspec, bands, wavelength_range, 
                           forward_cone_deg=forward_cone_deg, cone_spread=cone_spread,
                           spread_scattering=spread_scattering, ambient_shadow=ambient_shadow,
                           occlusion=occlusion,
-                          waves=as_waves(waves))
+                          waves=as_waves(waves), lamps=parse_lamps(lamps))
     setup.medium([])  # fail early on ranges before any geometry work
     if setup.waves is not None:
         wv = setup.waves
@@ -433,12 +438,13 @@ class _Shaded:
     gbuffer: GBuffer | None
     renderer: Renderer | None = None
     sun_shadow: tuple | None = None
+    lamps: object = None        # the lamps' GPU pass, or shade_gbuffer's lamp arguments
 
 
 def _shade_on_gpu(setup: SpectralSetup, view: _View, map_size, return_radiance,
                   say, renderer: Renderer | None = None) -> _Shaded:
     """Step 3 on the GPU: rasterise (unless the G-buffer came from an RGB-D
-    image), shade, add the sun (:class:`Renderer`)."""
+    image), shade, add the sun (:class:`Renderer`) and the lamps."""
     camera = view.camera
     say(f"shading {camera.width}x{camera.height} pixels x {setup.bands.n} bands on the GPU"
         + (" (the scene's shadow in the light field in NumPy)" if setup.ambient_shadow
@@ -454,8 +460,8 @@ def _shade_on_gpu(setup: SpectralSetup, view: _View, map_size, return_radiance,
     r.set_occlusion(setup.occlusion)
     occluders = visible_surface_occluders(view.gbuffer) if (setup.occlusion
                                                              and view.from_rgbd) else None
-    if return_radiance and setup.light.sun is not None:
-        raise AquaspecError("per-band radiance with a sun is available from "
+    if return_radiance and (setup.light.sun is not None or setup.lamps):
+        raise AquaspecError("per-band radiance with a sun or lamps is available from "
                             "backend='numpy'")
     if view.gbuffer is None:
         linear = r.render_scene(view.scene, camera, setup, say).astype(np.float64)
@@ -463,7 +469,7 @@ def _shade_on_gpu(setup: SpectralSetup, view: _View, map_size, return_radiance,
         linear = r.render_gbuffer(view.gbuffer, setup, say,
                                   occluders=occluders).astype(np.float64)
     radiance = r.read_radiance() if return_radiance else None
-    return _Shaded(linear, radiance, view.gbuffer, renderer=r)
+    return add_gpu_lamps(_Shaded(linear, radiance, view.gbuffer, renderer=r), setup, view, say)
 
 
 def _reusable(renderer: Renderer, camera: Camera, n_bands: int, return_radiance) -> Renderer:
@@ -491,6 +497,7 @@ def _shade_in_numpy(setup: SpectralSetup, view: _View, map_size, return_radiance
     say(f"shading {camera.width}x{camera.height} pixels x {setup.bands.n} bands in NumPy"
         + (" with the scene's shadow in the light field" if setup.ambient_shadow else ""))
     sun_shadow = _numpy_sun_shadow(setup, view, map_size, say)
+    lamp_kw = numpy_lamp_terms(setup, view, say)
     occlusion = None
     if setup.occlusion:
         say("the scene's occlusion maps (NumPy)")
@@ -499,8 +506,10 @@ def _shade_in_numpy(setup: SpectralSetup, view: _View, map_size, return_radiance
     out = shade_gbuffer(gbuffer, **setup.medium(gbuffer.materials),
                         return_radiance=return_radiance,
                         lightfield=setup.lightfield_tables(), progress=say,
-                        sun=setup.sun_inputs(), sun_shadow=sun_shadow, occlusion=occlusion)
-    return _Shaded(out["camera_rgb"], out.get("radiance"), gbuffer, sun_shadow=sun_shadow)
+                        sun=setup.sun_inputs(), sun_shadow=sun_shadow, occlusion=occlusion,
+                        **lamp_kw)
+    return _Shaded(out["camera_rgb"], out.get("radiance"), gbuffer, sun_shadow=sun_shadow,
+                   lamps=lamp_kw)
 
 
 def _numpy_sun_shadow(setup: SpectralSetup, view: _View, map_size, say):
@@ -534,12 +543,13 @@ def _layers(setup: SpectralSetup, view: _View, shaded: _Shaded, backend, say) ->
         back = r.render_gbuffer(black_gbuffer(shaded.gbuffer), setup, say,
                                 sun_scene=None if view.from_rgbd else view.scene
                                 ).astype(np.float64)
+        back += gpu_lamp_light(r, shaded.lamps, view) if setup.lamps else 0.0
     else:
         black = black_gbuffer(shaded.gbuffer)
         back = shade_gbuffer(black, **setup.medium(black.materials),
                              lightfield=setup.lightfield_tables(), progress=say,
                              sun=setup.sun_inputs(),
-                             sun_shadow=shaded.sun_shadow)["camera_rgb"]
+                             sun_shadow=shaded.sun_shadow, **shaded.lamps)["camera_rgb"]
     gbuffer = shaded.gbuffer
     return image_layers(shaded.linear, back, gbuffer, setup.medium(gbuffer.materials),
                         setup.lightfield_tables(), sun=setup.sun_inputs(),
@@ -595,6 +605,7 @@ def _params(setup: SpectralSetup, depth, view: _View, backend, display_info, t0,
             "shadow_radius_m": None if view.from_rgbd else DEFAULT_MAP_RADIUS_M,
             "single_scattering": froxel_description(view.camera.width),
             "beam_extinction": "c* (delta-M) with the light field, c with the seeds' model"}
+    params.update(lamp_params(setup, view))
     if with_layers:
         params["layers"] = {"names": list(LAYER_NAMES), "definitions": "aquaspec.rendering.layers: "
                             "linear = direct + backscatter (the image with every surface "

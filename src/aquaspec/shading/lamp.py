@@ -8,7 +8,7 @@ the water surface for an open-water ray going up
 (:func:`aquaspec.transport.lamp_scattering.single_scattering`). Shadows come
 from the lamp's depth maps (:mod:`aquaspec.scene.lamp_shadow`) when they are
 given. Conventions: metres, y up, the water surface at y = 0; radiance in
-W m^-2 sr^-1 nm^-1 per band. The GPU twin is ``aquaspec.gpu.passes.lamps``.
+W m^-2 sr^-1 nm^-1 per band. The GPU twin is :mod:`aquaspec.gpu.passes.lamps`.
 """
 
 from __future__ import annotations

@@ -6,7 +6,10 @@ heights ``h = p . w`` along it, depth ``(h_max - h) / (h_max - h_min)``)
 with ``depth_maps.wgsl`` beside this module, into a ``depth32float`` texture
 array of ``size`` texels a side. The sun's shadow map is one such layer; the
 ambient occlusion's maps (one per direction of its set) are many
-(:class:`aquaspec.gpu.passes.sun_shadow.SunShadowPass` draws through this). NumPy twin:
+(:class:`aquaspec.gpu.passes.sun_shadow.SunShadowPass` draws through this). A
+layer may as well be a perspective view (a spec with its own ``clip_matrix``
+and ``key``, such as a lamp's face, :mod:`aquaspec.scene.lamp_shadow`, drawn
+by :class:`aquaspec.gpu.passes.lamps.LampPass`). NumPy twin:
 :func:`aquaspec.scene.shadowmap.shadow_map_numpy` (the same map per layer).
 
 Maps of static geometry are kept: :meth:`DepthMapArray.encode` draws again
@@ -35,8 +38,12 @@ CLIP_LAYOUT = UniformLayout("DepthClip", [("clip", "mat4x4<f32>")])
 DEPTH_FORMAT = "depth32float"
 
 
-def spec_key(spec: ShadowMapSpec) -> tuple:
-    """A map's geometry as a hashable value (equal specs draw equal maps)."""
+def spec_key(spec) -> tuple:
+    """A map's geometry as a hashable value (equal specs draw equal maps); a
+    spec with a ``key()`` of its own (a lamp's perspective face,
+    :class:`aquaspec.scene.lamp_shadow.LampShadowFace`) gives that."""
+    if hasattr(spec, "key"):
+        return spec.key()
     return (tuple(np.asarray(spec.to_sun, float)), tuple(np.asarray(spec.e1, float)),
             tuple(np.asarray(spec.e2, float)), spec.u0, spec.v0, spec.texel, spec.size,
             spec.h_min, spec.h_max)
@@ -161,6 +168,12 @@ class DepthMapArray:
     def read(self, spec: ShadowMapSpec, layer: int = 0) -> np.ndarray:
         """Layer ``layer`` as heights ``h`` (size, size) float64 along ``spec``'s
         direction (``-inf`` where no surface), for tests."""
+        z = self.read_raw(layer).astype(float)
+        h = spec.h_max - z * (spec.h_max - spec.h_min)
+        return np.where(z >= 1.0, -np.inf, h)
+
+    def read_raw(self, layer: int = 0) -> np.ndarray:
+        """Layer ``layer``'s depths as drawn (size, size) float32 (1: no surface), for tests."""
         n = self.size
         row = -(-4 * n // 256) * 256
         buf = self.device.create_buffer(size=row * n, usage=wgpu.BufferUsage.COPY_DST
@@ -175,5 +188,4 @@ class DepthMapArray:
         buf.map_sync(wgpu.MapMode.READ)
         z = np.frombuffer(buf.read_mapped(), np.float32).reshape(n, row // 4)[:, :n].copy()
         buf.unmap()
-        h = spec.h_max - z.astype(float) * (spec.h_max - spec.h_min)
-        return np.where(z >= 1.0, -np.inf, h)
+        return z

@@ -1,0 +1,219 @@
+"""The lamps on the GPU: their shadow maps and their light, added to an image in camera RGB.
+
+Two steps (maths in :mod:`aquaspec.transport.lamp_scattering`, NumPy twin
+:func:`aquaspec.shading.lamp.lamp_radiance`):
+
+- the shadow maps (:meth:`LampPass.encode_shadow_maps`): every lamp's faces
+  (:func:`aquaspec.scene.lamp_shadow.lamp_shadow_faces`: one perspective
+  face along a spot lamp's axis, or the six of a cube for wide lamps)
+  rasterised depth-only through :class:`aquaspec.gpu.passes.depth_maps.DepthMapArray`,
+  one layer per face, kept while the lamps and the scene stay;
+- the per-pixel pass (``lamps.wgsl`` beside this module): per lamp the
+  single scattering along the pixel's ray (the equiangular midpoint rule,
+  :data:`aquaspec.transport.lamp_scattering.DEFAULT_SAMPLES` samples, the
+  ray first cut to the cone) and a lit surface's light, summed over the
+  bands in camera RGB and added to a vec4-per-pixel buffer: a shading pass's
+  linear image, or the pass's own (:meth:`LampPass.read_rgb`).
+
+Bindings of lamps.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
+surface and sigmoid textures; 3 material band reflectances (M * n f32); 4 two
+vec4 per band; 5 ``ln p`` per band
+(:func:`aquaspec.transport.sun_scattering.log_phase_table`); 6 the lamps
+(:data:`LAMP_DTYPE`); 7 their on-axis intensity per band; 8 their beam
+profiles (:data:`PROFILE_SIZE` values over ``[0, cone]``); 9 the shadow
+faces; 10 the shadow maps (a depth array); 11 their comparison sampler; 12
+the image.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import wgpu
+
+from aquaspec.errors import AquaspecError
+from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
+from aquaspec.gpu.buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
+                                  upload_buffer)
+from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
+from aquaspec.gpu.layout import UniformLayout
+from aquaspec.gpu.passes.depth_maps import DepthMapArray
+from aquaspec.gpu.shaders import load_wgsl
+from aquaspec.scene.lamp_shadow import (BIAS_TEXELS, DEFAULT_LAMP_MAP_SIZE, FAR_M, NEAR_M,
+                                        NORMAL_OFFSET_TEXELS, lamp_shadow_faces)
+from aquaspec.transport.lamp_scattering import (DEFAULT_SAMPLES, MIN_DISTANCE_M, MIN_RANGE_M,
+                                                LampInputs)
+from aquaspec.transport.sun_scattering import PHASE_TABLE_SIZE
+
+PARAMS_LAYOUT = UniformLayout("LampParams", CAMERA_FIELDS + [
+    ("width", "u32"), ("height", "u32"), ("n_lamps", "u32"), ("shadowed", "u32"),
+])
+#: One lamp as lamps.wgsl's ``LampGpu``.
+LAMP_DTYPE = np.dtype([("position", np.float32, 3), ("cos_cut", np.float32),
+                       ("direction", np.float32, 3), ("cone", np.float32),
+                       ("first_face", np.uint32), ("n_faces", np.uint32), ("clip", np.uint32),
+                       ("pad", np.uint32)])
+#: Entries of each lamp's profile table over [0, cone].
+PROFILE_SIZE = 513
+#: Most lamps one pass takes.
+MAX_LAMPS = 16
+WORKGROUP = (8, 8)
+_BINDINGS = {0: "uniform", 1: "uint", 2: "float", 3: "read", 4: "read", 5: "read", 6: "read",
+             7: "read", 8: "read", 9: "read", 10: "depth_array", 11: "comparison_sampler",
+             12: "write"}
+
+
+def profile_table(lamp) -> np.ndarray:
+    """``f`` of a lamp at :data:`PROFILE_SIZE` angles over ``[0, cone]`` (float32)."""
+    alpha = np.linspace(0.0, lamp.cone_rad, PROFILE_SIZE)
+    return lamp.relative_intensity(alpha).astype(np.float32)
+
+
+def face_rows(faces) -> np.ndarray:
+    """Three vec4 per face: right and focal length (texels), up, forward and size."""
+    out = np.zeros((len(faces), 3, 4), np.float32)
+    for k, face in enumerate(faces):
+        cam = face.camera
+        out[k, 0, :3], out[k, 0, 3] = cam.right, cam.fx
+        out[k, 1, :3] = cam.true_up
+        out[k, 2, :3], out[k, 2, 3] = cam.forward, face.size
+    return out
+
+
+class LampPass:
+    """The lamps' shadow maps and light for one image size and band count.
+
+    Parameters
+    ----------
+    device : wgpu.GPUDevice
+    width, height, n_bands : int
+    map_size : int
+        Side of each shadow-map face, texels.
+    n_samples : int
+        Equiangular samples per ray and lamp.
+    """
+
+    def __init__(self, device, width: int, height: int, n_bands: int, *,
+                 map_size: int = DEFAULT_LAMP_MAP_SIZE, n_samples: int = DEFAULT_SAMPLES):
+        if not (isinstance(n_samples, (int, np.integer)) and 1 <= n_samples <= 1024):
+            raise AquaspecError(f"lamp samples {n_samples!r}; accepted: an integer 1 ... 1024")
+        self.device = device
+        self.width, self.height, self.n_bands = int(width), int(height), int(n_bands)
+        self.map_size, self.n_samples = int(map_size), int(n_samples)
+        src = load_wgsl("lamps.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
+                        params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
+                        phase_size=PHASE_TABLE_SIZE, profile_size=PROFILE_SIZE,
+                        n_samples=self.n_samples, near=f"{NEAR_M:.9g}", far=f"{FAR_M:.9g}",
+                        bias_texels=f"{BIAS_TEXELS:.9g}",
+                        normal_offset_texels=f"{NORMAL_OFFSET_TEXELS:.9g}",
+                        min_distance=f"{MIN_DISTANCE_M:.9g}", min_range=f"{MIN_RANGE_M:.9g}")
+        module = device.create_shader_module(label="lamps.wgsl", code=src)
+        self._layout = bind_group_layout(device, _BINDINGS)
+        self._pipeline = device.create_compute_pipeline(
+            label="lamps", layout=device.create_pipeline_layout(bind_group_layouts=[self._layout]),
+            compute={"module": module, "entry_point": "main"})
+        self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="lamp params")
+        #: The pass's own image (vec4 per pixel), when no other is given to :meth:`encode`.
+        self.rgb_buffer = create_storage_buffer(device, 16 * self.width * self.height,
+                                                label="lamp rgb")
+        self._shadow_sampler = device.create_sampler(
+            address_mode_u=wgpu.AddressMode.clamp_to_edge,
+            address_mode_v=wgpu.AddressMode.clamp_to_edge,
+            mag_filter=wgpu.FilterMode.nearest, min_filter=wgpu.FilterMode.nearest,
+            compare=wgpu.CompareFunction.less_equal)
+        self._no_maps = DepthMapArray(device, 16, 1, label="no lamp shadows")
+        self._maps = None
+        self._buffers = None
+        self._lamps = []
+        self._faces = []
+        self.shadowed = False
+
+    # ---- inputs ---------------------------------------------------------------
+    def set_inputs(self, lamps, *, response_weights, material_bands, sigmoid_centers_t) -> None:
+        """Upload the lamps (placed in the world; :class:`LampInputs`, one per lamp),
+        the per-band constants and the materials. The per-band water and phase
+        are the first lamp's (a setup gives every lamp the same)."""
+        lamps = list(lamps)
+        n = self.n_bands
+        if not 1 <= len(lamps) <= MAX_LAMPS:
+            raise AquaspecError(f"{len(lamps)} lamps; the lamp pass takes 1 ... {MAX_LAMPS}")
+        for k, inp in enumerate(lamps):
+            if not isinstance(inp, LampInputs) or np.asarray(inp.b).size != n:
+                raise AquaspecError(f"lamps[{k}] must be LampInputs of {n} bands")
+        w = np.asarray(response_weights, dtype=float)
+        if w.shape != (n, 3):
+            raise AquaspecError(f"response_weights has shape {w.shape}; expected ({n}, 3)")
+        first = lamps[0]
+        band = np.zeros((n, 2, 4), np.float32)
+        band[:, 0, 0], band[:, 0, 1], band[:, 0, 2] = first.c_lamp, first.c_view, first.b
+        band[:, 0, 3] = sigmoid_centers_t
+        band[:, 1, :3] = w
+        faces, rows = [], np.zeros(len(lamps), LAMP_DTYPE)
+        for k, inp in enumerate(lamps):
+            lamp = inp.lamp
+            own = lamp_shadow_faces(lamp, self.map_size)
+            rows[k] = (lamp.position, np.cos(lamp.cone_rad), lamp.direction, lamp.cone_rad,
+                       len(faces), len(own), int(lamp.cone_deg < 90.0), 0)
+            faces += own
+        mb = np.asarray(material_bands if material_bands is not None else np.zeros((0, n)),
+                        np.float32).reshape(-1)
+        data = {3: mb if mb.size else np.zeros(4, np.float32), 4: band,
+                5: np.asarray(first.log_phase, np.float32),
+                6: rows, 7: np.stack([np.asarray(i.intensity, np.float32) for i in lamps]),
+                8: np.stack([profile_table(i.lamp) for i in lamps]), 9: face_rows(faces)}
+        self._buffers = {b: create_storage_buffer(self.device, np.ascontiguousarray(arr),
+                                                  label=f"lamps binding {b}")
+                         for b, arr in data.items()}
+        self._lamps, self._faces = lamps, faces
+        if self._maps is None or self._maps.layers != len(faces):
+            self._maps = DepthMapArray(self.device, self.map_size, len(faces),
+                                       label="lamp shadow maps")
+        self.shadowed = False
+
+    # ---- shadows ----------------------------------------------------------------
+    def encode_shadow_maps(self, encoder, raster, scene) -> bool:
+        """Record the lamps' shadow maps of ``scene`` (drawn again only when the
+        faces or the scene's buffers changed); None or an empty scene: nothing
+        is shadowed. Returns whether the maps are read."""
+        if self._buffers is None:
+            raise AquaspecError("LampPass.set_inputs() first")
+        self.shadowed = scene is not None and bool(scene.meshes)
+        if self.shadowed:
+            self._maps.encode(encoder, raster.draws(scene), self._faces)
+        return self.shadowed
+
+    def read_shadow_depths(self, face: int) -> np.ndarray:
+        """Face ``face``'s map as view depths (size, size), m (``inf``: no surface); tests."""
+        z = self._maps.read_raw(face).astype(float)
+        return np.where(z >= 1.0, np.inf, NEAR_M * FAR_M / (FAR_M - z * (FAR_M - NEAR_M)))
+
+    # ---- the light ----------------------------------------------------------------
+    def encode(self, encoder, camera, gbuffer_textures: dict, rgb_buffer=None,
+               timestamp_writes=None) -> None:
+        """Record the lamps' light added into ``rgb_buffer`` (vec4 per pixel; None:
+        the pass's own, cleared first); ``timestamp_writes`` bracket the compute pass."""
+        if self._buffers is None:
+            raise AquaspecError("LampPass.set_inputs() first")
+        if (camera.width, camera.height) != (self.width, self.height):
+            raise AquaspecError(f"camera is {camera.width}x{camera.height}; the lamp pass was "
+                                f"made for {self.width}x{self.height}")
+        if rgb_buffer is None:
+            rgb_buffer = self.rgb_buffer
+            encoder.clear_buffer(rgb_buffer)
+        upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
+            **camera_fields(camera), width=self.width, height=self.height,
+            n_lamps=len(self._lamps), shadowed=int(self.shadowed)))
+        maps = self._maps if self.shadowed else self._no_maps
+        group = self.device.create_bind_group(layout=self._layout, entries=bind_group_entries({
+            0: self._params, 1: gbuffer_textures["surface"].create_view(),
+            2: gbuffer_textures["sigmoid"].create_view(), **self._buffers,
+            10: maps.view, 11: self._shadow_sampler, 12: rgb_buffer}))
+        cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
+        cp.set_pipeline(self._pipeline)
+        cp.set_bind_group(0, group)
+        cp.dispatch_workgroups(-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]))
+        cp.end()
+
+    def read_rgb(self) -> np.ndarray:
+        """The pass's own image (H, W, 3) float32 in camera RGB."""
+        return read_buffer(self.device, self.rgb_buffer, np.float32,
+                           (self.height, self.width, 4))[..., :3]

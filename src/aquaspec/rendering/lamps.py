@@ -1,0 +1,99 @@
+"""The lamps in a render: their GPU pass or their NumPy shadow maps, and their metadata.
+
+:func:`aquaspec.rendering.api.render` takes ``lamps=``: Lamps
+(:class:`aquaspec.light.lamp.Lamp`) or ``--lamp`` specs and presets such as
+``"rov-pair"`` (:func:`aquaspec.light.lamp.parse_lamps`), kept in
+:attr:`aquaspec.rendering.setup.SpectralSetup.lamps`. Their light on
+surfaces, shadowed by a map per lamp, and scattered once towards the camera
+(:mod:`aquaspec.transport.lamp_scattering`) is added to the image: on the
+GPU by a :class:`aquaspec.gpu.passes.lamps.LampPass` over the G-buffer the
+renderer last shaded, in camera RGB (:func:`add_gpu_lamps`); in NumPy by
+:func:`aquaspec.shading.shade.shade_gbuffer` with the arguments of
+:func:`numpy_lamp_terms` (the maps ray cast). An RGB-D photograph casts no
+shadows (nothing is known behind what it shows).
+
+With ``layers=True`` the lamps' veil is part of the backscatter (the image
+with every surface black) and their lit surfaces of the direct signal; the
+``surface``, ``albedo`` and ``transmission`` layers
+(:mod:`aquaspec.rendering.layers`) hold the daylight's terms only.
+
+``view`` below is what :func:`aquaspec.rendering.api.render` sees: its
+``camera``, ``scene``, ``gbuffer`` (an RGB-D photograph's, else None) and
+``from_rgbd``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.gpu.passes.lamps import LampPass
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.lamp_shadow import DEFAULT_LAMP_MAP_SIZE, lamp_depth_maps, lamp_shadow_faces
+from aquaspec.transport.lamp_scattering import DEFAULT_SAMPLES
+
+
+def gpu_lamp_pass(renderer, setup: SpectralSetup, view) -> LampPass:
+    """A lamp pass on ``renderer``'s device with ``setup``'s lamps placed for
+    ``view``'s camera and the per-band constants of its materials."""
+    camera = view.camera
+    lp = LampPass(renderer.deferred.device, camera.width, camera.height, setup.bands.n)
+    medium = setup.medium(view.scene.materials if view.gbuffer is None
+                          else view.gbuffer.materials)
+    lp.set_inputs(setup.lamp_inputs(camera), response_weights=medium["response_weights"],
+                  material_bands=medium["material_bands"],
+                  sigmoid_centers_t=medium["sigmoid_centers_t"])
+    return lp
+
+
+def gpu_lamp_light(renderer, lamp_pass: LampPass, view) -> np.ndarray:
+    """The lamps' light (H, W, 3) float64 in camera RGB for the G-buffer
+    ``renderer`` last shaded, shadowed by ``view``'s scene (not an RGB-D image's)."""
+    dev = renderer.deferred.device
+    enc = dev.create_command_encoder()
+    lamp_pass.encode_shadow_maps(enc, renderer.raster, None if view.from_rgbd else view.scene)
+    lamp_pass.encode(enc, view.camera, renderer.deferred.gbuffer.textures)
+    dev.queue.submit([enc.finish()])
+    return lamp_pass.read_rgb().astype(np.float64)
+
+
+def add_gpu_lamps(shaded, setup: SpectralSetup, view, say=None):
+    """``shaded`` (the GPU's step 3 of :func:`aquaspec.rendering.api.render`,
+    with its ``renderer``, ``linear`` image and ``lamps``) with the lamps'
+    light added and their pass kept in ``shaded.lamps``; as it is without lamps."""
+    if not setup.lamps:
+        return shaded
+    if say is not None:
+        say(f"{len(setup.lamps)} lamp(s): shadow maps, lit surfaces and single scattering "
+            "on the GPU")
+    shaded.lamps = gpu_lamp_pass(shaded.renderer, setup, view)
+    shaded.linear = shaded.linear + gpu_lamp_light(shaded.renderer, shaded.lamps, view)
+    return shaded
+
+
+def numpy_lamp_terms(setup: SpectralSetup, view, say=None) -> dict:
+    """:func:`aquaspec.shading.shade.shade_gbuffer`'s ``lamps`` and
+    ``lamp_shadows`` for ``view`` (per lamp ``(faces, maps)`` ray cast in NumPy,
+    :mod:`aquaspec.scene.lamp_shadow`; none for an RGB-D image); {} without lamps."""
+    if not setup.lamps:
+        return {}
+    lamps = setup.lamp_inputs(view.camera)
+    if view.from_rgbd:
+        return {"lamps": lamps, "lamp_shadows": None}
+    shadows = []
+    for inp in lamps:
+        faces = lamp_shadow_faces(inp.lamp)
+        if say is not None:
+            say(f"lamp {inp.lamp.name!r}: {len(faces)} shadow map face(s) of "
+                f"{DEFAULT_LAMP_MAP_SIZE}x{DEFAULT_LAMP_MAP_SIZE} texels (NumPy)")
+        shadows.append((faces, lamp_depth_maps(view.scene, faces)))
+    return {"lamps": lamps, "lamp_shadows": shadows}
+
+
+def lamp_params(setup: SpectralSetup, view) -> dict:
+    """How the lamps were rendered, for a render's metadata ({} without lamps)."""
+    if not setup.lamps:
+        return {}
+    return {"lamp_rendering": {
+        "shadow_map_texels": None if view.from_rgbd else DEFAULT_LAMP_MAP_SIZE,
+        "single_scattering_samples": DEFAULT_SAMPLES,
+        "placed": [inp.lamp.describe() for inp in setup.lamp_inputs(view.camera)]}}
