@@ -136,8 +136,13 @@ def test_half_scale_renders_half_and_stretches_to_the_canvas(canvas_and_view):
     cam, full = view.camera(), view.flight.camera()
     assert cam.fx == pytest.approx(full.fx / 2) and cam.cx == pytest.approx(full.cx / 2)
     _key(view, "]")                                # back up the ladder, auto off
+    # Frames on screen: the new size's renderer is made off the frame thread,
+    # the frames going on at the old size meanwhile.
+    assert view._scale_pending[0] == (48, 28) and "48x28 being made" in view.status()
+    view._scale_pending[1].result(timeout=120)
     canvas.draw()
     assert (view.renderer.width, view.renderer.height) == (48, 28)
+    assert view._scale_pending is None
     assert view.render_scale.target_fps is None
 
 
@@ -193,6 +198,7 @@ def test_an_rgbd_view_saves_renders_at_scale_and_moves_only_in_depth(device, tmp
         assert side["scene"]["kind"] == "rgbd" and side["scene"]["rgbd_image"] == photo[0]
         assert side["camera"]["position_m"][1] == pytest.approx(y)
         view.use_scale(0.5)
+        view._scale_pending[1].result(timeout=120)
         image = np.asarray(canvas.draw())[..., :3]
         assert (view.renderer.width, view.renderer.height) == (W // 2, H // 2)
         # The photograph's warm left half and blue right half survive the scaling.

@@ -141,6 +141,7 @@ class LiveView:
         self.render_scale = RenderScale()
         self._renderers = {(s.width, s.height): self.renderer}
         self._photos = {}           # an RGB-D photograph at each render size
+        self._scale_pending = None  # (size, Future of its renderer) made on the worker thread
         self._setups: dict = {}
         self.water = s.water
         self.setup = self._setup(s.water)
@@ -221,15 +222,29 @@ class LiveView:
         setup.medium(self.scene.materials)
         if camera is None:
             return setup, None
+        return setup, self._compiled_renderer(camera, setup, display)
+
+    def _compiled_renderer(self, camera, setup: SpectralSetup, display) -> Renderer:
+        """A renderer of ``camera``'s size for ``setup`` shown with ``display``,
+        its passes compiled by drawing one frame (seconds on lavapipe): what
+        a worker thread makes while the frames go on."""
         # A renderer no other thread holds yet: only the device is shared.
-        renderer = Renderer(camera.width, camera.height, settings.bands)
+        renderer = Renderer(camera.width, camera.height, setup.bands.n)
         renderer.set_spectral(setup, self.scene.materials)
         renderer.set_display(display)
+        if setup.waves is not None:     # (the moving sea's pass compiled here too)
+            renderer.set_wave_time(self.time_s, progressive=self.progressive_waves)
         encoder = renderer.encode_frame(self.device.create_command_encoder(), self.shown(camera),
                                         camera, setup)
         self.device.queue.submit([encoder.finish()])
         renderer.wait()
-        return setup, renderer
+        return renderer
+
+    def _worker(self) -> ThreadPoolExecutor:
+        """The thread that makes setups and renderers off the frame thread."""
+        if self._workers is None:
+            self._workers = ThreadPoolExecutor(max_workers=1, thread_name_prefix="aquaspec-water")
+        return self._workers
 
     @property
     def pending(self):
@@ -259,14 +274,12 @@ class LiveView:
             self._pending = None
             self._use(water, settings)
             return
-        if self._workers is None:
-            self._workers = ThreadPoolExecutor(max_workers=1, thread_name_prefix="aquaspec-water")
         # A new band count, or a first sun (its passes compiled), is a new renderer.
         fresh = settings.bands != self.settings.bands or (settings.has_sun
                                                            and self.renderer.sun is None)
         camera = self.camera() if fresh and self.display_settings is not None else None
-        self._pending = (key, self._workers.submit(self._prepared_setup, water, settings, camera,
-                                                   self.display_settings))
+        self._pending = (key, self._worker().submit(self._prepared_setup, water, settings, camera,
+                                                    self.display_settings))
         self._pending_t0 = time.perf_counter()
         new = [f.name for f in dataclasses.fields(settings)
                if getattr(settings, f.name) != getattr(self.settings, f.name)]
@@ -303,11 +316,33 @@ class LiveView:
         self.settings = settings
         if renderer is not None and renderer.deferred.n_bands == settings.bands:
             self._renderers = {(renderer.width, renderer.height): renderer}
-            self.use_scale()
+            self.use_scale(wait=True)
         elif bands_changed:
             self._renderers = {}
-            self.use_scale()
+            self.use_scale(wait=True)
         self.set_water(water)
+
+    def _poll_scale(self) -> None:
+        """Take a new size's renderer made on the worker thread once it is ready
+        (brought up to the setup and display in use; dropped if the band
+        count changed meanwhile)."""
+        if self._scale_pending is None or not self._scale_pending[1].done():
+            return
+        size, future = self._scale_pending
+        self._scale_pending = None
+        try:
+            r = future.result()
+        except AquaspecError as exc:
+            self.message = f"render scale: {exc}"
+            return
+        if r.deferred.n_bands != self.settings.bands:
+            return
+        r.set_spectral(self.setup, self.scene.materials)
+        r.set_display(self.display_settings)
+        self._renderers[size] = r
+        if scaled_size(self.settings.width, self.settings.height,
+                       self.render_scale.scale) == size:
+            self.renderer = r
 
     def save_frame(self) -> dict | None:
         """Save the current frame into :attr:`save_dir` as ``aquaspec render``
@@ -361,15 +396,26 @@ class LiveView:
                     "intrinsics": list(s.rgbd[2])}
         return {"kind": "mesh", "mesh": s.mesh} if s.mesh else {"kind": "builtin"}
 
-    def use_scale(self, scale: float | None = None) -> None:
+    def use_scale(self, scale: float | None = None, *, wait: bool = False) -> None:
         """Render at :attr:`render_scale` (set to ``scale`` if given): the
         renderer of that size, made the first time (its passes compiled, the
-        setup and display settings uploaded) and kept."""
+        setup and display settings uploaded) and kept. Once frames are on
+        screen a new size's renderer is made on the worker thread while the
+        frames go on at the old size (:meth:`_poll_scale` takes it); before
+        the first frame, or with ``wait``, it is made here."""
         if scale is not None:
             self.render_scale = RenderScale(scale, self.render_scale.target_fps)
         s = self.settings
         size = scaled_size(s.width, s.height, self.render_scale.scale)
-        if size not in self._renderers:
+        if size in self._renderers:
+            self._scale_pending = None
+        elif not wait and self.frame_index > 0 and self.display_settings is not None:
+            if self._scale_pending is None or self._scale_pending[0] != size:
+                camera = self.flight.camera().resized(*size)
+                self._scale_pending = (size, self._worker().submit(
+                    self._compiled_renderer, camera, self.setup, self.display_settings))
+            return
+        else:
             self._say(f"render scale {self.render_scale.scale:g}: a {size[0]}x{size[1]} "
                       "renderer ...")
             r = Renderer(*size, s.bands)
@@ -492,13 +538,16 @@ class LiveView:
             self.frame_ms = ms if self.frame_ms is None else \
                 (1 - FPS_SMOOTHING) * self.frame_ms + FPS_SMOOTHING * ms
             # (A frame timed pass by pass waited for each pass: not judged.)
-            if (self.frame_index - 1) % PROFILE_EVERY and self.render_scale.observe(ms):
+            # (While a new size's renderer is made the frames are the old size's: not judged.)
+            if ((self.frame_index - 1) % PROFILE_EVERY and self._scale_pending is None
+                    and self.render_scale.observe(ms)):
                 self.use_scale()
         self._last = now
         if self.script is not None:
             self.apply_script(self.frame_index)
         else:
             self._poll_setup()
+            self._poll_scale()
             self.flight.advance(dt)
             self.time_s += dt * self.wave_speed
         profile = self.frame_index % PROFILE_EVERY == 0
@@ -547,7 +596,9 @@ class LiveView:
         rs = self.render_scale
         scale = (f"{self.renderer.width}x{self.renderer.height}"
                  + (f" (scale {rs.scale:g}{', auto' if rs.target_fps else ''})"
-                    if rs.scale != 1.0 or rs.target_fps else ""))
+                    if rs.scale != 1.0 or rs.target_fps else "")
+                 + ("" if self._scale_pending is None else
+                    " -> {}x{} being made".format(*self._scale_pending[0])))
         return [f"{fps} fps at {scale} | Jerlov {self.water}, {s.bands} bands, {s.ms_model}, "
                 f"{light}, EV {self.ev_offset:+g} from auto",
                 f"ms: {passes or '-'}",

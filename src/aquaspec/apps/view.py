@@ -85,10 +85,26 @@ def _summary(view: LiveView, walls_ms: list, mode: str) -> dict:
               and k > 0 and walls_ms[k - 1][2] == s]
     median = float(np.median(steady)) if steady else None
     return {"mode": mode, "frames_drawn": view.frame_index,
+            "slowest_second_fps": _slowest_second_fps([ms for _, ms, _ in walls_ms]),
             "render_size": [view.renderer.width, view.renderer.height],
             "render_scale": view.render_scale.scale,
             "median_frame_ms": median, "fps": None if not median else 1e3 / median,
             "pass_ms": dict(view.pass_ms), "final": view.pose()}
+
+
+def _slowest_second_fps(frame_ms: list, skip_s: float = 1.0) -> float | None:
+    """The fewest frames finished in any one second ending with a frame, after
+    the first ``skip_s`` seconds (pipelines compiled, the automatic scale settling):
+    what a user sees at the worst moment, stalls and all. None if the run
+    was too short to hold a whole second after them."""
+    ends = np.cumsum(np.asarray(frame_ms, dtype=float)) / 1e3
+    if ends.size == 0 or ends[-1] < skip_s + 1.0:
+        return None
+    # For each window (t - 1 s, t] ending at a frame after skip_s + 1 s: frames in it.
+    last = ends[ends >= skip_s + 1.0]
+    first = np.searchsorted(ends, last - 1.0, side="right")
+    counts = np.searchsorted(ends, last, side="right") - first
+    return float(counts.min())
 
 
 def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,

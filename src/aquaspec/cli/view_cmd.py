@@ -147,6 +147,8 @@ def run(args):
           f"depth {final['depth_m']:.2f} m, position "
           f"({', '.join(f'{v:.2f}' for v in final['position_m'])}) m"
           + ("" if args.record is None else f"; recorded in {args.record}"))
+    if summary["slowest_second_fps"] is not None:
+        print(f"slowest second: {summary['slowest_second_fps']:.0f} frames")
     if summary["pass_ms"]:
         print("last frame timed pass by pass (ms): "
               + ", ".join(f"{k} {v:.1f}" for k, v in summary["pass_ms"].items()))
