@@ -59,3 +59,23 @@ def test_lamps_on_the_gpu_and_in_numpy(tmp_path):
     gpu, ref = np.load(lin_gpu), np.load(lin_np)
     assert np.all(np.isfinite(gpu)) and ref.max() > 0
     np.testing.assert_allclose(gpu, ref, atol=IMAGE_ATOL_OF_MAX * ref.max())
+
+
+@pytest.mark.gpu
+def test_lamps_in_the_layers():
+    """With lamps the backscatter layer (every surface black) holds their veil and
+    not their lit surfaces: it is the NumPy backend's, and the direct signal
+    (image - backscatter) is not negative (a camera's RGB; the human observer's
+    linear sRGB has negative reds for cyan surfaces)."""
+    from aquaspec.rendering.api import render
+    kw = dict(water="II", depth_m=40, size=(48, 27), bands=4, light="none",
+              lamps=["rov-pair"], exposure=0, layers=True, sensor="nikon-5100-npl")
+    gpu, ref = render(**kw), render(**kw, backend="numpy")
+    back, back_ref = gpu.layers["backscatter"], ref.layers["backscatter"]
+    np.testing.assert_allclose(back, back_ref, atol=IMAGE_ATOL_OF_MAX * back_ref.max())
+    assert gpu.layers["direct"].min() > -IMAGE_ATOL_OF_MAX * gpu.linear_rgb.max()
+    hit = gpu.layers["range_m"] > 0
+    # Surfaces the lamps reach are brighter than their veil (those outside the
+    # cones or in shadows are not).
+    lit = back[hit].sum(-1) < 0.9 * gpu.linear_rgb[hit].sum(-1)
+    assert lit.mean() > 0.3

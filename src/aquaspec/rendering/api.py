@@ -543,7 +543,7 @@ def _layers(setup: SpectralSetup, view: _View, shaded: _Shaded, backend, say) ->
         back = r.render_gbuffer(black_gbuffer(shaded.gbuffer), setup, say,
                                 sun_scene=None if view.from_rgbd else view.scene
                                 ).astype(np.float64)
-        back += gpu_lamp_light(r, shaded.lamps, view) if setup.lamps else 0.0
+        back += gpu_lamp_light(r, shaded.lamps, view, surfaces=False) if setup.lamps else 0.0
     else:
         black = black_gbuffer(shaded.gbuffer)
         back = shade_gbuffer(black, **setup.medium(black.materials),

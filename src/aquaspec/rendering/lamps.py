@@ -45,13 +45,14 @@ def gpu_lamp_pass(renderer, setup: SpectralSetup, view) -> LampPass:
     return lp
 
 
-def gpu_lamp_light(renderer, lamp_pass: LampPass, view) -> np.ndarray:
+def gpu_lamp_light(renderer, lamp_pass: LampPass, view, *, surfaces: bool = True) -> np.ndarray:
     """The lamps' light (H, W, 3) float64 in camera RGB for the G-buffer
-    ``renderer`` last shaded, shadowed by ``view``'s scene (not an RGB-D image's)."""
+    ``renderer`` last shaded, shadowed by ``view``'s scene (not an RGB-D
+    image's); ``surfaces=False``: every surface black (the backscatter layer)."""
     dev = renderer.deferred.device
     enc = dev.create_command_encoder()
     lamp_pass.encode_shadow_maps(enc, renderer.raster, None if view.from_rgbd else view.scene)
-    lamp_pass.encode(enc, view.camera, renderer.deferred.gbuffer.textures)
+    lamp_pass.encode(enc, view.camera, renderer.deferred.gbuffer.textures, surfaces=surfaces)
     dev.queue.submit([enc.finish()])
     return lamp_pass.read_rgb().astype(np.float64)
 

@@ -46,6 +46,7 @@ from aquaspec.transport.sun_scattering import PHASE_TABLE_SIZE
 
 PARAMS_LAYOUT = UniformLayout("LampParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_lamps", "u32"), ("shadowed", "u32"),
+    ("surfaces", "u32"),
 ])
 #: One lamp as lamps.wgsl's ``LampGpu``.
 LAMP_DTYPE = np.dtype([("position", np.float32, 3), ("cos_cut", np.float32),
@@ -188,9 +189,11 @@ class LampPass:
 
     # ---- the light ----------------------------------------------------------------
     def encode(self, encoder, camera, gbuffer_textures: dict, rgb_buffer=None,
-               timestamp_writes=None) -> None:
+               timestamp_writes=None, *, surfaces: bool = True) -> None:
         """Record the lamps' light added into ``rgb_buffer`` (vec4 per pixel; None:
-        the pass's own, cleared first); ``timestamp_writes`` bracket the compute pass."""
+        the pass's own, cleared first); ``timestamp_writes`` bracket the compute pass.
+        ``surfaces=False``: the water's light alone, every surface black (the
+        backscatter layer; the rays still end on the surfaces)."""
         if self._buffers is None:
             raise AquaspecError("LampPass.set_inputs() first")
         if (camera.width, camera.height) != (self.width, self.height):
@@ -201,7 +204,7 @@ class LampPass:
             encoder.clear_buffer(rgb_buffer)
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
             **camera_fields(camera), width=self.width, height=self.height,
-            n_lamps=len(self._lamps), shadowed=int(self.shadowed)))
+            n_lamps=len(self._lamps), shadowed=int(self.shadowed), surfaces=int(surfaces)))
         maps = self._maps if self.shadowed else self._no_maps
         group = self.device.create_bind_group(layout=self._layout, entries=bind_group_entries({
             0: self._params, 1: gbuffer_textures["surface"].create_view(),

@@ -251,7 +251,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let pos = lp.position + v * s;
     for (var k = 0u; k < lp.n_lamps; k = k + 1u) {
         acc = acc + lamp_veil(k, v, s);
-        if (!hit) {
+        if (!hit || lp.surfaces == 0u) {
             continue;
         }
         let lamp = lamps[k];
