@@ -89,6 +89,32 @@ class TestScriptMode:
         centre, corner = frame[16:20, 30:34].mean(axis=(0, 1)), frame[:4, :4].mean(axis=(0, 1))
         assert np.abs(centre - corner).max() > 10
 
+    def test_a_mesh_on_a_seabed_with_an_albedo(self, tmp_path):
+        """--seabed 6,0.5 under a cube at 4 m: the plane fills the bottom of the
+        frame where open water was, brighter than it (the exposure is set by
+        each run's first frame, so the bottom is compared with the top); a red
+        --albedo makes the cube redder than the white one."""
+        import trimesh
+        cube = tmp_path / "cube.obj"
+        trimesh.creation.box(extents=(1.0, 1.0, 1.0)).export(cube)
+        frames = {}
+        for name, extra in (("open", []), ("bed", ["--seabed", "6,0.5"]),
+                            ("red", ["--seabed", "6,0.5", "--albedo", "0.8,0.2,0.2"])):
+            out = tmp_path / name
+            assert main(["view", "--offscreen", "--frames", "1", "--record", str(out),
+                         "--mesh", str(cube), "--depth", "4", "--size", "64x36", "--bands",
+                         "4", *extra]) == 0
+            run = json.loads((out / "run.json").read_text())
+            frames[name] = np.asarray(Image.open(out / run["frames"][0]["file"])).astype(float)
+        assert run["settings"]["seabed"] == [6.0, 0.5]
+        assert run["settings"]["albedo"] == [0.8, 0.2, 0.2]
+
+        def bottom_over_top(im):
+            return im[-4:].mean() / im[:4].mean()
+        assert bottom_over_top(frames["bed"]) > 1.1 * bottom_over_top(frames["open"])
+        cube_rgb = {k: frames[k][16:20, 30:34].mean(axis=(0, 1)) for k in ("bed", "red")}
+        assert cube_rgb["red"][0] / cube_rgb["red"][2] > cube_rgb["bed"][0] / cube_rgb["bed"][2]
+
     def test_an_rgbd_photograph_seen_deeper(self, tmp_path):
         """--rgbd: the photograph's own view at its own size; the script takes
         the camera from 2 to 8 m (exposure held): the whole frame darkens and
@@ -139,6 +165,11 @@ class TestOptions:
          "a view shows one of them"),
         (["--rgbd", "missing.png", "d.npy", "--intrinsics", "1,1,1,1"],
          "could not read image file 'missing.png'"),
+        (["--seabed", "12"], "a seabed goes with a mesh or an RGB-D photograph"),
+        (["--albedo", "0.5,0.5,0.5"], "albedo replaces a mesh's colours"),
+        (["--mesh", "m.obj", "--albedo", "0.5,2,0.5"], "three numbers in [0, 1]"),
+        (["--mesh", "m.obj", "--seabed", "3", "--depth", "5"], "not below the camera at 5 m"),
+        (["--mesh", "m.obj", "--seabed", "-3"], "--seabed '-3'; accepted: DEPTH[,ALBEDO]"),
     ])
     def test_bad_combinations_are_refused_before_rendering(self, args, message, capsys):
         assert main(["view", *args]) == 2

@@ -70,6 +70,7 @@ from aquaspec.scene.builtin import builtin_scene
 from aquaspec.scene.gbuffer import GBuffer
 from aquaspec.scene.load import load_mesh, place_in_front
 from aquaspec.scene.rgbd import gbuffer_from_rgbd, load_rgbd
+from aquaspec.scene.seabed import Seabed, plane_radius_m, with_seabed_plane
 
 #: Spectral setups kept for switching back (the oldest others dropped).
 KEEP_SETUPS = 12
@@ -119,18 +120,27 @@ class LiveView:
             # Its highest point stays under the surface as the camera rises.
             rise = max(0.0, float(np.max(photo.positions()[photo.hit][:, 1], initial=-np.inf)
                                   - photo.camera.position[1]))
-            self.flight = FlightController(photo.camera, fixed_view=True,
-                                           surface_margin_m=SURFACE_MARGIN_M + rise)
-            self.seabed = None
+            #: The light field's seabed, or None.
+            self.seabed = None if s.seabed is None else Seabed(*s.seabed)
+            # ... and its lowest point stays above the seabed.
+            drop = max(0.0, float(photo.camera.position[1]
+                                  - np.min(photo.positions()[photo.hit][:, 1], initial=np.inf)))
+            self.flight = FlightController(
+                photo.camera, fixed_view=True, surface_margin_m=SURFACE_MARGIN_M + rise,
+                seabed_depth_m=None if self.seabed is None else self.seabed.depth_m - drop)
         else:
             if s.mesh is None:
                 self.scene, start = builtin_scene(s.depth_m, width=s.width, height=s.height)
             else:
                 self._say(f"loading {s.mesh} ...")
-                self.scene = place_in_front(load_mesh(s.mesh), depth_m=s.depth_m,
-                                            width=s.width, height=s.height)
+                self.scene = place_in_front(load_mesh(s.mesh, albedo=s.albedo),
+                                            depth_m=s.depth_m, width=s.width, height=s.height)
                 start = self.scene.camera
-            #: The light field's seabed (the scene's), or None.
+                if s.seabed is not None:
+                    # Out to 0.9 of the far plane: no water the panel offers shows its edge.
+                    radius = plane_radius_m([0.0], below_camera_m=s.seabed[0] - s.depth_m,
+                                            far_m=start.far)
+                    self.scene = with_seabed_plane(self.scene, Seabed(*s.seabed), start, radius)
             self.seabed = self.scene.seabed
             self.flight = FlightController(
                 start, seabed_depth_m=None if self.seabed is None else self.seabed.depth_m,
@@ -392,9 +402,13 @@ class LiveView:
         """What the view shows, for a sidecar (as ``aquaspec render`` says it)."""
         s = self.settings
         if s.rgbd is not None:
-            return {"kind": "rgbd", "rgbd_image": s.rgbd[0], "rgbd_depth": s.rgbd[1],
-                    "intrinsics": list(s.rgbd[2])}
-        return {"kind": "mesh", "mesh": s.mesh} if s.mesh else {"kind": "builtin"}
+            out = {"kind": "rgbd", "rgbd_image": s.rgbd[0], "rgbd_depth": s.rgbd[1],
+                   "intrinsics": list(s.rgbd[2])}
+        else:
+            out = {"kind": "mesh", "mesh": s.mesh} if s.mesh else {"kind": "builtin"}
+        if s.seabed is not None:
+            out["seabed"] = {"depth_m": s.seabed[0], "albedo": s.seabed[1]}
+        return out
 
     def use_scale(self, scale: float | None = None, *, wait: bool = False) -> None:
         """Render at :attr:`render_scale` (set to ``scale`` if given): the

@@ -19,6 +19,7 @@ from aquaspec.medium.phase import PHASE_FUNCTIONS
 from aquaspec.medium.water import DEFAULT_SOURCE, SOURCES
 from aquaspec.rendering.appearance import check_ms_model
 from aquaspec.scene.camera import check_size
+from aquaspec.scene.seabed import Seabed
 from aquaspec.transport.models import DEFAULT_MS_MODEL
 
 #: Below this sun elevation (degrees) the light is the overcast sky.
@@ -63,9 +64,33 @@ class ViewSettings:
     #: :func:`~aquaspec.scene.rgbd.gbuffer_from_rgbd` take them; the view is
     #: the photograph's own (the camera moves only up and down).
     rgbd: tuple | None = None
+    #: Linear RGB albedo replacing the mesh's colours (as ``render(albedo=)``).
+    albedo: tuple | None = None
+    #: ``(depth_m, albedo)``: a flat grey seabed, the light field's lower
+    #: boundary, on which a mesh stands (a plane out to 0.9 of the camera's far
+    #: plane); None: the built-in scene's sand, or deep water under a mesh or
+    #: a photograph.
+    seabed: tuple | None = None
 
     def __post_init__(self):
         check_size(self.width, self.height)
+        if self.albedo is not None:
+            if self.mesh is None:
+                raise AquaspecError("albedo replaces a mesh's colours: it needs a mesh")
+            albedo = tuple(float(v) for v in self.albedo)
+            if len(albedo) != 3 or not all(0.0 <= v <= 1.0 for v in albedo):
+                raise AquaspecError(f"albedo {self.albedo!r}; accepted: three numbers in [0, 1]")
+            object.__setattr__(self, "albedo", albedo)
+        if self.seabed is not None:
+            if self.mesh is None and self.rgbd is None:
+                raise AquaspecError("the built-in scene has its own sand: a seabed goes with a "
+                                    "mesh or an RGB-D photograph")
+            depth, grey = (float(v) for v in self.seabed)
+            Seabed(depth, grey)                 # checked there
+            if depth <= self.depth_m:
+                raise AquaspecError(f"the seabed at {depth:g} m is not below the camera at "
+                                    f"{self.depth_m:g} m; accepted: a deeper seabed")
+            object.__setattr__(self, "seabed", (depth, grey))
         if self.rgbd is not None:
             if self.mesh is not None:
                 raise AquaspecError("a view shows a mesh or an RGB-D photograph, not both")

@@ -8,7 +8,8 @@ import sys
 from aquaspec.cli.common import (DEFAULT_SUN_ELEVATION_DEG, MAX_OCEAN_DEPTH_M,
                                  add_camspec_option, add_rgbd_options,
                                  add_spread_scattering_option, band_count, check_camspec,
-                                 depth_metres, finite_float, rgbd_from, sun_from)
+                                 comma_floats, depth_metres, finite_float, parse_depth_albedo,
+                                 rgbd_from, sun_from)
 from aquaspec.apps.scale import SCALE_LEVELS
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
@@ -74,6 +75,13 @@ def register(sub):
     p.add_argument("--mesh", metavar="FILE",
                    help="show this OBJ/PLY/glTF/GLB/STL/OFF instead of the built-in scene, "
                         "placed 3 m in front of the camera at --depth, in open water")
+    p.add_argument("--albedo", metavar="R,G,B",
+                   help="linear RGB albedo for --mesh, e.g. 0.5,0.4,0.3 (as for render)")
+    p.add_argument("--seabed", default=None, metavar="DEPTH[,ALBEDO]",
+                   help="with --mesh or --rgbd: a flat seabed DEPTH m below the surface with a "
+                        "grey ALBEDO (default 0.2), the light field's lower boundary; a mesh "
+                        "stands on it (a plane out to where the water hides it), as for render "
+                        "(default: none, deep water; the built-in scene has its sand)")
     add_rgbd_options(p, "show this photograph through the water instead of a scene, from its "
                         "own camera (Q/E move it up and down; the rest of the flight is off)")
     p.add_argument("--size", default=None, metavar="WxH",
@@ -134,7 +142,11 @@ def run(args):
         sensor=args.sensor, camspec=check_camspec(args.camspec), ms_model=args.ms_model,
         cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
         sun_elevation_deg=elevation if args.light == "sun-sky" else _OVERCAST_ELEVATION,
-        sun_azimuth_deg=azimuth, wind=args.wind, mesh=args.mesh, rgbd=rgbd)
+        sun_azimuth_deg=azimuth, wind=args.wind, mesh=args.mesh, rgbd=rgbd,
+        albedo=comma_floats(args.albedo, 3, "--albedo") if args.albedo else None,
+        seabed=None if args.seabed is None else parse_depth_albedo(
+            args.seabed, "--seabed", "DEPTH[,ALBEDO] in metres (> 0) and [0, 1], e.g. 12 or "
+            "12,0.3"))
     summary = run_view(settings, offscreen=args.offscreen, script=args.script,
                        frames=args.frames, record=args.record, mp4=args.mp4,
                        save_dir=args.save_dir, scale=args.scale, target_fps=args.target_fps,
