@@ -29,13 +29,10 @@ size, made when first needed and kept; the camera's intrinsics scaled) and
 the present pass stretches the image over the canvas; with a target frame
 rate the scale follows the frame times.
 
-The scene is fixed when the view starts (``builtin_scene(depth_m)``: the
-camera 1.5 m above the sand; a mesh file placed in front of the camera in
-open water; or an RGB-D photograph's G-buffer, seen from its own camera,
-which then moves only up and down); the camera flies within it, bounded by the surface, the light
-field's seabed (if any) and the scene's floor
-(:class:`aquaspec.apps.floor.FloorMap`: it cannot fly into the sand or a
-rock). Exposure and white balance are set automatically from the first
+The scene is fixed when the view starts (:mod:`aquaspec.apps.view_scene`:
+the built-in scene, a mesh, or an RGB-D photograph seen from its own camera);
+the camera flies within it, bounded by the surface, the seabed and the floor.
+Exposure and white balance are set automatically from the first
 frame and then held (plus an offset from the keys), so that frames compare.
 A change of physics (the number keys, the controls panel of
 :mod:`aquaspec.apps.controls`) is made on a worker thread while the frames go
@@ -51,12 +48,11 @@ from pathlib import Path
 
 import numpy as np
 
-from aquaspec.apps.flight import SURFACE_MARGIN_M, FlightController
-from aquaspec.apps.floor import FloorMap
 from aquaspec.apps.overlay import text_overlay
 from aquaspec.apps.record import save_snapshot
 from aquaspec.apps.scale import SCALE_LEVELS, RenderScale, scaled_size
 from aquaspec.apps.settings import ViewSettings
+from aquaspec.apps.view_scene import ViewScene
 from aquaspec.colour.bands import Bands
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
@@ -66,11 +62,6 @@ from aquaspec.light.waves import Waves
 from aquaspec.medium.water import JERLOV_TYPES, get_water
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.setup import SpectralSetup
-from aquaspec.scene.builtin import builtin_scene
-from aquaspec.scene.gbuffer import GBuffer
-from aquaspec.scene.load import load_mesh, place_in_front
-from aquaspec.scene.rgbd import gbuffer_from_rgbd, load_rgbd
-from aquaspec.scene.seabed import Seabed, plane_radius_m, with_seabed_plane
 
 #: Spectral setups kept for switching back (the oldest others dropped).
 KEEP_SETUPS = 12
@@ -105,52 +96,18 @@ class LiveView:
         self.settings = settings
         self._say = progress or (lambda message: None)
         s = settings
-        if s.rgbd is not None:
-            self._say(f"reading the RGB-D photograph {s.rgbd[0]} ...")
-            photo = gbuffer_from_rgbd(*load_rgbd(s.rgbd[0], s.rgbd[1]), s.rgbd[2],
-                                      camera_depth_m=s.depth_m)
-            w, h = photo.camera.width, photo.camera.height
-            if abs(s.width / s.height - w / h) > 0.01 * w / h:
-                raise AquaspecError(f"the photograph is {w}x{h}; a {s.width}x{s.height} view "
-                                    "would stretch it: accepted, a size of its aspect ratio")
-            photo = photo.resized(s.width, s.height)
-            #: What the frames show: a :class:`~aquaspec.scene.mesh.Scene` or
-            #: an RGB-D photograph's :class:`~aquaspec.scene.gbuffer.GBuffer`.
-            self.scene = photo
-            # Its highest point stays under the surface as the camera rises.
-            rise = max(0.0, float(np.max(photo.positions()[photo.hit][:, 1], initial=-np.inf)
-                                  - photo.camera.position[1]))
-            #: The light field's seabed, or None.
-            self.seabed = None if s.seabed is None else Seabed(*s.seabed)
-            # ... and its lowest point stays above the seabed.
-            drop = max(0.0, float(photo.camera.position[1]
-                                  - np.min(photo.positions()[photo.hit][:, 1], initial=np.inf)))
-            self.flight = FlightController(
-                photo.camera, fixed_view=True, surface_margin_m=SURFACE_MARGIN_M + rise,
-                seabed_depth_m=None if self.seabed is None else self.seabed.depth_m - drop)
-        else:
-            if s.mesh is None:
-                self.scene, start = builtin_scene(s.depth_m, width=s.width, height=s.height)
-            else:
-                self._say(f"loading {s.mesh} ...")
-                self.scene = place_in_front(load_mesh(s.mesh, albedo=s.albedo),
-                                            depth_m=s.depth_m, width=s.width, height=s.height)
-                start = self.scene.camera
-                if s.seabed is not None:
-                    # Out to 0.9 of the far plane: no water the panel offers shows its edge.
-                    radius = plane_radius_m([0.0], below_camera_m=s.seabed[0] - s.depth_m,
-                                            far_m=start.far)
-                    self.scene = with_seabed_plane(self.scene, Seabed(*s.seabed), start, radius)
-            self.seabed = self.scene.seabed
-            self.flight = FlightController(
-                start, seabed_depth_m=None if self.seabed is None else self.seabed.depth_m,
-                floor=FloorMap.from_scene(self.scene))
+        #: The scene (or photograph), seabed and flight (:mod:`aquaspec.apps.view_scene`).
+        self.view_scene = ViewScene(s, self._say)
+        #: What the frames show: a :class:`~aquaspec.scene.mesh.Scene` or an
+        #: RGB-D photograph's :class:`~aquaspec.scene.gbuffer.GBuffer`.
+        self.scene = self.view_scene.scene
+        self.seabed = self.view_scene.seabed
+        self.flight = self.view_scene.flight
         self.renderer = Renderer(s.width, s.height, s.bands)
         self.device = self.renderer.deferred.device
         #: The render scale (:mod:`aquaspec.apps.scale`): fixed at 1 unless set.
         self.render_scale = RenderScale()
         self._renderers = {(s.width, s.height): self.renderer}
-        self._photos = {}           # an RGB-D photograph at each render size
         self._scale_pending = None  # (size, Future of its renderer) made on the worker thread
         self._setups: dict = {}
         self.water = s.water
@@ -389,26 +346,8 @@ class LiveView:
         return self.flight.camera().resized(self.renderer.width, self.renderer.height)
 
     def shown(self, camera):
-        """What a frame of ``camera``'s size shows: the scene, or the RGB-D
-        photograph at that size (made once per size)."""
-        if not isinstance(self.scene, GBuffer):
-            return self.scene
-        size = (camera.width, camera.height)
-        if size not in self._photos:
-            self._photos[size] = self.scene.resized(*size)
-        return self._photos[size]
-
-    def describe_source(self) -> dict:
-        """What the view shows, for a sidecar (as ``aquaspec render`` says it)."""
-        s = self.settings
-        if s.rgbd is not None:
-            out = {"kind": "rgbd", "rgbd_image": s.rgbd[0], "rgbd_depth": s.rgbd[1],
-                   "intrinsics": list(s.rgbd[2])}
-        else:
-            out = {"kind": "mesh", "mesh": s.mesh} if s.mesh else {"kind": "builtin"}
-        if s.seabed is not None:
-            out["seabed"] = {"depth_m": s.seabed[0], "albedo": s.seabed[1]}
-        return out
+        """What a frame of ``camera``'s size shows (:meth:`ViewScene.at_size`)."""
+        return self.view_scene.at_size(camera.width, camera.height)
 
     def use_scale(self, scale: float | None = None, *, wait: bool = False) -> None:
         """Render at :attr:`render_scale` (set to ``scale`` if given): the

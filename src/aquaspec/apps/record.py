@@ -134,7 +134,7 @@ def save_snapshot(view, directory) -> dict:
     stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%d-%H%M%S-%f")[:-3]
     base = folder / f"aquaspec-view-{stamp}"
     params = {**view.setup.describe(), "depth_m": camera.depth_m, "camera": camera.describe(),
-              "scene": view.describe_source(), "backend": "gpu", "display": view.display_settings,
+              "scene": view.view_scene.describe(), "backend": "gpu", "display": view.display_settings,
               "adapter": adapter_info(), "command": "view", "view": view.pose()}
     return save_image(base.with_suffix(".png"), shown, linear, params,
                       linear_path=base.with_suffix(".exr"))
