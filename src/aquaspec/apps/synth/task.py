@@ -7,6 +7,11 @@ objects of each group (water, sensor, light, waves) and a
 so the compiled passes and the light-field tables are made once per worker
 and group (:func:`aquaspec.rendering.api.render` with ``renderer=``).
 
+A sample's files are written on a thread of the worker while the next
+sample renders; they are written as :func:`aquaspec.io.save.save_image`
+writes them, atomically and the sidecar last, so a killed worker leaves
+only temporary files of the sample it was writing.
+
 A sample's outputs carry no time stamp and no timing (``timestamp`` is
 null, ``render_seconds`` dropped), so the same sample gives the same bytes
 on every run and every worker; times are in the run's summary. The
@@ -25,6 +30,7 @@ from __future__ import annotations
 
 import time
 from collections import OrderedDict
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -76,24 +82,44 @@ class SampleTask:
         self._renderers: OrderedDict = OrderedDict()
 
     def run(self, samples: list[Sample]) -> list[dict]:
-        """Render ``samples`` (skipping those done meanwhile); one record each:
-        ``sample_id``, ``status`` (``done``, ``failed``), ``error``,
-        ``seconds`` and, when done, ``synth`` (the sidecar's entry)."""
-        return [self.run_one(s) for s in samples]
+        """Render ``samples``; one record each: ``sample_id``, ``status``
+        (``done``, ``failed``), ``error``, ``seconds`` (from the start of its
+        render to the end of its writing) and, when done, ``synth`` (the
+        sidecar's entry).
 
-    def run_one(self, sample: Sample) -> dict:
-        files = SampleFiles(self.root, sample.sample_id)
-        t0 = time.perf_counter()
+        A sample's files are written on a thread while the next sample
+        renders (encoding and compressing them is a quarter of a sample's
+        time); at most one sample waits to be written."""
+        futures = []
+        with ThreadPoolExecutor(max_workers=1) as writer:
+            for sample in samples:
+                files = SampleFiles(self.root, sample.sample_id)
+                t0 = time.perf_counter()
+                try:
+                    write = self._render(sample, files)
+                except Exception as exc:    # any failure is the sample's, recorded
+                    futures.append(_done(self._failed(sample, files, exc, t0)))
+                    continue
+                if futures:
+                    futures[-1].result()
+                futures.append(writer.submit(self._write, sample, files, write, t0))
+        return [f.result() for f in futures]
+
+    def _write(self, sample: Sample, files: SampleFiles, write, t0: float) -> dict:
         try:
-            synth = self._render_and_write(sample, files)
-        except Exception as exc:    # any failure is the sample's, recorded; the run goes on
-            error = f"{type(exc).__name__}: {exc}"
-            _record_failure(files, sample, error)
-            return {"sample_id": sample.sample_id, "status": "failed", "error": error,
-                    "seconds": time.perf_counter() - t0, "synth": None}
+            synth = write()
+        except Exception as exc:            # any failure is the sample's, recorded
+            return self._failed(sample, files, exc, t0)
         files.failure.unlink(missing_ok=True)
         return {"sample_id": sample.sample_id, "status": "done", "error": None,
                 "seconds": time.perf_counter() - t0, "synth": synth}
+
+    @staticmethod
+    def _failed(sample: Sample, files: SampleFiles, exc: Exception, t0: float) -> dict:
+        error = f"{type(exc).__name__}: {exc}"
+        _record_failure(files, sample, error)
+        return {"sample_id": sample.sample_id, "status": "failed", "error": error,
+                "seconds": time.perf_counter() - t0, "synth": None}
 
     def _objects(self, sample: Sample) -> GroupObjects:
         key = sample.group
@@ -122,7 +148,9 @@ class SampleTask:
         self._renderers.move_to_end(key)
         return self._renderers[key]
 
-    def _render_and_write(self, sample: Sample, files: SampleFiles) -> dict:
+    def _render(self, sample: Sample, files: SampleFiles):
+        """Render ``sample``; returns ``write()``, which writes its files
+        (the sidecar last) and returns the sidecar's ``synth`` entry."""
         cfg, p = self.cfg, sample.params
         if isinstance(sample.pair, MeshInput):
             rgbd = None
@@ -145,7 +173,6 @@ class SampleTask:
                      renderer=self._renderer(width, height, p["bands"]))
         display, linear, layers = _masked(res.display, res.linear_rgb, res.layers, rgbd,
                                           cfg.inputs.holes == "mask" and holes > 0)
-        files.folder.mkdir(parents=True, exist_ok=True)
         written = {"png": files.png, "sidecar": files.sidecar,
                    "linear": files.linear if cfg.output.linear else None,
                    "layers": files.layers if cfg.output.layers else None,
@@ -159,14 +186,18 @@ class SampleTask:
         synth = to_jsonable(synth, "synth")
         params = {k: v for k, v in res.params.items() if k != "render_seconds"}
         params.update(synth=synth, timestamp=None)
-        if holes:
-            valid = np.where(rgbd.holes, 0, 255).astype(np.uint8)
-            write_file_atomically(files.mask, png_writer(
-                valid, metadata_json({"sample_id": sample.sample_id, "valid": 255, "hole": 0})))
-        save_image(files.png, display, linear if cfg.output.linear else None, params,
-                   linear_path=written["linear"], layers=layers,
-                   layers_path=written["layers"])
-        return synth
+
+        def write():
+            files.folder.mkdir(parents=True, exist_ok=True)
+            if holes:
+                valid = np.where(rgbd.holes, 0, 255).astype(np.uint8)
+                write_file_atomically(files.mask, png_writer(valid, metadata_json(
+                    {"sample_id": sample.sample_id, "valid": 255, "hole": 0})))
+            save_image(files.png, display, linear if cfg.output.linear else None, params,
+                       linear_path=written["linear"], layers=layers,
+                       layers_path=written["layers"])
+            return synth
+        return write
 
 
 def _masked(display, linear, layers, rgbd: RGBD | None, mask: bool):
@@ -189,3 +220,9 @@ def _record_failure(files: SampleFiles, sample: Sample, error: str) -> None:
            "params": sample.params, "error": error}
     write_atomically([(files.failure, sidecar_writer(doc))])
 
+
+def _done(record: dict) -> Future:
+    """``record`` as a finished future (beside the writer's)."""
+    future = Future()
+    future.set_result(record)
+    return future
