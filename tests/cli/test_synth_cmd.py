@@ -1,5 +1,6 @@
-"""`aquaspec synth`: errors on the command line, and a run killed halfway
-(SIGKILL) then run again: no sample lost, doubled or half-written."""
+"""`aquaspec synth`: errors on the command line, and runs killed halfway
+(SIGKILL of a worker, then of the driver) then run again: no sample lost,
+doubled or half-written."""
 
 from __future__ import annotations
 
@@ -48,28 +49,55 @@ def _sidecars(out):
     return sorted((out / "samples").rglob("*.png.json")) if (out / "samples").exists() else []
 
 
+def _wait_for_sidecars(proc, out, n, timeout_s=240):
+    deadline = time.monotonic() + timeout_s
+    while len(_sidecars(out)) < n:
+        assert proc.poll() is None, proc.stderr.read().decode()
+        assert time.monotonic() < deadline, "no samples written in time"
+        time.sleep(0.05)
+
+
+def _worker_of(pid):
+    """A pool worker (a spawned child running spawn_main, not the resource tracker)."""
+    for _ in range(200):
+        with open(f"/proc/{pid}/task/{pid}/children") as f:
+            for child in f.read().split():
+                with open(f"/proc/{child}/cmdline", "rb") as c:
+                    cmd = c.read()
+                if b"spawn_main" in cmd and b"resource_tracker" not in cmd:
+                    return int(child)
+        time.sleep(0.05)
+    raise AssertionError("no worker process found")
+
+
 @pytest.mark.gpu
 @pytest.mark.slow
-def test_killed_run_resumes_without_loss_or_duplicates(tmp_path):
-    make_folder(tmp_path / "data", 3)
-    cfg = write_config(tmp_path / "s.toml", plan=PLAN)          # 3 inputs x 6 = 18 samples
+def test_killed_runs_resume_without_loss_or_duplicates(tmp_path):
+    """SIGKILL a worker, then the driver of the next run, then run to the end."""
+    make_folder(tmp_path / "data", 4)
+    cfg = write_config(tmp_path / "s.toml", plan=PLAN)          # 4 inputs x 6 = 24 samples
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "aquaspec", "synth", str(cfg), "--no-progress", "--workers", "1"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            start_new_session=True)
+
+    def start():
+        return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                start_new_session=True)
+    proc = start()
     try:
-        deadline = time.monotonic() + 240
-        while len(_sidecars(out)) < 4:
-            assert proc.poll() is None, proc.stderr.read().decode()
-            assert time.monotonic() < deadline, "no samples written in time"
-            time.sleep(0.05)
-        os.kill(proc.pid, signal.SIGKILL)          # the driver, mid-run
+        _wait_for_sidecars(proc, out, 3)
+        os.kill(_worker_of(proc.pid), signal.SIGKILL)       # a worker, mid-run
+        assert proc.wait(timeout=120) == 2
+        assert "a worker process died" in proc.stderr.read().decode()
+        after_worker = len(_sidecars(out))
+        proc = start()
+        _wait_for_sidecars(proc, out, after_worker + 3)
+        os.kill(proc.pid, signal.SIGKILL)                    # the driver, mid-run
         proc.wait()
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
     partial = len(_sidecars(out))
-    assert 4 <= partial < 18, partial
+    assert after_worker + 3 <= partial < 24, (after_worker, partial)
     time.sleep(1.5)                                # the orphaned worker ends (local.PARENT_POLL_S)
 
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
@@ -77,7 +105,7 @@ def test_killed_run_resumes_without_loss_or_duplicates(tmp_path):
     with open(out / "manifest.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     ids = [r["sample_id"] for r in rows]
-    assert len(rows) == 18 and len(set(ids)) == 18
+    assert len(rows) == 24 and len(set(ids)) == 24
     assert {r["status"] for r in rows} == {"done"}
     assert sorted(p.name for p in _sidecars(out)) == sorted(f"{i}.png.json" for i in ids)
     assert not list(out.rglob("*.part")) and not list(out.rglob(".*"))
