@@ -11,7 +11,9 @@
 //
 // `bands`, two vec4 per band i: [2i] c_lamp, c_view, b, t (the normalised band
 // centre for sigmoid materials); [2i + 1] w_r, w_g, w_b, 0.
-// `intensity[k * N_BANDS + i]`: lamp k's on-axis I0 in band i.
+// `intensity[k * BAND_GROUPS + i / 4][i % 4]`: lamp k's on-axis I0 in band i.
+// Both in uniform arrays: storage reads in the band loops were most of the
+// pass's time on lavapipe.
 // `profile[k * PROFILE_SIZE + j]`: f of lamp k at alpha_j = cone j / (PROFILE_SIZE - 1).
 // `log_phase[i * PHASE_SIZE + j]`: ln p of band i at theta_j = pi (j / (PHASE_SIZE - 1))^2.
 // `faces`, three vec4 per shadow-map face: right (xyz) and focal length in
@@ -40,6 +42,7 @@ const N_BANDS: u32 = {{ n_bands }}u;
 const PHASE_SIZE: u32 = {{ phase_size }}u;
 const PROFILE_SIZE: u32 = {{ profile_size }}u;
 const N_SAMPLES: u32 = {{ n_samples }}u;
+const BAND_GROUPS: u32 = (N_BANDS + 3u) / 4u;
 const PER_PIXEL: u32 = 0xffffffffu;
 const HALF_PI: f32 = 1.57079632679490;
 const NEAR: f32 = {{ near }};
@@ -53,10 +56,10 @@ const MIN_RANGE: f32 = {{ min_range }};
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
 @group(0) @binding(3) var<storage, read> materials: array<f32>;
-@group(0) @binding(4) var<storage, read> bands: array<vec4<f32>>;
+@group(0) @binding(4) var<uniform> bands: array<vec4<f32>, {{ band_vec4 }}>;
 @group(0) @binding(5) var<storage, read> log_phase: array<f32>;
 @group(0) @binding(6) var<storage, read> lamps: array<LampGpu>;
-@group(0) @binding(7) var<storage, read> intensity: array<f32>;
+@group(0) @binding(7) var<uniform> intensity: array<vec4<f32>, {{ intensity_vec4 }}>;
 @group(0) @binding(8) var<storage, read> profile: array<f32>;
 @group(0) @binding(9) var<storage, read> faces: array<vec4<f32>>;
 @group(0) @binding(10) var shadow_maps: texture_depth_2d_array;
@@ -211,7 +214,7 @@ fn lamp_veil(k: u32, v: vec3<f32>, s_ray: f32) -> vec3<f32> {
             let row = i * PHASE_SIZE + j0;
             let ln_p = mix(log_phase[row], log_phase[row + 1u], fp);
             let e = exp(ln_p - q0.x * r - q0.y * t);
-            acc = acc + (g * e * q0.z * intensity[k * N_BANDS + i]) * bands[2u * i + 1u].xyz;
+            acc = acc + (g * e * q0.z * intensity[k * BAND_GROUPS + i / 4u][i % 4u]) * bands[2u * i + 1u].xyz;
         }
     }
     return acc * (step / dist);
@@ -270,7 +273,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let q0 = bands[2u * i];
             let rho = reflectance(word.w, sig, i, q0.w);
             let e = exp(-q0.x * r - q0.y * s);
-            acc = acc + (g * rho * e * intensity[k * N_BANDS + i]) * bands[2u * i + 1u].xyz;
+            acc = acc + (g * rho * e * intensity[k * BAND_GROUPS + i / 4u][i % 4u]) * bands[2u * i + 1u].xyz;
         }
     }
     let idx = row * lp.width + col;
