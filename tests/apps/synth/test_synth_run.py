@@ -5,12 +5,17 @@ from __future__ import annotations
 
 import csv
 import json
+import os
+import socket
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 from PIL import Image
 
 from aquaspec.apps.synth import synth
+from aquaspec.apps.synth.files import folder_lock
 from aquaspec.errors import AquaspecError
 from aquaspec.io.layers_file import read_layers
 from aquaspec.io.linear import read_linear
@@ -105,3 +110,25 @@ def test_mesh_inputs(tmp_path):
         ("mesh", "box.ply", "32", "24")}
     png = np.asarray(Image.open(tmp_path / "out" / rows[0]["png"]))
     assert png.shape == (24, 32, 3) and png.std() > 0       # the box stands out of the water
+
+
+class TestFolderLock:
+    def test_a_second_run_on_the_folder_is_refused(self, tmp_path):
+        make_folder(tmp_path / "data", 1)
+        cfg = write_config(tmp_path / "synth.toml")
+        (tmp_path / "out").mkdir()
+        (tmp_path / "out" / "synth.lock").write_text(
+            json.dumps({"pid": os.getpid(), "host": socket.gethostname()}))
+        with pytest.raises(AquaspecError, match="in use by another aquaspec synth run "
+                                                f"\\(process {os.getpid()}"):
+            synth(cfg, progress=False)
+
+    def test_a_killed_run_s_lock_is_taken_over(self, tmp_path):
+        done = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                              capture_output=True, text=True)
+        (tmp_path / "synth.lock").write_text(
+            json.dumps({"pid": int(done.stdout), "host": socket.gethostname()}))
+        with folder_lock(tmp_path):
+            held = json.loads((tmp_path / "synth.lock").read_text())
+            assert held["pid"] == os.getpid()
+        assert not (tmp_path / "synth.lock").exists()

@@ -20,13 +20,17 @@ from __future__ import annotations
 
 import json
 import os
+import socket
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from aquaspec.errors import AquaspecError
 from aquaspec.io.sidecar import sidecar_path
 
 SAMPLES_DIR = "samples"
 FAILURES_DIR = "failures"
+LOCK_NAME = "synth.lock"
 #: Temporary files of :mod:`aquaspec.io.atomic` (``.<name>.<random>.part``).
 TEMP_PATTERN = ".*.part"
 
@@ -93,3 +97,53 @@ def remove_temporaries(root: Path) -> int:
             except FileNotFoundError:
                 pass
     return n
+
+
+@contextmanager
+def folder_lock(root: Path):
+    """Hold ``root``'s :data:`LOCK_NAME` while a run uses the folder: a second
+    run on it (which would remove the first one's temporary files) is
+    refused, naming the process. A lock left by a killed run (its process
+    gone, on this machine) is taken over."""
+    lock = root / LOCK_NAME
+    me = {"pid": os.getpid(), "host": socket.gethostname()}
+    for _ in range(2):
+        try:
+            fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        except FileExistsError:
+            holder = _lock_holder(lock)
+            if holder is not None and _alive(holder, me["host"]):
+                raise AquaspecError(
+                    f"output folder {str(root)!r} is in use by another aquaspec synth run "
+                    f"(process {holder.get('pid')} on {holder.get('host')}); accepted: one run "
+                    f"per folder (remove {LOCK_NAME} if that run is gone)") from None
+            lock.unlink(missing_ok=True)
+            continue
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            json.dump(me, f)
+        break
+    try:
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+
+
+def _lock_holder(lock: Path) -> dict | None:
+    try:
+        return json.loads(lock.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def _alive(holder: dict, host: str) -> bool:
+    """Whether the lock's process may still run: another machine's is taken as
+    alive; on this one, whether its pid exists."""
+    if holder.get("host") != host:
+        return True
+    try:
+        os.kill(int(holder["pid"]), 0)
+    except (ProcessLookupError, KeyError, TypeError, ValueError):
+        return False
+    except PermissionError:
+        return True
+    return True

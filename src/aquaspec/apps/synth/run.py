@@ -20,7 +20,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from aquaspec.apps.synth.config import SynthConfig, load_config
-from aquaspec.apps.synth.files import SampleFiles, remove_temporaries
+from aquaspec.apps.synth.files import SampleFiles, folder_lock, remove_temporaries
 from aquaspec.apps.synth.inputs import discover
 from aquaspec.apps.synth.local import run_local
 from aquaspec.apps.synth.manifest import (check_formats, manifest_rows, write_manifest,
@@ -74,7 +74,15 @@ def synth(config, *, output=None, layers: bool | None = None, workers: int | Non
     check_values(cfg)
     samples = plan_samples(cfg, pairs)
     root = _prepare_output(Path(cfg.output.folder))
-    cfg = _with_folder(cfg, root)
+    with folder_lock(root):
+        return _run(_with_folder(cfg, root), samples, pairs, missing, workers=workers,
+                    ray=ray, retry_failed=retry_failed, progress=progress, t_start=t_start)
+
+
+def _run(cfg: SynthConfig, samples, pairs, missing, *, workers, ray, retry_failed, progress,
+         t_start) -> dict:
+    """:func:`synth` once the output folder is ready and held."""
+    root = Path(cfg.output.folder)
     temporaries = remove_temporaries(root)
     done, failed, todo = [], [], []
     for s in samples:
