@@ -98,3 +98,13 @@ class TestCheckValues:
 
 def _doc(cfg):
     return {"inputs": {"folder": "data", "intrinsics": list(INTRINSICS)}}
+
+
+def test_csv_water_relative_to_the_config(tmp_path):
+    (tmp_path / "lake.csv").write_text("wavelength_nm,a,b,Kd\n400,0.1,0.2,0.15\n700,0.6,0.1,0.7\n")
+    cfg, pairs = setup(tmp_path, n=1, water="lake.csv")
+    check_values(cfg)                                   # found beside the config, not in cwd
+    assert plan_samples(cfg, pairs)[0].params["water"] == "lake.csv"
+    cfg, _ = setup(tmp_path, n=1, water="sea.csv")
+    with pytest.raises(AquaspecError, match="sea.csv"):
+        check_values(cfg)

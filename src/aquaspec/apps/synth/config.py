@@ -156,6 +156,16 @@ class SynthConfig:
     render: RenderConfig
     output: OutputConfig
     path: Path | None = None
+    #: The folder the file's relative paths start from.
+    base: Path = Path(".")
+
+    def data_path(self, value):
+        """A plan value naming a file (a water or sensor ``.csv``) as a path
+        from :attr:`base`; other values as they are. (The plan keeps the
+        value as written, so sample ids do not depend on where the files are.)"""
+        if isinstance(value, str) and value.lower().endswith(".csv"):
+            return str(self.base / value)
+        return value
 
 
 def load_config(path, *, output=None, layers: bool | None = None) -> SynthConfig:
@@ -197,7 +207,7 @@ def config_from_dict(doc: dict, *, base=".", path=None, output=None,
         out = OutputConfig(out.folder, out.linear, bool(layers), out.manifest)
     return SynthConfig(_inputs(doc.get("inputs", {}), base), _plan(doc.get("plan", {})),
                        _render(doc.get("render", {}), base), out,
-                       None if path is None else Path(path))
+                       None if path is None else Path(path), base)
 
 
 def _only(table: dict, keys, what: str) -> None:

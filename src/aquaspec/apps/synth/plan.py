@@ -215,9 +215,9 @@ def check_values(cfg: SynthConfig) -> None:
                 raise AquaspecError(f"[plan] {key} has the value {v!r}; accepted: a name")
     for water in listed("water"):
         for source in listed("source"):
-            get_water(water, source)
+            get_water(cfg.data_path(water), source)
     for sensor in listed("sensor"):
-        get_sensor(sensor, camspec)
+        get_sensor(cfg.data_path(sensor), camspec)
     _within("light", listed("light"), LIGHTS)
     _within("white_balance", listed("white_balance"), WHITE_BALANCE_METHODS)
     for n in listed("bands"):

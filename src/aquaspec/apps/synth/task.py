@@ -129,7 +129,8 @@ class SampleTask:
                 "sun_elevation_deg": p["sun_elevation_deg"],
                 "sun_azimuth_deg": p["sun_azimuth_deg"]}
             self._groups[key] = GroupObjects(
-                get_water(p["water"], p["source"]), get_sensor(p["sensor"], self.cfg.render.camspec),
+                get_water(self.cfg.data_path(p["water"]), p["source"]),
+                get_sensor(self.cfg.data_path(p["sensor"]), self.cfg.render.camspec),
                 surface_light(p["light"], **sun),
                 None if p["wind_m_s"] is None else Waves(p["wind_m_s"]))
             if len(self._groups) > KEEP_GROUPS:
