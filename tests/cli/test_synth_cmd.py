@@ -114,3 +114,14 @@ def test_killed_runs_resume_without_loss_or_duplicates(tmp_path):
     for r in rows:
         assert np.asarray(Image.open(out / r["png"])).shape == (48, 64, 3)
         assert np.all(np.isfinite(read_linear(out / r["linear"])))
+
+
+def test_dry_run_plans_without_rendering(tmp_path, capsys):
+    make_folder(tmp_path / "data", 2)
+    cfg = write_config(tmp_path / "s.toml", plan=PLAN, extra='manifest = "csv"\n')
+    assert main(["synth", str(cfg), "--dry-run"]) == 0
+    assert "0 of 12 samples done (0 now, 0 before), 0 failed, 12 pending" in capsys.readouterr().out
+    with open(tmp_path / "out" / "manifest.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 12 and {r["status"] for r in rows} == {"pending"}
+    assert not (tmp_path / "out" / "samples").exists()

@@ -43,6 +43,9 @@ def register(sub):
                         "the config's [output] layers)")
     p.add_argument("--retry-failed", action="store_true",
                    help="render again the samples an earlier run recorded as failed")
+    p.add_argument("--dry-run", action="store_true",
+                   help="plan only: write the manifest (each sample done, failed or pending) "
+                        "and the summary, render nothing")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run, command="synth")
 
@@ -52,7 +55,7 @@ def run(args):
     from aquaspec.apps.synth import synth
     summary = synth(args.config, output=args.output, layers=args.layers,
                     workers=args.workers, ray=args.ray, retry_failed=args.retry_failed,
-                    progress=not args.no_progress)
+                    progress=not args.no_progress, dry_run=args.dry_run)
     rate = summary["samples_per_second"]
     print(f"{summary['done']} of {summary['planned']} samples done "
           f"({summary['rendered']} now, {summary['skipped_done']} before), "
@@ -62,4 +65,6 @@ def run(args):
     for failure in summary["failures"][:5]:
         print(f"aquaspec synth: failed {failure['sample_id']}: {failure['error']}",
               file=sys.stderr)
+    if args.dry_run:
+        return 0
     return 0 if summary["failed"] == 0 and summary["pending"] == 0 else 1

@@ -35,7 +35,8 @@ SUMMARY_FAILURES = 50
 
 
 def synth(config, *, output=None, layers: bool | None = None, workers: int | None = None,
-          ray=False, retry_failed: bool = False, progress: bool = True) -> dict:
+          ray=False, retry_failed: bool = False, progress: bool = True,
+          dry_run: bool = False) -> dict:
     """Render the data set of ``config``; returns the run's summary.
 
     Parameters
@@ -57,6 +58,9 @@ def synth(config, *, output=None, layers: bool | None = None, workers: int | Non
         (otherwise they are left as failed).
     progress : bool
         Show a progress bar (rate and time left) on stderr.
+    dry_run : bool
+        Plan only: write the manifest (samples done, failed or pending as
+        the folder has them) and the summary, render nothing.
 
     Returns
     -------
@@ -76,11 +80,12 @@ def synth(config, *, output=None, layers: bool | None = None, workers: int | Non
     root = _prepare_output(Path(cfg.output.folder))
     with folder_lock(root):
         return _run(_with_folder(cfg, root), samples, pairs, missing, workers=workers,
-                    ray=ray, retry_failed=retry_failed, progress=progress, t_start=t_start)
+                    ray=ray, retry_failed=retry_failed, progress=progress, t_start=t_start,
+                    dry_run=dry_run)
 
 
 def _run(cfg: SynthConfig, samples, pairs, missing, *, workers, ray, retry_failed, progress,
-         t_start) -> dict:
+         t_start, dry_run) -> dict:
     """:func:`synth` once the output folder is ready and held."""
     root = Path(cfg.output.folder)
     temporaries = remove_temporaries(root)
@@ -99,7 +104,10 @@ def _run(cfg: SynthConfig, samples, pairs, missing, *, workers, ray, retry_faile
     t0 = time.perf_counter()
     executor = {"kind": "ray" if ray else "local"}
     try:
-        executor = _execute(cfg, todo, workers, ray, records, progress)
+        if dry_run:
+            executor = {"kind": "none (dry run)"}
+        else:
+            executor = _execute(cfg, todo, workers, ray, records, progress)
     finally:
         # Also when the run is interrupted: the manifest says what is done.
         summary = _finish(cfg, root, samples, records, before, executor,
