@@ -46,6 +46,14 @@ own spectra (:func:`direct_sun_irradiance`); tests check the sum against
 horizontal white Lambertian plates, whose next-event estimation does see the
 sun.
 
+Lamps (:class:`aquaspec.light.lamp.Lamp`, placed in the world) are Mitsuba
+``spot`` emitters (:func:`lamp_emitter`: ``intensity`` the on-axis
+``I0 s(lambda)`` in W sr^-1 nm^-1 as an ``irregular`` spectrum,
+``cutoff_angle`` the cone, ``beam_width`` the beam; Mitsuba's fall-off is
+linear in the angle between them, as aquaspec's) or ``point`` emitters for
+180-degree lamps, inside the water medium. With no daylight (light
+``none``) the sky emitter is left out.
+
 Mitsuba is an optional dependency: ``pip install aquaspec[validation]``.
 """
 
@@ -324,7 +332,32 @@ def direct_sun_irradiance(water: Water, light: SurfaceLight, depths_m,
     return bands.average(fine, vals, name="direct sun")
 
 
-def _base(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER, max_depth=MAX_DEPTH):
+def lamp_emitter(lamp) -> dict:
+    """Mitsuba's emitter of a lamp placed in the world (:meth:`aquaspec.light.lamp.Lamp.placed`):
+    a ``spot`` (a ``point`` for a 180-degree lamp) inside the water medium."""
+    if lamp.frame != "world":
+        raise AquaspecError(f"lamp {lamp.name!r} is fixed to the camera: place it first "
+                            "(Lamp.placed(camera))")
+    if lamp.profile is not None:
+        raise AquaspecError(f"lamp {lamp.name!r} has a measured profile; the reference takes "
+                            "Mitsuba's spot profile (cone and beam) only")
+    mi = require_mitsuba()
+    spec = lamp.spectrum
+    intensity = _spectrum(spec.wavelength_nm, lamp.on_axis_w_sr * spec.values)
+    medium = {"type": "ref", "id": "water_medium"}
+    if lamp.cone_deg >= 180.0:
+        return {"type": "point", "position": lamp.position.tolist(), "intensity": intensity,
+                "medium": medium}
+    d = lamp.direction
+    up = [0.0, 1.0, 0.0] if abs(d[1]) < 0.9 else [1.0, 0.0, 0.0]
+    return {"type": "spot", "intensity": intensity, "cutoff_angle": float(lamp.cone_deg),
+            "beam_width": float(lamp.beam_deg), "medium": medium,
+            "to_world": mi.ScalarTransform4f().look_at(
+                origin=lamp.position.tolist(), target=(lamp.position + d).tolist(), up=up)}
+
+
+def _base(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER, max_depth=MAX_DEPTH,
+          lamps=()):
     mi = require_mitsuba()
     T = mi.ScalarTransform4f
     sky = _spectrum(light.wavelength_nm, sky_irradiance(light) / np.pi)
@@ -342,20 +375,25 @@ def _base(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER, max_depth=
     sun = sun_emitter(light)
     if sun is not None:
         d["sun"] = sun
+    if not np.any(sky_irradiance(light) > 0):
+        del d["sky"]
+    for k, lamp in enumerate(lamps):
+        d[f"lamp{k:02d}"] = lamp_emitter(lamp)
     return d
 
 
 def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
                mesh_dir, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
                g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
-               max_depth: int = MAX_DEPTH) -> dict:
-    """The Mitsuba scene dictionary (meshes are written as PLY into ``mesh_dir``)."""
+               max_depth: int = MAX_DEPTH, lamps=()) -> dict:
+    """The Mitsuba scene dictionary (meshes are written as PLY into ``mesh_dir``;
+    ``lamps`` placed in the world, :func:`lamp_emitter`)."""
     import trimesh  # deferred: trimesh takes about 0.9 s to import; only the reference needs it
     mi = require_mitsuba()
     _check_range(water, light, bands)
     if abs(camera.cx - camera.width / 2) > 1e-6 or abs(camera.cy - camera.height / 2) > 1e-6:
         raise AquaspecError("the reference camera needs the principal point at the image centre")
-    d = _base(water, light, phase, g, backscatter, max_depth)
+    d = _base(water, light, phase, g, backscatter, max_depth, lamps)
     fov_y = float(np.degrees(2 * np.arctan(camera.height / 2 / camera.fy)))
     d["sensor"] = {
         "type": "perspective", "fov": fov_y, "fov_axis": "y",
@@ -383,12 +421,14 @@ def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
 def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: int = 256,
                      seed: int = 0, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
                      g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
-                     max_depth: int = MAX_DEPTH) -> dict:
+                     max_depth: int = MAX_DEPTH, lamps=()) -> dict:
     """Path-trace the scene; returns ``band_radiance`` (H, W, n) and timing.
 
     ``band_radiance`` is the radiance averaged over each band of ``bands``
     (W m^-2 sr^-1 nm^-1), the same quantity aquaspec computes per band.
     ``phase``, ``g`` (``hg``) and ``backscatter`` (``ff``): see :data:`PHASES`.
+    ``lamps``: lamps placed in the world, as Mitsuba emitters in the water
+    (:func:`lamp_emitter`).
     ``max_depth`` is volpathmis's path length limit (-1: none, the
     reference's setting); it counts scattering events in the medium and at
     non-null surfaces (the water's null surface does not count): 1 gives the
@@ -399,7 +439,8 @@ def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: i
     mi = require_mitsuba()
     with tempfile.TemporaryDirectory(prefix="aquaspec-ref-") as tmp:
         d = scene_dict(scene, camera, water, light, spp=spp, mesh_dir=tmp, bands=bands,
-                       phase=phase, g=g, backscatter=backscatter, max_depth=max_depth)
+                       phase=phase, g=g, backscatter=backscatter, max_depth=max_depth,
+                       lamps=lamps)
         t0 = time.perf_counter()
         mscene = mi.load_dict(d)
         img = np.array(mi.render(mscene, seed=seed), dtype=np.float64)
