@@ -14,7 +14,8 @@ from aquaspec.colour.reflectance import (Reflectance, _srgb_matrix, _FIT_WL, col
 
 
 class TestLight:
-    @pytest.mark.parametrize("kind", LIGHTS)
+    # ("none", no daylight, takes no total: tests/light/test_lamp.py.)
+    @pytest.mark.parametrize("kind", [k for k in LIGHTS if k != "none"])
     def test_scaled_total(self, kind):
         l = surface_light(kind, total_w_m2=50.0)
         np.testing.assert_allclose(l.total_w_m2(), 50.0, rtol=1e-9)
