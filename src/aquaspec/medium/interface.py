@@ -10,6 +10,8 @@ interface from air (index 1) into water (index :data:`N_WATER`).
   the water.
 - :func:`snell_window_cos` and :func:`surface_from_below`: looking up from
   below, the sky is seen only within the critical angle (Snell's window).
+- :func:`below_surface`: the surface as the light field's top boundary, in
+  one of :data:`SURFACES`' models.
 
 The sun's direction under a flat surface, :func:`aquaspec.light.sun.refracted_to_sun`,
 is :func:`refract` of its ray in air.
@@ -19,8 +21,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from aquaspec.errors import AquaspecError
+
 #: Refractive index of sea water (for the interface and Snell's window).
 N_WATER = 1.33
+#: Models of the flat surface seen from below (:func:`below_surface`).
+SURFACES = ("null", "refracted", "fresnel")
 #: The normal of a flat water surface.
 FLAT_NORMAL = np.array([0.0, 1.0, 0.0])
 
@@ -64,3 +70,34 @@ def surface_from_below(e0, v_y, n_water: float = N_WATER):
     """
     inside = np.asarray(v_y, dtype=float) > snell_window_cos(n_water)
     return np.where(inside, np.asarray(e0, dtype=float) * n_water ** 2 / np.pi, 0.0)
+
+
+def below_surface(mu_up, surface: str, n_water: float = N_WATER):
+    """The flat surface seen from just below it at up-cosines ``mu_up``:
+    ``(shape, mirror, window_cos)``.
+
+    A uniform (overcast) sky's radiance seen looking up is ``shape`` times a
+    constant; the light going up is sent back down with the share ``mirror``;
+    ``window_cos`` is Snell's window's cosine. The models (:data:`SURFACES`):
+
+    - ``null``: no interface (the index-matched surface of the path-traced
+      validation): the sky everywhere, nothing mirrored, window 0;
+    - ``refracted``: the sky only inside Snell's window, nothing mirrored;
+    - ``fresnel``: the sky inside the window entering with the Fresnel
+      transmittance ``T`` of its ray in air (the radiance's ``n^2`` is a
+      constant, left in the scale), the light going up mirrored with
+      ``1 - T`` inside the window (the same from both sides, by reciprocity)
+      and totally outside it.
+    """
+    mu_up = np.asarray(mu_up, dtype=float)
+    if surface not in SURFACES:
+        raise AquaspecError(f"unknown surface {surface!r}; known: {', '.join(SURFACES)}")
+    if surface == "null":
+        return np.ones_like(mu_up), np.zeros_like(mu_up), 0.0
+    window = snell_window_cos(n_water)
+    inside = mu_up > window
+    if surface == "refracted":
+        return inside.astype(float), np.zeros_like(mu_up), window
+    cos_air = np.sqrt(np.clip(1.0 - n_water ** 2 * (1.0 - mu_up ** 2), 0.0, 1.0))
+    t = np.where(inside, fresnel_transmittance(cos_air, n_water), 0.0)
+    return t, 1.0 - t, window

@@ -76,3 +76,62 @@ def test_weakly_forward_hg_gives_finite_tables_and_g0_is_isotropic(g):
     if g == 0.0:
         iso = lightfield_tables(bw, phase="isotropic", n_depth=8, n_mu=9)
         assert np.allclose(t.irradiance_per_e0, iso.irradiance_per_e0, rtol=1e-6)
+
+
+class TestFresnelSurface:
+    """The surface as a mirror from below (``surface="fresnel"``): the sky
+    through Snell's window with Fresnel transmission, the water's light going
+    up reflected with 1 - T inside the window and totally outside it."""
+
+    def test_absorbing_slab_on_a_seabed_is_the_sum_of_its_reflections(self):
+        """No scattering: light bounces between the Lambertian seabed and the
+        mirroring surface; per stream the series sums in closed form (the
+        seabed's irradiance E_b = 2 pi s sum w mu e^-tau T / (1 - B), B =
+        2 rho sum w mu R e^-2tau), with s set by E_d(0) = E0."""
+        from aquaspec.medium.interface import below_surface
+        a, h, rho = 0.15, 4.0, 0.6
+        lf = solve_lightfield([a], [0.0], phase="isotropic", n_streams=16, surface="fresnel",
+                              seabed_depth_m=h, seabed_albedo=rho)
+        n = lf.n_streams
+        mu, w = lf.mu[:n], lf.w[:n]
+        t, r, _ = below_surface(mu, "fresnel")
+        att = np.exp(-a * h / mu)
+        big_a = 2 * np.pi * np.sum(w * mu * att * t)
+        big_b = 2 * rho * np.sum(w * mu * r * att ** 2)
+        unit = 2 * np.pi * np.sum(w * mu * t) + 2 * rho * np.sum(w * mu * r * att) \
+            * big_a / (1 - big_b)
+        s = 1.0 / unit                                   # E0 = 1
+        e_bed = s * big_a / (1 - big_b)
+        up0 = rho * e_bed / np.pi * att                  # L(0, -mu): the seabed seen through the water
+        down0 = s * t + r * up0                          # L(0, +mu): sky and mirror
+        nodes = lf.node_radiance(0.0)[0]
+        np.testing.assert_allclose(nodes[:n], down0, rtol=1e-9)
+        np.testing.assert_allclose(nodes[n:], up0, rtol=1e-9)
+        assert lf.e_d(0.0)[0] == pytest.approx(1.0, rel=1e-12)
+        # Outside the window the surface is a perfect mirror.
+        out = mu < lf.window_cos
+        assert out.sum() >= 4
+        np.testing.assert_allclose(nodes[:n][out], nodes[n:][out], rtol=1e-12)
+
+    @pytest.mark.parametrize("kw", [{}, {"seabed_depth_m": 12.0, "seabed_albedo": 0.3},
+                                    {"sun_mu0": 0.8, "sun_beam": 2.0}])
+    def test_looking_up_outside_the_window_sees_the_water_below_mirrored(self, kw):
+        """Between the nodes too (LightField.radiance): just below the surface,
+        beyond the critical angle, the radiance looking up is the radiance
+        looking down at the same angle; inside the window it is more (the sky)."""
+        lf = solve_lightfield([0.08, 0.3], [0.25, 0.5], phase="hg", g=0.9, n_streams=24,
+                              surface="fresnel", **kw)
+        outside = np.array([0.1, 0.35, 0.6])            # below cos(48.75 deg) = 0.66
+        np.testing.assert_allclose(lf.radiance(0.0, outside), lf.radiance(0.0, -outside),
+                                   rtol=1e-10)
+        inside = np.array([0.75, 0.95])
+        assert np.all(lf.radiance(0.0, inside) > 3 * lf.radiance(0.0, -inside))
+        assert np.all(lf.radiance(0.0, outside) > 0)
+
+    def test_refracted_and_null_mirror_nothing(self):
+        for surface in ("null", "refracted"):
+            lf = solve_lightfield([0.1], [0.3], phase="isotropic", n_streams=16,
+                                  surface=surface)
+            assert lf.e_d(0.0)[0] == pytest.approx(1.0, rel=1e-12)
+        refracted = lf.radiance(0.0, np.array([0.3]))
+        np.testing.assert_allclose(refracted, 0.0, atol=1e-15)

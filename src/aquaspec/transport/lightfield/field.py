@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.medium.interface import below_surface
 from aquaspec.medium.phase_bands import redistribution_matrix
 from aquaspec.numerics import legendre_table
 from aquaspec.transport import monzon2022 as model
@@ -245,10 +246,22 @@ class LightField:
             top = np.where(down, self.seabed_albedo[:, None] * e_bed / np.pi, top)
         return s_b, top
 
+    @property
+    def n_water(self) -> float:
+        """The refractive index the surface was solved with (from Snell's window)."""
+        return float(1.0 / np.sqrt(1.0 - self.window_cos ** 2))
+
     def _top(self, v_y):
-        """Radiance looking up just below the surface, (n, R)."""
-        inside = np.asarray(v_y) > self.window_cos
-        return self.top_radiance[:, None] * inside
+        """Radiance looking up just below the surface, (n, R): the sky through
+        it and, where it mirrors (``fresnel``), the water's light going up
+        (:func:`aquaspec.medium.interface.below_surface`)."""
+        v = np.atleast_1d(np.asarray(v_y, dtype=float))
+        shape, mirror, _ = below_surface(v, self.surface, self.n_water)
+        out = self.top_radiance[:, None] * shape
+        mirror = np.where(v > 0, mirror, 0.0)        # (rays going down never meet it)
+        if np.any(mirror > 0):
+            out = out + mirror * self.radiance(0.0, -np.abs(v))
+        return out
 
     def _mode_integral(self, ext, depth_o, v_y, s, psi_d, psi_g):
         """``sum_m int_0^s exp(-ext t) (A psi_d e^{-k d(t)} + B psi_g e^{-k (H-d(t))}) dt``."""

@@ -44,8 +44,15 @@ diffuse attenuation.
 *Boundaries.* Top: ``surface="null"`` (default; the reference path tracer's
 non-refracting surface) is a uniform radiance ``E0/pi`` looking up;
 ``surface="refracted"`` is uniform inside Snell's window (n = 1.33) and 0
-outside; both normalised so that ``E_d(0) = E0`` on the quadrature. Upwelling
-light leaves through the surface (no internal reflection). Bottom: infinitely
+outside; both normalised so that ``E_d(0) = E0`` on the quadrature, and
+upwelling light leaves through the surface (no internal reflection).
+``surface="fresnel"`` is the real flat interface
+(:func:`aquaspec.medium.interface.below_surface`): the sky enters the window
+with the Fresnel transmittance ``T`` and the surface mirrors the light going
+up with ``R = 1 - T`` inside the window and totally outside it, so the top
+condition couples the streams, ``L(0, mu) - R(mu) L(0, -mu) = sky(mu)``, as
+the seabed's couples them at the bottom; the sky's part of the solution is
+then scaled so that ``E_d(0) = E0`` again, the mirrored light included. Bottom: infinitely
 deep (decaying modes only) or a Lambertian seabed of albedo ``rho`` at depth
 ``H``.
 
@@ -109,12 +116,11 @@ import numpy as np
 from numpy.polynomial.legendre import leggauss
 
 from aquaspec.errors import AquaspecError
-from aquaspec.medium.interface import N_WATER, snell_window_cos
+from aquaspec.medium.interface import N_WATER, SURFACES, below_surface
 from aquaspec.medium.phase_bands import band_moments, redistribution_matrix
 from aquaspec.transport.lightfield.field import LightField, beam_scattering
 
 #: Surface boundary conditions (the radiance looking up just below y = 0).
-SURFACES = ("null", "refracted")
 
 #: Resonance guard of the sun's particular solution: when ``c*/mu0`` lies
 #: within this relative distance of a mode's ``kappa_m``, that band's ``mu0``
@@ -131,18 +137,6 @@ def _band(name, value, n):
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
         raise AquaspecError(f"{name} must be finite and >= 0 per band; got {arr.tolist()}")
     return arr
-
-
-def _top_radiance(e0, mu_up, w_up, surface, n_water):
-    if surface == "null":
-        window = 0.0
-    elif surface == "refracted":
-        window = snell_window_cos(n_water)
-    else:
-        raise AquaspecError(f"unknown surface {surface!r}; known: {', '.join(SURFACES)}")
-    inside = mu_up > window
-    flux = 2.0 * np.pi * np.sum(w_up * mu_up * inside)
-    return e0 / flux, inside, window
 
 
 def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
@@ -166,7 +160,7 @@ def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
     seabed_depth_m, seabed_albedo :
         Lambertian seabed at depth H (> 0) with albedo in [0, 1] (per band or
         scalar); None: infinitely deep water.
-    surface : {"null", "refracted"}
+    surface : {"null", "refracted", "fresnel"}
         Top boundary (see the module docstring).
     sun_mu0 : float or None
         A direct sun: the zenith cosine of the refracted beam under water,
@@ -253,37 +247,54 @@ def solve_lightfield(a, b, *, phase="petzold", wavelength_nm=None, e0=1.0,
     phi = np.concatenate([0.5 * (s_vec + d_vec), 0.5 * (s_vec - d_vec)], axis=1)
     phi /= np.max(np.abs(phi), axis=1, keepdims=True)
 
-    top, inside, window = _top_radiance(e0_arr, mu_up, w_up, surface, n_water)
-    l_top = top[:, None] * inside
+    shape, mirror, window = below_surface(mu_up, surface, n_water)
+    top = e0_arr / (2.0 * np.pi * np.sum(w_up * mu_up * shape))
+    l_top = top[:, None] * shape
     phi_up, phi_lo = phi[:, :n], phi[:, n:]
+    # Looking up at d = 0 the surface shows the sky and mirrors the light going
+    # up: L(0, mu) - R(mu) L(0, -mu) = sky(mu), with R = mirror.
+    r_col = mirror[None, :, None]
     # The sun's particular solution X exp(-c* d/mu0) leaves the homogeneous
     # part to answer what it does not meet at the boundaries.
-    top_rhs, bed_rhs, sun = l_top, None, {}
+    sun_top, sun_bed, sun = np.zeros_like(l_top), np.zeros_like(l_top), {}
     if sun_mu0 is not None:
         x, mu0_b, rate = _sun_particular(mu0, beam, c_star, b_star, chi_star, kappa, mu, w,
                                          phi)
-        top_rhs = l_top - x[:, :n]
+        sun_top = -(x[:, :n] - mirror * x[:, n:])
     if np.isfinite(depth_h):
         decay = np.exp(-kappa * depth_h)[:, None, :]
         refl = 2.0 * albedo[:, None, None] * (w_up * mu_up)[None, None, :]
         # Rows: top (looking up at d = 0), bottom (looking down at d = H).
-        top_rows = np.concatenate([phi_up, phi_lo * decay], axis=2)
+        top_rows = np.concatenate([phi_up - r_col * phi_lo, (phi_lo - r_col * phi_up) * decay],
+                                  axis=2)
         bot_rows = np.concatenate([(phi_lo - refl @ phi_up) * decay, phi_up - refl @ phi_lo],
                                   axis=2)
         system = np.concatenate([top_rows, bot_rows], axis=1)
-        if sun_mu0 is None:
-            bed_rhs = np.zeros_like(l_top)
-        else:
+        if sun_mu0 is not None:
             # Lambertian under the diffuse E_d and the beam's mu0 F0 exp(-c* H/mu0).
-            bed_rhs = np.exp(-rate * depth_h)[:, None] * (
+            sun_bed = np.exp(-rate * depth_h)[:, None] * (
                 (albedo * mu0_b * beam / np.pi)[:, None]
                 - (x[:, n:] - (refl @ x[:, :n, None])[..., 0]))
-        rhs = np.concatenate([top_rhs, bed_rhs], axis=1)
-        amps = np.linalg.solve(system, rhs[..., None])[..., 0]
-        amp_dec, amp_grow = amps[:, :n], amps[:, n:]
+        # Two right-hand sides: the sky's light and the sun's.
+        rhs = np.stack([np.concatenate([l_top, np.zeros_like(l_top)], axis=1),
+                        np.concatenate([sun_top, sun_bed], axis=1)], axis=2)
+        amps = np.linalg.solve(system, rhs)
+        sky_dec, sky_grow = amps[:, :n, 0], amps[:, n:, 0]
+        sun_dec, sun_grow = amps[:, :n, 1], amps[:, n:, 1]
+        sky_down = phi_up @ sky_dec[..., None] + (phi_lo * decay) @ sky_grow[..., None]
     else:
-        amp_dec = np.linalg.solve(phi_up, top_rhs[..., None])[..., 0]
-        amp_grow = np.zeros_like(amp_dec)
+        amps = np.linalg.solve(phi_up - r_col * phi_lo, np.stack([l_top, sun_top], axis=2))
+        sky_dec, sun_dec = amps[..., 0], amps[..., 1]
+        sky_grow = sun_grow = np.zeros_like(sky_dec)
+        sky_down = phi_up @ sky_dec[..., None]
+    if np.any(mirror > 0):
+        # The light the surface mirrors down adds to E_d(0): the sky's part
+        # (linear in it) is scaled so that its E_d(0) is E0 again.
+        e_d0 = 2.0 * np.pi * np.sum(w_up * mu_up * sky_down[..., 0], axis=1)
+        scale = e0_arr / np.where(e_d0 > 0, e_d0, 1.0)
+        sky_dec, sky_grow, top = (sky_dec * scale[:, None], sky_grow * scale[:, None],
+                                  top * scale)
+    amp_dec, amp_grow = sky_dec + sun_dec, sky_grow + sun_grow
     if sun_mu0 is not None:
         # X appended as one more decaying mode (kappa = c*/mu0, amplitude 1).
         one = np.ones((nb, 1))
