@@ -37,8 +37,8 @@ from aquaspec.transport.sun_scattering import SunInputs, log_phase_table
 LAMP_MODEL = ("aquaspec.transport.lamp_scattering: direct light on surfaces "
               "I(alpha) exp(-c_lamp r) max(0, n.l) / r^2 with a shadow map per lamp, and "
               "single scattering along each view ray (equiangular midpoint rule); c_lamp "
-              "and c_view as the sun's beam and view (delta-M c* and c - f b with the "
-              "light field, c with monzon2022); no multiple scattering")
+              "= c_view = the surfaces' extinction towards the camera (c - f b with the "
+              "light field's forward cone, c with monzon2022); no multiple scattering")
 
 
 @dataclass
@@ -200,12 +200,13 @@ class SpectralSetup:
         """The lamps placed for ``camera`` with what their terms need per band
         (:class:`aquaspec.transport.lamp_scattering.LampInputs`); [] without lamps.
 
-        The lamps' light is carried as the sun's beam is
-        (:meth:`sun_inputs`): from the lamp with the light field's delta-M
-        ``c* = c - f_2N b`` (scattering into the phase function's narrowest
-        forward peak stays in the beam), on its way to the camera with the
-        extinction surfaces' light has (``c - f b`` with the forward cone);
-        ``c`` for both with the seeds' model.
+        The lamps' light, from the lamp and on its way to the camera, has the
+        extinction surfaces' light has towards the camera: ``c - f b`` with the
+        light field's forward cone (scattering within it stays in the beam),
+        ``c`` with the seeds' model. (The sun's beam's delta-M ``c*`` on the
+        lamp's path left a card lit through Jerlov II with HG 0.92 at 0.41-0.68
+        of Mitsuba's all-orders radiance, the forward cone at 1.04-1.07; see
+        docs/model.md, Lamps.)
         """
         if not self.lamps:
             return []
@@ -213,17 +214,16 @@ class SpectralSetup:
             bw = self.water.on_bands(self.bands)
             a, b = np.asarray(bw.a, dtype=float), np.asarray(bw.b, dtype=float)
             tables = self.lightfield_tables()
-            c_lamp = a + b if tables is None else np.asarray(tables.beam_extinction, float)
-            c_view = a + b if tables is None else np.asarray(tables.ray_extinction(a, b), float)
+            c_ray = a + b if tables is None else np.asarray(tables.ray_extinction(a, b), float)
             self.cache.lamp_bands = {
-                "b": b, "c_lamp": c_lamp, "c_view": c_view,
+                "b": b, "c": c_ray,
                 "log_phase": log_phase_table(self.phase, b=b,
                                              wavelength_nm=self.bands.centers_nm,
                                              **dict(self.phase_params)),
                 "intensity": [lamp.intensity_on(self.bands) for lamp in self.lamps]}
         lb = self.cache.lamp_bands
-        return [LampInputs(lamp.placed(camera), lb["intensity"][k], lb["c_lamp"], lb["c_view"],
-                           lb["b"], lb["log_phase"]) for k, lamp in enumerate(self.lamps)]
+        return [LampInputs(lamp.placed(camera), lb["intensity"][k], lb["c"], lb["c"], lb["b"],
+                           lb["log_phase"]) for k, lamp in enumerate(self.lamps)]
 
     def medium(self, materials) -> dict:
         """Keyword arguments of :func:`aquaspec.shading.shade.shade_gbuffer` and the

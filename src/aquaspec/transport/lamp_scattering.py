@@ -43,13 +43,12 @@ integral is the midpoint rule on ``n_samples`` equal steps of ``theta``
 (``p = 1 / 4 pi``, ``c = 0``, ``V = 1``) the integrand is constant and the
 rule exact: ``L_SS = b I0 (theta_b - theta_a) / (4 pi D)``.
 
-Which extinctions: the renderer carries a lamp's light as it carries the
-sun's beam (:meth:`aquaspec.rendering.setup.SpectralSetup.lamp_inputs`):
-``c_lamp`` is the light field's delta-M ``c*`` (scattering into the phase
-function's narrowest forward peak stays in the beam), ``c_view`` the
-extinction of the surfaces' light on its way to the camera (``c - f b``
-with the forward cone); both ``c`` with the thesis's model. The light
-scattered more than once (the halo) is not here.
+Which extinctions: the renderer gives a lamp's light the extinction the
+surfaces' light has on its way to the camera, from the lamp and towards the
+camera alike (:meth:`aquaspec.rendering.setup.SpectralSetup.lamp_inputs`):
+``c - f b`` with the light field's forward cone (scattering within it stays
+in the beam), ``c`` with the thesis's model. The light scattered more than
+once (the halo, the diffuse glow) is not here.
 
 References
 ----------
