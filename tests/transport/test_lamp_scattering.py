@@ -206,3 +206,27 @@ class TestShadowMap:
             (np.abs(pts[:, 2] + 2.0) < 4 * texel)    # within the depth bias behind it
         assert blocked.sum() > 100
         assert not np.any(wrong & ~near_edge)
+
+
+class TestForwardPeak:
+    """Looking just past a point lamp ahead, Petzold's forward peak is crossed near
+    theta_a = -pi/2: the samples graded in sqrt(psi) keep the renderer's 32 within
+    a few per cent of a converged rule (equal steps in theta were 23-72 % low)."""
+
+    def test_glow_around_a_lamp_in_view(self):
+        from aquaspec.colour.bands import Bands
+        from aquaspec.medium.water import get_water
+        bands = Bands(4)
+        w = get_water("II").on_bands(bands)
+        b = np.asarray(w.b)
+        c = np.asarray(w.a) + b
+        lamp = Lamp(CAM + [0.0, 0.0, -3.0], cone_deg=180.0, intensity_w_sr=1.0, frame="world")
+        inp = ls.LampInputs(lamp, np.ones(4), c, c, b,
+                            log_phase_table("petzold", b=b, wavelength_nm=bands.centers_nm))
+        ang = np.radians([0.2, 0.5, 1.0, 2.0, 5.0, 30.0])
+        v = np.stack([np.sin(ang), np.zeros_like(ang), -np.cos(ang)], 1)
+        s = np.full(len(v), np.inf)
+        ref = ls.single_scattering(inp, CAM, v, s, n_samples=65536)
+        got = ls.single_scattering(inp, CAM, v, s, n_samples=ls.DEFAULT_SAMPLES)
+        err = np.abs(got / ref - 1).max(axis=1)
+        assert np.all(err < [0.08, 0.05, 0.03, 0.02, 0.01, 0.005]), err

@@ -32,16 +32,22 @@ ray's closest approach to the lamp and ``D`` its distance there,
 where ``theta_a = atan((t_0 - t*) / D)``, ``theta_b = atan((t_1 - t*) / D)``
 (pi/2 for an open-water ray, ``t_1 = inf``). The scattering cosine is
 ``cos psi = -sin theta`` (the light at ``x`` travels along ``(x - q) / r``,
-whose component along ``v`` is ``sin theta``): the scattering angle
-``psi = pi/2 + theta`` is linear in the variable, so equal steps in
-``theta`` are equal steps in the scattering angle as well. What remains
-under the integral is bounded and smooth but for the beam's edge; the ray is
-first cut to the part inside the lamp's cone (:func:`cone_interval`, exact
-for cones up to 90 degrees), so every sample lies in the beam, and the
-integral is the midpoint rule on ``n_samples`` equal steps of ``theta``
-(:func:`single_scattering`). For an isotropic point lamp in clear water
-(``p = 1 / 4 pi``, ``c = 0``, ``V = 1``) the integrand is constant and the
-rule exact: ``L_SS = b I0 (theta_b - theta_a) / (4 pi D)``.
+whose component along ``v`` is ``sin theta``): the scattering angle is
+``psi = pi/2 + theta``. What remains under the integral is bounded and
+smooth but for the beam's edge and the phase function's forward peak,
+which a ray passing close to a lamp ahead of it crosses near
+``theta_a = -pi/2``. The ray is first cut to the part inside the lamp's
+cone (:func:`cone_interval`, exact for cones up to 90 degrees), so every
+sample lies in the beam, and the integral is the midpoint rule on
+``n_samples`` equal steps of ``u = sqrt(psi / pi)`` (``dtheta = 2 pi u du``;
+:func:`single_scattering`): samples graded towards forward scattering as the
+phase function's tables are (:func:`aquaspec.transport.sun_scattering.log_phase_table`),
+and nearly equal steps in ``psi`` for the angles a lamp beside the camera
+scatters at (90-180 degrees). Looking 0.5-2 degrees past a point lamp 3 m
+ahead in Jerlov II with Petzold's phase function, 32 equal steps of
+``theta`` were 23-57 % low. For an isotropic point lamp in clear water
+(``p = 1 / 4 pi``, ``c = 0``, ``V = 1``) the integrand in ``u`` is linear
+and the rule exact: ``L_SS = b I0 (theta_b - theta_a) / (4 pi D)``.
 
 Which extinctions: the renderer gives a lamp's light the extinction the
 surfaces' light has on its way to the camera, from the lamp and towards the
@@ -188,8 +194,8 @@ def single_scattering(inp: LampInputs, origin, dirs, s, *, n_samples: int = DEFA
     """``L_SS`` of the lamp along rays from ``origin`` along unit ``dirs`` (P, 3) to
     ``s`` (P,) (``inf``: open water), shape (P, n), W m^-2 sr^-1 nm^-1.
 
-    The midpoint rule on ``n_samples`` equal steps of the equiangular variable
-    (module docstring). ``visibility(points (..., 3)) -> (...)`` is the lamp's
+    The midpoint rule on ``n_samples`` equal steps of ``sqrt(psi / pi)`` over
+    the equiangular variable's range (module docstring). ``visibility(points (..., 3)) -> (...)`` is the lamp's
     visibility (None: 1); ``phase(cos_psi (...)) -> (..., n)`` the band phase
     functions (None: :meth:`LampInputs.phase`, the table the GPU reads).
     """
@@ -203,8 +209,11 @@ def single_scattering(inp: LampInputs, origin, dirs, s, *, n_samples: int = DEFA
     for r0 in range(0, dirs.shape[0], _CHUNK_RAYS):
         v = dirs[r0:r0 + _CHUNK_RAYS]
         t_star, dist, ta, tb = ray_angles(origin, v, s[r0:r0 + _CHUNK_RAYS], lamp, clip)
-        span = np.maximum(tb - ta, 0.0)
-        theta = ta[:, None] + span[:, None] * frac[None, :]             # (P, N)
+        # u = sqrt(psi / pi), psi = pi/2 + theta: midpoints of equal steps in u.
+        ua = np.sqrt(np.clip(ta + 0.5 * np.pi, 0.0, np.pi) / np.pi)
+        du = np.maximum(np.sqrt(np.clip(tb + 0.5 * np.pi, 0.0, np.pi) / np.pi) - ua, 0.0)
+        u = ua[:, None] + du[:, None] * frac[None, :]                   # (P, N)
+        theta = np.pi * u * u - 0.5 * np.pi
         t = t_star[:, None] + dist[:, None] * np.tan(theta)
         r = dist[:, None] / np.cos(theta)
         x = np.asarray(origin, dtype=float) + t[..., None] * v[:, None, :]
@@ -213,8 +222,8 @@ def single_scattering(inp: LampInputs, origin, dirs, s, *, n_samples: int = DEFA
             f = f * np.asarray(visibility(x), dtype=float)
         att = np.exp(-np.asarray(inp.c_lamp) * r[..., None]
                      - np.asarray(inp.c_view) * t[..., None])             # (P, N, n)
-        integrand = phase(-np.sin(theta)) * f[..., None] * att
-        weight = (span / n_samples / dist)[:, None]
+        integrand = phase(-np.sin(theta)) * (f * u)[..., None] * att
+        weight = (2.0 * np.pi * du / n_samples / dist)[:, None]
         out[r0:r0 + v.shape[0]] = (np.asarray(inp.b) * np.asarray(inp.intensity)
                                    * weight * integrand.sum(axis=1))
     return out

@@ -2,9 +2,10 @@
 // maths in aquaspec.transport.lamp_scattering, shadows in aquaspec.scene.lamp_shadow).
 // One invocation per pixel; per lamp:
 // - the light scattered once along the pixel's ray up to its surface (or the
-//   water surface going up, or infinity), by the midpoint rule on N_SAMPLES
-//   equal steps of the equiangular variable theta (t = t* + D tan theta,
-//   dt / r^2 = dtheta / D), the ray first cut to the lamp's cone;
+//   water surface going up, or infinity), over the equiangular variable theta
+//   (t = t* + D tan theta, dt / r^2 = dtheta / D) by the midpoint rule on
+//   N_SAMPLES equal steps of u = sqrt(psi / pi), psi = pi/2 + theta the
+//   scattering angle (dtheta = 2 pi u du), the ray first cut to the lamp's cone;
 // - a lit surface's light rho / pi I0 f(alpha) V max(0, n.l) exp(-c_lamp r) / r^2
 //   exp(-c_view S).
 // Summed over the bands in camera RGB and added to rgb_out (vec4 per pixel).
@@ -188,10 +189,12 @@ fn lamp_veil(k: u32, v: vec3<f32>, s_ray: f32) -> vec3<f32> {
     }
     let theta_a = atan2(t0 - t_star, dist);
     let theta_b = select(atan2(t1 - t_star, dist), HALF_PI, t1 >= f32_inf());
-    let step = (theta_b - theta_a) / f32(N_SAMPLES);
+    let u_a = sqrt(clamp(theta_a + HALF_PI, 0.0, PI) / PI);
+    let step = max(sqrt(clamp(theta_b + HALF_PI, 0.0, PI) / PI) - u_a, 0.0) / f32(N_SAMPLES);
     var acc = vec3<f32>(0.0);
     for (var j = 0u; j < N_SAMPLES; j = j + 1u) {
-        let theta = theta_a + (f32(j) + 0.5) * step;
+        let u = u_a + (f32(j) + 0.5) * step;
+        let theta = PI * u * u - HALF_PI;
         let cos_t = cos(theta);
         let sin_t = sin(theta);
         let t = t_star + dist * sin_t / cos_t;
@@ -201,12 +204,12 @@ fn lamp_veil(k: u32, v: vec3<f32>, s_ray: f32) -> vec3<f32> {
         if (f <= 0.0) {
             continue;
         }
-        let g = f * lamp_visibility(k, x, vec3<f32>(0.0), false);
+        let g = f * u * lamp_visibility(k, x, vec3<f32>(0.0), false);
         if (g <= 0.0) {
             continue;
         }
-        // The scattering angle psi = pi/2 + theta, read from the table at cos psi = -sin theta.
-        let xp = sqrt(clamp(theta + HALF_PI, 0.0, PI) / PI) * f32(PHASE_SIZE - 1u);
+        // The phase table is over sqrt(psi / pi): u itself.
+        let xp = u * f32(PHASE_SIZE - 1u);
         let j0 = min(u32(floor(xp)), PHASE_SIZE - 2u);
         let fp = xp - f32(j0);
         for (var i = 0u; i < N_BANDS; i = i + 1u) {
@@ -217,7 +220,7 @@ fn lamp_veil(k: u32, v: vec3<f32>, s_ray: f32) -> vec3<f32> {
             acc = acc + (g * e * q0.z * intensity[k * BAND_GROUPS + i / 4u][i % 4u]) * bands[2u * i + 1u].xyz;
         }
     }
-    return acc * (step / dist);
+    return acc * (2.0 * PI * step / dist);
 }
 
 fn reflectance(material: u32, sig: vec3<f32>, i: u32, t: f32) -> f32 {
