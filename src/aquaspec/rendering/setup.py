@@ -34,6 +34,13 @@ from aquaspec.transport.sun_scattering import SunInputs, log_phase_table
 
 
 #: How the lamps are rendered, for a render's metadata.
+#: The water surface seen from below, as renders name it, and the light
+#: field's top boundary for each (:func:`aquaspec.medium.interface.below_surface`):
+#: ``flat`` the real flat interface (Snell's window with Fresnel transmission,
+#: the water's light mirrored outside it), ``index-matched`` no interface (the
+#: path-traced validation's setting and the thesis's).
+SURFACE_MODELS = {"index-matched": "null", "flat": "fresnel"}
+
 LAMP_MODEL = ("aquaspec.transport.lamp_scattering: direct light on surfaces "
               "I(alpha) exp(-c_lamp r) max(0, n.l) / r^2 with a shadow map per lamp, and "
               "single scattering along each view ray (equiangular midpoint rule); c_lamp "
@@ -104,6 +111,8 @@ class SpectralSetup:
     #: camera: their light on surfaces and scattered once in the water
     #: (:mod:`aquaspec.transport.lamp_scattering`).
     lamps: tuple = ()
+    #: The water surface seen from below (:data:`SURFACE_MODELS`; light-field model).
+    surface: str = "index-matched"
     #: What the setup derived and keeps (:class:`SetupCache`); not a parameter.
     cache: SetupCache = field(default_factory=SetupCache, init=False, repr=False,
                               compare=False)
@@ -129,6 +138,9 @@ class SpectralSetup:
             if not isinstance(lamp, Lamp):
                 raise AquaspecError(f"lamps[{k}] is {lamp!r}; accepted: aquaspec.light.lamp.Lamp "
                                     "(aquaspec.light.lamp.parse_lamps for --lamp specs)")
+        if self.surface not in SURFACE_MODELS:
+            raise AquaspecError(f"surface {self.surface!r}; accepted: "
+                                f"{', '.join(SURFACE_MODELS)}")
         if self.occlusion and self.ambient_shadow:
             raise AquaspecError("occlusion and ambient_shadow both take the scene's shadow out "
                                 "of the water's light; accepted: one of them")
@@ -160,7 +172,7 @@ class SpectralSetup:
                 self.water.on_bands(self.bands), phase=self.phase,
                 forward_cone_deg=self.cone_deg, cone_spread=self.cone_spread,
                 spread_scattering=self.spread_scattering, ambient_shadow=self.ambient_shadow,
-                **bed, **dict(self.phase_params))
+                surface=SURFACE_MODELS[self.surface], **bed, **dict(self.phase_params))
         return self.cache.lightfield_tables
 
     def sun_inputs(self) -> SunInputs | None:
@@ -246,6 +258,7 @@ class SpectralSetup:
                               "spread_scattering": self.spread_scattering,
                               "ambient_shadow": self.ambient_shadow,
                               "occlusion": self.occlusion,
+                              "surface": self.surface,
                               "seabed": None if self.seabed is None
                               else self.seabed.describe()})
         return {"water": self.water.describe(), "sensor": self.sensor.describe(),

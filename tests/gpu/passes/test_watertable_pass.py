@@ -103,3 +103,32 @@ def test_water_table_with_a_seabed_built_on_the_gpu_matches_numpy(light, spread,
         np.testing.assert_allclose(got, ref, rtol=2e-4, atol=2e-6 * scale)
         assert previous is None or np.abs(got - previous).max() > 1e-3 * scale
         previous = got
+
+
+@pytest.mark.parametrize("depth", [0.4, 6.0])
+def test_the_flat_surface_in_the_water_table_on_the_gpu(depth, lightfield_gbuffer):
+    """The real flat surface (SpectralSetup surface="flat", the light field's
+    "fresnel" top): looking up, the GPU table's open water follows the NumPy
+    twin, which sees the sky through Snell's window and, outside it, the water
+    below mirrored."""
+    from aquaspec.transport.lightfield.compiled import direction_nodes, water_table
+    gb = lightfield_gbuffer("up", depth)
+    setup = dataclasses.replace(setup_of("IB", 8, "petzold", cone=15.0), surface="flat")
+    lp = gpu_pass(gb, setup)
+    lp.run()
+    got = lp.water.read()
+    med = setup.medium(gb.materials)
+    tables = setup.lightfield_tables()
+    assert tables.surface == "fresnel"
+    ref = water_table(tables, a=med["a"], b=med["b"], e0=med["e0"],
+                      response_weights=med["response_weights"], depth_o=depth, split=False)
+    np.testing.assert_allclose(got, ref, rtol=2e-4, atol=2e-6 * np.abs(ref).max())
+    v, _ = direction_nodes(tables.window_cos)
+    matched = dataclasses.replace(setup_of("IB", 8, "petzold", cone=15.0))
+    plain = water_table(matched.lightfield_tables(), a=med["a"], b=med["b"], e0=med["e0"],
+                        response_weights=med["response_weights"], depth_o=depth, split=False)
+    # Outside the window: the mirrored water, dimmer than the index-matched
+    # surface's sky there but not black.
+    outside = (v > 0.2) & (v < 0.6)
+    mirrored = ref[0, outside, -1].sum(axis=-1)
+    assert np.all(mirrored > 0) and np.all(mirrored < plain[0, outside, -1].sum(axis=-1))

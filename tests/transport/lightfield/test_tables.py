@@ -122,3 +122,29 @@ def test_forward_cone_over_a_seabed_hides_the_seabed_too():
     c = bw.a + bw.b
     t_beam = np.exp(-(c - cone.forward_fraction * bw.b) * s)
     np.testing.assert_allclose(share, -(t_beam - np.exp(-c * s)) * hidden, rtol=1e-9)
+
+
+def test_fresnel_surface_in_the_tables(ib_tables):
+    """With the real interface the tables see what LightField sees: looking up at
+    open water from 4 m, inside Snell's window the sky (Fresnel-weighted) and
+    outside it the water below, mirrored; exact at the table's cosines, within
+    a percent between them; the cache round trip keeps the surface."""
+    from aquaspec.transport.lightfield.tables import LightfieldTables
+    bw, _, _ = ib_tables
+    lf = solve_lightfield(bw.a, bw.b, phase="petzold", wavelength_nm=bw.bands.centers_nm,
+                          n_streams=32, surface="fresnel")
+    tab = lightfield_tables(bw, phase="petzold", surface="fresnel")
+    assert tab.surface == "fresnel" and tab.mirrored_top_per_e0.shape == (8, 65)
+    v = np.array([0.15, 0.4, 0.6, 0.7, 0.9])              # window edge at 0.66
+    exact = lf.radiance(0.0, v).T                         # just below the surface
+    np.testing.assert_allclose(tab.top_radiance(v, 1.0), exact, rtol=1e-2)
+    seen = tab.pixel_radiance(a=bw.a, b=bw.b, e0=1.0, depth_o=np.full((5, 1), 4.0),
+                              v_y=v[:, None], s=np.full((5, 1), np.inf))
+    np.testing.assert_allclose(seen, lf.radiance(4.0, v).T, rtol=3e-2)
+    # Outside the window: the mirrored water, not black as for "refracted".
+    refracted = lightfield_tables(bw, phase="petzold", surface="refracted")
+    np.testing.assert_allclose(refracted.top_radiance(v[:2], 1.0), 0.0)
+    assert np.all(tab.top_radiance(v[:2], 1.0) > 0)
+    again = LightfieldTables.from_arrays(tab.to_arrays())
+    assert again.surface == "fresnel"
+    np.testing.assert_array_equal(again.top_radiance(v, 1.0), tab.top_radiance(v, 1.0))

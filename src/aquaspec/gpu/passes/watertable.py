@@ -16,7 +16,8 @@ twin.
 Bindings of watertable.wgsl: 0 uniform :data:`WATER_PARAMS_LAYOUT`; 1 uniform
 per band group :func:`water_band_fields`; 2 the ``ln F`` prefactor as a 2-D
 array texture (:func:`aquaspec.gpu.passes.lightfield.band_group_texture`); 3
-the table out, ``(layers, directions, DISTANCES)`` vec4.
+the table out, ``(layers, directions, DISTANCES)`` vec4; 4 the surface seen
+from below at each direction node, :func:`top_fields`.
 """
 
 from __future__ import annotations
@@ -53,9 +54,9 @@ def alpha_vec4s(alpha) -> dict:
 
 
 def water_band_fields(tables, *, a, b, e0, response_weights) -> np.ndarray:
-    """Per band group the fields of watertable.wgsl: (9, ceil(n / 4), 4) float64.
+    """Per band group the fields of watertable.wgsl: (8, ceil(n / 4), 4) float64.
 
-    ``c, kappa_1, c' = c - f b, b E0 / (4 pi), L_top, w_r, w_g, w_b, L_bed``
+    ``c, kappa_1, c' = c - f b, b E0 / (4 pi), w_r, w_g, w_b, L_bed``
     (``L_bed`` the seabed's radiance,
     :meth:`aquaspec.transport.lightfield.tables.LightfieldTables.seabed_radiance`;
     zero in deep water), four bands per vec4 (zero past the last band).
@@ -67,9 +68,7 @@ def water_band_fields(tables, *, a, b, e0, response_weights) -> np.ndarray:
     c = a + b
     l_bed = tables.seabed_radiance(e0) if tables.has_seabed else np.zeros(n)
     rows = np.stack([c, np.asarray(tables.k_inf, np.float64), c - f * b,
-                     b * e0 / (4.0 * np.pi),
-                     np.asarray(tables.sky_radiance_per_e0, np.float64) * e0,
-                     w[:, 0], w[:, 1], w[:, 2], l_bed])
+                     b * e0 / (4.0 * np.pi), w[:, 0], w[:, 1], w[:, 2], l_bed])
     groups = -(-n // 4)
     out = np.zeros((rows.shape[0], groups * 4))
     out[:, :n] = rows
@@ -77,6 +76,21 @@ def water_band_fields(tables, *, a, b, e0, response_weights) -> np.ndarray:
     out[0, n:] = 1.0
     out[2, n:] = 1.0
     return out.reshape(rows.shape[0], groups, 4)
+
+
+def top_fields(tables, *, e0) -> np.ndarray:
+    """The surface seen from below at each direction node of the water table
+    (:func:`aquaspec.transport.lightfield.compiled.direction_nodes`), per band
+    group: (directions, ceil(n / 4), 4) float64
+    (:meth:`aquaspec.transport.lightfield.tables.LightfieldTables.top_radiance`;
+    zero for nodes looking level or down)."""
+    v, _ = lfc.direction_nodes(tables.window_cos)
+    top = tables.top_radiance(v, np.asarray(e0, dtype=np.float64))         # (J, n)
+    n = top.shape[1]
+    groups = -(-n // 4)
+    out = np.zeros((v.size, groups * 4))
+    out[:, :n] = top
+    return out.reshape(v.size, groups, 4)
 
 
 class WaterTablePass:
@@ -89,7 +103,7 @@ class WaterTablePass:
         self._params = create_uniform_buffer(device, WATER_PARAMS_LAYOUT,
                                              label="water table params")
         self._layout = bind_group_layout(device, {0: "uniform", 1: "uniform",
-                                                  2: "float_array", 3: "write"})
+                                                  2: "float_array", 3: "write", 4: "read"})
         self._pipelines = {}
         #: The table's ``2d-array`` view (None before the first build).
         self.texture = None
@@ -123,6 +137,9 @@ class WaterTablePass:
         upload_buffer(self.device, self._band_buffer, data)
         self._log_prefactor = create_array_texture(self.device, log_prefactor,
                                                    label="lightfield ln F")
+        top = top_fields(tables, e0=e0).reshape(-1, 4).astype(np.float32)
+        self._top = create_storage_buffer(self.device, top.nbytes, label="water table top")
+        upload_buffer(self.device, self._top, top)
         self.key = None
 
     def forget(self) -> None:
@@ -193,7 +210,8 @@ class WaterTablePass:
             n_out=n_out, n_in=n_in, fb_mean=self._shape["fb_mean"],
             seabed_depth=self._seabed_depth, **alpha_vec4s(alpha)))
         group = dev.create_bind_group(layout=self._layout, entries=bind_group_entries(
-            {0: self._params, 1: self._band_buffer, 2: self._log_prefactor, 3: self._out}))
+            {0: self._params, 1: self._band_buffer, 2: self._log_prefactor, 3: self._out,
+             4: self._top}))
         # The open-water column first: the hit columns read it.
         record_dispatches(encoder, [
             (open_column, group, (-(-rows // 64), 1, 1)),

@@ -6,7 +6,7 @@
 //   L_bg(d)  = R(d, v) + exp(-c l(d)) L_end
 //   base     = L_bg(d_o) - T L_bg(d_S),  cone = -(T' - T) L_bg(d_S)
 // where the line of sight from depth d ends on the water surface (up rays:
-// l = d / v, L_end = L_top inside the window, else 0), on the seabed at depth
+// l = d / v, L_end = L_top(v), the surface seen from below), on the seabed at depth
 // H (SEABED, down rays: l = (H - d) / -v, L_end = L_bed) or nowhere (l = inf).
 // With SEABED a down ray's finite hit distance S is cut at the seabed (a
 // black target beyond it is taken at it) and d_S clamped to [0, H];
@@ -40,14 +40,16 @@ const NODES: u32 = {{ nodes }}u;
 const SEABED: bool = {{ seabed }};
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
-// Per band group g, field f at [f N_GROUPS + g] (lightfield_pass.water_band_fields):
-// 0 c, 1 kappa_1, 2 c' = c - f b, 3 b E0 / (4 pi), 4 L_top (sky radiance
-// below the surface), 5 w_r, 6 w_g, 7 w_b, 8 L_bed (the seabed's radiance; 0
-// without a seabed).
+// Per band group g, field f at [f N_GROUPS + g] (watertable.water_band_fields):
+// 0 c, 1 kappa_1, 2 c' = c - f b, 3 b E0 / (4 pi), 4 w_r, 5 w_g, 6 w_b,
+// 7 L_bed (the seabed's radiance; 0 without a seabed).
 @group(0) @binding(1) var<uniform> bands: array<vec4<f32>, {{ band_len }}>;
 // ln F: layer g, texel (direction j, depth i) holds bands 4g .. 4g + 3.
 @group(0) @binding(2) var log_prefactor: texture_2d_array<f32>;
 @group(0) @binding(3) var<storage, read_write> out: array<vec4<f32>>;
+// L_top at direction node j for band group g at [j N_GROUPS + g]
+// (watertable.top_fields: the sky through the surface and what it mirrors).
+@group(0) @binding(4) var<storage, read> top: array<vec4<f32>>;
 
 fn field(f: u32, g: u32) -> vec4<f32> {
     return bands[f * N_GROUPS + g];
@@ -104,12 +106,13 @@ fn r_at(d: f32, v: f32, g: u32) -> vec4<f32> {
     return exp(log_f(d, v, g)) * field(3u, g) * path;
 }
 
-// The line of sight's end seen from depth d: exp(-c l(d)) L_end (four bands).
-fn end_light(d: f32, v: f32, inside: bool, g: u32) -> vec4<f32> {
+// The line of sight's end seen from depth d along direction node j (v):
+// exp(-c l(d)) L_end (four bands).
+fn end_light(d: f32, v: f32, j: u32, g: u32) -> vec4<f32> {
     if (!ends(v)) {
         return vec4<f32>(0.0);
     }
-    let l_end = select(field(8u, g), select(vec4<f32>(0.0), field(4u, g), inside), v > 0.0);
+    let l_end = select(field(7u, g), top[j * N_GROUPS + g], v > 0.0);
     return exp(-field(0u, g) * to_end(d, v)) * l_end;
 }
 
@@ -124,7 +127,7 @@ fn node_direction(j: u32) -> vec2<f32> {
 }
 
 fn rgb_of(l: vec4<f32>, g: u32) -> vec3<f32> {
-    return vec3<f32>(dot(l, field(5u, g)), dot(l, field(6u, g)), dot(l, field(7u, g)));
+    return vec3<f32>(dot(l, field(4u, g)), dot(l, field(5u, g)), dot(l, field(6u, g)));
 }
 
 @compute @workgroup_size(64)
@@ -139,7 +142,7 @@ fn open_column(@builtin(global_invocation_id) gid: vec3<u32>) {
     var open = vec3<f32>(0.0);
     for (var g = 0u; g < N_GROUPS; g = g + 1u) {
         open = open + rgb_of(r_at(prm.depth_o, v, g)
-                             + end_light(prm.depth_o, v, node.y > 0.5, g), g);
+                             + end_light(prm.depth_o, v, j, g), g);
     }
     let texel = j * DISTANCES + DISTANCES - 1u;
     out[texel] = vec4<f32>(open, 0.0);
@@ -171,7 +174,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let node = node_direction(j);
     let v = node.x;
-    let inside = node.y > 0.5;
     let up = v > 0.0;
     let d_o = prm.depth_o;
     // Distance node (distance_nodes): S = length x / (1 - x), x = k / (DISTANCES - 2).
@@ -196,7 +198,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (up || !inf_node) {
         for (var g = 0u; g < N_GROUPS; g = g + 1u) {
             let c = field(0u, g);
-            let blocked = r_at(d_s, v, g) + end_light(d_s, v, inside, g);
+            let blocked = r_at(d_s, v, g) + end_light(d_s, v, j, g);
             let t_beam = exp(-field(2u, g) * s);
             let t = select(t_beam, exp(-c * s), SPLIT);
             behind = behind + rgb_of(t * blocked, g);

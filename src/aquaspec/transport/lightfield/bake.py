@@ -200,6 +200,16 @@ def _not_finite_error(band_water, k_inf, d_max, wl, phase) -> AquaspecError:
         "please report these inputs, or use the seeds' model (--ms-model seeds)")
 
 
+def _mirrored_top(lf, cos):
+    """What the surface mirrors down, ``R(v) L(0, -v)`` on the cosine axis (n, n_mu)
+    float32, for a surface that mirrors (``fresnel``); else None."""
+    _, mirror, _ = interface.below_surface(cos, lf.surface, lf.n_water)
+    mirror = np.where(cos > 0, mirror, 0.0)
+    if not np.any(mirror > 0):
+        return None
+    return (mirror * lf.radiance(0.0, -np.abs(cos))).astype(np.float32)
+
+
 def bake_tables(band_water, *, phase, seabed_depth_m, seabed_albedo, n_depth, n_mu,
                 max_depth_m, n_streams, surface, forward_cone_deg, cone_spread,
                 spread_scattering, ambient_shadow, sun_mu0=None, sun_fraction=None,
@@ -304,4 +314,5 @@ def bake_tables(band_water, *, phase, seabed_depth_m, seabed_albedo, n_depth, n_
         beam_extinction=lf.c_star.astype(f32),
         sun_mu0=scalar(np.nan if sun_mu0 is None else float(sun_mu0)),
         sun_fraction=share.astype(f32),
-        cone=cone, shadow=shadow)
+        cone=cone, shadow=shadow, surface=surface,
+        mirrored_top_per_e0=_mirrored_top(lf, cos))

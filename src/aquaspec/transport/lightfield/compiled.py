@@ -284,9 +284,8 @@ def water_table(tables: LightfieldTables, *, a, b, e0, response_weights, depth_o
     c_beam = c - f * b
     k1 = np.asarray(tables.k_inf, dtype=float)
     bed = tables.seabed_depth_m
-    sky = np.asarray(tables.sky_radiance_per_e0, dtype=float) * e0
-    l_bed = tables.seabed_radiance(e0) if tables.has_seabed else np.zeros_like(sky)
-    v, inside = direction_nodes(tables.window_cos)
+    l_bed = tables.seabed_radiance(e0) if tables.has_seabed else np.zeros_like(k1)
+    v, _ = direction_nodes(tables.window_cos)
     s_nodes = distance_nodes()                         # hit nodes, the last inf
 
     def r_at(depth, vv):
@@ -307,7 +306,7 @@ def water_table(tables: LightfieldTables, *, a, b, e0, response_weights, depth_o
     # Up rays within 1e-30 of level reach the surface at a distance that
     # overflows: exp(-inf) = 0 is the limit.
     with np.errstate(over="ignore"):
-        l_top = np.where(inside[:, None], sky, 0.0)                            # (J, n)
+        l_top = tables.top_radiance(v, e0)                                     # (J, n)
         d_o = np.full(v.size, float(depth_o))
         open_l = r_at(d_o, v) + end_light(d_o, v, l_top)                      # L_bg(d_o, v)
         vv, ss = np.meshgrid(v, s_nodes, indexing="ij")

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.medium.interface import SURFACES, below_surface
 from aquaspec.numerics import bilinear_blend
 from aquaspec.transport import monzon2022 as model
 from aquaspec.transport.lightfield.shadowphase import ShadowTables
@@ -189,7 +190,13 @@ class LightfieldTables:
         ``kappa_1``, 1/m.
     sky_radiance_per_e0 : (n,)
         The radiance looking up just below the surface, seen for
-        ``v_y > window_cos``; with a sun the sky's part only.
+        ``v_y > window_cos``; with a sun the sky's part only. With the
+        ``fresnel`` surface, times the surface's transmission shape
+        (:meth:`top_radiance`).
+    mirrored_top_per_e0 : (n, n_mu) or None
+        ``fresnel`` surface: the light going up that the surface mirrors,
+        ``R(v) L(0, -v)`` on the cosine axis (zero for ``v <= 0``); None
+        for the others.
     seabed_albedo : (n,)
     depth_m : (n_depth,), cosine : (n_mu,)
         The axes.
@@ -204,6 +211,8 @@ class LightfieldTables:
         The sun's share ``mu0 F0 / E0`` of the downwelling irradiance just
         below the surface (zeros without a sun).
     forward_cone_deg, window_cos, max_depth_m : float
+    surface : str
+        The top boundary's model (:data:`aquaspec.medium.interface.SURFACES`).
     seabed_depth_m : float
         ``inf`` in deep water (then the depth axis ends at ``max_depth_m``).
     sun_mu0 : float
@@ -231,6 +240,8 @@ class LightfieldTables:
     sun_mu0: float = float("nan")
     cone: ConeTables | None = None
     shadow: ShadowTables | None = None
+    surface: str = "null"
+    mirrored_top_per_e0: np.ndarray | None = None
 
     # ---- the cache's form ---------------------------------------------------
     def to_arrays(self) -> dict:
@@ -242,6 +253,10 @@ class LightfieldTables:
                         if getattr(self.cone, f) is not None})
         if self.shadow is not None:
             out.update(self.shadow.to_arrays())
+        if self.surface != "null":
+            out["surface_model"] = np.array([SURFACES.index(self.surface)], np.float32)
+        if self.mirrored_top_per_e0 is not None:
+            out["mirrored_top_per_e0"] = self.mirrored_top_per_e0
         return out
 
     @classmethod
@@ -250,9 +265,12 @@ class LightfieldTables:
         cone = None
         if _CONE_KEYS["offset_cdf"] in arrays:
             cone = ConeTables(**{f: arrays.get(key) for f, key in _CONE_KEYS.items()})
+        surface = SURFACES[int(arrays["surface_model"][0])] if "surface_model" in arrays \
+            else "null"
         return cls(**{k: arrays[k] for k in _ARRAYS},
                    **{k: float(arrays[k][0]) for k in _SCALARS}, cone=cone,
-                   shadow=ShadowTables.from_arrays(arrays))
+                   shadow=ShadowTables.from_arrays(arrays), surface=surface,
+                   mirrored_top_per_e0=arrays.get("mirrored_top_per_e0"))
 
     # ---- what the tables hold -----------------------------------------------
     @property
@@ -341,10 +359,27 @@ class LightfieldTables:
                 -np.asarray(self.beam_extinction, dtype=float) * bed / self.sun_mu0)
         return np.asarray(self.seabed_albedo, dtype=float) * e_bed * e0 / np.pi
 
-    def _top_radiance(self, v, e0):
-        """The light field's top boundary seen looking up along ``v``."""
-        return np.where(v > self.window_cos,
-                        np.asarray(self.sky_radiance_per_e0, dtype=float) * e0, 0.0)
+    def top_radiance(self, v, e0) -> np.ndarray:
+        """The light field's top boundary seen looking up along ``v``: the sky
+        through the surface (:func:`aquaspec.medium.interface.below_surface`'s
+        shape) and what the surface mirrors (``fresnel``); zero for ``v <= 0``.
+        ``v``: (J,) or (..., 1) (a trailing ray axis); returns ``(..., n)``."""
+        v = np.asarray(v, dtype=float)
+        vv = v[..., 0] if v.ndim and v.shape[-1] == 1 else v
+        n_water = 1.0 / np.sqrt(1.0 - self.window_cos ** 2) if self.window_cos else 1.0
+        shape, _, _ = below_surface(vv, self.surface, n_water)
+        sky = np.asarray(self.sky_radiance_per_e0, dtype=float) * np.asarray(e0, dtype=float)
+        out = np.where((vv > 0)[..., None], shape[..., None] * sky, 0.0)
+        if self.mirrored_top_per_e0 is not None:
+            table = np.asarray(self.mirrored_top_per_e0, dtype=float)
+            n_mu = table.shape[1]
+            y = (1.0 - np.arccos(np.clip(vv, -1.0, 1.0)) / np.pi) * (n_mu - 1)
+            j = np.clip(np.floor(y).astype(int), 0, n_mu - 2)
+            t = (y - j)[..., None]
+            mirrored = (1.0 - t) * table.T[j] + t * table.T[j + 1]
+            out = out + np.where((vv > 0)[..., None], mirrored * np.asarray(e0, dtype=float),
+                                 0.0)
+        return out
 
     def pixel_radiance(self, *, a, b, e0, depth_o, v_y, s, rho=None, surface_depth=None,
                        n_y=None, form: str = "two_point", split_cone: bool = False,
@@ -355,8 +390,7 @@ class LightfieldTables:
         arrays with a trailing axis of length 1, band arrays (n,)):
         ``L = T(S) L_surf + L_MS`` with ``L_MS`` from :meth:`l_ms`.
         Open water (``rho`` None): an up ray ends at the water surface and sees
-        the light field's own top boundary (``sky_radiance_per_e0`` E0 for
-        ``v_y > window_cos``); a down ray in water with a seabed sees the seabed
+        the light field's own top boundary (:meth:`top_radiance`); a down ray in water with a seabed sees the seabed
         (``albedo E(H, +1)/pi``). A hit surface of reflectance ``rho`` at
         ``surface_depth`` with normal ``n_y`` gets ``rho E(d, n_y)/pi`` from the
         irradiance table, times ``surface_scale`` (per ray and band, e.g. the
@@ -379,7 +413,7 @@ class LightfieldTables:
         s_eff = cut_at_seabed(model.ray_length(s, d_o, v), d_o, v, bed)
         l_bed = self.seabed_radiance(e0) if np.isfinite(bed) else 0.0
         if rho is None:
-            l_surf = np.where(np.isfinite(s_eff) & (v > 0), self._top_radiance(v, e0), 0.0)
+            l_surf = np.where(np.isfinite(s_eff) & (v > 0), self.top_radiance(v, e0), 0.0)
             if np.isfinite(bed):
                 l_surf = np.where(np.isfinite(s_eff) & (v < 0), l_bed, l_surf)
         else:
@@ -400,7 +434,7 @@ class LightfieldTables:
             # (The end's term cancels from T'-independent parts; in the cone's
             # share it is the background the target hides, seabed included.)
             r_o, r_s, fin, s_f = self._two_point(a=a, b=b, e0=e0, depth_o=d_o, v_y=v, s=s_eff)
-            l_top = self._top_radiance(v, e0)
+            l_top = self.top_radiance(v, e0)
             up = v > 0
             to_bed = (v < 0) & np.isfinite(bed)
             l_end = np.where(up, l_top, np.where(to_bed, l_bed, 0.0))
