@@ -79,3 +79,20 @@ def test_lamps_in_the_layers():
     # cones or in shadows are not).
     lit = back[hit].sum(-1) < 0.9 * gpu.linear_rgb[hit].sum(-1)
     assert lit.mean() > 0.3
+
+
+@pytest.mark.gpu
+def test_lamps_on_an_rgbd_photograph():
+    """An RGB-D photograph lit by lamps: no shadow maps (nothing is known behind
+    what it shows), the GPU image the NumPy backend's."""
+    from aquaspec.rendering.api import render
+    img = np.full((36, 64, 3), 150, np.uint8)
+    img[:, 32:] = (200, 60, 40)
+    depth = np.full((36, 64), 3.0)
+    depth[:18] = 6.0
+    kw = dict(rgbd=(img, depth, (50.0, 50.0, 32.0, 18.0)), water="II", depth_m=30, bands=4,
+              light="none", lamps=["rov-pair"], exposure=0)
+    gpu, ref = render(**kw), render(**kw, backend="numpy")
+    assert gpu.params["lamp_rendering"]["shadow_map_texels"] is None
+    np.testing.assert_allclose(gpu.linear_rgb, ref.linear_rgb,
+                               atol=IMAGE_ATOL_OF_MAX * ref.linear_rgb.max())
