@@ -96,3 +96,15 @@ def test_lamps_on_an_rgbd_photograph():
     assert gpu.params["lamp_rendering"]["shadow_map_texels"] is None
     np.testing.assert_allclose(gpu.linear_rgb, ref.linear_rgb,
                                atol=IMAGE_ATOL_OF_MAX * ref.linear_rgb.max())
+
+
+@pytest.mark.gpu
+def test_many_bands_read_the_phase_table_from_storage():
+    """Past 32 bands the lamp pass's phase table no longer fits a uniform buffer
+    and is read from storage: the same image as the NumPy backend's."""
+    from aquaspec.rendering.api import render
+    kw = dict(water="IB", depth_m=20, size=(32, 18), bands=40, light="none",
+              lamps=["torch"], exposure=0)
+    gpu, ref = render(**kw), render(**kw, backend="numpy")
+    np.testing.assert_allclose(gpu.linear_rgb, ref.linear_rgb,
+                               atol=IMAGE_ATOL_OF_MAX * ref.linear_rgb.max())

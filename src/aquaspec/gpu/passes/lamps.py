@@ -17,7 +17,7 @@ Two steps (maths in :mod:`aquaspec.transport.lamp_scattering`, NumPy twin
 
 Bindings of lamps.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
 surface and sigmoid textures; 3 material band reflectances (M * n f32); 4 two
-vec4 per band (uniform); 5 ``ln p`` per band
+vec4 per band (uniform); 5 ``ln p`` per band (uniform up to 32 bands)
 (:func:`aquaspec.transport.sun_scattering.log_phase_table`); 6 the lamps
 (:data:`LAMP_DTYPE`); 7 their on-axis intensity per band (uniform, four
 bands a vec4, :data:`MAX_LAMPS` rows); 8 their beam
@@ -66,6 +66,9 @@ _BINDINGS = {0: "uniform", 1: "uint", 2: "float", 3: "read", 4: "uniform", 5: "r
 #: are read in the band loops, where storage reads were most of the pass's time
 #: on lavapipe (577 -> 226 ms at 160x90, 8 bands, two lamps, without them).
 _UNIFORM = (4, 7)
+#: The phase table goes in a uniform buffer too when it fits WebGPU's 64 KiB
+#: (up to 32 bands of PHASE_TABLE_SIZE entries), else in storage.
+UNIFORM_BYTES = 65536
 
 
 def profile_table(lamp) -> np.ndarray:
@@ -106,17 +109,25 @@ class LampPass:
         self.width, self.height, self.n_bands = int(width), int(height), int(n_bands)
         self.map_size, self.n_samples = int(map_size), int(n_samples)
         self._groups = -(-self.n_bands // 4)
+        self._phase_uniform = 4 * self.n_bands * PHASE_TABLE_SIZE <= UNIFORM_BYTES
+        phase_vec4 = self.n_bands * PHASE_TABLE_SIZE // 4
         src = load_wgsl("lamps.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
                         params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
                         phase_size=PHASE_TABLE_SIZE, profile_size=PROFILE_SIZE,
                         n_samples=self.n_samples, near=f"{NEAR_M:.9g}", far=f"{FAR_M:.9g}",
                         band_vec4=2 * self.n_bands,
+                        phase_binding=(f"var<uniform> log_phase: array<vec4<f32>, {phase_vec4}>"
+                                       if self._phase_uniform
+                                       else "var<storage, read> log_phase: array<f32>"),
+                        phase_read=("log_phase[k / 4u][k % 4u]" if self._phase_uniform
+                                    else "log_phase[k]"),
                         intensity_vec4=MAX_LAMPS * self._groups,
                         bias_texels=f"{BIAS_TEXELS:.9g}",
                         normal_offset_texels=f"{NORMAL_OFFSET_TEXELS:.9g}",
                         min_distance=f"{MIN_DISTANCE_M:.9g}", min_range=f"{MIN_RANGE_M:.9g}")
         module = device.create_shader_module(label="lamps.wgsl", code=src)
-        self._layout = bind_group_layout(device, _BINDINGS)
+        kinds = {**_BINDINGS, 5: "uniform" if self._phase_uniform else "read"}
+        self._layout = bind_group_layout(device, kinds)
         self._pipeline = device.create_compute_pipeline(
             label="lamps", layout=device.create_pipeline_layout(bind_group_layouts=[self._layout]),
             compute={"module": module, "entry_point": "main"})
@@ -175,7 +186,7 @@ class LampPass:
         self._buffers = {}
         for b, arr in data.items():
             arr = np.ascontiguousarray(arr)
-            if b in _UNIFORM:
+            if b in _UNIFORM or (b == 5 and self._phase_uniform):
                 self._buffers[b] = create_uniform_buffer(self.device, arr.nbytes,
                                                          label=f"lamps binding {b}")
                 upload_buffer(self.device, self._buffers[b], arr)

@@ -58,7 +58,12 @@ const MIN_RANGE: f32 = {{ min_range }};
 @group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
 @group(0) @binding(3) var<storage, read> materials: array<f32>;
 @group(0) @binding(4) var<uniform> bands: array<vec4<f32>, {{ band_vec4 }}>;
-@group(0) @binding(5) var<storage, read> log_phase: array<f32>;
+@group(0) @binding(5) {{ phase_binding }};
+
+// Entry k of the phase table (uniform, four to a vec4, when it fits; else storage).
+fn phase_entry(k: u32) -> f32 {
+    return {{ phase_read }};
+}
 @group(0) @binding(6) var<storage, read> lamps: array<LampGpu>;
 @group(0) @binding(7) var<uniform> intensity: array<vec4<f32>, {{ intensity_vec4 }}>;
 @group(0) @binding(8) var<storage, read> profile: array<f32>;
@@ -215,7 +220,7 @@ fn lamp_veil(k: u32, v: vec3<f32>, s_ray: f32) -> vec3<f32> {
         for (var i = 0u; i < N_BANDS; i = i + 1u) {
             let q0 = bands[2u * i];
             let row = i * PHASE_SIZE + j0;
-            let ln_p = mix(log_phase[row], log_phase[row + 1u], fp);
+            let ln_p = mix(phase_entry(row), phase_entry(row + 1u), fp);
             let e = exp(ln_p - q0.x * r - q0.y * t);
             acc = acc + (g * e * q0.z * intensity[k * BAND_GROUPS + i / 4u][i % 4u]) * bands[2u * i + 1u].xyz;
         }
