@@ -16,6 +16,8 @@ notebook, a test) it is used as it is.
 
 from __future__ import annotations
 
+import time
+
 from aquaspec.apps.synth.config import SynthConfig
 from aquaspec.apps.synth.task import SampleTask
 from aquaspec.errors import AquaspecError
@@ -29,6 +31,9 @@ class SynthActor:
 
     def run(self, unit) -> list[dict]:
         return self.task.run(unit)
+
+    def ready(self) -> bool:
+        return True
 
 
 def _ray():
@@ -45,7 +50,9 @@ def run_ray(cfg: SynthConfig, units: list, workers: int | None, address: str | N
     """Render ``units`` on Ray actors (``workers`` of them; None: one per
     GPU of the cluster, else one per CPU), calling ``on_records(records)`` as
     each unit finishes; returns what was used (``address``, ``actors``,
-    ``gpus_per_actor``)."""
+    ``gpus_per_actor``, ``startup_seconds``: Ray started or joined and the
+    actors ready)."""
+    t0 = time.perf_counter()
     ray = _ray()
     # deferred: part of ray (above)
     from ray.util import ActorPool
@@ -60,12 +67,14 @@ def run_ray(cfg: SynthConfig, units: list, workers: int | None, address: str | N
             workers = int(gpus) if gpus >= 1 else max(1, int(resources.get("CPU", 1)))
         actor = ray.remote(num_cpus=1, num_gpus=1 if gpus >= 1 else 0)(SynthActor)
         actors = [actor.remote(cfg) for _ in range(max(1, min(workers, len(units))))]
+        ray.get([a.ready.remote() for a in actors])
+        startup = time.perf_counter() - t0
         if units:
             pool = ActorPool(actors)
             for records in pool.map_unordered(lambda a, unit: a.run.remote(unit), units):
                 on_records(records)
         return {"address": address or "local", "actors": len(actors),
-                "gpus_per_actor": 1 if gpus >= 1 else 0}
+                "gpus_per_actor": 1 if gpus >= 1 else 0, "startup_seconds": startup}
     finally:
         if started:
             ray.shutdown()

@@ -176,17 +176,23 @@ def sample_id(cfg: SynthConfig, pair: InputPair | MeshInput, params: dict) -> st
     return hashlib.sha256(canonical_json(identity).encode("ascii")).hexdigest()[:ID_DIGITS]
 
 
+#: Work units per worker a group is cut into (at least): small enough that
+#: the workers finish together, while each keeps its set-ups across units.
+UNITS_PER_WORKER = 4
+
+
 def chunks(samples: list[Sample], workers: int, max_size: int = 8) -> list[list[Sample]]:
     """``samples`` cut into work units of one group each, the groups in order
-    of their first sample: a group of ``n`` samples is cut into about
-    ``workers`` units (at most ``max_size`` samples each) so every worker has
-    work and the progress moves."""
+    of their first sample: a group of ``n`` samples is cut into at least
+    :data:`UNITS_PER_WORKER` units per worker (of at most ``max_size``
+    samples) so the workers share the work evenly and the progress moves; a
+    worker keeps a group's set-up from one unit to the next."""
     groups: dict[tuple, list[Sample]] = {}
     for s in samples:
         groups.setdefault(_group_key(s), []).append(s)
     out = []
     for members in groups.values():
-        size = max(1, min(max_size, -(-len(members) // max(1, workers))))
+        size = max(1, min(max_size, len(members) // (UNITS_PER_WORKER * max(1, workers))))
         out += [members[i:i + size] for i in range(0, len(members), size)]
     return out
 
