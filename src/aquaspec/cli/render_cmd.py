@@ -70,6 +70,11 @@ def register(sub):
                         "see (GPU and NumPy); with --backend numpy the water in the "
                         "occluders' shadow scatters less too (light-field model; an RGB-D "
                         "image's occluder is its visible surface)")
+    p.add_argument("--surface", default="index-matched", choices=("index-matched", "flat"),
+                   help="the water surface seen from below (light-field model): flat, the "
+                        "real interface (the sky in Snell's window, the water mirrored "
+                        "outside it); index-matched, no interface (the validation's setting; "
+                        "default)")
     p.add_argument("--seabed", default="scene", metavar="scene|none|DEPTH[,ALBEDO]",
                    help="the light field's lower boundary: the scene's (default; the "
                         "built-in scene's sand), none (deep water), or a flat Lambertian "
@@ -134,7 +139,7 @@ def run(args):
                  ms_model=args.ms_model, phase=args.phase,
                  forward_cone_deg=args.forward_cone, cone_spread=args.cone_spread,
                  spread_scattering=args.spread_scattering, ambient_shadow=args.ambient_shadow,
-                 occlusion=args.occlusion, seabed=seabed, lamps=lamps,
+                 occlusion=args.occlusion, seabed=seabed, lamps=lamps, surface=args.surface,
                  exposure=args.exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
                  layers=bool(args.layers), backend=args.backend, progress=progress)

@@ -25,8 +25,7 @@ reads as those steps, each a function of this module:
    (:func:`aquaspec.colour.display.to_display`), and ``_params``, every
    parameter for the sidecar.
 
-:class:`aquaspec.rendering.renderer.Renderer` keeps the GPU passes alive for
-many frames (the interactive viewer and ``aquaspec bench``).
+A :class:`aquaspec.rendering.renderer.Renderer` keeps the passes for many frames.
 """
 
 from __future__ import annotations
@@ -121,7 +120,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            ms_model: str = DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
            spread_scattering: str = "single", ambient_shadow: bool = False,
-           occlusion: bool = False, seabed="scene", lamps=(),
+           occlusion: bool = False, seabed="scene", lamps=(), surface="index-matched",
            exposure="auto", white_balance="none", tonemap="filmic",
            colour_matrix="auto", return_radiance: bool = False, layers: bool = False,
            backend: str = "gpu", progress=None, renderer: Renderer | None = None
@@ -194,6 +193,9 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         (:mod:`aquaspec.transport.lightfield.shadow`; goes with ``spread_scattering="multiple"``).
         Integrated in NumPy from the G-buffer with either backend (the GPU's
         image has it subtracted in camera RGB): seconds per image.
+    surface : {"index-matched", "flat"}
+        The surface seen from below (light field): ``flat`` the real interface,
+        ``index-matched`` none (:data:`aquaspec.rendering.setup.SURFACE_MODELS`).
     occlusion : bool
         The scene's occlusion of the ambient light field (light-field model,
         scenes and meshes): surfaces under a ledge or before a wall get the
@@ -261,7 +263,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         outside=outside,
         ms_model=ms_model, phase=phase, forward_cone_deg=forward_cone_deg,
         cone_spread=cone_spread, spread_scattering=spread_scattering,
-        ambient_shadow=ambient_shadow, occlusion=occlusion, say=say, lamps=lamps)
+        ambient_shadow=ambient_shadow, occlusion=occlusion, say=say, lamps=lamps, surface=surface)
     view = _view(scene=scene, camera=camera, mesh=mesh, albedo=albedo, rgbd=rgbd,
                  depth_m=depth, width=width, height=height, say=say)
     if rgbd is not None:
@@ -288,7 +290,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
 def _spectral_setup(*, water, source, sensor, camspec, bands, wavelength_range, light,
                     irradiance_w_m2, sun_elevation_deg, sun_azimuth_deg, sun_shadow_map,
                     waves, ambient, outside, ms_model, phase, forward_cone_deg, cone_spread,
-                    spread_scattering, ambient_shadow, say, occlusion=False, lamps=()):
+                    spread_scattering, ambient_shadow, say, occlusion=False, lamps=(),
+                    surface="index-matched"):
     """Step 1: the :class:`SpectralSetup` of :func:`render`'s arguments and the
     sun's shadow-map size; its ranges are checked (and the waves' caustics
     computed) before any geometry work."""
@@ -302,7 +305,7 @@ def _spectral_setup(*, water, source, sensor, camspec, bands, wavelength_range, 
                           ambient, outside, ms_model, phase,
                           forward_cone_deg=forward_cone_deg, cone_spread=cone_spread,
                           spread_scattering=spread_scattering, ambient_shadow=ambient_shadow,
-                          occlusion=occlusion,
+                          occlusion=occlusion, surface=surface,
                           waves=as_waves(waves), lamps=parse_lamps(lamps))
     setup.medium([])  # fail early on ranges before any geometry work
     if setup.waves is not None:

@@ -200,15 +200,18 @@ fn spread_at(x: f32, y: f32) -> vec4<f32> {
     return mix(lo, hi, f.y);
 }
 
-// lightfield_compiled.direction_coordinate: q = sign(v) sqrt(|v|), rows
-// 0 .. W_OUT - 1 outside Snell's window, W_OUT .. W_OUT + W_IN - 1 inside.
+// lightfield_compiled.direction_coordinate: rows 0 .. W_OUT - 1 outside
+// Snell's window (uniform in q = sign(v) sqrt(|v|)), W_OUT .. W_OUT + W_IN - 1
+// inside (uniform in u = sqrt((v - w) / (1 - w)), w the window's cosine).
 fn direction_row(v: vec4<f32>) -> vec4<f32> {
     let vc = clamp(v, vec4<f32>(-1.0), vec4<f32>(1.0));
     let q = sign(vc) * sqrt(abs(vc));
-    let q_w = sign(prm.window_cos) * sqrt(abs(prm.window_cos));
+    let w = prm.window_cos;
+    let q_w = sign(w) * sqrt(abs(w));
     let outside = (q + 1.0) / (q_w + 1.0) * f32(W_OUT - 1u);
-    let inside = f32(W_OUT) + (q - q_w) / (1.0 - q_w) * f32(W_IN - 1u);
-    return select(outside, inside, v > vec4<f32>(prm.window_cos));
+    let u = sqrt(max(vc - w, vec4<f32>(0.0)) / (1.0 - w));
+    let inside = f32(W_OUT) + u * f32(W_IN - 1u);
+    return select(outside, inside, v > vec4<f32>(w));
 }
 
 // What the band loop (shading4.wgsl) needs of the four pixels (vec4 lanes):

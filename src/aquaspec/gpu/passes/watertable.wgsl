@@ -118,11 +118,12 @@ fn end_light(d: f32, v: f32, j: u32, g: u32) -> vec4<f32> {
 
 // Direction node j (lightfield_compiled.direction_nodes): (v, inside the window).
 fn node_direction(j: u32) -> vec2<f32> {
-    let q_w = sign(prm.window_cos) * sqrt(abs(prm.window_cos));
+    let w = prm.window_cos;
+    let q_w = sign(w) * sqrt(abs(w));
     let inside = j >= prm.n_out;
-    let q = select(-1.0 + f32(j) * (q_w + 1.0) / f32(prm.n_out - 1u),
-                   q_w + f32(j - prm.n_out) * (1.0 - q_w) / f32(prm.n_in - 1u), inside);
-    let v = select(sign(q) * q * q, prm.window_cos, inside && j == prm.n_out);
+    let q = -1.0 + f32(min(j, prm.n_out - 1u)) * (q_w + 1.0) / f32(prm.n_out - 1u);
+    let u = f32(max(j, prm.n_out) - prm.n_out) / f32(prm.n_in - 1u);
+    let v = select(sign(q) * q * q, select(w + (1.0 - w) * u * u, w, j == prm.n_out), inside);
     return vec2<f32>(v, select(0.0, 1.0, inside));
 }
 

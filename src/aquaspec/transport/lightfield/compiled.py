@@ -63,13 +63,16 @@ by the tests (``tests/transport/lightfield/test_compiled.py``) and by
 Table axes (texel units, texel ``k`` centred at ``k``, as a GPU sampler's
 ``(k + 0.5) / size``):
 
-- direction: ``q = sign(v_y) sqrt(|v_y|)`` (dense near the horizon, where an
-  up ray from a shallow camera changes fast); ``n_out`` nodes over ``q in
-  [-1, q_w]`` outside the window (``v_y <= window_cos``, ``q_w =
-  sign(window_cos) sqrt(|window_cos|)``), then ``n_in`` nodes over ``[q_w, 1]``
-  inside it (:func:`direction_split`; the tables' default water surface,
-  ``"null"``, puts the window's edge at the horizon). The edge falls
-  between two texels that the lookup never blends, so its jump stays sharp.
+- direction: outside the window (``v_y <= window_cos``) ``n_out`` nodes
+  uniform in ``q = sign(v_y) sqrt(|v_y|)`` over ``[-1, q_w]``, ``q_w =
+  sign(window_cos) sqrt(|window_cos|)`` (dense near the horizon, where an up
+  ray from a shallow camera changes fast); inside it ``n_in`` nodes uniform
+  in ``u = sqrt((v_y - window_cos) / (1 - window_cos))`` over ``[0, 1]``
+  (dense at the window's edge, where the Fresnel transmission of a grazing
+  sky ray rises as ``sqrt(v_y - window_cos)``, linear in ``u``; for the
+  ``"null"`` surface, whose window's edge is the horizon, ``u = q``)
+  (:func:`direction_split`). The edge falls between two texels that the
+  lookup never blends, so its jump stays sharp.
 - distance: ``x = S / (S + length) (K - 2)`` for a hit (``S = inf`` at
   ``K - 2``), ``K - 1`` for open water; ``length`` = :data:`LENGTH_SCALE_M`.
 """
@@ -210,17 +213,18 @@ def direction_coordinate(v_y, window_cos: float):
     v = np.clip(np.asarray(v_y, dtype=float), -1.0, 1.0)
     q, q_w = _q(v), _q(window_cos)
     outside = (q + 1.0) / (q_w + 1.0) * (n_out - 1)
-    inside = n_out + (q - q_w) / (1.0 - q_w) * (n_in - 1)
+    u = np.sqrt(np.maximum(v - window_cos, 0.0) / (1.0 - window_cos))
+    inside = n_out + u * (n_in - 1)
     return np.where(v > window_cos, inside, outside)
 
 
 def direction_nodes(window_cos: float):
     """``v_y`` of the direction nodes and whether each is inside the window."""
     n_out, n_in = direction_split(window_cos)
-    q_w = _q(window_cos)
-    q = np.concatenate([np.linspace(-1.0, q_w, n_out), np.linspace(q_w, 1.0, n_in)])
-    v = np.sign(q) * q * q
-    inside = np.arange(q.size) >= n_out
+    q = np.linspace(-1.0, _q(window_cos), n_out)
+    u = np.linspace(0.0, 1.0, n_in)
+    v = np.concatenate([np.sign(q) * q * q, window_cos + (1.0 - window_cos) * u * u])
+    inside = np.arange(v.size) >= n_out
     # The first inside node is the window edge seen from inside.
     v[n_out] = np.nextafter(window_cos, 2.0)
     return v, inside
