@@ -188,6 +188,21 @@ def test_the_depth_control_moves_the_camera_within_the_water(live):
     assert not controls.set_depth(float("nan")) and "nan" in view.message
 
 
+def test_the_flat_surface_from_the_panel(live):
+    """Looking up (pitch 60), the flat surface shows Snell's window with the
+    water mirrored around it: the frame's bottom (outside the window) darkens
+    against the index-matched surface's sky all round, the exposure held."""
+    canvas, view, controls = live
+    view.flight.set_view(0.0, 60.0)
+    matched = _frame(canvas)
+    assert controls.set_surface("flat")
+    flat = _settle(canvas, view)
+    assert view.setup.surface == "flat"
+    # The bottom rows look up at about 35 degrees: outside the window (48.8).
+    assert flat[-4:].mean() < 0.8 * matched[-4:].mean()
+    assert not controls.set_surface("wavy") and "wavy" in view.message
+
+
 def test_render_scale_from_the_panel(live):
     canvas, view, controls = live
     assert controls.set_render_scale(0.5)

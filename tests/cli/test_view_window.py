@@ -139,7 +139,7 @@ def test_keys_fly_the_camera_and_change_the_water(x_display, tmp_path):
 
 #: Where the panel's "sun" checkbox is, from the panel's top-left corner (logical
 #: pixels, ImGui's default font and style: read off docs/images/live-view-panel.png).
-SUN_CHECKBOX_FROM_PANEL = (17, 336)
+SUN_CHECKBOX_FROM_PANEL = (17, 359)
 
 
 def test_a_click_on_the_panel_turns_the_sun_on(x_display, tmp_path):

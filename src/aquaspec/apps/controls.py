@@ -35,6 +35,7 @@ from aquaspec.errors import AquaspecError
 from aquaspec.light.waves import WIND_RANGE
 from aquaspec.medium.phase import PHASE_FUNCTIONS
 from aquaspec.medium.water import SOURCES, list_waters
+from aquaspec.rendering.setup import SURFACE_MODELS
 from aquaspec.transport.models import MS_MODELS
 
 #: Phase functions offered, with the parameters the panel gives them
@@ -86,6 +87,7 @@ class ViewControls:
     def scales() -> list[float]:
         return list(SCALE_LEVELS)
 
+    surfaces = tuple(SURFACE_MODELS)
     band_range = (MIN_BANDS, MAX_BANDS)
     wind_range = WIND_RANGE
     sources = SOURCES
@@ -120,6 +122,10 @@ class ViewControls:
             self.view.message = f"not changed: {n!r} bands; accepted: {lo} to {hi}"
             return False
         return self.set(bands=int(n))
+
+    def set_surface(self, name: str) -> bool:
+        """The water surface seen from below (``flat`` or ``index-matched``)."""
+        return self.set(surface=name)
 
     def set_ms_model(self, name: str) -> bool:
         return self.set(ms_model=name)

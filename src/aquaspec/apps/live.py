@@ -163,7 +163,7 @@ class LiveView:
         return SpectralSetup(
             get_water(water, s.water_source), get_sensor(s.sensor, s.camspec), light,
             Bands(s.bands), ms_model=s.ms_model, phase=s.phase, phase_params=s.phase_params,
-            cone_spread=s.cone_spread,
+            cone_spread=s.cone_spread, surface=s.surface,
             spread_scattering=s.spread_scattering,
             seabed=self.seabed if s.ms_model == "lightfield" else None, waves=waves)
 

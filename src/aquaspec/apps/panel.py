@@ -96,6 +96,7 @@ class ControlsPanel:
         self._combo(imgui, "water type", c.waters(s.water_source), water, c.set_water)
         self._combo(imgui, "ms model", c.ms_models(), s.ms_model, c.set_ms_model)
         self._combo(imgui, "phase", c.phases(), s.phase, c.set_phase)
+        self._combo(imgui, "surface", c.surfaces, s.surface, c.set_surface)
 
         imgui.separator_text("camera")
         changed, depth = imgui.slider_float("depth", view.flight.depth_m, *c.depth_range(),

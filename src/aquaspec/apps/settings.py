@@ -18,6 +18,7 @@ from aquaspec.light.waves import WIND_RANGE
 from aquaspec.medium.phase import PHASE_FUNCTIONS
 from aquaspec.medium.water import DEFAULT_SOURCE, SOURCES
 from aquaspec.rendering.appearance import check_ms_model
+from aquaspec.rendering.setup import SURFACE_MODELS
 from aquaspec.scene.camera import check_size
 from aquaspec.scene.seabed import Seabed
 from aquaspec.transport.models import DEFAULT_MS_MODEL
@@ -64,6 +65,8 @@ class ViewSettings:
     #: :func:`~aquaspec.scene.rgbd.gbuffer_from_rgbd` take them; the view is
     #: the photograph's own (the camera moves only up and down).
     rgbd: tuple | None = None
+    #: The water surface seen from below (:data:`aquaspec.rendering.setup.SURFACE_MODELS`).
+    surface: str = "index-matched"
     #: Linear RGB albedo replacing the mesh's colours (as ``render(albedo=)``).
     albedo: tuple | None = None
     #: ``(depth_m, albedo)``: a flat grey seabed, the light field's lower
@@ -74,6 +77,9 @@ class ViewSettings:
 
     def __post_init__(self):
         check_size(self.width, self.height)
+        if self.surface not in SURFACE_MODELS:
+            raise AquaspecError(f"surface {self.surface!r}; accepted: "
+                                f"{', '.join(SURFACE_MODELS)}")
         if self.albedo is not None:
             if self.mesh is None:
                 raise AquaspecError("albedo replaces a mesh's colours: it needs a mesh")

@@ -75,6 +75,9 @@ def register(sub):
     p.add_argument("--mesh", metavar="FILE",
                    help="show this OBJ/PLY/glTF/GLB/STL/OFF instead of the built-in scene, "
                         "placed 3 m in front of the camera at --depth, in open water")
+    p.add_argument("--surface", default="index-matched", choices=("index-matched", "flat"),
+                   help="the water surface seen from below, as for render (default "
+                        "index-matched)")
     p.add_argument("--albedo", metavar="R,G,B",
                    help="linear RGB albedo for --mesh, e.g. 0.5,0.4,0.3 (as for render)")
     p.add_argument("--seabed", default=None, metavar="DEPTH[,ALBEDO]",
@@ -143,6 +146,7 @@ def run(args):
         cone_spread=args.cone_spread, spread_scattering=args.spread_scattering,
         sun_elevation_deg=elevation if args.light == "sun-sky" else _OVERCAST_ELEVATION,
         sun_azimuth_deg=azimuth, wind=args.wind, mesh=args.mesh, rgbd=rgbd,
+        surface=args.surface,
         albedo=comma_floats(args.albedo, 3, "--albedo") if args.albedo else None,
         seabed=None if args.seabed is None else parse_depth_albedo(
             args.seabed, "--seabed", "DEPTH[,ALBEDO] in metres (> 0) and [0, 1], e.g. 12 or "
