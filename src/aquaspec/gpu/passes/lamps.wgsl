@@ -25,6 +25,7 @@
 
 #include "common.wgsl"
 #include "gbuffer_normal.wgsl"
+#include "pcf.wgsl"
 
 {{ params_struct }}
 
@@ -137,13 +138,7 @@ fn lamp_visibility(k: u32, p: vec3<f32>, n: vec3<f32>, surface: bool) -> f32 {
     let fy = y - i0;
     let g = textureGatherCompare(shadow_maps, shadow_sampler,
                                  vec2<f32>(j0 + 1.0, i0 + 1.0) / size, face, z_ref);
-    let out_j0 = j0 < 0.0 || j0 >= size;
-    let out_j1 = j0 + 1.0 < 0.0 || j0 + 1.0 >= size;
-    let out_i0 = i0 < 0.0 || i0 >= size;
-    let out_i1 = i0 + 1.0 < 0.0 || i0 + 1.0 >= size;
-    let lit = select(g, vec4<f32>(1.0), vec4<bool>(out_j0 || out_i1, out_j1 || out_i1,
-                                                   out_j1 || out_i0, out_j0 || out_i0));
-    return mix(mix(lit.w, lit.z, fx), mix(lit.x, lit.y, fx), fy);
+    return pcf_blend(g, j0, i0, fx, fy, size);
 }
 
 // Where the ray o + t v is inside lamp k's cone (lamp_scattering.cone_interval):

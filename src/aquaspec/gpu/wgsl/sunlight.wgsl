@@ -26,6 +26,7 @@
 
 #include "common.wgsl"
 #include "gbuffer_normal.wgsl"
+#include "pcf.wgsl"
 
 {{ sun_params_struct }}
 
@@ -68,13 +69,7 @@ fn visibility(p: vec3<f32>) -> f32 {
     let z_ref = min((sp.h_max - h - sp.bias) / (sp.h_max - sp.h_min), 1.0);
     let g = textureGatherCompare(shadow_map, shadow_sampler,
                                  vec2<f32>(j0 + 1.0, i0 + 1.0) / size, z_ref);
-    let out_j0 = j0 < 0.0 || j0 >= size;
-    let out_j1 = j0 + 1.0 < 0.0 || j0 + 1.0 >= size;
-    let out_i0 = i0 < 0.0 || i0 >= size;
-    let out_i1 = i0 + 1.0 < 0.0 || i0 + 1.0 >= size;
-    let lit = select(g, vec4<f32>(1.0), vec4<bool>(out_j0 || out_i1, out_j1 || out_i1,
-                                                   out_j1 || out_i0, out_j0 || out_i0));
-    return mix(mix(lit.w, lit.z, fx), mix(lit.x, lit.y, fx), fy);
+    return pcf_blend(g, j0, i0, fx, fy, size);
 }
 
 // The caustic factor at p averaged over about `footprint` metres (1 without caustics).
