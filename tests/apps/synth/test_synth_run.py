@@ -132,3 +132,22 @@ class TestFolderLock:
             held = json.loads((tmp_path / "synth.lock").read_text())
             assert held["pid"] == os.getpid()
         assert not (tmp_path / "synth.lock").exists()
+
+
+@pytest.mark.gpu
+def test_render_with_a_kept_renderer(tmp_path):
+    """render(renderer=): the same image as a fresh renderer's, and a renderer
+    of another size or band count refused, naming both."""
+    from aquaspec.rendering.api import render
+    from aquaspec.rendering.renderer import Renderer
+    from support.synth_data import INTRINSICS, rgb_image
+    rgbd = (rgb_image(0), depth_mm(0) * 1e-3, INTRINSICS)
+    kept = Renderer(64, 48, 4)
+    render(water="3C", depth_m=8.0, bands=4, rgbd=rgbd, renderer=kept)
+    again = render(water="IB", depth_m=4.0, bands=4, rgbd=rgbd, layers=True, renderer=kept)
+    fresh = render(water="IB", depth_m=4.0, bands=4, rgbd=rgbd, layers=True)
+    np.testing.assert_array_equal(again.linear_rgb, fresh.linear_rgb)
+    np.testing.assert_array_equal(again.layers["backscatter"], fresh.layers["backscatter"])
+    with pytest.raises(AquaspecError, match="renderer=64x48, 4 bands cannot shade this 64x48 "
+                                            "image of 8 bands"):
+        render(bands=8, rgbd=rgbd, renderer=kept)
