@@ -8,22 +8,14 @@ import pytest
 
 pytestmark = pytest.mark.gpu
 
-W, H = 64, 36
+W, H = 64, 36          # the canvas_and_view fixture's size (tests/apps/conftest.py)
 
 
 @pytest.fixture()
-def live(device):
-    from rendercanvas.offscreen import RenderCanvas
-
+def live(canvas_and_view):
     from aquaspec.apps.controls import ViewControls
-    from aquaspec.apps.live import LiveView
-    from aquaspec.apps.settings import ViewSettings
-    canvas = RenderCanvas(size=(W, H))
-    view = LiveView(ViewSettings(width=W, height=H, bands=3))
-    view.attach(canvas)
-    yield canvas, view, ViewControls(view)
-    view.close()
-    canvas.close()
+    canvas, view = canvas_and_view
+    return canvas, view, ViewControls(view)
 
 
 def _frame(canvas) -> np.ndarray:

@@ -11,20 +11,7 @@ import pytest
 
 pytestmark = pytest.mark.gpu
 
-W, H = 64, 36
-
-
-@pytest.fixture()
-def canvas_and_view(device):
-    from rendercanvas.offscreen import RenderCanvas
-
-    from aquaspec.apps.live import LiveView, ViewSettings
-    canvas = RenderCanvas(size=(W, H))
-    view = LiveView(ViewSettings(width=W, height=H, bands=3))
-    view.attach(canvas)
-    yield canvas, view
-    view.close()
-    canvas.close()
+W, H = 64, 36          # the canvas_and_view fixture's size (tests/apps/conftest.py)
 
 
 def _key(view, key):

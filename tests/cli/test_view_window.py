@@ -73,6 +73,31 @@ def _hold(display, key, seconds):
     time.sleep(0.5)
 
 
+def _run_view(display, args, act):
+    """Run ``python -m aquaspec view ARGS`` in a window on ``display``: wait for
+    its window, ``act(window)`` (xdotool calls), press Escape, wait for the
+    command to end; asserts it ended well and returns ``(stdout, stderr)``."""
+    env = {**os.environ, "DISPLAY": display}
+    env.pop("RENDERCANVAS_FORCE_OFFSCREEN", None)
+    view = subprocess.Popen([sys.executable, "-m", "aquaspec", "view", *args], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        found = _xdotool(display, "search", "--sync", "--name", "^aquaspec view",
+                         timeout=WINDOW_WAIT_S)
+        assert found.returncode == 0, f"no window appeared: {found.stderr}"
+        window = found.stdout.split()[0]
+        time.sleep(1.0)                                   # a few frames first
+        act(window)
+        _xdotool(display, "key", "Escape")
+        stdout, stderr = view.communicate(timeout=EXIT_WAIT_S)
+    finally:
+        if view.poll() is None:
+            view.kill()
+            view.communicate()
+    assert view.returncode == 0, stderr[-3000:]
+    return stdout, stderr
+
+
 def _ratio(png, num, den, rows=0.2):
     """Mean of channel ``num`` over mean of channel ``den`` in the top ``rows``
     of a frame: open water (the camera looks 10 degrees down), the background."""
@@ -86,32 +111,18 @@ def test_keys_fly_the_camera_and_change_the_water(x_display, tmp_path):
     forward, 7 switches to Jerlov 3C (greener: less blue for the green), Escape
     closes the window."""
     out = tmp_path / "run"
-    env = {**os.environ, "DISPLAY": x_display}
-    env.pop("RENDERCANVAS_FORCE_OFFSCREEN", None)
-    # --frames: a cap, so that the window closes even if Escape is lost.
-    view = subprocess.Popen([sys.executable, "-m", "aquaspec", "view", "--size", "160x90",
-                             "--bands", "6", "--depth", "1.5", "--frames", "5000",
-                             "--record", str(out)],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        found = _xdotool(x_display, "search", "--sync", "--name", "^aquaspec view",
-                         timeout=WINDOW_WAIT_S)
-        assert found.returncode == 0, f"no window appeared: {found.stderr}"
-        window = found.stdout.split()[0]
-        time.sleep(1.0)                                   # a few frames first
+
+    def act(window):
         focus = _xdotool(x_display, "windowfocus", "--sync", window)
         assert focus.returncode == 0, focus.stderr
         _hold(x_display, "q", HOLD_S)
         _hold(x_display, "w", HOLD_S)
         _xdotool(x_display, "key", "7")
         time.sleep(WATER_WAIT_S)
-        _xdotool(x_display, "key", "Escape")
-        stdout, stderr = view.communicate(timeout=EXIT_WAIT_S)
-    finally:
-        if view.poll() is None:
-            view.kill()
-            view.communicate()
-    assert view.returncode == 0, stderr[-3000:]
+
+    # --frames: a cap, so that the window closes even if Escape is lost.
+    stdout, _ = _run_view(x_display, ["--size", "160x90", "--bands", "6", "--depth", "1.5",
+                                      "--frames", "5000", "--record", str(out)], act)
     run = json.loads((out / "run.json").read_text())
     assert run["mode"] == "window"
     assert run["frames_drawn"] < 5000, "Escape did not close the window"
@@ -150,32 +161,18 @@ def test_a_click_on_the_panel_turns_the_sun_on(x_display, tmp_path):
     pytest.importorskip("imgui_bundle")
     from aquaspec.apps.panel import PANEL_MARGIN_PX, PANEL_WIDTH_PX
     out = tmp_path / "run"
-    env = {**os.environ, "DISPLAY": x_display}
-    env.pop("RENDERCANVAS_FORCE_OFFSCREEN", None)
     w, h = 960, 540                          # (narrower windows start with it collapsed)
-    view = subprocess.Popen([sys.executable, "-m", "aquaspec", "view", "--size", f"{w}x{h}",
-                             "--scale", "0.25", "--bands", "3", "--frames", "5000",
-                             "--record", str(out)],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        found = _xdotool(x_display, "search", "--sync", "--name", "^aquaspec view",
-                         timeout=WINDOW_WAIT_S)
-        assert found.returncode == 0, f"no window appeared: {found.stderr}"
-        window = found.stdout.split()[0]
-        time.sleep(1.0)
+
+    def act(window):
         x = w - PANEL_WIDTH_PX - PANEL_MARGIN_PX + SUN_CHECKBOX_FROM_PANEL[0]
         y = PANEL_MARGIN_PX + SUN_CHECKBOX_FROM_PANEL[1]
         _xdotool(x_display, "mousemove", "--window", window, str(x), str(y))
         time.sleep(1.0)                                   # hovered: the panel takes the mouse
         _xdotool(x_display, "click", "1")
         time.sleep(WATER_WAIT_S)
-        _xdotool(x_display, "key", "Escape")
-        stdout, stderr = view.communicate(timeout=EXIT_WAIT_S)
-    finally:
-        if view.poll() is None:
-            view.kill()
-            view.communicate()
-    assert view.returncode == 0, stderr[-3000:]
+
+    _, stderr = _run_view(x_display, ["--size", f"{w}x{h}", "--scale", "0.25", "--bands", "3",
+                                      "--frames", "5000", "--record", str(out)], act)
     assert "no controls panel" not in stderr
     frames = json.loads((out / "run.json").read_text())["frames"]
     suns = [f["sun_elevation_deg"] for f in frames]

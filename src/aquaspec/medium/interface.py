@@ -58,6 +58,12 @@ def snell_window_cos(n_water: float = N_WATER) -> float:
     return float(np.sqrt(1.0 - 1.0 / n_water ** 2))
 
 
+def index_of_window(window_cos: float) -> float:
+    """The refractive index whose Snell's window has cosine ``window_cos``
+    (:func:`snell_window_cos` inverted; 1 for a window at the horizon)."""
+    return float(1.0 / np.sqrt(1.0 - window_cos ** 2))
+
+
 def surface_from_below(e0, v_y, n_water: float = N_WATER):
     """Radiance of the water surface seen from below along an up-going ray.
 

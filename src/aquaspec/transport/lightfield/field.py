@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aquaspec.errors import AquaspecError
-from aquaspec.medium.interface import below_surface
+from aquaspec.medium.interface import below_surface, index_of_window
 from aquaspec.medium.phase_bands import redistribution_matrix
 from aquaspec.numerics import legendre_table
 from aquaspec.transport import monzon2022 as model
@@ -249,7 +249,7 @@ class LightField:
     @property
     def n_water(self) -> float:
         """The refractive index the surface was solved with (from Snell's window)."""
-        return float(1.0 / np.sqrt(1.0 - self.window_cos ** 2))
+        return index_of_window(self.window_cos)
 
     def _top(self, v_y):
         """Radiance looking up just below the surface, (n, R): the sky through

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aquaspec.errors import AquaspecError
-from aquaspec.medium.interface import SURFACES, below_surface
+from aquaspec.medium.interface import SURFACES, below_surface, index_of_window
 from aquaspec.numerics import bilinear_blend
 from aquaspec.transport import monzon2022 as model
 from aquaspec.transport.lightfield.shadowphase import ShadowTables
@@ -366,17 +366,13 @@ class LightfieldTables:
         ``v``: (J,) or (..., 1) (a trailing ray axis); returns ``(..., n)``."""
         v = np.asarray(v, dtype=float)
         vv = v[..., 0] if v.ndim and v.shape[-1] == 1 else v
-        n_water = 1.0 / np.sqrt(1.0 - self.window_cos ** 2) if self.window_cos else 1.0
-        shape, _, _ = below_surface(vv, self.surface, n_water)
+        shape, _, _ = below_surface(vv, self.surface, index_of_window(self.window_cos))
         sky = np.asarray(self.sky_radiance_per_e0, dtype=float) * np.asarray(e0, dtype=float)
         out = np.where((vv > 0)[..., None], shape[..., None] * sky, 0.0)
         if self.mirrored_top_per_e0 is not None:
-            table = np.asarray(self.mirrored_top_per_e0, dtype=float)
-            n_mu = table.shape[1]
-            y = (1.0 - np.arccos(np.clip(vv, -1.0, 1.0)) / np.pi) * (n_mu - 1)
-            j = np.clip(np.floor(y).astype(int), 0, n_mu - 2)
-            t = (y - j)[..., None]
-            mirrored = (1.0 - t) * table.T[j] + t * table.T[j + 1]
+            table = np.asarray(self.mirrored_top_per_e0, dtype=float).T     # (n_mu, n)
+            j, t = table_cos_index(vv, table.shape[0])
+            mirrored = (1.0 - t[..., None]) * table[j] + t[..., None] * table[j + 1]
             out = out + np.where((vv > 0)[..., None], mirrored * np.asarray(e0, dtype=float),
                                  0.0)
         return out
