@@ -63,3 +63,10 @@ def test_snells_window_from_below():
 def test_an_unknown_surface_is_refused():
     with pytest.raises(AquaspecError, match="surface 'wavy'; accepted: index-matched, flat"):
         aquaspec.render(surface="wavy", size=(16, 16), backend="numpy")
+
+
+def test_the_flat_surface_needs_the_light_field():
+    """The seeds' model has no top boundary to change: refused, not ignored."""
+    with pytest.raises(AquaspecError, match="surface 'flat' is the light field's top"):
+        aquaspec.render(surface="flat", ms_model="monzon2022", size=(16, 16), backend="numpy")
+

@@ -141,6 +141,9 @@ class SpectralSetup:
         if self.surface not in SURFACE_MODELS:
             raise AquaspecError(f"surface {self.surface!r}; accepted: "
                                 f"{', '.join(SURFACE_MODELS)}")
+        if self.surface != "index-matched" and self.ms_model != "lightfield":
+            raise AquaspecError(f"surface {self.surface!r} is the light field's top boundary; "
+                                f"ms_model={self.ms_model!r}; accepted: 'lightfield'")
         if self.occlusion and self.ambient_shadow:
             raise AquaspecError("occlusion and ambient_shadow both take the scene's shadow out "
                                 "of the water's light; accepted: one of them")
