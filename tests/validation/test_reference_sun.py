@@ -45,11 +45,11 @@ def _numbers(text):
 
 def test_scene_has_a_directional_sun_and_the_rest_as_sky():
     mitsuba()
-    from aquaspec.validation.reference import _base, sky_irradiance
+    from aquaspec.validation.reference import base_scene, sky_irradiance
     light = sun_sky()
     sun = light.sun
     water = load_water("IB")
-    d = _base(water, light, "isotropic", 0.0)
+    d = base_scene(water, light, "isotropic", 0.0)
     em = d["sun"]
     assert em["type"] == "directional"
     # Mitsuba's "direction" is the way the light travels: down, refracted.
@@ -70,7 +70,7 @@ def test_scene_has_a_directional_sun_and_the_rest_as_sky():
                                light.sky_on(b), rtol=1e-9)
     # No sun: no emitter and the whole E0 as sky (as before).
     over = surface_light("overcast")
-    d0 = _base(water, over, "isotropic", 0.0)
+    d0 = base_scene(water, over, "isotropic", 0.0)
     assert "sun" not in d0
     np.testing.assert_allclose(_numbers(d0["sky"]["radiance"]["values"]) * np.pi, over.values)
 
@@ -219,7 +219,7 @@ def test_plates_see_the_sky_and_the_refracted_sun():
     irradiance (normal to the beam), its direction (down, refracted) and the
     beam's path ``d / mu0``; the alternatives are outside the tolerance."""
     mitsuba()
-    from aquaspec.validation.reference import measure_plate
+    from aquaspec.validation.meters import measure_plate
     light = sun_sky()
     b = Bands(3)
     depths = np.array([1.0, 4.0])
@@ -249,7 +249,7 @@ def test_kd_meters_add_the_unscattered_sun():
     scattered); measure_kd adds the beam in closed form. The sum matches the
     plates (cosine collectors that do see the sun) and the closed form."""
     mitsuba()
-    from aquaspec.validation.reference import measure_kd, measure_plate
+    from aquaspec.validation.meters import measure_kd, measure_plate
     light = sun_sky()
     b = Bands(3)
     depths = np.array([1.0, 4.0])

@@ -141,7 +141,7 @@ class TestReference:
         """
         mitsuba()
         from scipy.special import expn
-        from aquaspec.validation.reference import measure_kd
+        from aquaspec.validation.meters import measure_kd
         a = 0.2
         water = Water("absorber", "test", np.array([300.0, 800.0]), a=np.full(2, a),
                       b=np.zeros(2), kd=np.full(2, a))
@@ -213,7 +213,8 @@ class TestReference:
         """
         mitsuba()
         from aquaspec.transport.lightfield.solve import solve_lightfield
-        from aquaspec.validation.reference import lightfield_phase, measure_kd
+        from aquaspec.validation.meters import measure_kd
+        from aquaspec.validation.reference import lightfield_phase
         water = Water("grey", "test", np.array([300.0, 800.0]), a=np.full(2, 0.1),
                       b=np.full(2, 0.4), kd=np.full(2, 0.15))
         light = surface_light("overcast")
@@ -233,7 +234,7 @@ class TestReference:
 
     def test_kd_independent_of_depth_range(self):
         mitsuba()
-        from aquaspec.validation.reference import measure_kd
+        from aquaspec.validation.meters import measure_kd
         water = load_water("IB")
         light = surface_light("overcast")
         b = Bands(3)
@@ -474,13 +475,13 @@ def test_reference_medium_follows_the_models_a_and_b():
     piecewise-linear a and b that aquaspec's band means integrate. Given at
     the data's 25 nm spacing (as before), b / c between two points was off by
     several per cent where a rises steeply (Jerlov IB, 575-600 nm)."""
-    from aquaspec.validation.reference import _medium, medium_spectra
+    from aquaspec.validation.reference import medium_spectra, water_medium
 
     def parse(spec):
         return (np.array([float(x) for x in spec["wavelengths"].split(",")]),
                 np.array([float(x) for x in spec["values"].split(",")]))
     water = load_water("IB")
-    med = _medium(water, "isotropic", 0.0)
+    med = water_medium(water, "isotropic", 0.0)
     wl_c, c = parse(med["sigma_t"])
     wl_s, albedo = parse(med["albedo"])
     assert np.all(np.diff(wl_c) <= 1.0 + 1e-9) and set(water.wavelength_nm) <= set(wl_c)

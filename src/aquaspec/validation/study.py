@@ -58,8 +58,9 @@ from aquaspec.validation import metrics
 from aquaspec.validation.baselines import render_baseline
 from aquaspec.validation.reference import (FF_DEFAULT_BACKSCATTER, MAX_DEPTH, MEDIUM_SPECTRA, REFERENCE_BANDS,
                         bands_to_rgb, cache_key, check_phase, light_key, lightfield_phase,
-                        measure_kd, phase_function, phase_key, preflight, render_reference,
-                        spectra_digest, water_with_kd)
+                        phase_function, phase_key, preflight, render_reference,
+                        spectra_digest)
+from aquaspec.validation.meters import measure_kd, water_with_kd
 from aquaspec.validation.scenes import OCCLUDERS, SCENES, board_scene, masks
 
 DEFAULT_WATERS = ("I", "IA", "IB", "II", "3C")
@@ -289,7 +290,7 @@ def run_study(*, waters=DEFAULT_WATERS, depths=DEFAULT_DEPTHS, sensors: dict, so
     sun, goes to aquaspec's shading (:func:`_spectral`, the baselines), to
     the reference (a ``directional`` emitter plus the rest of E0 as the
     sky: :mod:`.reference`) and to the Kd meters (which add the sun's
-    unscattered beam: :func:`.reference.measure_kd`); the sun is in the
+    unscattered beam: :func:`.meters.measure_kd`); the sun is in the
     reference caches' keys (:func:`.reference.light_key`). The light-field
     Kd of the attenuation table (:func:`lightfield_kd`) is for a diffuse
     sky: it is the light-field solution's own, whatever the light.
