@@ -56,10 +56,16 @@ the flat surface (:func:`run_jacobian`; ``(1 - 1/n_w) I`` for a sun at the
 zenith). Each slice is convolved with the Gaussian of covariance
 ``d^2 sigma_u^2 / 2 J J^T``.
 
-Only the unscattered beam is modulated: what the water scatters is part of
-the single-scattering integral (which reads the factor along each ray) and
-of the diffuse light (whose mean over the tile the flat surface's already
-is).
+This is the pattern of the unscattered beam. The light the water scatters
+through small angles carries it on, blurred by the angles it has spread
+into: with a :class:`aquaspec.light.caustic_scatter.ScatterTransfer` (the
+water's ``b``, the beam's extinction and phase function) each slice is
+multiplied in Fourier space by the transfer ``G`` of
+:mod:`aquaspec.light.caustic_scatter` (``scatter=`` of
+:func:`cached_caustic_map` and :func:`caustic_loop`; the map's ``scatter``):
+the renderer's beam then carries the fluctuation of the light it and the
+diffuse field hold together, and its factor may dip below 0 where the
+scattered light is darker than its mean.
 
 Slices are at depths ``d_k = D (k / (K - 1))^2``: caustics change fastest
 just below the surface. Lookups between slices are linear in ``sqrt(d / D)``;
@@ -99,6 +105,8 @@ import numpy as np
 
 from aquaspec.cache import cached_arrays, code_digest
 from aquaspec.errors import AquaspecError
+from aquaspec.light.caustic_sample import _bilinear_wrap, foot, lod_of, sample  # noqa: F401
+from aquaspec.light.caustic_scatter import ScatterTransfer, scatter_slices
 from aquaspec.light.sun import air_to_sun, check_azimuth, check_elevation, refracted_to_sun
 # (splat and disc_blur are this module's too: the photon map's pieces.)
 from aquaspec.light.photon_map import (disc_blur, half_wavenumbers, periodic_cell,  # noqa: F401
@@ -106,7 +114,6 @@ from aquaspec.light.photon_map import (disc_blur, half_wavenumbers, periodic_cel
 from aquaspec.light.waves import (DEFAULT_LOOP_PERIOD_S, Waves, looping,  # noqa: F401
                                   surface, unresolved_slope_variance)
 from aquaspec.medium.interface import FLAT_NORMAL, N_WATER, fresnel_transmittance, refract
-from aquaspec.numerics import bilinear_blend
 from aquaspec.parallel import workers
 
 #: The sun's mean angular radius (its semi-diameter), degrees.
@@ -164,7 +171,9 @@ class CausticMap:
     """The caustic factor per depth slice in foot coordinates (see the module docstring).
 
     ``levels[m]``: (K, n / 2^m, n / 2^m) float32, level 0 the photon map,
-    each next level the 2 x 2 means of the one before; ``depths`` (K,) m.
+    each next level the 2 x 2 means of the one before; ``depths`` (K,) m;
+    ``scatter``: the transfer into the scattered light applied (None: the
+    unscattered beam's pattern).
     """
 
     waves: Waves
@@ -173,6 +182,7 @@ class CausticMap:
     levels: tuple
     mean_weight: float
     info: dict = field(default_factory=dict)
+    scatter: ScatterTransfer | None = None
 
     @property
     def max_depth(self) -> float:
@@ -316,59 +326,6 @@ def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
                      sun_radius_deg=sun_radius_deg, unresolved_slopes=unresolved_slopes)
 
 
-def foot(points, to_sun) -> np.ndarray:
-    """Foot coordinates (..., 2) of points (..., 3): where the flat surface's
-    refracted beam through each point leaves the surface."""
-    p = np.asarray(points, dtype=float)
-    d = -p[..., 1]
-    s = np.asarray(to_sun, dtype=float)
-    return np.stack([p[..., 0] + d / s[1] * s[0], p[..., 2] + d / s[1] * s[2]], axis=-1)
-
-
-def _bilinear_wrap(level, k, u, tile_m):
-    """Bilinear periodic read of slice ``k`` (...) of one level at foot ``u`` (..., 2)."""
-    i0, i1, j0, j1, fz, fx = periodic_cell(u, level.shape[-1], tile_m)
-
-    def at(i, j):
-        return level[k, i, j].astype(float)
-
-    return bilinear_blend(at(i0, j0), at(i0, j1), at(i1, j0), at(i1, j1), fz, fx)
-
-
-def lod_of(footprint_m, texel_m, n_levels):
-    """Mip level for a footprint (m): ``log2(footprint / texel)`` clamped to the pyramid."""
-    f = np.maximum(np.asarray(footprint_m, dtype=float) / texel_m, 1.0)
-    return np.clip(np.log2(f), 0.0, n_levels - 1.0)
-
-
-def sample(cmap: CausticMap, points, footprint_m=0.0) -> np.ndarray:
-    """The caustic factor at points (..., 3), each averaged over about
-    ``footprint_m`` metres (trilinear in the mip pyramid; linear between depth
-    slices in ``sqrt(d / D)``)."""
-    p = np.asarray(points, dtype=float)
-    u = foot(p, cmap.to_sun)
-    d = np.clip(-p[..., 1], 0.0, cmap.max_depth)
-    n_k = cmap.depths.size
-    x = np.sqrt(d / cmap.max_depth) * (n_k - 1)
-    k0 = np.minimum(np.floor(x), n_k - 2).astype(np.int64)
-    fk = x - k0
-    lod = np.broadcast_to(lod_of(footprint_m, cmap.texel, len(cmap.levels)), d.shape)
-    m0 = np.floor(lod).astype(np.int64)
-    fm = lod - m0
-    m1 = np.minimum(m0 + 1, len(cmap.levels) - 1)
-    out = np.zeros(d.shape)
-    for m in np.unique(np.concatenate([m0.ravel(), m1.ravel()])):
-        wm = np.where(m0 == m, 1.0 - fm, 0.0) + np.where(m1 == m, fm, 0.0)
-        sel = wm > 0
-        if not np.any(sel):
-            continue
-        lv = cmap.levels[m]
-        v = ((1 - fk[sel]) * _bilinear_wrap(lv, k0[sel], u[sel], cmap.waves.tile_m)
-             + fk[sel] * _bilinear_wrap(lv, k0[sel] + 1, u[sel], cmap.waves.tile_m))
-        out[sel] += wm[sel] * v
-    return out
-
-
 _CACHE: dict = {}
 _CACHE_SIZE = 4
 _LOCK = threading.Lock()
@@ -408,19 +365,24 @@ def _stored_slices(waves: Waves, elevation_deg, azimuth_deg, kw):
     return data["level0"], float(data["mean_weight"])
 
 
-def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float,
-                       **map_kwargs) -> CausticMap:
+def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
+                       scatter: ScatterTransfer | None = None, **map_kwargs) -> CausticMap:
     """:func:`caustic_map` (same options), remembered for the last few (waves,
-    sun) in this process and its slices kept in the cache directory
-    (:mod:`aquaspec.cache`)."""
+    sun, ``scatter``) in this process and its slices kept in the cache
+    directory (:mod:`aquaspec.cache`); ``scatter``: carried into the
+    scattered light (:func:`aquaspec.light.caustic_scatter.scatter_slices`)."""
     elevation_deg, azimuth_deg, kw = _map_options(elevation_deg, azimuth_deg, **map_kwargs)
-    key = (waves, elevation_deg, azimuth_deg, tuple(sorted(kw.items())))
+    key = (waves, elevation_deg, azimuth_deg, tuple(sorted(kw.items())), scatter)
     with _LOCK:
         hit = _CACHE.get(key)
     if hit is not None:
         return hit
-    hit = _assemble(waves, elevation_deg, azimuth_deg,
-                    *_stored_slices(waves, elevation_deg, azimuth_deg, kw), **kw)
+    level0, mean_w = _stored_slices(waves, elevation_deg, azimuth_deg, kw)
+    if scatter is not None:
+        level0 = scatter_slices(level0, slice_depths(kw["max_depth_m"], kw["slices"]),
+                                waves.tile_m, scatter)
+    hit = replace(_assemble(waves, elevation_deg, azimuth_deg, level0, mean_w, **kw),
+                  scatter=scatter)
     with _LOCK:
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.pop(next(iter(_CACHE)))
@@ -452,13 +414,15 @@ class CausticLoop:
     0's :class:`CausticMap` (the geometry, the sun, the description);
     ``ready`` (F,) bool: the frames built so far (all of them unless the loop
     is being built in the background, :func:`caustic_loop`), read between
-    the ready ones.
+    the ready ones; ``scatter``: each frame's slices carried into the
+    scattered light when its levels are made (:meth:`frame_levels`).
     """
 
     first: CausticMap
     level0: np.ndarray
     ready: np.ndarray | None = None
     _run: dict = field(default_factory=dict, repr=False)
+    scatter: ScatterTransfer | None = None
 
     def __post_init__(self):
         if self.ready is None:
@@ -481,8 +445,12 @@ class CausticLoop:
         return self.first.geometry
 
     def frame_levels(self, f: int) -> tuple:
-        """Frame ``f``'s mip levels (:func:`mip_levels`)."""
-        return mip_levels(self.level0[int(f) % self.frames])
+        """Frame ``f``'s mip levels (:func:`mip_levels`; with :attr:`scatter`)."""
+        level0 = self.level0[int(f) % self.frames]
+        if self.scatter is not None:
+            level0 = scatter_slices(level0, self.first.depths, self.first.waves.tile_m,
+                                    self.scatter)
+        return mip_levels(level0)
 
     def frame_weights(self, time_s: float, ready=None):
         """``(f0, f1, a)``: the factor at ``time_s`` is ``(1 - a)`` frame ``f0``
@@ -520,7 +488,8 @@ class CausticLoop:
         return CausticMap(waves=replace(self.first.waves, time_s=float(time_s)),
                           to_sun=self.first.to_sun, depths=self.first.depths,
                           levels=self.levels_at(time_s), mean_weight=self.first.mean_weight,
-                          info={**self.first.info, "loop_frames": self.frames})
+                          info={**self.first.info, "loop_frames": self.frames},
+                          scatter=self.scatter)
 
     def wait(self) -> "CausticLoop":
         """Wait for a background build (:func:`caustic_loop`); raises what it raised."""
@@ -560,7 +529,7 @@ _LOOPS: dict = {}
 
 def caustic_loop(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
                  frames: int = DEFAULT_LOOP_FRAMES, progress=None, background: bool = False,
-                 **map_kwargs) -> CausticLoop:
+                 scatter: ScatterTransfer | None = None, **map_kwargs) -> CausticLoop:
     """The :class:`CausticLoop` of :func:`aquaspec.light.waves.looping`
     ``(waves)`` under the sun, ``frames`` per period, each frame
     :func:`caustic_map` (with ``map_kwargs``) kept in the cache directory; the
@@ -574,7 +543,8 @@ def caustic_loop(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
     rest in a thread (``progress`` is then called from it;
     :attr:`CausticLoop.ready` says which frames are there,
     :meth:`CausticLoop.wait` waits for all). Either way the frames are the
-    same numbers.
+    same numbers. ``scatter``: the same loop read through that transfer
+    (:attr:`CausticLoop.scatter`; one view per transfer, kept with the loop).
     """
     if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 2:
         raise AquaspecError(f"caustic loop frames {frames!r}; accepted: an integer >= 2")
@@ -613,4 +583,9 @@ def caustic_loop(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
         if running:
             loop.wait()
         loop._fill(make_frame, progress, None)      # (whatever a stopped build left)
-    return loop
+    if scatter is None:
+        return loop
+    views = loop._run.setdefault("views", {})
+    if scatter not in views:
+        views[scatter] = replace(loop, scatter=scatter)
+    return views[scatter]

@@ -166,7 +166,8 @@ class Renderer:
         frames, smooth, progressive = self._loop_options
         sun = setup.light.sun
         loop = caustic_loop(setup.waves, sun.elevation_deg, sun.azimuth_deg, frames=frames,
-                            n_water=sun.n_water, background=progressive)
+                            n_water=sun.n_water, background=progressive,
+                            scatter=setup.sun_inputs().caustics.scatter)
         if self._wave_loop is None or self._wave_loop.loop is not loop:
             self._wave_loop = CausticLoopPass(self.deferred.device, loop)
         self._wave_loop.smooth = smooth

@@ -20,6 +20,7 @@ from aquaspec.colour.bands import Bands
 from aquaspec.colour.reflectance import normalised_wavelength
 from aquaspec.colour.sensors import Sensor
 from aquaspec.errors import AquaspecError
+from aquaspec.light.caustic_scatter import ScatterTransfer
 from aquaspec.light.caustics import cached_caustic_map
 from aquaspec.light.lamp import Lamp
 from aquaspec.light.sky import SurfaceLight
@@ -202,8 +203,13 @@ class SpectralSetup:
                 c_view = tables.ray_extinction(a, b)
             caustics = None
             if self.waves is not None:
+                # The pattern carried on into the light scattered through small
+                # angles (aquaspec.light.caustic_scatter): one transfer for all bands.
+                scatter = ScatterTransfer.for_beam(
+                    b=b, c=c, c_sun=c_sun, wavelength_nm=self.bands.centers_nm,
+                    to_sun=sun.to_sun, phase=self.phase, phase_params=self.phase_params)
                 caustics = cached_caustic_map(self.waves, sun.elevation_deg, sun.azimuth_deg,
-                                              n_water=sun.n_water)
+                                              n_water=sun.n_water, scatter=scatter)
             self.cache.sun_inputs = SunInputs(
                 beam0=sun.beam_on(self.bands), c_sun=c_sun, c_view=c_view, b=b,
                 log_phase=log_phase_table(self.phase, b=b, wavelength_nm=self.bands.centers_nm,

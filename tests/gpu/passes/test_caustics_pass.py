@@ -99,6 +99,24 @@ def test_gpu_mix_matches_numpy(device, loop, monkeypatch):
             np.testing.assert_array_equal(g, w)
 
 
+
+def test_gpu_mix_keeps_the_sign_of_negative_factors(device, loop):
+    """Carried into the scattered light the factor can dip below 0
+    (aquaspec.light.caustic_scatter): the hand-made half conversion keeps the
+    sign, subnormals and zeros as NumPy's float16 does."""
+    signed = np.asarray((loop.level0.astype(np.float32) - 1.0) * 3.0, np.float16)
+    signed[0, 0, 0, :4] = np.array([-0.0, -3e-6, 3e-6, -6.1e-5], np.float16)
+    neg = cst.CausticLoop(first=loop.first, level0=signed)
+    p = CausticLoopPass(device, neg)
+    dt = SEA.period_s / neg.frames
+    for t in (2.4 * dt, 5.5 * dt):
+        got, want = _run(device, p, t), neg.levels_at(t)
+        assert np.min(want[0]) < -1.0
+        for g, w in zip(got, want):
+            np.testing.assert_allclose(g, w, rtol=HALF_ULP, atol=2.0 ** -24)
+    for g, w in zip(_run(device, p, 3 * dt), neg.frame_levels(3)):
+        np.testing.assert_array_equal(g, w)
+
 @pytest.mark.parametrize("ms_model", ["seeds", "lightfield"])
 def test_renderer_moves_the_waves_as_the_loop_says(device, ms_model):
     """A renderer told the waves' time samples the loop's factor at that time:
@@ -120,8 +138,10 @@ def test_renderer_moves_the_waves_as_the_loop_says(device, ms_model):
     moving.set_wave_time(None)
     still = moving.render_scene(scene, cam, s)
     for t, img in images.items():
-        ref_setup = _with_caustics(setup(), cst.caustic_loop(SEA, *SUN, frames=8,
-                                                             n_water=1.33).map_at(t))
+        # (the loop read through the setup's transfer into the scattered light)
+        loop = cst.caustic_loop(SEA, *SUN, frames=8, n_water=1.33,
+                                scatter=s.sun_inputs().caustics.scatter)
+        ref_setup = _with_caustics(setup(), loop.map_at(t))
         want = _renderer(w, h, 6).render_scene(scene, cam, ref_setup)
         scale = np.abs(want).max()
         # Texels may differ by one half-float unit (HALF_ULP) of the factor.

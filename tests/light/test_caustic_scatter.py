@@ -1,0 +1,154 @@
+"""The small-angle transfer of caustics into the scattered light
+(aquaspec.light.caustic_scatter): the phase function's transform against a
+closed form, the transfer against a Monte Carlo of small-angle paths, and
+the slices' filter."""
+
+import numpy as np
+import pytest
+from scipy.special import erf
+
+from aquaspec.errors import AquaspecError
+from aquaspec.light import caustic_scatter as cs
+from aquaspec.light.photon_map import half_wavenumbers
+from aquaspec.medium.phase import PhaseFunction, get_phase
+
+
+class GaussianTan(PhaseFunction):
+    """A phase function whose ``tan(theta)`` is a 2-D Gaussian of standard
+    deviation ``sigma`` per axis (forward hemisphere only): ``P(v) =
+    exp(-sigma^2 v^2 / 2)`` exactly."""
+
+    name = "gaussian-tan"
+
+    def __init__(self, sigma):
+        self.sigma = sigma
+
+    def value(self, mu):
+        mu = np.clip(np.asarray(mu, dtype=float), -1.0, 1.0)
+        fwd = mu > 1e-6
+        m = np.where(fwd, mu, 1.0)
+        rho2 = (1.0 - m * m) / (m * m)
+        g = np.exp(-rho2 / (2 * self.sigma ** 2)) / (2 * np.pi * self.sigma ** 2)
+        return np.where(fwd, g / m ** 3, 0.0)
+
+
+def test_transform_of_a_gaussian_in_tan_theta_is_gaussian():
+    sigma = 0.05
+    v = np.array([0.0, 1.0, 10.0, 20.0, 40.0, 80.0, 400.0])
+    got = cs.transform_of(GaussianTan(sigma), v)
+    np.testing.assert_allclose(got, np.exp(-0.5 * (sigma * v) ** 2), atol=2e-4)
+
+
+def test_petzold_transform_starts_at_the_forward_share_and_falls():
+    ph = get_phase("petzold")
+    v = cs.table_wavenumbers()
+    p = cs.transform_of(ph, v)
+    assert abs(p[0] - (1.0 - ph.backscatter_fraction())) < 1e-4
+    assert np.all(np.diff(p) <= 1e-6)
+    # The sharp forward peak keeps part of it out to fine scales.
+    assert 0.05 < np.interp(1e3, v, p) < 0.3
+
+
+def _gaussian_transfer(b, sigma, gap, mu0=1.0):
+    return cs.ScatterTransfer(b=(b,), beam_gap=(gap,), wavelength_nm=(550.0,), mu0=mu0,
+                              phase=GaussianTan(sigma))
+
+
+def test_transfer_matches_a_monte_carlo_of_small_angle_paths():
+    """Photons along a slant path of length s, scattering events a Poisson
+    process of rate b, each turning the direction by a Gaussian tan(theta):
+    the mean of cos(q . displacement) over all photons is M(q, s) exp(a s),
+    and G = M exp(c* s) with c* = c - gap."""
+    rng = np.random.default_rng(1)
+    b, sigma, s, gap = 0.6, 0.04, 5.0, 0.2
+    n = 200_000
+    counts = rng.poisson(b * s, n)
+    disp = np.zeros((n, 2))
+    for k in range(1, counts.max() + 1):
+        sel = counts >= k
+        where = rng.uniform(0.0, s, sel.sum())
+        disp[sel] += rng.normal(0.0, sigma, (sel.sum(), 2)) * (s - where)[:, None]
+    tr = _gaussian_transfer(b, sigma, gap)
+    for q in (0.5, 3.0, 10.0, 40.0):
+        mc = np.mean(np.cos(q * disp[:, 0]))       # M exp(a s), any a
+        expected = np.exp(-b * s) * np.exp(b * np.sqrt(np.pi / 2) / sigma
+                                          * erf(sigma * q * s / np.sqrt(2)) / q)
+        assert abs(mc - expected) < 4e-3
+        g = tr.gain(np.array([q]), np.array([0.0]), s)[0]
+        assert g == pytest.approx(mc * np.exp((b - gap) * s), rel=0.02, abs=2e-3)
+
+
+def test_slant_beam_stretches_the_displacement_along_the_sun():
+    tr = _gaussian_transfer(0.5, 0.05, 0.1, mu0=0.8)
+    tr_up = _gaussian_transfer(0.5, 0.05, 0.1, mu0=1.0)
+    d = 4.0
+    # Along the sun's horizontal direction (x here), k/mu0 over the slant d/mu0.
+    along = tr.log_gain(np.array([5.0]), np.array([0.0]), d)
+    across = tr.log_gain(np.array([0.0]), np.array([5.0]), d)
+    # For mu0 = 1 with the same slant path s = d / 0.8 and the q's.
+    assert along[0] == pytest.approx(tr_up.log_gain(np.array([5.0 / 0.8]), np.array([0.0]),
+                                                    d / 0.8)[0], rel=1e-6)
+    assert across[0] == pytest.approx(tr_up.log_gain(np.array([5.0]), np.array([0.0]),
+                                                     d / 0.8)[0], rel=1e-6)
+
+
+def test_fine_pattern_keeps_only_the_unscattered_beam():
+    """At large wavenumbers G -> exp(-gap s): the share of the renderer's beam
+    that is unscattered (what the path tracer's check compares)."""
+    tr = cs.ScatterTransfer.for_beam(b=[0.5], c=[0.6], c_sun=[0.45], wavelength_nm=[532.0],
+                                     to_sun=[0.0, 1.0, 0.0])
+    d = 3.0
+    g_fine = tr.gain(np.array([1e6]), np.array([0.0]), d)[0]
+    assert g_fine == pytest.approx(np.exp(-0.15 * d), rel=0.01)
+    # Coarser patterns are carried by more of the scattered light.
+    ks = np.array([1e4, 1e3, 1e2, 10.0, 1.0])
+    g = tr.gain(ks, np.zeros_like(ks), d)
+    assert np.all(np.diff(g) > 0) and g[-1] > 1.0
+    assert tr.gain(np.array([0.0]), np.array([0.0]), d)[0] == 1.0
+
+
+def test_scatter_slices_filters_each_slice_by_its_depth():
+    n, tile = 64, 4.0
+    x = (np.arange(n) + 0.5) * tile / n
+    kx0 = 2 * np.pi * 5 / tile
+    pattern = 1.0 + 0.4 * np.cos(kx0 * x)[None, :] * np.ones((n, 1))
+    level0 = np.stack([pattern, pattern]).astype(np.float32)
+    depths = np.array([0.5, 6.0])
+    tr = cs.ScatterTransfer.for_beam(b=[0.4], c=[0.5], c_sun=[0.4], wavelength_nm=[532.0],
+                                     to_sun=[0.0, 1.0, 0.0])
+    out = cs.scatter_slices(level0, depths, tile, tr)
+    for k, d in enumerate(depths):
+        g = tr.gain(np.array([kx0]), np.array([0.0]), d)[0]
+        np.testing.assert_allclose(out[k], 1.0 + g * (pattern - 1.0),
+                                   atol=2e-5)
+        assert out[k].mean() == pytest.approx(level0[k].mean(), abs=1e-6)
+    # No scattering: nothing changes.
+    clear = cs.ScatterTransfer.for_beam(b=[0.0], c=[0.1], c_sun=[0.1], wavelength_nm=[532.0],
+                                        to_sun=[0.0, 1.0, 0.0])
+    np.testing.assert_allclose(cs.scatter_slices(level0, depths, tile, clear), level0,
+                               atol=1e-6)
+
+
+def test_several_bands_take_the_mean_exponent():
+    one = [cs.ScatterTransfer.for_beam(b=[b], c=[b + 0.1], c_sun=[0.1 + 0.7 * b],
+                                       wavelength_nm=[w], to_sun=[0.0, 1.0, 0.0])
+           for b, w in ((0.3, 450.0), (0.6, 600.0))]
+    both = cs.ScatterTransfer.for_beam(b=[0.3, 0.6], c=[0.4, 0.7], c_sun=[0.31, 0.52],
+                                       wavelength_nm=[450.0, 600.0], to_sun=[0.0, 1.0, 0.0])
+    kx, kz = half_wavenumbers(16, 2.0)
+    want = 0.5 * (one[0].log_gain(kx, kz, 2.0) + one[1].log_gain(kx, kz, 2.0))
+    np.testing.assert_allclose(both.log_gain(kx, kz, 2.0), want, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("kw, word", [
+    ({"b": (-0.1,)}, "scattering b"),
+    ({"beam_gap": (0.9,)}, "beam_gap"),
+    ({"mu0": 0.0}, "mu0"),
+    ({"sun_xz": (1.0, 1.0)}, "sun_xz"),
+    ({"wavelength_nm": (1.0, 2.0)}, "one value per band"),
+])
+def test_bad_transfer_is_refused_by_name(kw, word):
+    args = dict(b=(0.5,), beam_gap=(0.1,), wavelength_nm=(532.0,), mu0=0.9)
+    args.update(kw)
+    with pytest.raises(AquaspecError, match=word):
+        cs.ScatterTransfer(**args)
