@@ -48,6 +48,7 @@ from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, SurfaceLight, surface_li
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import DEFAULT_SOURCE, Water, get_water
 from aquaspec.rendering.appearance import check_depth, colour_of_setup
+from aquaspec.rendering.camera_model import camera_view, through_camera
 from aquaspec.rendering.lamps import add_gpu_lamps, gpu_lamp_light, lamp_params, numpy_lamp_terms
 from aquaspec.rendering.layers import black_gbuffer, image_layers
 from aquaspec.rendering.limits import check_render_memory
@@ -115,7 +116,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            size=(1280, 720), scene=None, camera: Camera | None = None, mesh=None, albedo=None,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
            sun_azimuth_deg=None, sun_shadow_map: int | None = None, waves=None,
-           wave_time: float | None = None,
+           wave_time: float | None = None, camera_model=None,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
@@ -161,17 +162,15 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     sun_shadow_map : int, optional
         Side of the sun's shadow map in texels (default
         :data:`aquaspec.scene.shadowmap.DEFAULT_MAP_SIZE`); shadows are resolved within
-        :data:`aquaspec.scene.shadowmap.DEFAULT_MAP_RADIUS_M` of the camera. RGB-D
-        images cast no sun shadows (they have no geometry behind the
-        visible surfaces).
+        :data:`aquaspec.scene.shadowmap.DEFAULT_MAP_RADIUS_M` of the camera. RGB-D images cast no
+        sun shadows (they have no geometry behind the visible surfaces).
     waves : aquaspec.light.waves.Waves or float, optional
         A wind sea on the surface (a wind speed in m/s stands for
         ``Waves(wind_speed)``): the sun's beam is focused into caustics on the
         surfaces and in the water (:mod:`aquaspec.light.caustics`). Needs a sun.
     wave_time : float, optional
-        The waves' instant, s (replaces ``waves.time_s``; for many instants
-        of one sea keep a :class:`aquaspec.rendering.renderer.Renderer` and
-        use its ``set_wave_time``).
+        The waves' instant, s (replaces ``waves.time_s``; for many instants of one sea keep a
+        :class:`aquaspec.rendering.renderer.Renderer` and use its ``set_wave_time``).
     ambient : str
         Ambient irradiance model of the seeds' model
         (:data:`aquaspec.transport.monzon2022.AMBIENT_MODELS`).
@@ -197,25 +196,22 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         The surface seen from below (light field): ``flat`` the real interface,
         ``index-matched`` none (:data:`aquaspec.rendering.setup.SURFACE_MODELS`).
     occlusion : bool
-        The scene's occlusion of the ambient light field (light-field model,
-        scenes and meshes): surfaces under a ledge or before a wall get the
-        light of the directions they see
-        (:mod:`aquaspec.transport.lightfield.occlusion`; GPU and NumPy) and,
-        with ``backend="numpy"``, the water in the occluders' shadow scatters
-        less (:mod:`aquaspec.transport.lightfield.water_occlusion`). RGB-D
-        images hold no geometry behind what they show: their visible surface
-        is the occluder (:func:`aquaspec.scene.occlusion.visible_surface_occluders`).
+        The scene's occlusion of the ambient light field (light-field model, scenes and meshes):
+        surfaces under a ledge or before a wall get the light of the directions they see
+        (:mod:`aquaspec.transport.lightfield.occlusion`; GPU and NumPy) and, with
+        ``backend="numpy"``, the water in the occluders' shadow scatters less
+        (:mod:`aquaspec.transport.lightfield.water_occlusion`). RGB-D images hold no geometry
+        behind what they show: their visible surface is the occluder
+        (:func:`aquaspec.scene.occlusion.visible_surface_occluders`).
     seabed : "scene", None or Seabed
-        The light field's lower boundary (:class:`aquaspec.scene.seabed.Seabed`):
-        ``"scene"`` takes the scene's (the built-in scene's sand; none for
-        meshes, RGB-D images and scenes without one), None is deep water.
-        It must lie below the camera. A ``mesh`` given a Seabed also stands
-        on it: a flat plane of its reflectance that the camera sees, out to
-        where the water hides it
-        (:func:`aquaspec.scene.seabed.with_seabed_plane`), with either
-        multiple-scattering model. The built-in scene keeps its sand as the
-        geometry, an RGB-D photograph its own surfaces, and a ``scene`` of
-        yours its own meshes: for them the Seabed is the boundary alone.
+        The light field's lower boundary (:class:`aquaspec.scene.seabed.Seabed`): ``"scene"`` takes
+        the scene's (the built-in scene's sand; none for meshes, RGB-D images and scenes without
+        one), None is deep water. It must lie below the camera. A ``mesh`` given a Seabed also
+        stands on it: a flat plane of its reflectance that the camera sees, out to where the water
+        hides it (:func:`aquaspec.scene.seabed.with_seabed_plane`), with either multiple-scattering
+        model. The built-in scene keeps its sand as the geometry, an RGB-D photograph its own
+        surfaces, and a ``scene`` of yours its own meshes: for them the Seabed is the boundary
+        alone.
     outside : {"error", "zero"}
         Sensor response outside its range.
     exposure : "auto" or float EV; white_balance, tonemap : str
@@ -241,6 +237,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         The WGSL passes through wgpu, or the NumPy reference.
     progress : callable, optional
         Called with a short message at each stage.
+    camera_model : str or aquaspec.optics.presets.CameraModel, optional
+        A real camera's port, lens and noisy sensor (:mod:`aquaspec.rendering.camera_model`).
     renderer : Renderer, optional
         A :class:`aquaspec.rendering.renderer.Renderer` of the image's size and
         band count to shade with (``backend="gpu"``): kept by the caller
@@ -266,6 +264,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         ambient_shadow=ambient_shadow, occlusion=occlusion, say=say, lamps=lamps, surface=surface)
     view = _view(scene=scene, camera=camera, mesh=mesh, albedo=albedo, rgbd=rgbd,
                  depth_m=depth, width=width, height=height, say=say)
+    view, optics = camera_view(view, camera_model, setup)
     if rgbd is not None:
         check_render_memory(bands, view.camera.width, view.camera.height, ms_model=ms_model,
                             backend=backend)
@@ -278,13 +277,14 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         shaded = _shade_in_numpy(setup, view, map_size, return_radiance, say)
     _check_finite_image(shaded.linear)
     layer_set = _layers(setup, view, shaded, backend, say) if layers else None
+    shaded, raw, optics_params = through_camera(optics, shaded, setup, view, say)
     display, info = _display(shaded.linear, setup.sensor, exposure=exposure,
                              white_balance=white_balance, reference=reference,
                              tonemap=tonemap, colour_matrix=colour_matrix)
     params = _params(setup, depth, view, backend, info, t0, white_card_info, map_size,
                      layer_set is not None)
-    return RenderResult(display, shaded.linear, shaded.radiance, shaded.gbuffer, params,
-                        layer_set)
+    return RenderResult(display, shaded.linear, shaded.radiance, shaded.gbuffer,
+                        {**params, **optics_params}, layer_set, raw)
 
 
 def _spectral_setup(*, water, source, sensor, camspec, bands, wavelength_range, light,

@@ -45,6 +45,10 @@ class RenderResult:
         With ``layers=True``: the image-formation layers
         (:mod:`aquaspec.rendering.layers`: backscatter, direct, surface, albedo,
         transmission, range_m).
+    raw : ndarray (H, W, 3) uint16 or None
+        With a camera model: the sensor's digital numbers, black level
+        included (:mod:`aquaspec.rendering.camera_model`); ``linear_rgb`` is
+        then that noisy frame as linear camera RGB.
     """
 
     display: np.ndarray
@@ -53,6 +57,7 @@ class RenderResult:
     gbuffer: GBuffer | None
     params: dict = field(default_factory=dict)
     layers: dict | None = None
+    raw: np.ndarray | None = None
 
     def __repr__(self) -> str:
         p = self.params
