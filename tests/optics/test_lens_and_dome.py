@@ -43,6 +43,8 @@ class TestThinLens:
         out = defocus(img, np.full((81, 81), 16.0))      # radius 8 px
         assert abs(out.sum() - 1.0) < 1e-9
         y, x = np.mgrid[:81, :81]
+        # Centred where the point was (no shift from the FFT's wrap-around).
+        assert abs((x * out[..., 0]).sum() - 40) < 1e-9 and abs((y * out[..., 0]).sum() - 40) < 1e-9
         r2 = ((x - 40) ** 2 + (y - 40) ** 2) * out[..., 0]
         # A uniform disc of radius R has mean squared radius R^2 / 2.
         assert abs(r2.sum() / out.sum() - 8.0 ** 2 / 2) < 0.05 * 32

@@ -21,6 +21,7 @@ from aquaspec.io.png import PNG_SUFFIXES
 from aquaspec.io.save import save_image
 from aquaspec.io.sidecar import sidecar_path
 from aquaspec.light.lamp import PRESETS, SPEC_KEYS, parse_lamps
+from aquaspec.optics.presets import CAMERA_MODELS, get_camera_model
 from aquaspec.scene.camera import parse_size
 from aquaspec.scene.seabed import Seabed
 
@@ -94,6 +95,12 @@ def register(sub):
         p, wind_help="--light sun-sky: a wind sea on the surface (wind speed in m/s at 19.5 m, "
                      "Pierson-Moskowitz spectrum) whose waves focus the sun into caustics on "
                      "surfaces and in the water (default: a flat surface)")
+    p.add_argument("--camera-model", metavar="PRESET[:SETTINGS]",
+                   help="a real underwater camera: port, lens and noisy sensor (EMVA 1288), "
+                        f"one of {', '.join(CAMERA_MODELS)}, optionally with settings, e.g. "
+                        "dslr-flat-port:iso=3200,exposure=0.01,seed=1,dof=off (default: a "
+                        "perfect pinhole; docs/camera-model.md); --linear then writes the "
+                        "noisy raw frame")
     p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
                    help="gpu (WGSL through wgpu) or numpy (the slow reference)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")
@@ -126,6 +133,7 @@ def run(args):
         raise AquaspecError("--albedo is only used with --mesh")
     waves = waves_from(args)
     lamps = parse_lamps(args.lamp)     # bad specs fail before any rendering
+    camera_model = get_camera_model(args.camera_model)
 
     def progress(msg):
         print(f"aquaspec render: {msg}", file=sys.stderr, flush=True)
@@ -142,7 +150,8 @@ def run(args):
                  occlusion=args.occlusion, seabed=seabed, lamps=lamps, surface=args.surface,
                  exposure=args.exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
-                 layers=bool(args.layers), backend=args.backend, progress=progress)
+                 layers=bool(args.layers), backend=args.backend, progress=progress,
+                 camera_model=camera_model)
     files = save_image(args.output, res.display, res.linear_rgb if args.linear else None,
                        res.params, linear_path=args.linear, layers=res.layers,
                        layers_path=args.layers)

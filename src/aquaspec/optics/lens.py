@@ -32,7 +32,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import fftconvolve
 
 from aquaspec.errors import AquaspecError
 
@@ -128,12 +127,21 @@ def defocus(image, diameter_px) -> np.ndarray:
     # Each level is added with its weight in the blend of the two levels
     # around a pixel's radius, so only one blurred image is held at a time.
     out = np.where(idx == 0, 1.0 - t, 0.0)[..., None] * img
+    shape = padded.shape[:2]
+    spectrum = np.fft.rfft2(padded, axes=(0, 1))
     for k, r in enumerate(ladder[1:], start=1):
         weight = np.where(idx == k, 1.0 - t, 0.0) + np.where(idx == k - 1, t, 0.0)
         if not weight.any():
             continue
+        # The disc centred on the origin of a periodic grid: a circular
+        # convolution, exact inside the reflected border of ``pad`` pixels.
         kernel = _disc(r)
-        level = np.stack([fftconvolve(padded[..., c], kernel, mode="same")
-                          [pad:pad + h, pad:pad + w] for c in range(img.shape[-1])], axis=-1)
-        out += weight[..., None] * level
+        n = kernel.shape[0] // 2
+        grid = np.zeros(shape)
+        grid[:n + 1, :n + 1] = kernel[n:, n:]
+        grid[:n + 1, -n:] = kernel[n:, :n]
+        grid[-n:, :n + 1] = kernel[:n, n:]
+        grid[-n:, -n:] = kernel[:n, :n]
+        blurred = np.fft.irfft2(spectrum * np.fft.rfft2(grid)[..., None], s=shape, axes=(0, 1))
+        out += weight[..., None] * blurred[pad:pad + h, pad:pad + w]
     return out

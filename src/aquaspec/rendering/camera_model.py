@@ -127,8 +127,10 @@ def through_camera(cp: CameraPass | None, shaded, setup: SpectralSetup, view, sa
     raw, noisy, info = _expose(model, linear, lam_c, setup)
     info["pinhole_in_water"] = cp.water_camera.describe()
     info["channel_wavelength_nm"] = lam_c.tolist()
+    # The image is the sensor camera's: its intrinsics in the sidecar, not the pinhole's.
     return (dataclasses.replace(shaded, linear=noisy, radiance=radiance), raw,
-            {"camera_model": {**model.describe(), **info}})
+            {"camera": cp.sensor_camera.describe(),
+             "camera_model": {**model.describe(), **info}})
 
 
 def _virtual_axial(model: CameraModel, z_axial, tan_air, lam):
