@@ -110,6 +110,12 @@ def register(sub):
                    help="only compare the light-field model's deep radiance distribution with "
                         "Tyler's measurement (1958, Lake Pend Oreille, from jerlov) for several "
                         "phase functions; needs no path tracer; writes tyler.json and tyler.png")
+    p.add_argument("--fluctuations", action="store_true",
+                   help="only compare the flicker of the downwelling irradiance under waves "
+                        "(its coefficient of variation against depth at 443, 532 and 670 nm, "
+                        "from the renderer's caustic maps and light field) with Darecki et "
+                        "al.'s measurement (2011, from jerlov); needs no path tracer; writes "
+                        "fluctuations.json, fluctuations.md and fluctuations.png")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default: reference/ in $AQUASPEC_CACHE, or "
                    "~/.cache/aquaspec/reference)")
     p.add_argument("--no-cache", action="store_true",
@@ -155,9 +161,14 @@ def run(args):
     if args.view != "level" and scene_names != ("board",):
         raise AquaspecError(f"--view {args.view} with --scene {args.scene}; accepted: "
                             "--scene board only (the other scenes are level views)")
-    out_dir = _output_dir(args.out, "tyler.json" if args.tyler else "validation.json")
+    if args.tyler and args.fluctuations:
+        raise AquaspecError("--tyler and --fluctuations are two separate checks; accepted: one")
+    out_dir = _output_dir(args.out, "tyler.json" if args.tyler else
+                          "fluctuations.json" if args.fluctuations else "validation.json")
     if args.tyler:
         return _run_tyler(out_dir)
+    if args.fluctuations:
+        return _run_fluctuations(out_dir)
     require_mitsuba()
     try:
         depths = tuple(float(x) for x in args.depths.split(","))
@@ -229,6 +240,21 @@ def _run_tyler(out):
     js = write_file_atomically(out / "tyler.json", lambda t: Path(t).write_text(doc))
     png = plot_tyler(res, out / "tyler.png")
     print(f"wrote {js}, {png}")
+    return 0
+
+
+def _run_fluctuations(out):
+    # deferred: aquaspec.validation loads wgpu and every GPU pass; `aquaspec --help` need not
+    from aquaspec.validation.fluctuations import (fluctuation_check, format_fluctuations,
+                                                  plot_fluctuations)
+    res = fluctuation_check(progress=lambda m: print(m, file=sys.stderr, flush=True))
+    table = format_fluctuations(res)
+    print(table)
+    doc = json.dumps(res, indent=1)
+    js = write_file_atomically(out / "fluctuations.json", lambda t: Path(t).write_text(doc))
+    md = write_file_atomically(out / "fluctuations.md", lambda t: Path(t).write_text(table + "\n"))
+    png = plot_fluctuations(res, out / "fluctuations.png")
+    print(f"wrote {js}, {md}, {png}")
     return 0
 
 

@@ -267,7 +267,11 @@ def slice_depths(max_depth_m: float, slices: int) -> np.ndarray:
     return float(max_depth_m) * (np.arange(slices) / (slices - 1.0)) ** 2
 
 
-def _check_map_args(elevation_deg, azimuth_deg, slices, max_depth_m):
+def _check_map_args(elevation_deg, azimuth_deg, slices, max_depth_m, texels=None):
+    if texels is not None and (isinstance(texels, bool) or texels != int(texels)
+                               or not 16 <= texels <= 4096 or int(texels) & (int(texels) - 1)):
+        raise AquaspecError(f"caustic texels {texels!r}; accepted: None (the wave grid) or a "
+                            "power of two, 16 to 4096")
     if int(slices) < 2:
         raise AquaspecError(f"caustic slices {slices!r}; accepted: 2 or more")
     if not (np.isfinite(max_depth_m) and max_depth_m > 0):
@@ -289,7 +293,7 @@ def mip_levels(level0) -> tuple:
 
 def _assemble(waves, elevation_deg, azimuth_deg, level0, mean_weight, *, n_water,
               oversample, slices, max_depth_m, sun_radius_deg,
-              unresolved_slopes) -> CausticMap:
+              unresolved_slopes, texels=None) -> CausticMap:
     """A :class:`CausticMap` from its slices: level 0 and the mips made from
     it, all kept at the GPU texture's half precision (both sides read the
     same numbers)."""
@@ -305,17 +309,19 @@ def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
                 n_water: float = N_WATER, oversample: int = DEFAULT_OVERSAMPLE,
                 slices: int = DEFAULT_SLICES, max_depth_m: float = DEFAULT_MAX_DEPTH_M,
                 sun_radius_deg: float = SUN_RADIUS_DEG, unresolved_slopes: bool = True,
-                progress=None) -> CausticMap:
+                texels: int | None = None, progress=None) -> CausticMap:
     """The caustics of ``waves`` under the sun at ``elevation_deg``/``azimuth_deg`` (in air).
 
     ``unresolved_slopes``: blur by the short waves the tile leaves out
-    (:func:`unresolved_slope_variance`). ``progress(done, total)`` is called
-    after each slice.
+    (:func:`unresolved_slope_variance`). ``texels``: per side of the map
+    (None: the wave grid's; finer texels want more facets, ``oversample``).
+    ``progress(done, total)`` is called after each slice.
     """
     elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
-                                                 max_depth_m)
+                                                 max_depth_m, texels)
     h, hx, hz = surface(waves, oversample)
-    out, mean_w = caustic_slices(h, hx, hz, waves.tile_m, waves.grid,
+    out, mean_w = caustic_slices(h, hx, hz, waves.tile_m,
+                                 waves.grid if texels is None else int(texels),
                                  air_to_sun(elevation_deg, azimuth_deg),
                                  slice_depths(max_depth_m, int(slices)), n_water=n_water,
                                  sun_radius_deg=sun_radius_deg,
@@ -323,7 +329,8 @@ def caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
                                  if unresolved_slopes else 0.0, progress=progress)
     return _assemble(waves, elevation_deg, azimuth_deg, out, mean_w, n_water=n_water,
                      oversample=oversample, slices=slices, max_depth_m=max_depth_m,
-                     sun_radius_deg=sun_radius_deg, unresolved_slopes=unresolved_slopes)
+                     sun_radius_deg=sun_radius_deg, unresolved_slopes=unresolved_slopes,
+                     texels=texels)
 
 
 _CACHE: dict = {}
@@ -337,14 +344,16 @@ _CODE_MODULES = (__name__, "aquaspec.light.photon_map", "aquaspec.light.waves",
 def _map_options(elevation_deg, azimuth_deg, *, n_water=N_WATER,
                  oversample=DEFAULT_OVERSAMPLE, slices=DEFAULT_SLICES,
                  max_depth_m=DEFAULT_MAX_DEPTH_M, sun_radius_deg=SUN_RADIUS_DEG,
-                 unresolved_slopes=True):
-    """The checked sun and :func:`caustic_map`'s options, as a cache key's parts."""
+                 unresolved_slopes=True, texels=None):
+    """The checked sun and :func:`caustic_map`'s options, as a cache key's parts
+    (``texels`` only when given: the default's key is as it was)."""
     elevation_deg, azimuth_deg = _check_map_args(elevation_deg, azimuth_deg, slices,
-                                                 max_depth_m)
+                                                 max_depth_m, texels)
     return elevation_deg, azimuth_deg, dict(
         n_water=float(n_water), oversample=int(oversample), slices=int(slices),
         max_depth_m=float(max_depth_m), sun_radius_deg=float(sun_radius_deg),
-        unresolved_slopes=bool(unresolved_slopes))
+        unresolved_slopes=bool(unresolved_slopes),
+        **({} if texels is None else {"texels": int(texels)}))
 
 
 def _stored_slices(waves: Waves, elevation_deg, azimuth_deg, kw):
