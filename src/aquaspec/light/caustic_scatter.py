@@ -249,15 +249,26 @@ def _table(phase, phase_params, b, wavelength_nm):
 def scatter_slices(level0, depths, tile_m: float, transfer: ScatterTransfer) -> np.ndarray:
     """The caustic factor's slices (K, n, n) at ``depths`` (K,) m of a tile
     ``tile_m`` wide carried into the scattered light: each slice times
-    :meth:`ScatterTransfer.gain` in Fourier space (float32; the mean kept)."""
+    :meth:`ScatterTransfer.gain` in Fourier space (float32; the mean kept).
+    The gains are computed once per transfer, depths and tile
+    (:func:`slice_gains`): a loop's frames only pay the transforms."""
     c = np.asarray(level0, dtype=np.float32)
     depths = np.asarray(depths, dtype=float)
     if c.ndim != 3 or c.shape[0] != depths.size or c.shape[1] != c.shape[2]:
         raise AquaspecError(f"caustic slices of shape {c.shape} at {depths.size} depths; "
                             "accepted: (K, n, n) with K depths")
     n = c.shape[-1]
-    kx, kz = half_wavenumbers(n, tile_m)
+    gains = slice_gains(transfer, tuple(float(d) for d in depths), n, float(tile_m))
     spec = sfft.rfft2(c, workers=workers())
-    for k, d in enumerate(depths):
-        spec[k] *= np.exp(transfer.log_gain(kx, kz, d)).astype(np.float32)
+    spec *= gains
     return sfft.irfft2(spec, s=(n, n), workers=workers()).astype(np.float32)
+
+
+@lru_cache(maxsize=8)
+def slice_gains(transfer: ScatterTransfer, depths: tuple, n: int, tile_m: float) -> np.ndarray:
+    """``G`` (K, n, n/2 + 1) float32 on a real FFT's wavevectors
+    (:func:`aquaspec.light.photon_map.half_wavenumbers`) at ``depths``."""
+    kx, kz = half_wavenumbers(n, tile_m)
+    out = np.stack([transfer.gain(kx, kz, d) for d in depths]).astype(np.float32)
+    out.setflags(write=False)
+    return out
