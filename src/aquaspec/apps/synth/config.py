@@ -46,6 +46,8 @@ from pathlib import Path
 
 from aquaspec.colour.display import TONEMAPS
 from aquaspec.errors import AquaspecError
+from aquaspec.optics.flat_port import FlatPort
+from aquaspec.optics.presets import get_camera_model
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MS_MODEL_CHOICES
 
 #: Depth units and their metres.
@@ -128,13 +130,18 @@ class RenderConfig:
     tonemap: str = "filmic"
     colour_matrix: str = "auto"
     backend: str = "gpu"
+    #: A ``--camera-model`` preset (port, lens, noisy sensor), or None: the pinhole.
+    camera_model: str | None = None
 
     def describe(self) -> dict:
         return {"ms_model": self.ms_model, "phase": self.phase,
                 "wavelength_range": list(self.wavelength_range),
                 "camspec": None if self.camspec is None else self.camspec.name,
                 "tonemap": self.tonemap, "colour_matrix": self.colour_matrix,
-                "backend": self.backend}
+                "backend": self.backend,
+                # Only when set: a sample's id hashes this, and a run without a
+                # camera model keeps the ids it had before the key existed.
+                **({"camera_model": self.camera_model} if self.camera_model else {})}
 
 
 @dataclass(frozen=True)
@@ -205,8 +212,13 @@ def config_from_dict(doc: dict, *, base=".", path=None, output=None,
         out = OutputConfig(Path(output).absolute(), out.linear, out.layers, out.manifest)
     if layers is not None:
         out = OutputConfig(out.folder, out.linear, bool(layers), out.manifest)
-    return SynthConfig(_inputs(doc.get("inputs", {}), base), _plan(doc.get("plan", {})),
-                       _render(doc.get("render", {}), base), out,
+    inputs, render = _inputs(doc.get("inputs", {}), base), _render(doc.get("render", {}), base)
+    if (render.camera_model is not None and (inputs.folder or inputs.manifest)
+            and isinstance(get_camera_model(render.camera_model).port, FlatPort)):
+        raise AquaspecError(f"[render] camera_model = {render.camera_model!r} has a flat port, "
+                            "which RGB-D inputs cannot be seen through (their view is fixed); "
+                            "accepted: a camera model with a dome port, or mesh inputs")
+    return SynthConfig(inputs, _plan(doc.get("plan", {})), render, out,
                        None if path is None else Path(path), base)
 
 
@@ -316,7 +328,13 @@ def _plan(t: dict) -> PlanConfig:
 
 def _render(t: dict, base: Path) -> RenderConfig:
     _only(t, ("ms_model", "phase", "wavelength_range", "camspec", "tonemap", "colour_matrix",
-              "backend"), "[render]")
+              "backend", "camera_model"), "[render]")
+    camera_model = t.get("camera_model")
+    if camera_model is not None:
+        if not isinstance(camera_model, str):
+            raise AquaspecError(f"[render] camera_model = {camera_model!r}; accepted: a preset "
+                                "name, e.g. \"machine-vision-dome\"")
+        get_camera_model(camera_model)
     wr = t.get("wavelength_range", [400.0, 700.0])
     if not isinstance(wr, list) or len(wr) != 2:
         raise AquaspecError(f"[render] wavelength_range = {wr!r}; accepted: [min_nm, max_nm]")
@@ -330,7 +348,8 @@ def _render(t: dict, base: Path) -> RenderConfig:
         camspec=base / t["camspec"] if "camspec" in t else None,
         tonemap=_choice(t, "tonemap", tuple(TONEMAPS), "filmic", "[render]"),
         colour_matrix=_choice(t, "colour_matrix", ("auto", "none"), "auto", "[render]"),
-        backend=_choice(t, "backend", ("gpu", "numpy"), "gpu", "[render]"))
+        backend=_choice(t, "backend", ("gpu", "numpy"), "gpu", "[render]"),
+        camera_model=camera_model)
 
 
 def _output(t: dict, base: Path) -> OutputConfig:

@@ -28,7 +28,9 @@ the run goes on; a later success removes the record.
 
 from __future__ import annotations
 
+import dataclasses
 import time
+import zlib
 from collections import OrderedDict
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -49,6 +51,7 @@ from aquaspec.io.sidecar import sidecar_writer
 from aquaspec.light.sky import SurfaceLight, surface_light
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import Water, get_water
+from aquaspec.optics.presets import get_camera_model
 from aquaspec.rendering.api import render
 from aquaspec.rendering.renderer import Renderer
 
@@ -171,7 +174,8 @@ class SampleTask:
                      tonemap=cfg.render.tonemap,
                      colour_matrix=None if cfg.render.colour_matrix == "none" else "auto",
                      layers=cfg.output.layers, backend=cfg.render.backend,
-                     renderer=self._renderer(width, height, p["bands"]))
+                     renderer=self._renderer(width, height, p["bands"]),
+                     camera_model=_camera_model(cfg.render.camera_model, sample.sample_id))
         display, linear, layers = _masked(res.display, res.linear_rgb, res.layers, rgbd,
                                           cfg.inputs.holes == "mask" and holes > 0)
         written = {"png": files.png, "sidecar": files.sidecar,
@@ -199,6 +203,15 @@ class SampleTask:
                        layers_path=written["layers"])
             return synth
         return write
+
+
+def _camera_model(spec, sample_id: str):
+    """The ``[render] camera_model`` of one sample: its sensor noise seeded
+    from the sample's id (each sample its own noise, the same on a rerun)."""
+    model = get_camera_model(spec)
+    if model is None:
+        return None
+    return dataclasses.replace(model, seed=zlib.crc32(sample_id.encode("utf-8")))
 
 
 def _masked(display, linear, layers, rgbd: RGBD | None, mask: bool):
