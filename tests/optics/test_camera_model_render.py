@@ -58,6 +58,15 @@ class TestRender:
         np.testing.assert_array_equal(a.raw, b.raw)
         assert np.any(a.raw != c.raw)
 
+    def test_per_band_port_with_radiance(self):
+        # With the band radiance at hand the port resamples each band; the
+        # radiance returned is the sensor's (resampled, before lens and noise).
+        res = _render("dslr-flat-port:dof=off", return_radiance=True)
+        assert res.radiance.shape == (SIZE[1], SIZE[0], 6)
+        assert np.all(np.isfinite(res.radiance))
+        plain = _render(None, return_radiance=True)
+        assert np.abs(res.radiance - plain.radiance).max() > 0.05 * plain.radiance.max()
+
     def test_off_by_default(self):
         res = render(size=SIZE, bands=6, backend="numpy")
         assert res.raw is None and "camera_model" not in res.params
