@@ -37,15 +37,17 @@ fn uniform01(state: ptr<function, u32>) -> f32 {
     return (f32(*state >> 8u) + 0.5) / 16777216.0;
 }
 
-fn normal(state: ptr<function, u32>) -> f32 {
-    let u1 = uniform01(state);
-    let u2 = uniform01(state);
-    return sqrt(-2.0 * log(u1)) * cos(TWO_PI * u2);
+// Two independent standard normals (Box-Muller: both of its outputs).
+fn normals(state: ptr<function, u32>) -> vec2<f32> {
+    let r = sqrt(-2.0 * log(uniform01(state)));
+    let a = TWO_PI * uniform01(state);
+    return r * vec2<f32>(cos(a), sin(a));
 }
 
-fn poisson(mean: f32, state: ptr<function, u32>) -> f32 {
+// A Poisson number of mean ``mean``; ``z`` a standard normal for large means.
+fn poisson(mean: f32, z: f32, state: ptr<function, u32>) -> f32 {
     if (mean >= POISSON_GAUSS) {
-        return max(floor(mean + sqrt(mean) * normal(state) + 0.5), 0.0);
+        return max(floor(mean + sqrt(mean) * z + 0.5), 0.0);
     }
     let limit = exp(-mean);
     var k = 0.0;
@@ -62,6 +64,21 @@ fn poisson(mean: f32, state: ptr<function, u32>) -> f32 {
     return k;
 }
 
+// Channel c of pixel p: (digital number, noisy camera RGB) of camera RGB
+// ``value`` with ``per_unit`` photoelectrons per unit over the exposure.
+fn expose(value: f32, per_unit: f32, p: u32, c: u32) -> vec2<f32> {
+    var state = pcg(params.seed ^ pcg(params.frame * 3u + c) ^ pcg(p + 0x9e3779b9u));
+    var e = min(value * per_unit + params.dark_e, params.full_well_e);
+    if (params.noise != 0u) {
+        let z = normals(&state);
+        e = min(poisson(value * per_unit + params.dark_e, z.x, &state), params.full_well_e)
+            + params.read_noise_e * z.y;
+    }
+    let dn = clamp(floor(params.black_dn + params.gain * e + 0.5), 0.0, params.max_dn);
+    return vec2<f32>(dn, (dn - params.black_dn - params.gain * params.dark_e)
+                         / (params.gain * per_unit));
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= params.width || gid.y >= params.height) {
@@ -73,23 +90,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let q = 1.0 + tx * tx + ty * ty;
     let vignette = select(1.0, 1.0 / (q * q), params.vignetting != 0u);
     let rgb = max(rgb_in[p].xyz, vec3<f32>(0.0)) * vignette;
-    var raw = vec4<u32>(0u, 0u, 0u, 0u);
-    var lin = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-    for (var c = 0u; c < 3u; c = c + 1u) {
-        var state = pcg(params.seed ^ pcg(params.frame * 3u + c) ^ pcg(p + 0x9e3779b9u));
-        let mu = rgb[c] * params.electrons_per_unit[c];
-        var e: f32;
-        if (params.noise != 0u) {
-            e = min(poisson(mu + params.dark_e, &state), params.full_well_e);
-            e = e + params.read_noise_e * normal(&state);
-        } else {
-            e = min(mu + params.dark_e, params.full_well_e);
-        }
-        let dn = clamp(floor(params.black_dn + params.gain * e + 0.5), 0.0, params.max_dn);
-        raw[c] = u32(dn);
-        lin[c] = (dn - params.black_dn - params.gain * params.dark_e)
-                 / (params.gain * params.electrons_per_unit[c]);
-    }
+    let r = expose(rgb.x, params.electrons_per_unit.x, p, 0u);
+    let g = expose(rgb.y, params.electrons_per_unit.y, p, 1u);
+    let b = expose(rgb.z, params.electrons_per_unit.z, p, 2u);
+    let raw = vec4<u32>(u32(r.x), u32(g.x), u32(b.x), 0u);
+    let lin = vec4<f32>(r.y, g.y, b.y, 1.0);
     raw_out[p] = raw;
     linear_out[p] = lin;
 }
