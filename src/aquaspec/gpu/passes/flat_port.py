@@ -7,9 +7,10 @@ view needs. ``tests/optics/test_flat_port_pass.py`` holds the two together.
 
 Inputs: the pinhole render in water, ``vec4<f32>`` per pixel (pixel
 ``p = row * width + column``; e.g. a shading pass's output through
-:meth:`FlatPortPass.use_input`), and its axial depth, ``f32`` per pixel
-(:func:`aquaspec.optics.remap.axial_depth`; open water as 0). Output: the
-sensor's image, ``vec4<f32>`` per pixel.
+:meth:`FlatPortPass.use_input`), and its G-buffer
+(:class:`aquaspec.gpu.gbuffer.GBufferTextures`: the ray distances, as the
+geometry pass left them; none: surfaces at infinity). Output: the sensor's
+image, ``vec4<f32>`` per pixel.
 """
 
 from __future__ import annotations
@@ -18,15 +19,17 @@ import numpy as np
 
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
-from aquaspec.gpu.buffers import create_storage_buffer, create_uniform_buffer, read_buffer, upload_buffer
+from aquaspec.gpu.buffers import (create_storage_buffer, create_texture, create_uniform_buffer,
+                                  read_buffer, upload_buffer)
 from aquaspec.gpu.device import get_device
 from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch, submit_pass
+from aquaspec.gpu.gbuffer import GBUFFER_FORMATS, GBUFFER_USAGE
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.optics.remap import ITERATIONS
 
 WORKGROUP = (8, 8)
-B_PARAMS, B_RGB_IN, B_DEPTH_IN, B_RGB_OUT = 0, 1, 2, 3
+B_PARAMS, B_RGB_IN, B_SURFACE, B_RGB_OUT = 0, 1, 2, 3
 
 PORT_LAYOUT = UniformLayout("PortParams", [
     ("n_water", "vec4<f32>"), ("n_glass", "vec4<f32>"),
@@ -42,7 +45,7 @@ class FlatPortPass:
     render of intrinsics ``water`` (:class:`aquaspec.optics.remap.Intrinsics`).
 
     Per frame: :meth:`set_port` (once per port and wavelengths), the inputs
-    (:meth:`upload` / :meth:`use_input`, :meth:`upload_depth`), :meth:`run`,
+    (:meth:`upload` / :meth:`use_input`, :meth:`use_gbuffer`), :meth:`run`,
     :meth:`read`.
     """
 
@@ -53,10 +56,10 @@ class FlatPortPass:
         n_in, n_out = water.width * water.height, sensor.width * sensor.height
         self._uniform = create_uniform_buffer(device, PORT_LAYOUT, label="port params")
         self._input = create_storage_buffer(device, n_in * 16, label="port input")
-        self._depth = create_storage_buffer(device, n_in * 4, label="port depth")
+        self._surface = None
         self.output_buffer = create_storage_buffer(device, n_out * 16, label="port output")
         self._layout = bind_group_layout(device, {B_PARAMS: "uniform", B_RGB_IN: "read",
-                                                  B_DEPTH_IN: "read", B_RGB_OUT: "write"})
+                                                  B_SURFACE: "uint", B_RGB_OUT: "write"})
         self._pipeline = compute_pipeline(
             device, self._layout, load_wgsl("flat_port.wgsl", port_struct=PORT_LAYOUT.wgsl(),
                                             port_struct_name=PORT_LAYOUT.name,
@@ -64,6 +67,7 @@ class FlatPortPass:
         self._bind_group = None
         self._use_depth = False
         self._port = None
+        self._blank = None
 
     def set_port(self, port, wavelength_nm) -> None:
         """The port (:class:`aquaspec.optics.flat_port.FlatPort`) and each
@@ -103,28 +107,39 @@ class FlatPortPass:
         self._input = buffer
         self._bind_group = None
 
-    def upload_depth(self, z_axial) -> None:
-        """The render's axial depth, m (H, W); inf (open water) or None: the
-        central mapping everywhere for None."""
-        self._use_depth = z_axial is not None
-        if z_axial is not None:
-            z = np.asarray(z_axial, dtype=float)
-            if z.shape != (self.water.height, self.water.width):
-                raise AquaspecError(f"depth map of shape {z.shape}; the render in water is "
-                                    f"{self.water.height}x{self.water.width}")
-            upload_buffer(self.device, self._depth,
-                          np.where(np.isfinite(z), z, 0.0).astype(np.float32))
+    def use_gbuffer(self, gbuffer) -> None:
+        """Read the render's depth from ``gbuffer`` (a
+        :class:`aquaspec.gpu.gbuffer.GBufferTextures` of the render in water),
+        or None: every surface at infinity (the central mapping)."""
+        if gbuffer is not None and (gbuffer.width, gbuffer.height) != (self.water.width,
+                                                                      self.water.height):
+            raise AquaspecError(f"G-buffer of {gbuffer.width}x{gbuffer.height}; the render in "
+                                f"water is {self.water.width}x{self.water.height}")
+        self._use_depth = gbuffer is not None
+        surface = gbuffer.textures["surface"] if gbuffer is not None else self._placeholder()
+        if surface is not self._surface:
+            self._surface = surface
+            self._bind_group = None
         if self._port is not None:
             self._upload_params()
+
+    def _placeholder(self):
+        """A 1x1 surface texture to bind when no G-buffer is read."""
+        if self._blank is None:
+            self._blank = create_texture(self.device, 1, 1, GBUFFER_FORMATS["surface"],
+                                         label="port no depth", usage=GBUFFER_USAGE)
+        return self._blank
 
     def encode(self, encoder, timestamp_writes=None) -> None:
         """Record the pass into ``encoder``."""
         if self._port is None:
             raise AquaspecError("no port: call set_port() before running")
+        if self._surface is None:
+            self.use_gbuffer(None)
         if self._bind_group is None:
             self._bind_group = self.device.create_bind_group(
                 layout=self._layout, entries=bind_group_entries({
-                    B_PARAMS: self._uniform, B_RGB_IN: self._input, B_DEPTH_IN: self._depth,
+                    B_PARAMS: self._uniform, B_RGB_IN: self._input, B_SURFACE: self._surface,
                     B_RGB_OUT: self.output_buffer}))
         groups = (-(-self.sensor.width // WORKGROUP[0]), -(-self.sensor.height // WORKGROUP[1]), 1)
         record_dispatch(encoder, self._pipeline, self._bind_group, groups, timestamp_writes)

@@ -6,8 +6,10 @@
 // NumPy): Snell's law at both faces of the window per channel wavelength
 // (indices given per channel), the ray's lateral offset delta, the surface's
 // axial depth read at the nearest pixel and the position refined ITERATIONS
-// times, then a bilinear read clamped to the image's edge. Open water has
-// depth <= 0 here (the host writes inf as 0): the central mapping.
+// times, then a bilinear read clamped to the image's edge. The depth comes
+// from the render's G-buffer (aquaspec.gpu.gbuffer: the surface texture's x,
+// the ray distance S as f32 bits, negative for open water, where the port is
+// central), made axial as optics.remap.axial_depth does.
 
 {{ port_struct }}
 
@@ -15,7 +17,7 @@ const ITERATIONS: u32 = {{ iterations }}u;
 
 @group(0) @binding(0) var<uniform> params: {{ port_struct_name }};
 @group(0) @binding(1) var<storage, read> rgb_in: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read> depth_in: array<f32>;
+@group(0) @binding(2) var gb_surface: texture_2d<u32>;
 @group(0) @binding(3) var<storage, read_write> rgb_out: array<vec4<f32>>;
 
 fn tan_of_sin(s: f32) -> f32 {
@@ -68,8 +70,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         var col = params.water_cx + params.water_fx * t * ux - 0.5;
         if (params.use_depth != 0u) {
             for (var i = 0u; i < ITERATIONS; i = i + 1u) {
-                let z = depth_in[clamp_index(row, params.water_height) * params.water_width
-                                 + clamp_index(col, params.water_width)];
+                let r = clamp_index(row, params.water_height);
+                let q = clamp_index(col, params.water_width);
+                let s = bitcast<f32>(textureLoad(gb_surface, vec2<u32>(q, r), 0).x);
+                let wx = (f32(q) + 0.5 - params.water_cx) / params.water_fx;
+                let wy = (f32(r) + 0.5 - params.water_cy) / params.water_fy;
+                let z = s / sqrt(1.0 + wx * wx + wy * wy);
                 t = tan_w;
                 if (z > 0.0) {
                     t = tan_w + delta / z;
