@@ -50,13 +50,15 @@ difference of the halves is the noise of their mean.
 Point-sun caustics are singular along focal lines, so both patterns are
 compared box-filtered over ``k x k`` texel blocks (``blocks``). The two
 samplings differ: a Mitsuba pixel is the landed flux averaged over a box of
-one texel, aquaspec's texel (read at its centre) the flux weighted by the
-bilinear splat's tent, two texels wide (``tent = box * box``). Each block
-is therefore compared twice: ``kernel = "raw"`` as sampled, and
-``kernel = "matched"`` with aquaspec's image convolved with the texel box and
-Mitsuba's with the tent (both then ``box * tent``; in Fourier space,
-``sinc`` and ``sinc^2`` per axis, edges reflected), which removes the
-sampling difference from the comparison.
+one texel, aquaspec's texel (read at its centre) the flux splatted
+bilinearly onto ``f x f`` finer texels (:data:`aquaspec.light.caustics.DEFAULT_SUPERSAMPLE`)
+and summed, ``box * box_f`` (``box_f`` a box ``1/f`` texel wide; with
+``f = 1`` the two-texel tent ``box * box``). Each block is therefore
+compared twice: ``kernel = "raw"`` as sampled, and ``kernel = "matched"``
+with aquaspec's image convolved with the texel box and Mitsuba's with
+``box * box_f`` (in Fourier space ``sinc`` and ``sinc(x) sinc(x / f)``
+per axis, edges reflected), which removes the sampling difference from the
+comparison.
 
 The mesh is a discretisation of its own: between vertices Mitsuba's surface
 is flat triangles with interpolated normals. ``mesh_oversample`` refines it
@@ -204,18 +206,25 @@ def _render(mi, scene, spp, seed):
     return img.reshape(img.shape[0], img.shape[1], -1).mean(axis=-1), time.perf_counter() - t0
 
 
-def matched_kernels(c_aqua, c_mits):
-    """Both images with the same sampling kernel ``box * tent`` (one texel's
-    box, the bilinear splat's tent): aquaspec's convolved with the box,
-    Mitsuba's with the tent (Fourier, edges reflected)."""
-    def filtered(img, power):
+def matched_kernels(c_aqua, c_mits, supersample: int = caustics.DEFAULT_SUPERSAMPLE):
+    """Both images with the same sampling kernel ``box * box * box_f``: an
+    aquaspec texel is ``box * box_f`` (its splat onto ``f x f`` finer texels,
+    tents ``1/f`` wide, summed: ``f = supersample``; 1: the two-texel tent),
+    a Mitsuba pixel the box; aquaspec's convolved with the box, Mitsuba's with
+    ``box * box_f`` (Fourier, edges reflected)."""
+    f = float(supersample)
+
+    def filtered(img, transfer):
         pad = 8
         big = np.pad(np.asarray(img, float), pad, mode="reflect")
-        t0 = np.sinc(np.fft.fftfreq(big.shape[0])) ** power
-        t1 = np.sinc(np.fft.fftfreq(big.shape[1])) ** power
+        t0, t1 = (transfer(np.fft.fftfreq(n)) for n in big.shape)
         out = np.fft.ifft2(np.fft.fft2(big) * t0[:, None] * t1[None, :]).real
         return out[pad:-pad, pad:-pad]
-    return filtered(c_aqua, 1), filtered(c_mits, 2), lambda img: filtered(img, 2)
+
+    def both(x):
+        return np.sinc(x) * np.sinc(x / f)
+
+    return filtered(c_aqua, np.sinc), filtered(c_mits, both), lambda img: filtered(img, both)
 
 
 def compare_caustics(waves: Waves, elevation_deg: float, azimuth_deg: float, depths,
