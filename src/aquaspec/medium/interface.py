@@ -58,6 +58,16 @@ def snell_window_cos(n_water: float = N_WATER) -> float:
     return float(np.sqrt(1.0 - 1.0 / n_water ** 2))
 
 
+def diffuse_transmittance(n_water: float = N_WATER) -> float:
+    """The share of a uniform (overcast) sky's irradiance that crosses the flat
+    surface into the water, ``2 int_0^1 T(mu) mu dmu`` over the incidence
+    cosines in air (Gauss-Legendre, 200 nodes: T is smooth in ``mu``):
+    0.934 at n = 1.33, i.e. the sea reflects 6.6 % of an overcast sky."""
+    x, w = np.polynomial.legendre.leggauss(200)
+    mu = 0.5 * (x + 1.0)
+    return float(np.sum(w * mu * fresnel_transmittance(mu, n_water)))
+
+
 def index_of_window(window_cos: float) -> float:
     """The refractive index whose Snell's window has cosine ``window_cos``
     (:func:`snell_window_cos` inverted; 1 for a window at the horizon)."""

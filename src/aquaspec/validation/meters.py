@@ -48,6 +48,45 @@ def direct_sun_irradiance(water: Water, light: SurfaceLight, depths_m,
     return bands.average(fine, vals, name="direct sun")
 
 
+def measure_downwelling(water: Water, light: SurfaceLight, *, depths_m, spp: int = 100_000,
+                        bands: Bands = REFERENCE_BANDS, phase: str = "isotropic", g: float = 0.0,
+                        seed: int = 0, backscatter: float = FF_DEFAULT_BACKSCATTER,
+                        surface: str = "index-matched") -> np.ndarray:
+    """What irradiance meters facing up read in the path-traced water,
+    (n_depths, n) per band: a 2 cm square cosine collector (Mitsuba's
+    ``irradiancemeter`` on a ``null`` rectangle) at each depth, ``spp``
+    samples. A meter never receives a directional sun's unscattered beam
+    (:func:`measure_kd` adds it). ``surface``: the water surface
+    (:func:`aquaspec.validation.reference.surface_bsdf`); under the flat one
+    a meter just below it reads the light the interface lets through plus
+    the water's own light it mirrors back down.
+    """
+    mi = require_mitsuba()
+    check_range(water, light, bands)
+    depths = np.atleast_1d(np.asarray(depths_m, dtype=float))
+    if np.any(depths <= 0):
+        raise AquaspecError(f"depths {depths.tolist()}: meters go below the surface (> 0 m)")
+    T = mi.ScalarTransform4f
+    e_d = []
+    for i, depth in enumerate(depths):
+        d = base_scene(water, light, phase, g, backscatter, surface=surface)
+        d["meter"] = {
+            "type": "rectangle",
+            "to_world": T().translate([0.0, -float(depth), 0.0]).rotate([1, 0, 0], -90).scale(0.01),
+            "bsdf": {"type": "null"},
+            "interior": {"type": "ref", "id": "water_medium"},
+            "exterior": {"type": "ref", "id": "water_medium"},
+            # The meter's own medium: a copy of the water (a reference here is
+            # refused by Mitsuba for sensors attached to shapes).
+            "sensor": {"type": "irradiancemeter", "film": film(bands, 1, 1),
+                       "sampler": {"type": "independent", "sample_count": int(spp)},
+                       "medium": water_medium(water, phase, g, backscatter)},
+        }
+        img = np.array(mi.render(mi.load_dict(d), seed=seed + i), dtype=np.float64)
+        e_d.append(img.reshape(bands.n))
+    return np.array(e_d)
+
+
 def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.0, 5.0, 6.0),
                spp: int = 100_000, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
                g: float = 0.0, seed: int = 0,
@@ -66,31 +105,13 @@ def measure_kd(water: Water, light: SurfaceLight, *, depths_m=(1.0, 2.0, 3.0, 4.
     (:func:`direct_sun_irradiance`), which is also returned as
     ``e_d_direct`` (zeros without a sun).
     """
-    mi = require_mitsuba()
-    check_range(water, light, bands)
     depths = np.asarray(depths_m, dtype=float)
     if depths.size < 2 or np.any(depths <= 0):
         raise AquaspecError(f"depths {depths.tolist()} must be at least two positive depths")
-    T = mi.ScalarTransform4f
-    e_d = []
-    for i, depth in enumerate(depths):
-        d = base_scene(water, light, phase, g, backscatter)
-        d["meter"] = {
-            "type": "rectangle",
-            "to_world": T().translate([0.0, -float(depth), 0.0]).rotate([1, 0, 0], -90).scale(0.01),
-            "bsdf": {"type": "null"},
-            "interior": {"type": "ref", "id": "water_medium"},
-            "exterior": {"type": "ref", "id": "water_medium"},
-            # The meter's own medium: a copy of the water (a reference here is
-            # refused by Mitsuba for sensors attached to shapes).
-            "sensor": {"type": "irradiancemeter", "film": film(bands, 1, 1),
-                       "sampler": {"type": "independent", "sample_count": int(spp)},
-                       "medium": water_medium(water, phase, g, backscatter)},
-        }
-        img = np.array(mi.render(mi.load_dict(d), seed=seed + i), dtype=np.float64)
-        e_d.append(img.reshape(bands.n))
+    e_d = measure_downwelling(water, light, depths_m=depths, spp=spp, bands=bands, phase=phase,
+                              g=g, seed=seed, backscatter=backscatter)
     e_direct = direct_sun_irradiance(water, light, depths, bands)
-    e_d = np.array(e_d) + e_direct
+    e_d = e_d + e_direct
     if np.any(e_d <= 0):
         raise AquaspecError("an irradiance meter received no light; use more samples or "
                             "shallower depths")

@@ -24,6 +24,12 @@ Fournier-Forand (``ff``, from its backscatter fraction) and Petzold's
 average particle phase function (``petzold``) a ``tabphase`` holding
 exactly the table that aquaspec's light-field model is given
 (:func:`lightfield_phase`, :func:`aquaspec.medium.phase.tabulated_phase`).
+With ``surface="flat"`` (:func:`surface_bsdf`) the box is a smooth
+``dielectric`` instead (the real flat sea surface: Snell's window, Fresnel,
+total internal reflection); the sky's radiance is then the radiance in air,
+so the downwelling irradiance below the surface is not E_sky but what the
+interface lets through plus the water's light it mirrors back down
+(measured with :func:`aquaspec.validation.meters.measure_downwelling`).
 Integrator ``volpathmis`` (``volpath`` gives
 fireflies in water whose extinction varies strongly with wavelength), no
 path-length limit (see :data:`MAX_DEPTH`), box reconstruction filter.
@@ -61,6 +67,7 @@ import numpy as np
 from aquaspec.colour.bands import Bands
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import SurfaceLight
+from aquaspec.medium.interface import N_WATER
 from aquaspec.medium.phase import DEFAULT_TABLE_NODES, FournierForand, HenyeyGreenstein, get_phase
 from aquaspec.medium.water import Water
 from aquaspec.scene.camera import Camera
@@ -78,6 +85,9 @@ MAX_DEPTH = -1
 #: Half-size of the water box, metres (its sides are far enough that light
 #: entering through them is attenuated to nothing).
 WATER_BOX_M = 1000.0
+#: The water surfaces a reference can have (:func:`surface_bsdf`), named as
+#: :class:`aquaspec.rendering.setup.SpectralSetup`'s.
+REFERENCE_SURFACES = ("index-matched", "flat")
 #: Phase functions of the path-traced water.
 #:
 #: ``"ff"`` and ``"petzold"`` are Mitsuba's ``tabphase``: values on a regular
@@ -325,8 +335,26 @@ def lamp_emitter(lamp) -> dict:
                 origin=lamp.position.tolist(), target=(lamp.position + d).tolist(), up=up)}
 
 
+def surface_bsdf(surface: str, light: SurfaceLight | None = None) -> dict:
+    """The water box's BSDF for a surface of :data:`REFERENCE_SURFACES`:
+    ``null`` (index-matched) or Mitsuba's smooth ``dielectric`` (``flat``:
+    air above, index :data:`aquaspec.medium.interface.N_WATER` below). A
+    directional sun cannot reach the water through a smooth dielectric in
+    ``volpathmis`` (no path can connect a delta light through a delta
+    surface), so ``flat`` refuses a light with a sun."""
+    if surface not in REFERENCE_SURFACES:
+        raise AquaspecError(f"reference surface {surface!r}; accepted: "
+                            f"{', '.join(REFERENCE_SURFACES)}")
+    if surface == "index-matched":
+        return {"type": "null"}
+    if light is not None and light.sun is not None:
+        raise AquaspecError("a reference with the flat (dielectric) surface takes a sky without "
+                            f"a directional sun (light {light.name!r} has one): use overcast")
+    return {"type": "dielectric", "int_ior": N_WATER, "ext_ior": 1.0}
+
+
 def base_scene(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER, max_depth=MAX_DEPTH,
-          lamps=()):
+               lamps=(), surface: str = "index-matched"):
     mi = require_mitsuba()
     T = mi.ScalarTransform4f
     sky = _spectrum(light.wavelength_nm, sky_irradiance(light) / np.pi)
@@ -337,7 +365,7 @@ def base_scene(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER, max_d
         "water": {"type": "cube",
                   "to_world": T().translate([0.0, -WATER_BOX_M / 2, 0.0]).scale(
                       [WATER_BOX_M, WATER_BOX_M / 2, WATER_BOX_M]),
-                  "bsdf": {"type": "null"},
+                  "bsdf": surface_bsdf(surface, light),
                   "interior": {"type": "ref", "id": "water_medium"}},
         "sky": {"type": "constant", "radiance": sky},
     }
@@ -354,15 +382,16 @@ def base_scene(water, light, phase, g, backscatter=FF_DEFAULT_BACKSCATTER, max_d
 def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
                mesh_dir, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
                g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
-               max_depth: int = MAX_DEPTH, lamps=()) -> dict:
+               max_depth: int = MAX_DEPTH, lamps=(), surface: str = "index-matched") -> dict:
     """The Mitsuba scene dictionary (meshes are written as PLY into ``mesh_dir``;
-    ``lamps`` placed in the world, :func:`lamp_emitter`)."""
+    ``lamps`` placed in the world, :func:`lamp_emitter`; ``surface``:
+    :func:`surface_bsdf`)."""
     import trimesh  # deferred: trimesh takes about 0.9 s to import; only the reference needs it
     mi = require_mitsuba()
     check_range(water, light, bands)
     if abs(camera.cx - camera.width / 2) > 1e-6 or abs(camera.cy - camera.height / 2) > 1e-6:
         raise AquaspecError("the reference camera needs the principal point at the image centre")
-    d = base_scene(water, light, phase, g, backscatter, max_depth, lamps)
+    d = base_scene(water, light, phase, g, backscatter, max_depth, lamps, surface)
     fov_y = float(np.degrees(2 * np.arctan(camera.height / 2 / camera.fy)))
     d["sensor"] = {
         "type": "perspective", "fov": fov_y, "fov_axis": "y",
@@ -390,14 +419,15 @@ def scene_dict(scene, camera, water: Water, light: SurfaceLight, *, spp: int,
 def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: int = 256,
                      seed: int = 0, bands: Bands = REFERENCE_BANDS, phase: str = "isotropic",
                      g: float = 0.0, backscatter: float = FF_DEFAULT_BACKSCATTER,
-                     max_depth: int = MAX_DEPTH, lamps=()) -> dict:
+                     max_depth: int = MAX_DEPTH, lamps=(), surface: str = "index-matched") -> dict:
     """Path-trace the scene; returns ``band_radiance`` (H, W, n) and timing.
 
     ``band_radiance`` is the radiance averaged over each band of ``bands``
     (W m^-2 sr^-1 nm^-1), the same quantity aquaspec computes per band.
     ``phase``, ``g`` (``hg``) and ``backscatter`` (``ff``): see :data:`PHASES`.
     ``lamps``: lamps placed in the world, as Mitsuba emitters in the water
-    (:func:`lamp_emitter`).
+    (:func:`lamp_emitter`). ``surface``: the water surface
+    (:data:`REFERENCE_SURFACES`, :func:`surface_bsdf`).
     ``max_depth`` is volpathmis's path length limit (-1: none, the
     reference's setting); it counts scattering events in the medium and at
     non-null surfaces (the water's null surface does not count): 1 gives the
@@ -409,7 +439,7 @@ def render_reference(scene, camera, water: Water, light: SurfaceLight, *, spp: i
     with tempfile.TemporaryDirectory(prefix="aquaspec-ref-") as tmp:
         d = scene_dict(scene, camera, water, light, spp=spp, mesh_dir=tmp, bands=bands,
                        phase=phase, g=g, backscatter=backscatter, max_depth=max_depth,
-                       lamps=lamps)
+                       lamps=lamps, surface=surface)
         t0 = time.perf_counter()
         mscene = mi.load_dict(d)
         img = np.array(mi.render(mscene, seed=seed), dtype=np.float64)

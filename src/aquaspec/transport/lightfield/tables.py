@@ -35,6 +35,7 @@ from aquaspec.medium.interface import SURFACES, below_surface, index_of_window
 from aquaspec.numerics import bilinear_blend
 from aquaspec.transport import monzon2022 as model
 from aquaspec.transport.lightfield.shadowphase import ShadowTables
+from aquaspec.transport.lightfield.solve import hemisphere_nodes
 
 #: Default table sizes and depth range (depth axis uniform in sqrt(d)).
 DEFAULT_N_DEPTH = 64
@@ -358,6 +359,17 @@ class LightfieldTables:
             e_bed = e_bed + np.asarray(self.sun_fraction, dtype=float) * np.exp(
                 -np.asarray(self.beam_extinction, dtype=float) * bed / self.sun_mu0)
         return np.asarray(self.seabed_albedo, dtype=float) * e_bed * e0 / np.pi
+
+    def sky_share(self) -> np.ndarray:
+        """The sky's share of ``E_d(0) = E0`` per band, (n,): 1 but for what a
+        mirroring surface (``fresnel``) sends back down of the water's own
+        light, which is the rest. Under a uniform sky of irradiance ``E_sky``
+        in air, ``E0 = diffuse_transmittance() E_sky / sky_share()``
+        (:func:`aquaspec.medium.interface.diffuse_transmittance`)."""
+        mu, w = hemisphere_nodes(64, self.window_cos if self.surface != "null" else 0.0)
+        shape, _, _ = below_surface(mu, self.surface, index_of_window(self.window_cos))
+        return (2.0 * np.pi * np.sum(w * mu * shape)
+                * np.asarray(self.sky_radiance_per_e0, dtype=float))
 
     def top_radiance(self, v, e0) -> np.ndarray:
         """The light field's top boundary seen looking up along ``v``: the sky
