@@ -7,7 +7,7 @@ the device has them, :func:`aquaspec.gpu.timing.time_passes`).
 
 Usage::
 
-    python tools/lamp_frame_cost.py WIDTH HEIGHT BANDS [SAMPLES]
+    python tools/lamp_frame_cost.py WIDTH HEIGHT BANDS [SLICES]
 """
 import statistics
 import sys
@@ -23,9 +23,10 @@ from aquaspec.medium.water import get_water
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.builtin import builtin_scene
+from aquaspec.transport.lamp_froxels import LAMP_SLICES
 
 w, h, n = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
-samples = int(sys.argv[4]) if len(sys.argv) > 4 else 32
+slices = int(sys.argv[4]) if len(sys.argv) > 4 else LAMP_SLICES
 scene, cam = builtin_scene(60.0, width=w, height=h)
 setup = SpectralSetup(get_water("II"), get_sensor("human"), surface_light("none"), Bands(n),
                       lamps=parse_lamps(["rov-pair"]))
@@ -37,7 +38,7 @@ for k in range(8):
     r.draw_frame(scene, cam, setup)
     frames.append(1e3 * (time.perf_counter() - t0))
 frame_ms = statistics.median(frames[2:])
-lp = LampPass(r.deferred.device, w, h, n, n_samples=samples)
+lp = LampPass(r.deferred.device, w, h, n, slices=slices)
 medium = setup.medium(scene.materials)
 lp.set_inputs(setup.lamp_inputs(cam), response_weights=medium["response_weights"],
               material_bands=medium["material_bands"],
@@ -57,6 +58,6 @@ class LampStep:
 
 
 t = time_passes({"lamps": LampStep()}, frames=6, warmup=2, device=r.deferred.device)
-print(f"{w}x{h} {n} bands, {samples} samples: frame without lamps {frame_ms:.1f} ms (wall, "
+print(f"{w}x{h} {n} bands, {slices} slices: frame without lamps {frame_ms:.1f} ms (wall, "
       f"draw_frame), lamp pass {t.ms['lamps']:.1f} ms ({t.method}), shadow maps drawn once "
       f"{maps_ms:.0f} ms; (frame + lamps) / frame = {(frame_ms + t.ms['lamps']) / frame_ms:.2f}")

@@ -60,7 +60,7 @@ def test_up_rays_end_at_the_water_surface():
                 np.zeros((8, 8, 3)), [])
     lamp = Lamp((0.0, -1.5, 0.0), cone_deg=180.0, intensity_w_sr=1.0, frame="world")
     inp = inputs(lamp, (0.2, 0.1))
-    out = lamp_radiance(g, [inp], rho_of_hits=None, n_samples=512)
+    out = lamp_radiance(g, [inp], rho_of_hits=None, n_samples=512, veil="march")
     dirs = cam.ray_directions().reshape(-1, 3)
     to_surface = 1.0 / dirs[:, 1]
     ref = ls.single_scattering(inp, cam.position, dirs, to_surface, n_samples=512)

@@ -70,6 +70,10 @@ def register(sub):
         p, wind_help="--light sun-sky: a wind sea (wind speed in m/s at 19.5 m) focusing the "
                      "sun into caustics; the sun over a flat surface is timed beside it and "
                      "caustics / flat sun reported")
+    p.add_argument("--lamps", type=int, default=None, metavar="N",
+                   help="time the frame with N shadowed lamps fixed to the camera (2: the "
+                        "rov-pair preset) against the frame without them, in the same run, "
+                        "and print the ratio (default size 1280x720, 8 bands)")
     p.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference ratio "
                    "(with a sun the reference shades it too: seconds per size)")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
@@ -101,6 +105,9 @@ def run(args):
         # deferred: loads wgpu; only a shadow map size is checked against the device
         from aquaspec.gpu.device import max_texture_size
         shadow_map_from(args, max_texture_size())
+    if args.lamps is not None:
+        return _run_lamps(args, sizes_text if args.sizes else "1280x720",
+                          args.bands or "8", frames)
     if args.motion:
         return _run_motion(args, sizes, bands, frames, sun_elevation, sun_azimuth, waves)
     result = run_bench(sizes=sizes, bands=bands, frames=frames, warmup=args.warmup,
@@ -117,6 +124,32 @@ def run(args):
         write_file_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
     if args.plot:
         plot(result, args.plot)
+    return 0
+
+
+def _run_lamps(args, sizes_text, bands_text, frames):
+    """``bench --lamps N``: each size and band count, with N lamps against without."""
+    # deferred: the bench loads wgpu and every GPU pass; `aquaspec --help` need not
+    from aquaspec.apps.lamp_bench import bench_lamps, run_lamp_bench
+    bench_lamps(args.lamps)                     # a bad N refused before any GPU work
+    if args.light == "sun-sky" or args.motion or args.compare_seeds or args.occlusion:
+        raise AquaspecError("--lamps times the lamps alone; accepted without --light sun-sky, "
+                            "--motion, --compare-seeds and --occlusion")
+    results = []
+    for size in [parse_size(s) for s in sizes_text.split(",") if s]:
+        for n in [int(b) for b in bands_text.split(",") if b]:
+            row = run_lamp_bench(width=size[0], height=size[1], n_bands=n, n_lamps=args.lamps,
+                                 frames=frames, warmup=args.warmup, water=args.water,
+                                 depth_m=args.depth, light=args.light, ms_model=args.ms_model,
+                                 phase=args.phase,
+                                 progress=lambda m: print(m, file=sys.stderr, flush=True))
+            print(f"lamps: {row['lamps']} at {size[0]}x{size[1]}, {n} bands: frame with them / "
+                  f"without = {row['ratio']:.2f} ({row['lamp_frame_wall_ms']:.1f} / "
+                  f"{row['frame_wall_ms']:.1f} ms)")
+            results.append(row)
+    if args.json:
+        text = json.dumps(results if len(results) > 1 else results[0], indent=2)
+        write_file_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
     return 0
 
 

@@ -29,7 +29,7 @@ import numpy as np
 from aquaspec.gpu.passes.lamps import LampPass
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.lamp_shadow import DEFAULT_LAMP_MAP_SIZE, lamp_depth_maps, lamp_shadow_faces
-from aquaspec.transport.lamp_scattering import DEFAULT_SAMPLES
+from aquaspec.transport.lamp_froxels import LAMP_SLICES, lamp_tile
 
 
 def gpu_lamp_pass(renderer, setup: SpectralSetup, view) -> LampPass:
@@ -96,5 +96,6 @@ def lamp_params(setup: SpectralSetup, view) -> dict:
         return {}
     return {"lamp_rendering": {
         "shadow_map_texels": None if view.from_rgbd else DEFAULT_LAMP_MAP_SIZE,
-        "single_scattering_samples": DEFAULT_SAMPLES,
+        "single_scattering": (f"columns of {lamp_tile(view.camera)}x{lamp_tile(view.camera)} "
+                              f"pixels, {LAMP_SLICES} equiangular slices"),
         "placed": [inp.lamp.describe() for inp in setup.lamp_inputs(view.camera)]}}

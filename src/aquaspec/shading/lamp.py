@@ -4,8 +4,11 @@ Each pixel gets, for every lamp, the lit surface's light carried to the
 camera, ``rho / pi E exp(-c_view S)`` with ``E`` the lamp's irradiance
 (:func:`aquaspec.transport.lamp_scattering.lamp_irradiance`), plus the lamp's
 light scattered once along the pixel's ray up to the surface it meets, or
-the water surface for an open-water ray going up
-(:func:`aquaspec.transport.lamp_scattering.single_scattering`). Shadows come
+the water surface for an open-water ray going up: read from the lamp's
+columns (``veil="froxels"``, :mod:`aquaspec.transport.lamp_froxels`, as the
+GPU does) or marched per pixel (``veil="march"``,
+:func:`aquaspec.transport.lamp_scattering.single_scattering`, the reference
+the columns are measured against). Shadows come
 from the lamp's depth maps (:mod:`aquaspec.scene.lamp_shadow`) when they are
 given. Conventions: metres, y up, the water surface at y = 0; radiance in
 W m^-2 sr^-1 nm^-1 per band. The GPU twin is :mod:`aquaspec.gpu.passes.lamps`.
@@ -17,21 +20,27 @@ import numpy as np
 
 from aquaspec.scene.camera import camera_depth
 from aquaspec.scene.lamp_shadow import lamp_visibility
+from aquaspec.errors import AquaspecError
 from aquaspec.transport import monzon2022 as model
+from aquaspec.transport.lamp_froxels import LAMP_SLICES, lamp_froxel_grid, lamp_froxel_lookup
 from aquaspec.transport.lamp_scattering import (DEFAULT_SAMPLES, LampInputs, lamp_irradiance,
                                                 single_scattering)
 
 
 def lamp_radiance(gbuffer, lamps, *, rho_of_hits, shadows=None,
-                  n_samples: int = DEFAULT_SAMPLES) -> np.ndarray:
+                  n_samples: int = DEFAULT_SAMPLES, veil: str = "froxels") -> np.ndarray:
     """The lamps' band radiance per pixel, (H, W, n).
 
     ``lamps``: :class:`aquaspec.transport.lamp_scattering.LampInputs`, one
     per lamp (placed in the world); ``rho_of_hits(mask)`` returns the band
     reflectance (P, n) of the pixels in ``mask`` (H, W); ``shadows``: per
     lamp ``(faces, maps)`` of :mod:`aquaspec.scene.lamp_shadow` or None (no
-    shadow), or None for no shadows at all.
+    shadow), or None for no shadows at all; ``veil``: ``"froxels"`` (the
+    columns of :data:`aquaspec.transport.lamp_froxels.LAMP_SLICES` slices) or
+    ``"march"`` (``n_samples`` per pixel).
     """
+    if veil not in ("froxels", "march"):
+        raise AquaspecError(f"veil {veil!r}; accepted: 'froxels', 'march'")
     cam = gbuffer.camera
     d_o = camera_depth(cam)
     dirs = cam.ray_directions().astype(float)
@@ -54,9 +63,12 @@ def lamp_radiance(gbuffer, lamps, *, rho_of_hits, shadows=None,
             raise TypeError(f"lamps[{k}] is {type(inp).__name__}; expected LampInputs")
         shadow = None if shadows is None else shadows[k]
         vis_fn = None if shadow is None else (lambda x, sh=shadow: lamp_visibility(*sh, x))
-        veil = single_scattering(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
-                                 n_samples=n_samples, visibility=vis_fn)
-        out += veil.reshape(out.shape)
+        if veil == "froxels":
+            grid = lamp_froxel_grid(inp, cam, visibility=vis_fn, slices=LAMP_SLICES)
+            out += lamp_froxel_lookup(grid, cam, s)
+        else:
+            out += single_scattering(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
+                                     n_samples=n_samples, visibility=vis_fn).reshape(out.shape)
         if rho is not None:
             vis = 1.0 if shadow is None else lamp_visibility(*shadow, pos, normals=normal)
             e = lamp_irradiance(inp, pos, normal, vis)

@@ -189,6 +189,39 @@ def ray_angles(origin, dirs, s, lamp: Lamp, clip: bool = True):
     return t_star, dist, theta_a, theta_b
 
 
+def equiangular_range(ta, tb):
+    """``(u_a, du)``: the ray's range in ``u = sqrt(psi / pi)`` (``psi = pi/2 + theta``)
+    from :func:`ray_angles`' ``theta_a, theta_b``; ``du = 0`` where it holds no beam."""
+    ua = np.sqrt(np.clip(ta + 0.5 * np.pi, 0.0, np.pi) / np.pi)
+    du = np.maximum(np.sqrt(np.clip(tb + 0.5 * np.pi, 0.0, np.pi) / np.pi) - ua, 0.0)
+    return ua, du
+
+
+def sample_terms(inp: LampInputs, origin, v, t_star, dist, ua, du, n_samples: int, *,
+                 visibility=None, phase=None) -> np.ndarray:
+    """Each midpoint sample's share of ``L_SS``, (P, N, n): rays ``v`` (P, 3) with
+    :func:`ray_angles`' ``t_star, dist`` and :func:`equiangular_range`'s
+    ``ua, du`` (P,), ``n_samples`` equal steps of ``u``; summed over the samples
+    it is :func:`single_scattering` (the froxels, :mod:`aquaspec.transport.lamp_froxels`,
+    sum them up to each step)."""
+    lamp = inp.lamp
+    phase = phase or inp.phase
+    frac = (np.arange(n_samples) + 0.5) / n_samples
+    u = ua[:, None] + du[:, None] * frac[None, :]                   # (P, N)
+    theta = np.pi * u * u - 0.5 * np.pi
+    t = t_star[:, None] + dist[:, None] * np.tan(theta)
+    r = dist[:, None] / np.cos(theta)
+    x = np.asarray(origin, dtype=float) + t[..., None] * v[:, None, :]
+    f = lamp.relative_intensity(_angle_from_axis(lamp, x - lamp.position, r))
+    if visibility is not None:
+        f = f * np.asarray(visibility(x), dtype=float)
+    att = np.exp(-np.asarray(inp.c_lamp) * r[..., None]
+                 - np.asarray(inp.c_view) * t[..., None])             # (P, N, n)
+    weight = (2.0 * np.pi * du / n_samples / dist)[:, None, None]
+    return (np.asarray(inp.b) * np.asarray(inp.intensity) * weight
+            * phase(-np.sin(theta)) * (f * u)[..., None] * att)
+
+
 def single_scattering(inp: LampInputs, origin, dirs, s, *, n_samples: int = DEFAULT_SAMPLES,
                       visibility=None, phase=None, clip: bool = True) -> np.ndarray:
     """``L_SS`` of the lamp along rays from ``origin`` along unit ``dirs`` (P, 3) to
@@ -201,29 +234,12 @@ def single_scattering(inp: LampInputs, origin, dirs, s, *, n_samples: int = DEFA
     """
     dirs = np.asarray(dirs, dtype=float).reshape(-1, 3)
     s = np.asarray(s, dtype=float).reshape(-1)
-    lamp = inp.lamp
-    phase = phase or inp.phase
     n = np.asarray(inp.b).size
     out = np.zeros((dirs.shape[0], n))
-    frac = (np.arange(n_samples) + 0.5) / n_samples
     for r0 in range(0, dirs.shape[0], _CHUNK_RAYS):
         v = dirs[r0:r0 + _CHUNK_RAYS]
-        t_star, dist, ta, tb = ray_angles(origin, v, s[r0:r0 + _CHUNK_RAYS], lamp, clip)
-        # u = sqrt(psi / pi), psi = pi/2 + theta: midpoints of equal steps in u.
-        ua = np.sqrt(np.clip(ta + 0.5 * np.pi, 0.0, np.pi) / np.pi)
-        du = np.maximum(np.sqrt(np.clip(tb + 0.5 * np.pi, 0.0, np.pi) / np.pi) - ua, 0.0)
-        u = ua[:, None] + du[:, None] * frac[None, :]                   # (P, N)
-        theta = np.pi * u * u - 0.5 * np.pi
-        t = t_star[:, None] + dist[:, None] * np.tan(theta)
-        r = dist[:, None] / np.cos(theta)
-        x = np.asarray(origin, dtype=float) + t[..., None] * v[:, None, :]
-        f = lamp.relative_intensity(_angle_from_axis(lamp, x - lamp.position, r))
-        if visibility is not None:
-            f = f * np.asarray(visibility(x), dtype=float)
-        att = np.exp(-np.asarray(inp.c_lamp) * r[..., None]
-                     - np.asarray(inp.c_view) * t[..., None])             # (P, N, n)
-        integrand = phase(-np.sin(theta)) * (f * u)[..., None] * att
-        weight = (2.0 * np.pi * du / n_samples / dist)[:, None]
-        out[r0:r0 + v.shape[0]] = (np.asarray(inp.b) * np.asarray(inp.intensity)
-                                   * weight * integrand.sum(axis=1))
+        t_star, dist, ta, tb = ray_angles(origin, v, s[r0:r0 + _CHUNK_RAYS], inp.lamp, clip)
+        ua, du = equiangular_range(ta, tb)
+        out[r0:r0 + v.shape[0]] = sample_terms(inp, origin, v, t_star, dist, ua, du, n_samples,
+                                               visibility=visibility, phase=phase).sum(axis=1)
     return out

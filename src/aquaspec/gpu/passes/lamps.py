@@ -8,22 +8,31 @@ Two steps (maths in :mod:`aquaspec.transport.lamp_scattering`, NumPy twin
   face along a spot lamp's axis, or the six of a cube for wide lamps)
   rasterised depth-only through :class:`aquaspec.gpu.passes.depth_maps.DepthMapArray`,
   one layer per face, kept while the lamps and the scene stay;
-- the per-pixel pass (``lamps.wgsl`` beside this module): per lamp the
-  single scattering along the pixel's ray (the equiangular midpoint rule,
-  :data:`aquaspec.transport.lamp_scattering.DEFAULT_SAMPLES` samples, the
-  ray first cut to the cone) and a lit surface's light, summed over the
-  bands in camera RGB and added to a vec4-per-pixel buffer: a shading pass's
-  linear image, or the pass's own (:meth:`LampPass.read_rgb`).
+- the veil (``lamps.wgsl`` beside this module, ``build_veil``): per lamp the
+  single scattering integrated once along each column of
+  :func:`aquaspec.transport.lamp_froxels.lamp_tile` pixels square, over
+  :data:`aquaspec.transport.lamp_froxels.LAMP_SLICES` equiangular slices of
+  the column's ray cut to the cone, with the lamp's shadow at each, in camera
+  RGB;
+- the per-pixel pass (``main``): per lamp the veil read from the columns at
+  the pixel's distance and a lit surface's light, summed over the bands in
+  camera RGB and added to a vec4-per-pixel buffer: a shading pass's linear
+  image, or the pass's own (:meth:`LampPass.read_rgb`). Both in one compute
+  pass.
 
 Bindings of lamps.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
-surface and sigmoid textures; 3 material band reflectances (M * n f32); 4 two
-vec4 per band (uniform); 5 ``ln p`` per band (uniform up to 32 bands)
+surface and sigmoid textures; 3 material band reflectances (M * n f32; uniform
+when they fit in 64 KiB, else storage); 4 two vec4 per band (uniform); 5
+``ln p`` per band (uniform up to 32 bands, else storage)
 (:func:`aquaspec.transport.sun_scattering.log_phase_table`); 6 the lamps
-(:data:`LAMP_DTYPE`); 7 their on-axis intensity per band (uniform, four
-bands a vec4, :data:`MAX_LAMPS` rows); 8 their beam
-profiles (:data:`PROFILE_SIZE` values over ``[0, cone]``); 9 the shadow
-faces; 10 the shadow maps (a depth array); 11 their comparison sampler; 12
-the image.
+(:data:`LAMP_DTYPE`, uniform, :data:`MAX_LAMPS`); 7 their on-axis intensity per
+band (uniform, four bands a vec4); 8 their beam profiles (:data:`PROFILE_SIZE`
+values over ``[0, cone]``, uniform); 9 the shadow faces (uniform); 10 the shadow
+maps (a depth array); 11 their comparison sampler; 12 the image; 13 the veil as
+build_veil writes it (storage), 14 the same as a 3-D texture (columns x rows x
+depths, every lamp's summed, :func:`aquaspec.gpu.passes.sun.froxel_format`), 15 its linear
+clamped sampler. Every table read per pixel or per sample is in a uniform
+buffer or a texture: storage reads were most of the pass's time on lavapipe.
 """
 
 from __future__ import annotations
@@ -38,16 +47,19 @@ from aquaspec.gpu.buffers import (create_storage_buffer, create_uniform_buffer, 
 from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.passes.depth_maps import DepthMapArray
+from aquaspec.gpu.passes.sun import froxel_format
 from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.scene.lamp_shadow import (BIAS_TEXELS, DEFAULT_LAMP_MAP_SIZE, FAR_M, NEAR_M,
                                         NORMAL_OFFSET_TEXELS, lamp_shadow_faces)
-from aquaspec.transport.lamp_scattering import (DEFAULT_SAMPLES, MIN_DISTANCE_M, MIN_RANGE_M,
-                                                LampInputs)
+from aquaspec.transport.lamp_froxels import (DEPTH_M0, DEPTH_MAX_M, LAMP_DEPTHS, LAMP_SLICES,
+                                             depth_step, lamp_tile)
+from aquaspec.transport.lamp_scattering import MIN_DISTANCE_M, MIN_RANGE_M, LampInputs
 from aquaspec.transport.sun_scattering import PHASE_TABLE_SIZE
 
 PARAMS_LAYOUT = UniformLayout("LampParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_lamps", "u32"), ("shadowed", "u32"),
-    ("surfaces", "u32"),
+    ("surfaces", "u32"), ("tile", "u32"), ("cols_x", "u32"), ("cols_y", "u32"),
+    ("veil_row", "u32"),
 ])
 #: One lamp as lamps.wgsl's ``LampGpu``.
 LAMP_DTYPE = np.dtype([("position", np.float32, 3), ("cos_cut", np.float32),
@@ -56,16 +68,20 @@ LAMP_DTYPE = np.dtype([("position", np.float32, 3), ("cos_cut", np.float32),
                        ("pad", np.uint32)])
 #: Entries of each lamp's profile table over [0, cone].
 PROFILE_SIZE = 513
-#: Most lamps one pass takes.
+#: Most lamps one pass takes, and most shadow-map faces (a cube each).
 MAX_LAMPS = 16
+MAX_FACES = 6 * MAX_LAMPS
+#: Material reflectances in a uniform buffer up to this many vec4 (64 KiB).
+MATERIAL_VEC4 = 4096
 WORKGROUP = (8, 8)
-_BINDINGS = {0: "uniform", 1: "uint", 2: "float", 3: "read", 4: "uniform", 5: "read", 6: "read",
-             7: "uniform", 8: "read", 9: "read", 10: "depth_array", 11: "comparison_sampler",
-             12: "write"}
-#: Bindings held in uniform buffers: the per-band constants and the lamps' intensities
-#: are read in the band loops, where storage reads were most of the pass's time
-#: on lavapipe (577 -> 226 ms at 160x90, 8 bands, two lamps, without them).
-_UNIFORM = (4, 7)
+_BINDINGS = {0: "uniform", 1: "uint", 2: "float", 3: "read", 4: "uniform", 5: "read",
+             6: "uniform", 7: "uniform", 8: "uniform", 9: "uniform", 10: "depth_array",
+             11: "comparison_sampler", 12: "write", 13: "write", 14: "filterable_3d",
+             15: "sampler"}
+#: Bindings held in uniform buffers (the phase table and the materials too when
+#: they fit): storage reads per band were most of the pass's time on lavapipe
+#: (577 -> 226 ms at 160x90, 8 bands, two lamps, for the per-band constants).
+_UNIFORM = (4, 6, 7, 8, 9)
 #: The phase table goes in a uniform buffer too when it fits WebGPU's 64 KiB
 #: (up to 32 bands of PHASE_TABLE_SIZE entries), else in storage.
 UNIFORM_BYTES = 65536
@@ -97,40 +113,25 @@ class LampPass:
     width, height, n_bands : int
     map_size : int
         Side of each shadow-map face, texels.
-    n_samples : int
-        Equiangular samples per ray and lamp.
+    slices : int
+        Equiangular slices per column and lamp.
     """
 
     def __init__(self, device, width: int, height: int, n_bands: int, *,
-                 map_size: int = DEFAULT_LAMP_MAP_SIZE, n_samples: int = DEFAULT_SAMPLES):
-        if not (isinstance(n_samples, (int, np.integer)) and 1 <= n_samples <= 1024):
-            raise AquaspecError(f"lamp samples {n_samples!r}; accepted: an integer 1 ... 1024")
+                 map_size: int = DEFAULT_LAMP_MAP_SIZE, slices: int = LAMP_SLICES):
+        if not (isinstance(slices, (int, np.integer)) and 1 <= slices <= 1024):
+            raise AquaspecError(f"lamp slices {slices!r}; accepted: an integer 1 ... 1024")
         self.device = device
         self.width, self.height, self.n_bands = int(width), int(height), int(n_bands)
-        self.map_size, self.n_samples = int(map_size), int(n_samples)
+        self.map_size, self.slices = int(map_size), int(slices)
         self._groups = -(-self.n_bands // 4)
         self._phase_uniform = 4 * self.n_bands * PHASE_TABLE_SIZE <= UNIFORM_BYTES
-        phase_vec4 = self.n_bands * PHASE_TABLE_SIZE // 4
-        src = load_wgsl("lamps.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
-                        params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
-                        phase_size=PHASE_TABLE_SIZE, profile_size=PROFILE_SIZE,
-                        n_samples=self.n_samples, near=f"{NEAR_M:.9g}", far=f"{FAR_M:.9g}",
-                        band_vec4=2 * self.n_bands,
-                        phase_binding=(f"var<uniform> log_phase: array<vec4<f32>, {phase_vec4}>"
-                                       if self._phase_uniform
-                                       else "var<storage, read> log_phase: array<f32>"),
-                        phase_read=("log_phase[k / 4u][k % 4u]" if self._phase_uniform
-                                    else "log_phase[k]"),
-                        intensity_vec4=MAX_LAMPS * self._groups,
-                        bias_texels=f"{BIAS_TEXELS:.9g}",
-                        normal_offset_texels=f"{NORMAL_OFFSET_TEXELS:.9g}",
-                        min_distance=f"{MIN_DISTANCE_M:.9g}", min_range=f"{MIN_RANGE_M:.9g}")
-        module = device.create_shader_module(label="lamps.wgsl", code=src)
-        kinds = {**_BINDINGS, 5: "uniform" if self._phase_uniform else "read"}
-        self._layout = bind_group_layout(device, kinds)
-        self._pipeline = device.create_compute_pipeline(
-            label="lamps", layout=device.create_pipeline_layout(bind_group_layouts=[self._layout]),
-            compute={"module": module, "entry_point": "main"})
+        self.veil_format = froxel_format(device)
+        self._texel = 8 if self.veil_format == "rgba16float" else 16
+        self._pipelines = {}
+        self._layouts = {}
+        self._veil = None
+        self._group = None
         self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="lamp params")
         #: The pass's own image (vec4 per pixel), when no other is given to :meth:`encode`.
         self.rgb_buffer = create_storage_buffer(device, 16 * self.width * self.height,
@@ -140,12 +141,65 @@ class LampPass:
             address_mode_v=wgpu.AddressMode.clamp_to_edge,
             mag_filter=wgpu.FilterMode.nearest, min_filter=wgpu.FilterMode.nearest,
             compare=wgpu.CompareFunction.less_equal)
+        self._veil_sampler = device.create_sampler(
+            address_mode_u=wgpu.AddressMode.clamp_to_edge,
+            address_mode_v=wgpu.AddressMode.clamp_to_edge,
+            address_mode_w=wgpu.AddressMode.clamp_to_edge,
+            mag_filter=wgpu.FilterMode.linear, min_filter=wgpu.FilterMode.linear)
         self._no_maps = DepthMapArray(device, 16, 1, label="no lamp shadows")
         self._maps = None
         self._buffers = None
         self._lamps = []
         self._faces = []
         self.shadowed = False
+
+    def _use_pipelines(self, materials_in_uniform: bool) -> None:
+        """Compile (once) and select the pipelines for where the materials are."""
+        key = bool(materials_in_uniform)
+        if key not in self._pipelines:
+            phase_vec4 = self.n_bands * PHASE_TABLE_SIZE // 4
+            half = self.veil_format == "rgba16float"
+            src = load_wgsl(
+                "lamps.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
+                params_struct_name=PARAMS_LAYOUT.name, n_bands=self.n_bands,
+                phase_size=PHASE_TABLE_SIZE, profile_size=PROFILE_SIZE, slices=self.slices,
+                depths=LAMP_DEPTHS, depth_m0=f"{DEPTH_M0:.9g}", depth_max=f"{DEPTH_MAX_M:.9g}",
+                depth_step=f"{depth_step():.9g}",
+                veil_word="vec2<u32>" if half else "vec4<f32>",
+                veil_pack=("vec2<u32>(pack2x16float(sum.xy), "
+                           "pack2x16float(vec2<f32>(sum.z, 0.0)))") if half
+                else "vec4<f32>(sum, 0.0)",
+                veil_unpack=("vec3<f32>(unpack2x16float(veil_out[i].x), "
+                             "unpack2x16float(veil_out[i].y).x)") if half
+                else "veil_out[i].xyz",
+                near=f"{NEAR_M:.9g}", far=f"{FAR_M:.9g}", band_vec4=2 * self.n_bands,
+                phase_binding=(f"var<uniform> log_phase: array<vec4<f32>, {phase_vec4}>"
+                               if self._phase_uniform
+                               else "var<storage, read> log_phase: array<f32>"),
+                phase_read=("log_phase[k / 4u][k % 4u]" if self._phase_uniform
+                            else "log_phase[k]"),
+                material_binding=("@group(0) @binding(3) var<uniform> materials: "
+                                  f"array<vec4<f32>, {MATERIAL_VEC4}>;") if key else
+                "@group(0) @binding(3) var<storage, read> materials: array<f32>;",
+                material_read="materials[k / 4u][k % 4u]" if key else "materials[k]",
+                max_lamps=MAX_LAMPS, intensity_vec4=MAX_LAMPS * self._groups,
+                profile_vec4=-(-MAX_LAMPS * PROFILE_SIZE // 4), face_vec4=3 * MAX_FACES,
+                bias_texels=f"{BIAS_TEXELS:.9g}",
+                normal_offset_texels=f"{NORMAL_OFFSET_TEXELS:.9g}",
+                min_distance=f"{MIN_DISTANCE_M:.9g}", min_range=f"{MIN_RANGE_M:.9g}")
+            module = self.device.create_shader_module(label="lamps.wgsl", code=src)
+            kinds = {**_BINDINGS, 3: "uniform" if key else "read",
+                     5: "uniform" if self._phase_uniform else "read"}
+            bgl = bind_group_layout(self.device, kinds)
+            layout = self.device.create_pipeline_layout(bind_group_layouts=[bgl])
+            self._pipelines[key] = tuple(
+                self.device.create_compute_pipeline(
+                    label=f"lamps {entry}", layout=layout,
+                    compute={"module": module, "entry_point": entry})
+                for entry in ("main", "build_veil"))
+            self._layouts[key] = bgl
+        self._pipeline, self._build = self._pipelines[key]
+        self._layout = self._layouts[key]
 
     # ---- inputs ---------------------------------------------------------------
     def set_inputs(self, lamps, *, response_weights, material_bands, sigmoid_centers_t) -> None:
@@ -177,16 +231,27 @@ class LampPass:
             rows[k] = (lamp.position, np.cos(lamp.cone_rad), lamp.direction, lamp.cone_rad,
                        len(faces), len(own), int(lamp.cone_deg < 90.0), 0)
             faces += own
+        if len(faces) > MAX_FACES:
+            raise AquaspecError(f"{len(faces)} shadow-map faces; the lamp pass takes {MAX_FACES}")
         mb = np.asarray(material_bands if material_bands is not None else np.zeros((0, n)),
                         np.float32).reshape(-1)
-        data = {3: mb if mb.size else np.zeros(4, np.float32), 4: band,
-                5: np.asarray(first.log_phase, np.float32),
-                6: rows, 7: intensity,
-                8: np.stack([profile_table(i.lamp) for i in lamps]), 9: face_rows(faces)}
+        in_uniform = mb.size <= 4 * MATERIAL_VEC4
+        self._use_pipelines(in_uniform)
+        table = np.zeros(4 * MATERIAL_VEC4 if in_uniform else max(mb.size, 4), np.float32)
+        table[:mb.size] = mb
+        profiles = np.zeros(4 * -(-MAX_LAMPS * PROFILE_SIZE // 4), np.float32)
+        profiles[:len(lamps) * PROFILE_SIZE] = np.concatenate([profile_table(i.lamp)
+                                                               for i in lamps])
+        lamp_rows = np.zeros(MAX_LAMPS, LAMP_DTYPE)
+        lamp_rows[:len(lamps)] = rows
+        face_table = np.zeros((MAX_FACES, 3, 4), np.float32)
+        face_table[:len(faces)] = face_rows(faces)
+        data = {3: table, 4: band, 5: np.asarray(first.log_phase, np.float32),
+                6: lamp_rows, 7: intensity, 8: profiles, 9: face_table}
         self._buffers = {}
         for b, arr in data.items():
             arr = np.ascontiguousarray(arr)
-            if b in _UNIFORM or (b == 5 and self._phase_uniform):
+            if b in _UNIFORM or (b == 5 and self._phase_uniform) or (b == 3 and in_uniform):
                 self._buffers[b] = create_uniform_buffer(self.device, arr.nbytes,
                                                          label=f"lamps binding {b}")
                 upload_buffer(self.device, self._buffers[b], arr)
@@ -194,6 +259,7 @@ class LampPass:
                 self._buffers[b] = create_storage_buffer(self.device, arr,
                                                          label=f"lamps binding {b}")
         self._lamps, self._faces = lamps, faces
+        self._veil = None
         if self._maps is None or self._maps.layers != len(faces):
             self._maps = DepthMapArray(self.device, self.map_size, len(faces),
                                        label="lamp shadow maps")
@@ -211,18 +277,54 @@ class LampPass:
             self._maps.encode(encoder, raster.draws(scene), self._faces)
         return self.shadowed
 
+    def forget_shadow_maps(self) -> None:
+        """Have the next :meth:`encode_shadow_maps` draw the maps again (what a
+        moving camera costs camera-fixed lamps)."""
+        if self._maps is not None:
+            self._maps.forget()
+
     def read_shadow_depths(self, face: int) -> np.ndarray:
         """Face ``face``'s map as view depths (size, size), m (``inf``: no surface); tests."""
         z = self._maps.read_raw(face).astype(float)
         return np.where(z >= 1.0, np.inf, NEAR_M * FAR_M / (FAR_M - z * (FAR_M - NEAR_M)))
 
     # ---- the light ----------------------------------------------------------------
+    def _veil_for(self, camera):
+        """The veil's columns, buffer and texture for ``camera`` (made when its
+        columns or the lamps' count change): ``(tile, (cols_x, cols_y), row)``."""
+        tile = lamp_tile(camera)
+        cols = (-(-self.width // tile), -(-self.height // tile))
+        row = -(-cols[0] * self._texel // 256) * 256 // self._texel
+        depth = LAMP_DEPTHS + 1
+        key = tile
+        if self._veil is None or self._veil[0] != key:
+            buf = create_storage_buffer(self.device, self._texel * row * cols[1] * depth,
+                                        label="lamp veil (written)")
+            tex = self.device.create_texture(
+                label="lamp veil", size=(cols[0], cols[1], depth), format=self.veil_format,
+                dimension="3d",
+                usage=wgpu.TextureUsage.COPY_DST | wgpu.TextureUsage.TEXTURE_BINDING)
+            self._veil = (key, buf, tex, tex.create_view())
+        return tile, cols, row
+
     def encode(self, encoder, camera, gbuffer_textures: dict, rgb_buffer=None,
-               timestamp_writes=None, *, surfaces: bool = True) -> None:
+               timestamp_writes=None, *, surfaces: bool = True,
+               veil_timestamp_writes=None) -> None:
         """Record the lamps' light added into ``rgb_buffer`` (vec4 per pixel; None:
-        the pass's own, cleared first); ``timestamp_writes`` bracket the compute pass.
-        ``surfaces=False``: the water's light alone, every surface black (the
-        backscatter layer; the rays still end on the surfaces)."""
+        the pass's own, cleared first): :meth:`encode_veil` (its compute pass
+        bracketed by ``veil_timestamp_writes``) then :meth:`encode_pixels`
+        (``timestamp_writes``). ``surfaces=False``: the water's light alone,
+        every surface black (the backscatter layer; the rays still end on the
+        surfaces)."""
+        self.encode_veil(encoder, camera, gbuffer_textures, rgb_buffer, veil_timestamp_writes,
+                         surfaces=surfaces)
+        self.encode_pixels(encoder, timestamp_writes)
+
+    def encode_veil(self, encoder, camera, gbuffer_textures: dict, rgb_buffer=None,
+                    timestamp_writes=None, *, surfaces: bool = True) -> None:
+        """Upload the frame's parameters and record the veil's columns and their
+        copy into the 3-D texture; :meth:`encode_pixels` then adds the light
+        into ``rgb_buffer`` (None: the pass's own, cleared here)."""
         if self._buffers is None:
             raise AquaspecError("LampPass.set_inputs() first")
         if (camera.width, camera.height) != (self.width, self.height):
@@ -231,17 +333,37 @@ class LampPass:
         if rgb_buffer is None:
             rgb_buffer = self.rgb_buffer
             encoder.clear_buffer(rgb_buffer)
+        tile, cols, row = self._veil_for(camera)
+        _, veil_buf, veil_tex, veil_view = self._veil
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
             **camera_fields(camera), width=self.width, height=self.height,
-            n_lamps=len(self._lamps), shadowed=int(self.shadowed), surfaces=int(surfaces)))
+            n_lamps=len(self._lamps), shadowed=int(self.shadowed), surfaces=int(surfaces),
+            tile=tile, cols_x=cols[0], cols_y=cols[1], veil_row=row))
         maps = self._maps if self.shadowed else self._no_maps
-        group = self.device.create_bind_group(layout=self._layout, entries=bind_group_entries({
-            0: self._params, 1: gbuffer_textures["surface"].create_view(),
-            2: gbuffer_textures["sigmoid"].create_view(), **self._buffers,
-            10: maps.view, 11: self._shadow_sampler, 12: rgb_buffer}))
+        self._group = self.device.create_bind_group(
+            layout=self._layout, entries=bind_group_entries({
+                0: self._params, 1: gbuffer_textures["surface"].create_view(),
+                2: gbuffer_textures["sigmoid"].create_view(), **self._buffers,
+                10: maps.view, 11: self._shadow_sampler, 12: rgb_buffer, 13: veil_buf,
+                14: veil_view, 15: self._veil_sampler}))
+        cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
+        cp.set_pipeline(self._build)
+        cp.set_bind_group(0, self._group)
+        cp.dispatch_workgroups(-(-cols[0] // 8), -(-cols[1] // 8), 1)
+        cp.end()
+        encoder.copy_buffer_to_texture(
+            {"buffer": veil_buf, "offset": 0, "bytes_per_row": self._texel * row,
+             "rows_per_image": cols[1]},
+            {"texture": veil_tex, "mip_level": 0, "origin": (0, 0, 0)},
+            (cols[0], cols[1], LAMP_DEPTHS + 1))
+
+    def encode_pixels(self, encoder, timestamp_writes=None) -> None:
+        """Record the per-pixel pass of the last :meth:`encode_veil`."""
+        if self._group is None:
+            raise AquaspecError("LampPass.encode_veil() first")
         cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
         cp.set_pipeline(self._pipeline)
-        cp.set_bind_group(0, group)
+        cp.set_bind_group(0, self._group)
         cp.dispatch_workgroups(-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]))
         cp.end()
 

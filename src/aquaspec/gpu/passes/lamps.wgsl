@@ -1,27 +1,32 @@
 // The lamps (aquaspec.gpu.passes.lamps; NumPy twin: aquaspec.shading.lamp.lamp_radiance,
-// maths in aquaspec.transport.lamp_scattering, shadows in aquaspec.scene.lamp_shadow).
-// One invocation per pixel; per lamp:
-// - the light scattered once along the pixel's ray up to its surface (or the
-//   water surface going up, or infinity), over the equiangular variable theta
-//   (t = t* + D tan theta, dt / r^2 = dtheta / D) by the midpoint rule on
-//   N_SAMPLES equal steps of u = sqrt(psi / pi), psi = pi/2 + theta the
-//   scattering angle (dtheta = 2 pi u du), the ray first cut to the lamp's cone;
-// - a lit surface's light rho / pi I0 f(alpha) V max(0, n.l) exp(-c_lamp r) / r^2
-//   exp(-c_view S).
-// Summed over the bands in camera RGB and added to rgb_out (vec4 per pixel).
+// maths in aquaspec.transport.lamp_scattering and lamp_froxels, shadows in
+// aquaspec.scene.lamp_shadow). Two entry points, dispatched in this order:
+// - build_veil, one invocation per column of TILE x TILE pixels: each
+//   lamp's light scattered once along the column's central ray, cut to the
+//   lamp's cone, over the equiangular variable theta (t = t* + D tan theta,
+//   dt / r^2 = dtheta / D) in N_SLICES equal steps of u = sqrt(psi / pi),
+//   psi = pi/2 + theta the scattering angle (dtheta = 2 pi u du), each sampled
+//   at its middle with the lamp's shadow there; the sums up to each slice
+//   boundary read at the N_DEPTHS + 1 distances of lamp_froxels.depth_boundaries
+//   (linear in u), in camera RGB, summed over the lamps, written to veil_out
+//   (then copied to veil_tex);
+// - main, one invocation per pixel: the veil sampled from veil_tex (trilinear:
+//   the four columns around the pixel, the depths around its distance), and per
+//   lamp a lit surface's light
+//   rho / pi I0 f(alpha) V max(0, n.l) exp(-c_lamp r) / r^2 exp(-c_view S),
+//   summed over the bands in camera RGB; added to rgb_out.
 //
+// Everything read per pixel or per sample is in uniform buffers or textures:
+// storage-buffer reads were most of the pass's time on lavapipe.
 // `bands`, two vec4 per band i: [2i] c_lamp, c_view, b, t (the normalised band
 // centre for sigmoid materials); [2i + 1] w_r, w_g, w_b, 0.
 // `intensity[k * BAND_GROUPS + i / 4][i % 4]`: lamp k's on-axis I0 in band i.
-// Both in uniform arrays: storage reads in the band loops were most of the
-// pass's time on lavapipe.
-// `profile[k * PROFILE_SIZE + j]`: f of lamp k at alpha_j = cone j / (PROFILE_SIZE - 1).
-// `log_phase[i * PHASE_SIZE + j]`: ln p of band i at theta_j = pi (j / (PHASE_SIZE - 1))^2.
+// profile entry k * PROFILE_SIZE + j: f of lamp k at alpha_j = cone j / (PROFILE_SIZE - 1).
+// log_phase entry i * PHASE_SIZE + j: ln p of band i at psi_j = pi (j / (PHASE_SIZE - 1))^2.
 // `faces`, three vec4 per shadow-map face: right (xyz) and focal length in
 // texels (w), up (xyz) and 0, forward (xyz) and the face's size in texels; layer
 // f of shadow_maps holds face f's perspective depth (near NEAR, far FAR).
-// The bands' loops read the storage buffers by index (arrays passed by value
-// into functions are slow on lavapipe).
+// veil_out texel (x, y, j) at (z * cols_y + y) * veil_row + x (rows of a multiple of 256 bytes).
 
 #include "common.wgsl"
 #include "gbuffer_normal.wgsl"
@@ -43,7 +48,11 @@ struct LampGpu {
 const N_BANDS: u32 = {{ n_bands }}u;
 const PHASE_SIZE: u32 = {{ phase_size }}u;
 const PROFILE_SIZE: u32 = {{ profile_size }}u;
-const N_SAMPLES: u32 = {{ n_samples }}u;
+const N_SLICES: u32 = {{ slices }}u;
+const N_DEPTHS: u32 = {{ depths }}u;
+const DEPTH_M0: f32 = {{ depth_m0 }};
+const DEPTH_MAX: f32 = {{ depth_max }};
+const DEPTH_STEP: f32 = {{ depth_step }};
 const BAND_GROUPS: u32 = (N_BANDS + 3u) / 4u;
 const PER_PIXEL: u32 = 0xffffffffu;
 const HALF_PI: f32 = 1.57079632679490;
@@ -57,21 +66,28 @@ const MIN_RANGE: f32 = {{ min_range }};
 @group(0) @binding(0) var<uniform> lp: {{ params_struct_name }};
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var gb_sigmoid: texture_2d<f32>;
-@group(0) @binding(3) var<storage, read> materials: array<f32>;
+{{ material_binding }}
 @group(0) @binding(4) var<uniform> bands: array<vec4<f32>, {{ band_vec4 }}>;
 @group(0) @binding(5) {{ phase_binding }};
+@group(0) @binding(6) var<uniform> lamps: array<LampGpu, {{ max_lamps }}>;
+@group(0) @binding(7) var<uniform> intensity: array<vec4<f32>, {{ intensity_vec4 }}>;
+@group(0) @binding(8) var<uniform> profile: array<vec4<f32>, {{ profile_vec4 }}>;
+@group(0) @binding(9) var<uniform> faces: array<vec4<f32>, {{ face_vec4 }}>;
+@group(0) @binding(10) var shadow_maps: texture_depth_2d_array;
+@group(0) @binding(11) var shadow_sampler: sampler_comparison;
+@group(0) @binding(12) var<storage, read_write> rgb_out: array<vec4<f32>>;
+@group(0) @binding(13) var<storage, read_write> veil_out: array<{{ veil_word }}>;
+@group(0) @binding(14) var veil_tex: texture_3d<f32>;
+@group(0) @binding(15) var veil_sampler: sampler;
 
 // Entry k of the phase table (uniform, four to a vec4, when it fits; else storage).
 fn phase_entry(k: u32) -> f32 {
     return {{ phase_read }};
 }
-@group(0) @binding(6) var<storage, read> lamps: array<LampGpu>;
-@group(0) @binding(7) var<uniform> intensity: array<vec4<f32>, {{ intensity_vec4 }}>;
-@group(0) @binding(8) var<storage, read> profile: array<f32>;
-@group(0) @binding(9) var<storage, read> faces: array<vec4<f32>>;
-@group(0) @binding(10) var shadow_maps: texture_depth_2d_array;
-@group(0) @binding(11) var shadow_sampler: sampler_comparison;
-@group(0) @binding(12) var<storage, read_write> rgb_out: array<vec4<f32>>;
+
+fn material_entry(k: u32) -> f32 {
+    return {{ material_read }};
+}
 
 // Camera.ray_directions through pixel coordinates (px, py).
 fn pixel_ray(px: f32, py: f32) -> vec3<f32> {
@@ -89,8 +105,9 @@ fn beam(k: u32, cos_a: f32) -> f32 {
     }
     let x = a / cone * f32(PROFILE_SIZE - 1u);
     let j0 = min(u32(floor(x)), PROFILE_SIZE - 2u);
-    let base = k * PROFILE_SIZE + j0;
-    return mix(profile[base], profile[base + 1u], x - f32(j0));
+    let e = k * PROFILE_SIZE + j0;
+    let e1 = e + 1u;
+    return mix(profile[e / 4u][e % 4u], profile[e1 / 4u][e1 % 4u], x - f32(j0));
 }
 
 // WebGPU's perspective depth of view depth z (0 at NEAR, 1 at FAR).
@@ -105,15 +122,15 @@ fn lamp_visibility(k: u32, p: vec3<f32>, n: vec3<f32>, surface: bool) -> f32 {
     if (lp.shadowed == 0u) {
         return 1.0;
     }
-    let lamp = lamps[k];
-    var d = p - lamp.position;
-    var face = lamp.first_face;
+    var d = p - lamps[k].position;
+    let first = lamps[k].first_face;
+    var face = first;
     var best = -3.4e38;
-    for (var j = 0u; j < lamp.n_faces; j = j + 1u) {
-        let along = dot(d, faces[3u * (lamp.first_face + j) + 2u].xyz);
+    for (var j = 0u; j < lamps[k].n_faces; j = j + 1u) {
+        let along = dot(d, faces[3u * (first + j) + 2u].xyz);
         if (along > best) {
             best = along;
-            face = lamp.first_face + j;
+            face = first + j;
         }
     }
     let right = faces[3u * face];
@@ -134,25 +151,23 @@ fn lamp_visibility(k: u32, p: vec3<f32>, n: vec3<f32>, surface: bool) -> f32 {
     let z_ref = min(ndc_depth(zb), 1.0);
     let j0 = floor(x);
     let i0 = floor(y);
-    let fx = x - j0;
-    let fy = y - i0;
     let g = textureGatherCompare(shadow_maps, shadow_sampler,
                                  vec2<f32>(j0 + 1.0, i0 + 1.0) / size, face, z_ref);
-    return pcf_blend(g, j0, i0, fx, fy, size);
+    return pcf_blend(g, j0, i0, x - j0, y - i0, size);
 }
 
 // Where the ray o + t v is inside lamp k's cone (lamp_scattering.cone_interval):
 // (lo, hi), lo > hi where it never is; the whole line for cones of 90 degrees and more.
 fn cone_interval(k: u32, v: vec3<f32>) -> vec2<f32> {
     let inf = f32_inf();
-    let lamp = lamps[k];
-    if (lamp.clip == 0u) {
+    if (lamps[k].clip == 0u) {
         return vec2<f32>(-inf, inf);
     }
-    let w = lp.position - lamp.position;
-    let cc = lamp.cos_cut * lamp.cos_cut;
-    let vd = dot(v, lamp.direction);
-    let wd = dot(w, lamp.direction);
+    let w = lp.position - lamps[k].position;
+    let dir = lamps[k].direction;
+    let cc = lamps[k].cos_cut * lamps[k].cos_cut;
+    let vd = dot(v, dir);
+    let wd = dot(w, dir);
     let a = vd * vd - cc;
     let b = 2.0 * (vd * wd - cc * dot(v, w));
     let c = wd * wd - cc * dot(w, w);
@@ -175,59 +190,154 @@ fn cone_interval(k: u32, v: vec3<f32>) -> vec2<f32> {
     return vec2<f32>(-inf, inf);
 }
 
-// Lamp k's light scattered once along ray v up to s_ray (inf: open water), camera RGB.
-fn lamp_veil(k: u32, v: vec3<f32>, s_ray: f32) -> vec3<f32> {
-    let lamp = lamps[k];
-    let rel = lamp.position - lp.position;
+fn u_of(theta: f32) -> f32 {
+    return sqrt(clamp(theta + HALF_PI, 0.0, PI) / PI);
+}
+
+// Open water along v: to the water surface going up, else inf.
+fn open_length(v: vec3<f32>) -> f32 {
+    return select(f32_inf(), -lp.position.y / v.y, v.y > 0.0);
+}
+
+// Distance j of lamp_froxels.depth_boundaries.
+fn depth_boundary(j: u32) -> f32 {
+    if (j >= N_DEPTHS) {
+        return f32_inf();
+    }
+    return DEPTH_M0 * (exp(f32(j) * DEPTH_STEP) - 1.0);
+}
+
+// u at distance t along a ray with closest approach (t_star, dist) and beam [t0, t1]
+// (lamp_froxels.u_at): u_a before the beam, u_b after it.
+fn u_at(t: f32, t_star: f32, dist: f32, t0: f32, t1: f32, u_a: f32, u_b: f32) -> f32 {
+    if (t <= t0) {
+        return u_a;
+    }
+    if (t >= t1) {
+        return u_b;
+    }
+    return clamp(u_of(atan2(t - t_star, dist)), u_a, u_b);
+}
+
+// Column (a, b) at depth z: `value` stored (the first lamp) or added (the others).
+fn store_veil(a: u32, b: u32, z: u32, value: vec3<f32>, add: bool) {
+    let i = (z * lp.cols_y + b) * lp.veil_row + a;
+    var sum = value;
+    if (add) {
+        sum = sum + {{ veil_unpack }};
+    }
+    veil_out[i] = {{ veil_pack }};
+}
+
+// One invocation per column (gid.x, gid.y): every lamp's veil, summed.
+@compute @workgroup_size(8, 8, 1)
+fn build_veil(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let a = gid.x;
+    let b = gid.y;
+    if (a >= lp.cols_x || b >= lp.cols_y) {
+        return;
+    }
+    let tile = f32(lp.tile);
+    let v = pixel_ray(tile * f32(a) + 0.5 * tile, tile * f32(b) + 0.5 * tile);
+    for (var k = 0u; k < lp.n_lamps; k = k + 1u) {
+        lamp_column(k, a, b, v);
+    }
+}
+
+// Lamp k's veil along column (a, b)'s ray v, added to the column's depths.
+fn lamp_column(k: u32, a: u32, b: u32, v: vec3<f32>) {
+    let add = k > 0u;
+    let q = lamps[k].position;
+    let dir = lamps[k].direction;
+    let rel = q - lp.position;
     let t_star = dot(v, rel);
     let dist = max(length(rel - t_star * v), MIN_DISTANCE);
     let inside = cone_interval(k, v);
     let t0 = max(0.0, inside.x);
-    let t1 = min(s_ray, inside.y);
-    if (!(t1 > t0)) {
-        return vec3<f32>(0.0);
+    let t1 = min(open_length(v), inside.y);
+    let u_a = u_of(atan2(t0 - t_star, dist));
+    var u_b = u_a;
+    if (t1 > t0) {
+        u_b = max(select(u_of(atan2(t1 - t_star, dist)), 1.0, t1 >= f32_inf()), u_a);
     }
-    let theta_a = atan2(t0 - t_star, dist);
-    let theta_b = select(atan2(t1 - t_star, dist), HALF_PI, t1 >= f32_inf());
-    let u_a = sqrt(clamp(theta_a + HALF_PI, 0.0, PI) / PI);
-    let step = max(sqrt(clamp(theta_b + HALF_PI, 0.0, PI) / PI) - u_a, 0.0) / f32(N_SAMPLES);
+    let step = (u_b - u_a) / f32(N_SLICES);
+    var j = 0u;
+    if (!(step > 0.0)) {
+        for (; j <= N_DEPTHS; j = j + 1u) {
+            store_veil(a, b, j, vec3<f32>(0.0), add);
+        }
+        return;
+    }
+    let scale = 2.0 * PI * step / dist;
+    var uj = u_at(depth_boundary(0u), t_star, dist, t0, t1, u_a, u_b);
     var acc = vec3<f32>(0.0);
-    for (var j = 0u; j < N_SAMPLES; j = j + 1u) {
-        let u = u_a + (f32(j) + 0.5) * step;
+    for (var i = 0u; i < N_SLICES; i = i + 1u) {
+        let u = u_a + (f32(i) + 0.5) * step;
         let theta = PI * u * u - HALF_PI;
         let cos_t = cos(theta);
-        let sin_t = sin(theta);
-        let t = t_star + dist * sin_t / cos_t;
+        let t = t_star + dist * sin(theta) / cos_t;
         let r = dist / cos_t;
         let x = lp.position + v * t;
-        let f = beam(k, dot(x - lamp.position, lamp.direction) / r);
-        if (f <= 0.0) {
-            continue;
+        var g = beam(k, dot(x - q, dir) / r);
+        var inc = vec3<f32>(0.0);
+        if (g > 0.0) {
+            g = g * u * scale * lamp_visibility(k, x, vec3<f32>(0.0), false);
         }
-        let g = f * u * lamp_visibility(k, x, vec3<f32>(0.0), false);
-        if (g <= 0.0) {
-            continue;
+        if (g > 0.0) {
+            // The phase table is over sqrt(psi / pi): u itself.
+            let xp = u * f32(PHASE_SIZE - 1u);
+            let p0 = min(u32(floor(xp)), PHASE_SIZE - 2u);
+            let fp = xp - f32(p0);
+            for (var n = 0u; n < N_BANDS; n = n + 1u) {
+                let q0 = bands[2u * n];
+                let row = n * PHASE_SIZE + p0;
+                let ln_p = mix(phase_entry(row), phase_entry(row + 1u), fp);
+                let e = exp(ln_p - q0.x * r - q0.y * t);
+                inc = inc + (g * e * q0.z * intensity[k * BAND_GROUPS + n / 4u][n % 4u])
+                            * bands[2u * n + 1u].xyz;
+            }
         }
-        // The phase table is over sqrt(psi / pi): u itself.
-        let xp = u * f32(PHASE_SIZE - 1u);
-        let j0 = min(u32(floor(xp)), PHASE_SIZE - 2u);
-        let fp = xp - f32(j0);
-        for (var i = 0u; i < N_BANDS; i = i + 1u) {
-            let q0 = bands[2u * i];
-            let row = i * PHASE_SIZE + j0;
-            let ln_p = mix(phase_entry(row), phase_entry(row + 1u), fp);
-            let e = exp(ln_p - q0.x * r - q0.y * t);
-            acc = acc + (g * e * q0.z * intensity[k * BAND_GROUPS + i / 4u][i % 4u]) * bands[2u * i + 1u].xyz;
+        // The depths in this slice [u_i, u_i + step]: linear in u between the sums.
+        let u_end = u_a + f32(i + 1u) * step;
+        loop {
+            if (j > N_DEPTHS || (uj > u_end && i + 1u < N_SLICES)) {
+                break;
+            }
+            let w = clamp((uj - (u_end - step)) / step, 0.0, 1.0);
+            store_veil(a, b, j, acc + w * inc, add);
+            j = j + 1u;
+            uj = u_at(depth_boundary(j), t_star, dist, t0, t1, u_a, u_b);
         }
+        acc = acc + inc;
     }
-    return acc * (2.0 * PI * step / dist);
+}
+
+// The lamps' veil at pixel (col, row), depth index x (lamp_froxels.lamp_froxel_lookup).
+fn veil_sample(col: u32, row: u32, x: f32) -> vec3<f32> {
+    let tile = f32(lp.tile);
+    let cu = (f32(col) + 0.5 - 0.5 * tile) / tile + 0.5;
+    let cv = (f32(row) + 0.5 - 0.5 * tile) / tile + 0.5;
+    let uvw = vec3<f32>(cu / f32(lp.cols_x), cv / f32(lp.cols_y),
+                        (x + 0.5) / f32(N_DEPTHS + 1u));
+    return textureSampleLevel(veil_tex, veil_sampler, uvw, 0.0).xyz;
+}
+
+// lamp_froxels.depth_coordinate of distance s (inf allowed).
+fn depth_coordinate(s: f32) -> f32 {
+    if (s <= DEPTH_MAX) {
+        return log(1.0 + max(s, 0.0) / DEPTH_M0) / DEPTH_STEP;
+    }
+    if (s >= f32_inf()) {
+        return f32(N_DEPTHS);
+    }
+    return f32(N_DEPTHS - 1u) + (1.0 - DEPTH_MAX / s);
 }
 
 fn reflectance(material: u32, sig: vec3<f32>, i: u32, t: f32) -> f32 {
     if (material == PER_PIXEL) {
         return sigmoid_reflectance(vec4<f32>(sig.x), vec4<f32>(sig.y), vec4<f32>(sig.z), t).x;
     }
-    return materials[material * N_BANDS + i];
+    return material_entry(material * N_BANDS + i);
 }
 
 @compute @workgroup_size(8, 8)
@@ -240,43 +350,47 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let word = textureLoad(gb_surface, vec2<i32>(i32(col), i32(row)), 0);
     let s_raw = bitcast<f32>(word.x);
     let v = pixel_ray(f32(col) + 0.5, f32(row) + 0.5);
-    let inf = f32_inf();
-    let to_surface = select(inf, -lp.position.y / v.y, v.y > 0.0);
+    let to_surface = open_length(v);
     let hit = s_raw >= 0.0 && s_raw <= to_surface;
     let s = select(to_surface, s_raw, hit);
+    let x = depth_coordinate(s);
 
-    var acc = vec3<f32>(0.0);
-    var n = vec3<f32>(0.0);
-    var sig = vec3<f32>(0.0);
-    if (hit) {
-        n = decode_normal(word.z, word.y);
+    var acc = veil_sample(col, row, x);
+    if (hit && lp.surfaces != 0u) {
+        let n = decode_normal(word.z, word.y);
+        var sig = vec3<f32>(0.0);
         if (word.w == PER_PIXEL) {
             sig = textureLoad(gb_sigmoid, vec2<i32>(i32(col), i32(row)), 0).xyz;
         }
-    }
-    let pos = lp.position + v * s;
-    for (var k = 0u; k < lp.n_lamps; k = k + 1u) {
-        acc = acc + lamp_veil(k, v, s);
-        if (!hit || lp.surfaces == 0u) {
-            continue;
-        }
-        let lamp = lamps[k];
-        let to_lamp = lamp.position - pos;
-        let r = max(length(to_lamp), MIN_RANGE);
-        let cos_n = max(dot(n, to_lamp) / r, 0.0);
-        let f = beam(k, -dot(to_lamp, lamp.direction) / max(length(to_lamp), 1e-30));
-        if (cos_n <= 0.0 || f <= 0.0) {
-            continue;
-        }
-        let g = f * cos_n * lamp_visibility(k, pos, n, true) / (PI * r * r);
-        if (g <= 0.0) {
-            continue;
-        }
+        let pos = lp.position + v * s;
+        // The pixel's reflectance once for every lamp (a per-pixel material's
+        // sigmoid would be evaluated per lamp and band otherwise).
+        var rho: array<f32, N_BANDS>;
         for (var i = 0u; i < N_BANDS; i = i + 1u) {
-            let q0 = bands[2u * i];
-            let rho = reflectance(word.w, sig, i, q0.w);
-            let e = exp(-q0.x * r - q0.y * s);
-            acc = acc + (g * rho * e * intensity[k * BAND_GROUPS + i / 4u][i % 4u]) * bands[2u * i + 1u].xyz;
+            rho[i] = reflectance(word.w, sig, i, bands[2u * i].w);
+        }
+        for (var k = 0u; k < lp.n_lamps; k = k + 1u) {
+            let to_lamp = lamps[k].position - pos;
+            let len = length(to_lamp);
+            let r = max(len, MIN_RANGE);
+            let cos_n = max(dot(n, to_lamp) / r, 0.0);
+            if (cos_n <= 0.0) {
+                continue;
+            }
+            let f = beam(k, -dot(to_lamp, lamps[k].direction) / max(len, 1e-30));
+            if (f <= 0.0) {
+                continue;
+            }
+            let g = f * cos_n * lamp_visibility(k, pos, n, true) / (PI * r * r);
+            if (g <= 0.0) {
+                continue;
+            }
+            for (var i = 0u; i < N_BANDS; i = i + 1u) {
+                let q0 = bands[2u * i];
+                let e = exp(-q0.x * r - q0.y * s);
+                acc = acc + (g * rho[i] * e * intensity[k * BAND_GROUPS + i / 4u][i % 4u])
+                            * bands[2u * i + 1u].xyz;
+            }
         }
     }
     let idx = row * lp.width + col;
