@@ -161,16 +161,22 @@ def _lens(model: CameraModel, linear, z_axial, tx, ty, lam, f_px):
     return linear * lens.vignetting_factor(tx, ty)[..., None]
 
 
+def electrons_per_unit(model: CameraModel, lam_c, setup: SpectralSetup) -> np.ndarray:
+    """Photoelectrons per second per unit of each channel's camera RGB (3,)
+    (:func:`aquaspec.optics.exposure.electron_rate`)."""
+    s = model.sensor
+    response_max = float(np.max(setup.sensor.on_bands(setup.bands, outside=setup.outside)))
+    return electron_rate(np.ones(3), lam_c, response_max, f_number=model.lens.f_number,
+                         transmittance=model.lens.transmittance,
+                         pixel_pitch_um=s.pixel_pitch_um, quantum_efficiency=s.quantum_efficiency)
+
+
 def _expose(model: CameraModel, linear, lam_c, setup: SpectralSetup):
     """The sensor: ``(raw DN uint16, noisy linear camera RGB, info)``."""
     s = model.sensor
-    response_max = float(np.max(setup.sensor.on_bands(setup.bands, outside=setup.outside)))
-    per_unit = electron_rate(np.ones(3), lam_c, response_max, f_number=model.lens.f_number,
-                             transmittance=model.lens.transmittance,
-                             pixel_pitch_um=s.pixel_pitch_um,
-                             quantum_efficiency=s.quantum_efficiency)
+    per_unit = electrons_per_unit(model, lam_c, setup)
     rate = np.clip(linear, 0.0, None) * per_unit
-    t, iso = _settings(model, float(rate[..., 1].mean()))
+    t, iso = exposure_settings(model, float(rate[..., 1].mean()))
     rng = np.random.default_rng(model.seed)
     dn = s.capture(rate * t, t, iso, rng)
     k = s.gain(iso)
@@ -187,7 +193,7 @@ def _expose(model: CameraModel, linear, lam_c, setup: SpectralSetup):
     return dn.astype(np.uint16), noisy, info
 
 
-def _settings(model: CameraModel, mean_green_rate: float) -> tuple[float, float]:
+def exposure_settings(model: CameraModel, mean_green_rate: float) -> tuple[float, float]:
     """``(exposure_s, iso)`` of the frame: the model's, or metered."""
     s = model.sensor
     if model.exposure_s != "auto" and model.iso != "auto":

@@ -28,6 +28,7 @@ from aquaspec.gpu.passes.shadow_rays import ShadowRays
 from aquaspec.gpu.passes.caustics import CausticLoopPass
 from aquaspec.gpu.passes.sun import SunPass
 from aquaspec.light.caustics import DEFAULT_LOOP_FRAMES, caustic_loop
+from aquaspec.rendering.live_camera import LiveCamera
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera, check_size
 from aquaspec.scene.gbuffer import GBuffer
@@ -101,6 +102,8 @@ class Renderer:
         self.occlusion = None       # OcclusionPass, made when first needed
         self._occ_cache = {}
         self._shown_gbuffer = None  # the host G-buffer whose textures the frames read
+        #: Live frames through a camera model (:meth:`set_camera_model`), or None.
+        self.live_camera = None
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         """Upload ``setup``'s medium for a scene of ``materials`` to the shading
@@ -357,6 +360,20 @@ class Renderer:
         return (rgb - drgb.reshape(rgb.shape)).astype(rgb.dtype)
 
     # ------------------------------------------------------------ live frames
+    def set_camera_model(self, model, *, metered_green=None) -> None:
+        """Show :meth:`encode_frame`'s frames through a camera model (a preset
+        name or :class:`aquaspec.optics.presets.CameraModel`; None: the pinhole):
+        :mod:`aquaspec.rendering.live_camera`. Its exposure is metered by
+        :meth:`auto_display`, or given as ``metered_green`` (another
+        renderer's ``live_camera.metered_green``)."""
+        if model is None:
+            self.live_camera = None
+            return
+        if self.live_camera is None or self.live_camera.spec != model:
+            self.live_camera = LiveCamera(model, self.width, self.height, self.deferred.device)
+        if metered_green is not None:
+            self.live_camera.metered_green = metered_green
+
     def set_display(self, settings: dict) -> None:
         """Display settings (``exposure_ev``, ``white_balance_gains``, ``matrix``,
         ``tonemap``, as :func:`aquaspec.colour.display.display_settings` gives
@@ -367,11 +384,17 @@ class Renderer:
         if self._display is None:
             self._display = DisplayPass(self.width, self.height, device=self.deferred.device)
         self._display.set_settings(**kw)
+        if self.live_camera is not None:
+            self.live_camera.display.set_settings(**kw)
 
     def auto_display(self, scene, camera: Camera, setup: SpectralSetup) -> dict:
         """Render one linear frame and take the display settings from it
         (automatic exposure and grey-world gains), as a live view starts."""
-        rgb = self.render_scene(scene, camera, setup)
+        live = self.live_camera
+        rgb = self.render_scene(scene, camera if live is None else live.shading_camera(
+            camera, setup), setup)
+        if live is not None:
+            live.meter(rgb)
         settings = display_settings(rgb)
         settings.setdefault("tonemap", "filmic")
         self.set_display(settings)
@@ -391,7 +414,8 @@ class Renderer:
         ``"waves"`` when they move (:meth:`set_wave_time`), then with the light
         field ``"sun shadow"``, ``"sun froxels"``, ``"shading+display"`` (the sun
         added and the display fused in it), with the seeds' model ``"shading"``,
-        ``"sun shadow"``, ``"sun"``, ``"display"``) and returns
+        ``"sun shadow"``, ``"sun"``, ``"display"``; with :meth:`set_camera_model`
+        the shading unfused, then ``"camera+display"``) and returns
         the encoder for the next one: a benchmark submits and times each pass
         with it. Returns the encoder last returned by ``split`` (``encoder``
         itself without it).
@@ -404,6 +428,9 @@ class Renderer:
         """
         split = split or (lambda name, enc: enc)
         self._check_camera(camera)
+        live, sensor_camera = self.live_camera, camera
+        if live is not None:
+            camera = live.shading_camera(camera, setup)
         self.set_spectral(setup, scene.materials)
         sun = self._sun_pass(setup, scene.materials)
         shading = self._shading_pass()
@@ -419,6 +446,11 @@ class Renderer:
             encoder = split("geometry", encoder)
         if sun is not None and self._advance_waves(encoder, setup):
             encoder = split("waves", encoder)
+        if live is not None:
+            encoder = self.encode_shading(encoder, sun, camera, scene, split=split)
+            live.encode(encoder, shading.rgb_buffer, self.deferred.gbuffer, sensor_camera, setup)
+            self._last_display = live.display
+            return split("camera+display", encoder)
         if sun is None or self._use_lightfield:
             # The sun's light in the shading pass's band loop, the display fused.
             encoder = self.encode_shading(encoder, sun, camera, scene, split=split,
