@@ -133,6 +133,10 @@ class LiveView:
         self.progressive_waves = False
         #: Draw the status text over the frame (:mod:`aquaspec.apps.overlay`).
         self.overlay = False
+        #: A camera model the frames go through (``--camera-model``;
+        #: :meth:`aquaspec.rendering.renderer.Renderer.set_camera_model`), or None.
+        self.camera_model = None
+        self._metered_green = None  # its exposure, metered by auto_exposure()
         #: A line of news for the status text (a water loading, an error), or None.
         self.message = None
         #: Where the P key saves frames.
@@ -199,6 +203,7 @@ class LiveView:
         renderer = Renderer(camera.width, camera.height, setup.bands.n)
         renderer.set_spectral(setup, self.scene.materials)
         renderer.set_display(display)
+        renderer.set_camera_model(self.camera_model, metered_green=self._metered_green)
         if setup.waves is not None:     # (the moving sea's pass compiled here too)
             renderer.set_wave_time(self.time_s, progressive=self.progressive_waves)
         encoder = renderer.encode_frame(self.device.create_command_encoder(), self.shown(camera),
@@ -384,7 +389,10 @@ class LiveView:
         :attr:`ev_offset`)."""
         self._say("automatic exposure from one linear frame ...")
         camera = self.camera()
+        self.renderer.set_camera_model(self.camera_model)
         self._auto_display = self.renderer.auto_display(self.shown(camera), camera, self.setup)
+        if self.renderer.live_camera is not None:
+            self._metered_green = self.renderer.live_camera.metered_green
         return self.set_ev_offset(self.ev_offset)
 
     def set_ev_offset(self, ev: float) -> dict:
@@ -524,6 +532,7 @@ class LiveView:
         if self.setup.waves is not None:
             self.renderer.set_wave_time(self.time_s, progressive=self.progressive_waves)
         camera = self.camera()
+        self.renderer.set_camera_model(self.camera_model, metered_green=self._metered_green)
         encoder = self.device.create_command_encoder()
         if profile:
             self.pass_ms = {}

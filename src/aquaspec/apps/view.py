@@ -32,6 +32,8 @@ from aquaspec.apps.record import FrameRecorder
 from aquaspec.apps.scale import RenderScale
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.device import adapter_info
+from aquaspec.optics.flat_port import FlatPort
+from aquaspec.optics.presets import get_camera_model
 
 #: Environment variable that forces the offscreen canvas (rendercanvas's own).
 FORCE_OFFSCREEN_ENV = "RENDERCANVAS_FORCE_OFFSCREEN"
@@ -110,7 +112,7 @@ def _slowest_second_fps(frame_ms: list, skip_s: float = 1.0) -> float | None:
 def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
              frames: int | None = None, record=None, mp4: bool = False, save_dir=".",
              scale: float = 1.0, target_fps: float | None = None, panel: bool = True,
-             progress=None) -> dict:
+             progress=None, camera_model=None) -> dict:
     """Run the live view; returns the run's summary (frame rate, final pose).
 
     Parameters
@@ -137,6 +139,9 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         ``imgui-bundle``; without it the view runs with the keys alone and says so).
     progress : callable, optional
         Called with short messages.
+    camera_model : str or CameraModel, optional
+        The frames through a real camera's port and noisy sensor
+        (:mod:`aquaspec.rendering.live_camera`; no depth of field live).
     """
     say = progress or (lambda message: None)
     # rendercanvas's own switch (for tests and CI): offscreen, whatever is asked.
@@ -155,8 +160,14 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
         raise AquaspecError("--target-fps changes the render size with the frame rate: for a "
                             "window that is not recording (recorded frames keep one size)")
     render_scale = RenderScale(scale, target_fps)     # checked before the scene is built
+    camera_model = get_camera_model(camera_model)    # (and the camera model)
+    if camera_model is not None and settings.rgbd is not None \
+            and isinstance(camera_model.port, FlatPort):
+        raise AquaspecError("--camera-model with a flat port needs a render made for it; an "
+                            "RGB-D photograph has its own view; accepted: a dome port")
     window = None if offscreen else _window_backend()
     view = LiveView(settings, progress=say)
+    view.camera_model = camera_model
     view.save_dir = Path(save_dir)
     view.render_scale = render_scale
     view.use_scale()

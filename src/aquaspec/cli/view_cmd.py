@@ -97,6 +97,10 @@ def register(sub):
     p.add_argument("--target-fps", type=finite_float, default=None, metavar="FPS",
                    help="in a window: choose the render scale automatically to keep this frame "
                         "rate (e.g. 12 on a CPU); not with --offscreen or --record")
+    p.add_argument("--camera-model", metavar="PRESET[:SETTINGS]",
+                   help="the frames through a real underwater camera's port, vignetting and "
+                        "noisy sensor, as for render (no depth of field live; default: a "
+                        "perfect pinhole)")
     p.add_argument("--panel", action=argparse.BooleanOptionalAction, default=True,
                    help="in a window: the controls panel (imgui-bundle): water, sensor, bands, "
                         "models, exposure, tone map, sun, waves, render scale (default: on)")
@@ -154,7 +158,8 @@ def run(args):
     summary = run_view(settings, offscreen=args.offscreen, script=args.script,
                        frames=args.frames, record=args.record, mp4=args.mp4,
                        save_dir=args.save_dir, scale=args.scale, target_fps=args.target_fps,
-                       panel=args.panel, progress=lambda m: print(m, file=sys.stderr))
+                       panel=args.panel, progress=lambda m: print(m, file=sys.stderr),
+                       camera_model=args.camera_model)
     final = summary["final"]
     fps = "-" if summary["fps"] is None else f"{summary['fps']:.1f}"
     size = "x".join(str(v) for v in summary["render_size"])
