@@ -19,7 +19,7 @@ from aquaspec.errors import AquaspecError
 from aquaspec.optics.presets import get_camera_model
 from aquaspec.optics.remap import Intrinsics, water_intrinsics
 from aquaspec.rendering.api import render
-from aquaspec.rendering.camera_model import _expose, channel_wavelengths
+from aquaspec.rendering.camera_model import _expose, camera_view, channel_wavelengths
 from aquaspec.scene.builtin import builtin_scene
 
 SIZE = (128, 72)
@@ -83,11 +83,14 @@ class TestRender:
         assert ratio_dome / ratio_plain == pytest.approx(1 / (1 + tan2) ** 2, rel=0.1)
 
     def test_flat_port_refused_for_rgbd(self):
-        rgb = np.full((16, 16, 3), 0.5)
-        depth = np.full((16, 16), 2.0)
+        # (camera_view directly: a photograph's G-buffer fit costs seconds on a fresh cache)
+        _, cam = builtin_scene(5.0, width=16, height=16)
+        view = SimpleNamespace(camera=cam, from_rgbd=True)
+        setup = SimpleNamespace(bands=Bands(4))
         with pytest.raises(AquaspecError, match="flat port"):
-            render(rgbd=(rgb, depth, (16.0, 16.0, 8.0, 8.0)), bands=4, backend="numpy",
-                   ms_model="seeds", camera_model="dslr-flat-port")
+            camera_view(view, "dslr-flat-port", setup)
+        same, cp = camera_view(view, "machine-vision-dome", setup)
+        assert same is view and cp.water_camera is cam
 
     @pytest.mark.gpu
     def test_gpu_path(self, device):
