@@ -4,9 +4,9 @@ A plane of white lines 1.5 m in front of the built-in scene's camera
 (1280x720, 60 degree vertical field in air), rendered as a pinhole image in
 water and resampled through the ``dslr-flat-port`` preset's port at 450,
 550 and 650 nm, shown as the blue, green and red channels: the pincushion
-distortion bows the straight lines in towards the centre, and the port's lateral colour splits
-them into colour fringes towards the corners (the inset enlarges the
-top-left corner 4x). The dashed rectangle is where the same field of view
+distortion bows the straight lines in towards the centre, and the port's
+lateral colour splits them into colour fringes towards the corners (the
+inset enlarges the top-left corner 4x). The dashed rectangle is where the same field of view
 in water would end without the distortion (a camera of the port's paraxial
 focal length, f n_w).
 
