@@ -129,6 +129,19 @@ def test_scatter_slices_filters_each_slice_by_its_depth():
                                atol=1e-6)
 
 
+def test_turbid_deep_slices_stay_finite():
+    """G grows as exp(b (1 - B - f) s) at coarse scales (e^85 here): the
+    factor is bounded, finite, at half-float range."""
+    rng = np.random.default_rng(2)
+    level0 = (1.0 + 0.5 * rng.standard_normal((2, 32, 32))).astype(np.float32)
+    tr = cs.ScatterTransfer.for_beam(b=[5.0], c=[5.1], c_sun=[4.0], wavelength_nm=[532.0],
+                                     to_sun=[0.0, 1.0, 0.0])
+    assert tr.log_gain(np.array([0.5]), np.array([0.0]), 40.0)[0] > 80.0
+    out = cs.scatter_slices(level0, np.array([1.0, 40.0]), 8.0, tr)
+    assert np.all(np.isfinite(out)) and np.max(np.abs(out)) <= cs.FACTOR_LIMIT
+    assert np.all(np.isfinite(out.astype(np.float16)))
+
+
 def test_several_bands_take_the_mean_exponent():
     one = [cs.ScatterTransfer.for_beam(b=[b], c=[b + 0.1], c_sun=[0.1 + 0.7 * b],
                                        wavelength_nm=[w], to_sun=[0.0, 1.0, 0.0])

@@ -78,6 +78,12 @@ THETA_MIN_RAD = 1e-7
 #: ``P(v)`` is tabulated at :data:`TABLE_SIZE` wavenumbers ``v`` (rad per unit
 #: ``tan theta``) from 0 and geometrically from ``V_MIN`` to ``V_MAX``.
 V_MIN, V_MAX, TABLE_SIZE = 1e-3, 1e7, 401
+#: The factor's bound (half floats end at 65504): ``G`` grows as
+#: ``exp(b (1 - B - f) s)`` at coarse scales, beyond float range deep in
+#: turbid water, where the beam's share of the light is below ``1 / FACTOR_LIMIT``.
+FACTOR_LIMIT = 1.0e4
+#: ``ln G`` is capped here (float32 range) before the transform.
+LOG_GAIN_LIMIT = 60.0
 #: Displacements beyond ``2 TAPER_CYCLES / v`` (J0's oscillation averages them
 #: out) are tapered off with a cos^2 from ``TAPER_CYCLES / v``.
 TAPER_CYCLES = 40.0
@@ -249,7 +255,9 @@ def _table(phase, phase_params, b, wavelength_nm):
 def scatter_slices(level0, depths, tile_m: float, transfer: ScatterTransfer) -> np.ndarray:
     """The caustic factor's slices (K, n, n) at ``depths`` (K,) m of a tile
     ``tile_m`` wide carried into the scattered light: each slice times
-    :meth:`ScatterTransfer.gain` in Fourier space (float32; the mean kept).
+    :meth:`ScatterTransfer.gain` in Fourier space (float32; the mean kept;
+    ``ln G`` capped at :data:`LOG_GAIN_LIMIT`, the factor at
+    +-:data:`FACTOR_LIMIT`).
     The gains are computed once per transfer, depths and tile
     (:func:`slice_gains`): a loop's frames only pay the transforms."""
     c = np.asarray(level0, dtype=np.float32)
@@ -261,7 +269,8 @@ def scatter_slices(level0, depths, tile_m: float, transfer: ScatterTransfer) -> 
     gains = slice_gains(transfer, tuple(float(d) for d in depths), n, float(tile_m))
     spec = sfft.rfft2(c, workers=workers())
     spec *= gains
-    return sfft.irfft2(spec, s=(n, n), workers=workers()).astype(np.float32)
+    out = sfft.irfft2(spec, s=(n, n), workers=workers())
+    return np.clip(out, -FACTOR_LIMIT, FACTOR_LIMIT).astype(np.float32)
 
 
 @lru_cache(maxsize=8)
@@ -269,6 +278,7 @@ def slice_gains(transfer: ScatterTransfer, depths: tuple, n: int, tile_m: float)
     """``G`` (K, n, n/2 + 1) float32 on a real FFT's wavevectors
     (:func:`aquaspec.light.photon_map.half_wavenumbers`) at ``depths``."""
     kx, kz = half_wavenumbers(n, tile_m)
-    out = np.stack([transfer.gain(kx, kz, d) for d in depths]).astype(np.float32)
+    out = np.exp(np.minimum(np.stack([transfer.log_gain(kx, kz, d) for d in depths]),
+                            LOG_GAIN_LIMIT)).astype(np.float32)
     out.setflags(write=False)
     return out
