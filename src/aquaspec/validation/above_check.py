@@ -1,0 +1,141 @@
+"""The sea seen from above: aquaspec against the path tracer (issue 30).
+
+The scene: a camera :data:`HEIGHT_M` above the flat sea looking down at
+:data:`PITCH_DEG` below the horizon (field of view :data:`FOV_DEG`), over
+deep water or a grey Lambertian seabed (reflectance :data:`SEABED_ALBEDO`)
+at 3 or 10 m, under an overcast sky. Both renderers get the same water
+(a, b and phase function) and the same sky *above* the surface:
+
+- the reference (Mitsuba 3, :func:`aquaspec.validation.reference.scene_dict`
+  with ``surface="flat"``): a smooth ``dielectric`` water surface, the
+  camera in air (no medium), a uniform sky of radiance ``E_sky / pi``, the
+  seabed a large ``diffuse`` square inside the water;
+- aquaspec: :func:`aquaspec.shading.above_water.sea_from_above` on the flat
+  surface's light-field tables, with the seabed as their lower boundary, and
+  ``E0 = t_d E_sky / s`` below the surface
+  (:mod:`aquaspec.validation.window_check` explains it).
+
+Compared: the mean camera RGB over the image (ratio per channel, the
+relative error of the mean colour ``|rgb - rgb_ref| / |rgb_ref|``, and the
+hue difference) and per band. The sun is not in this check: a directional
+sun cannot reach the water through Mitsuba's smooth dielectric in
+``volpathmis`` (SPEC), and aquaspec's view from above has no sun yet.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+
+import numpy as np
+
+from aquaspec.colour.bands import Bands
+from aquaspec.colour.reflectance import Reflectance
+from aquaspec.colour.sensors import get_sensor
+from aquaspec.errors import AquaspecError
+from aquaspec.light.sky import surface_light
+from aquaspec.medium.interface import diffuse_transmittance
+from aquaspec.medium.water import load_water
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.camera import Camera
+from aquaspec.scene.mesh import Mesh, Scene
+from aquaspec.scene.seabed import Seabed
+from aquaspec.shading.above_water import sea_from_above
+from aquaspec.validation import metrics
+from aquaspec.validation.reference import (REFERENCE_BANDS, bands_to_rgb, lightfield_phase,
+                                           require_mitsuba, scene_dict)
+
+#: The camera's height above the sea (m), pitch below the horizon and field of view (degrees).
+HEIGHT_M = 5.0
+PITCH_DEG = 60.0
+FOV_DEG = 30.0
+#: The grey seabed's reflectance.
+SEABED_ALBEDO = 0.2
+#: Half-size of the seabed square in the reference (m): beyond the camera's view.
+SEABED_HALF_M = 200.0
+PHASES = ("isotropic", "petzold")
+
+
+def above_camera(size: int = 48, height_m: float = HEIGHT_M,
+                 pitch_deg: float = PITCH_DEG) -> Camera:
+    """A square camera ``height_m`` above the sea looking down at ``pitch_deg``
+    (towards -z)."""
+    if not height_m > 0:
+        raise AquaspecError(f"height {height_m!r} m; the camera must be above the sea (> 0 m)")
+    p = np.array([0.0, float(height_m), 0.0])
+    pitch = np.radians(pitch_deg)
+    forward = np.array([0.0, -np.sin(pitch), -np.cos(pitch)])
+    return Camera.look_at(p, p + forward, width=size, height=size, fov_y_deg=FOV_DEG)
+
+
+def _seabed_scene(depth_m, camera) -> Scene:
+    """The reference's seabed: a grey square at ``depth_m`` (none: no mesh)."""
+    if depth_m is None:
+        return Scene(meshes=[], materials=[], camera=camera)
+    h, y = SEABED_HALF_M, -float(depth_m)
+    quad = Mesh(np.array([[-h, y, -h], [h, y, -h], [h, y, h], [-h, y, h]]),
+                np.array([[0, 2, 1], [0, 3, 2]]), np.tile([0.0, 1.0, 0.0], (4, 1)), 0)
+    return Scene(meshes=[quad], materials=[Reflectance.constant(SEABED_ALBEDO)], camera=camera)
+
+
+def reference_from_above(camera, water, sky, *, seabed_depth_m, phase, spp, seed=0,
+                         bands: Bands = REFERENCE_BANDS) -> dict:
+    """Mitsuba's band radiance (H, W, n) with the camera in air above the
+    dielectric sea, and the seconds it took."""
+    mi = require_mitsuba()
+    with tempfile.TemporaryDirectory(prefix="aquaspec-above-") as tmp:
+        d = scene_dict(_seabed_scene(seabed_depth_m, camera), camera, water, sky, spp=spp,
+                       mesh_dir=tmp, bands=bands, phase=phase, surface="flat")
+        d["sensor"].pop("medium")                     # the camera is in air
+        t0 = time.perf_counter()
+        img = np.array(mi.render(mi.load_dict(d), seed=seed), dtype=np.float64)
+        seconds = time.perf_counter() - t0
+    if not np.all(np.isfinite(img)):
+        raise AquaspecError("the reference render contains NaN or infinity")
+    return {"band_radiance": img.reshape(camera.height, camera.width, bands.n),
+            "seconds": seconds}
+
+
+def aquaspec_from_above(camera, water, sky, *, seabed_depth_m, phase,
+                        bands: Bands = REFERENCE_BANDS):
+    """aquaspec's band radiance (H, W, n) from above, with ``E0`` from the sky
+    above the sea, and that ``E0``."""
+    method, params = lightfield_phase(phase)
+    bed = None if seabed_depth_m is None else Seabed(float(seabed_depth_m), SEABED_ALBEDO)
+    setup = SpectralSetup(water, get_sensor("human"), sky, bands, surface="flat",
+                          phase=method, phase_params=params, seabed=bed)
+    tables = setup.lightfield_tables()
+    e0 = diffuse_transmittance() * sky.on_bands(bands) / tables.sky_share()
+    med = setup.medium([])
+    return sea_from_above(camera, tables, a=med["a"], b=med["b"], e0=e0), e0
+
+
+def compare_above(water: str = "IB", *, seabed_depth_m=None, phase: str = "isotropic",
+                  size: int = 48, spp: int = 256, sensors=("human",), seed: int = 0,
+                  bands: Bands = REFERENCE_BANDS) -> dict:
+    """aquaspec's sea from above against the path tracer (module docstring):
+    per sensor the ratio of the image's mean camera RGB (aquaspec /
+    reference), the relative error of that mean colour and its hue
+    difference; the band ratios; both band images."""
+    if phase not in PHASES:
+        raise AquaspecError(f"phase {phase!r}; accepted: {', '.join(PHASES)}")
+    w = load_water(water)
+    sky = surface_light("overcast")
+    cam = above_camera(size)
+    ref = reference_from_above(cam, w, sky, seabed_depth_m=seabed_depth_m, phase=phase,
+                               spp=spp, seed=seed, bands=bands)
+    aq, e0 = aquaspec_from_above(cam, w, sky, seabed_depth_m=seabed_depth_m, phase=phase,
+                                 bands=bands)
+    ref_l = ref["band_radiance"]
+    out = {"water": water, "seabed_depth_m": seabed_depth_m, "phase": phase, "size": size,
+           "spp": spp, "reference_seconds": ref["seconds"], "e0": e0,
+           "aquaspec": aq, "reference": ref_l,
+           "band_ratio": aq.reshape(-1, bands.n).mean(0) / ref_l.reshape(-1, bands.n).mean(0)}
+    for s in sensors:
+        sensor = get_sensor(s) if isinstance(s, str) else s
+        rm = bands_to_rgb(ref_l, sensor, bands).reshape(-1, 3).mean(axis=0)
+        am = bands_to_rgb(aq, sensor, bands).reshape(-1, 3).mean(axis=0)
+        out[sensor.name] = {"ratio_rgb": am / rm,
+                            "rgb_error": float(np.linalg.norm(am - rm) / np.linalg.norm(rm)),
+                            "hue_deg": metrics.hue_difference_deg(rm[None], am[None])}
+    return out
