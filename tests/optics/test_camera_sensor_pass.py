@@ -42,9 +42,11 @@ def test_without_noise_matches_numpy_to_the_rounding(sensor_pass, preset):
     rgb = rng.uniform(0.0, 1.2, (SIDE, SIDE, 3))
     per_unit = np.array([3000.0, 9000.0, 12000.0])
     intr = (300.0, 300.0, 200.0, 200.0)
-    raw, lin = _run(sensor_pass, s, rgb, per_unit, intrinsics=intr, noise=False)
+    trans = np.array([0.5, 0.55, 0.6])               # a port's transmission per channel
+    raw, lin = _run(sensor_pass, s, rgb, per_unit, intrinsics=intr, noise=False,
+                    transmission=trans)
     j, i = np.meshgrid(np.arange(SIDE) + 0.5, np.arange(SIDE) + 0.5)
-    vig = ThinLens().vignetting_factor((j - 200) / 300, (i - 200) / 300)[..., None]
+    vig = ThinLens().vignetting_factor((j - 200) / 300, (i - 200) / 300)[..., None] * trans
     mu = np.minimum(rgb * vig * per_unit + s.dark_current_e_per_s * 0.01, s.full_well_e)
     expect = np.clip(np.floor(s.black_level_dn + s.gain(100.0) * mu + 0.5), 0, s.max_dn)
     # float32 on the GPU: a value within 1e-3 DN of a half may round the other way.

@@ -105,3 +105,19 @@ class TestFlatPortFocus:
         np.testing.assert_allclose(got, 0.04 + 0.01 / n_g + 2.0 / n_w)
         # Off axis the image lies nearer still (the tangential focus moves in).
         assert port.virtual_distance(0.8, 550.0, 2.0) < got / np.cos(np.arctan(0.8))
+
+
+class TestRadianceInAir:
+    def test_normal_incidence_closed_form(self):
+        # On the axis both ports pass (1 - R_wg)(1 - R_ga) of the basic radiance
+        # L/n^2, with R = ((n1 - n2)/(n1 + n2))^2 at normal incidence.
+        lam = np.array([450.0, 550.0, 650.0])
+        n_w, n_g = water_index_QuanFry1995(lam), GLASSES["bk7"].index(lam)
+        t = (1 - ((n_g - n_w) / (n_g + n_w)) ** 2) * (1 - ((n_g - 1) / (n_g + 1)) ** 2)
+        np.testing.assert_allclose(FlatPort().radiance_factor(0.0, lam), t / n_w ** 2, rtol=1e-12)
+        np.testing.assert_allclose(DomePort().radiance_factor(lam), t / n_w ** 2, rtol=1e-12)
+        assert np.all(t / n_w ** 2 < 0.56)
+
+    def test_flat_port_loses_more_off_axis(self):
+        f = FlatPort().radiance_factor(np.array([0.0, 0.6, 1.2]), 550.0)
+        assert np.all(np.diff(f) < 0) and f[-1] / f[0] > 0.95

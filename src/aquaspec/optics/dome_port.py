@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.medium.interface import fresnel_transmittance
 from aquaspec.optics.dispersion import (DEFAULT_SALINITY, DEFAULT_TEMPERATURE_C, Glass,
                                         get_glass, water_index_QuanFry1995)
 
@@ -82,6 +83,17 @@ class DomePort:
         s_o2 = self.thickness_m - s_i1                      # from the inner vertex
         s_i2 = 1.0 / ((1.0 - n_g) / r_i - n_g / s_o2)
         return r_i - s_i2
+
+    def radiance_factor(self, wavelength_nm) -> np.ndarray:
+        """Air-side radiance per unit of water radiance: ``T / n_w^2`` (the
+        basic radiance ``L / n^2`` kept, as
+        :meth:`aquaspec.optics.flat_port.FlatPort.radiance_factor`), with the
+        two faces' Fresnel transmittance at normal incidence (every chief ray
+        crosses the dome along a radius)."""
+        n_w = water_index_QuanFry1995(wavelength_nm, self.salinity, self.temperature_c)
+        n_g = self.glass.index(wavelength_nm)
+        t = fresnel_transmittance(1.0, n_g) * fresnel_transmittance(1.0, n_g / n_w)
+        return t / n_w ** 2
 
     def describe(self) -> dict:
         return {"kind": "dome", "radius_m": self.radius_m, "thickness_m": self.thickness_m,

@@ -21,9 +21,10 @@ sideways. Its image is made in two steps:
 What this neglects: a surface seen by the port but hidden from the pupil
 (the pupil and the window's exit points are centimetres apart: parallax at
 occluding edges only); the depth is read at the nearest pixel, so at a
-depth edge a sample may take the wrong side's depth; everything the port
-does to radiance besides geometry (Fresnel losses at the faces, a few
-percent, and absorption in the glass) is left out.
+depth edge a sample may take the wrong side's depth; the glass's
+absorption. What the port does to radiance besides geometry (the
+``1/n_w^2`` of the basic radiance and the faces' Fresnel losses) is applied
+apart: :meth:`aquaspec.optics.flat_port.FlatPort.radiance_factor`.
 """
 
 from __future__ import annotations

@@ -110,19 +110,28 @@ def through_camera(cp: CameraPass | None, shaded, setup: SpectralSetup, view, sa
     distance = _distance(shaded, view)
     linear, radiance = shaded.linear, shaded.radiance
     tx, ty = sensor_i.tangents()
-    if isinstance(model.port, FlatPort):
+    rho = np.hypot(tx, ty)[..., None]
+    port, centres = model.port, setup.bands.centers_nm
+    if isinstance(port, FlatPort):
         z = axial_depth(distance, water_i)
         if radiance is not None:
-            radiance = port_image(radiance, setup.bands.centers_nm, model.port, sensor_i,
-                                  water_i, z)
-            linear = radiance_to_rgb(radiance, setup.sensor.band_weights(
-                setup.bands, outside=setup.outside))
+            radiance = (port_image(radiance, centres, port, sensor_i, water_i, z)
+                        * port.radiance_factor(rho, centres))
         else:
-            linear = port_image(linear, lam_c, model.port, sensor_i, water_i, z)
-        row, col = port_coordinates(model.port, sensor_i, water_i, float(lam_c[1]), z)
+            linear = (port_image(linear, lam_c, port, sensor_i, water_i, z)
+                      * port.radiance_factor(rho, lam_c))
+        row, col = port_coordinates(port, sensor_i, water_i, float(lam_c[1]), z)
         z_port = sample(z, row, col, order=0)
     else:
+        if isinstance(port, DomePort):
+            if radiance is not None:
+                radiance = radiance * port.radiance_factor(centres)
+            else:
+                linear = linear * port.radiance_factor(lam_c)
         z_port = axial_depth(distance, water_i)
+    if radiance is not None and port is not None:
+        linear = radiance_to_rgb(radiance, setup.sensor.band_weights(setup.bands,
+                                                                     outside=setup.outside))
     linear = _lens(model, linear, z_port, tx, ty, float(lam_c[1]), sensor_i.fx)
     raw, noisy, info = _expose(model, linear, lam_c, setup)
     info["pinhole_in_water"] = cp.water_camera.describe()

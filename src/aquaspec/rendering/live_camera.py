@@ -30,6 +30,7 @@ from aquaspec.errors import AquaspecError
 from aquaspec.gpu.passes.camera_sensor import CameraSensorPass
 from aquaspec.gpu.passes.display import DisplayPass
 from aquaspec.gpu.passes.flat_port import FlatPortPass
+from aquaspec.optics.dome_port import DomePort
 from aquaspec.optics.flat_port import FlatPort
 from aquaspec.optics.presets import get_camera_model
 from aquaspec.optics.remap import Intrinsics, water_intrinsics
@@ -64,7 +65,9 @@ class LiveCamera:
         self._lam = None
         #: The mean green camera RGB auto exposure meters on (None: not yet).
         self.metered_green = metered_green
-        self._per_unit = None       # (setup, electrons per unit RGB per second)
+        # (setup, photoelectrons per unit RGB per second, the dome's transmission
+        # given to the sensor pass, the port's factor at the centre for metering)
+        self._per_unit = None
         #: Frames encoded (each its own noise).
         self.frame = 0
 
@@ -98,10 +101,15 @@ class LiveCamera:
         if self.metered_green is None:
             raise AquaspecError("no exposure: meter() a linear frame before encoding frames")
         if self._per_unit is None or self._per_unit[0] is not setup:
-            self._per_unit = (setup, electrons_per_unit(self.model, channel_wavelengths(setup),
-                                                        setup))
-        per_unit = self._per_unit[1]
-        t, iso = exposure_settings(self.model, self.metered_green * per_unit[1])
+            lam = channel_wavelengths(setup)
+            port = self.model.port
+            # The dome's radiance factor goes in at the sensor pass; the flat
+            # port's pass applies its own per pixel (metered at the centre).
+            dome = port.radiance_factor(lam) if isinstance(port, DomePort) else np.ones(3)
+            meter = (port.radiance_factor(0.0, lam) if isinstance(port, FlatPort) else dome)
+            self._per_unit = (setup, electrons_per_unit(self.model, lam, setup), dome, meter)
+        _, per_unit, _, meter = self._per_unit
+        t, iso = exposure_settings(self.model, self.metered_green * per_unit[1] * meter[1])
         return per_unit * t, t, iso
 
     def encode(self, encoder, rgb_buffer, gbuffer, camera: Camera,
@@ -122,7 +130,7 @@ class LiveCamera:
         self.sensor.set_exposure(
             self.model.sensor, electrons_per_unit=per_unit, exposure_s=t, iso=iso,
             intrinsics=(camera.fx, camera.fy, camera.cx, camera.cy) if vignetting else None,
-            seed=self.model.seed, frame=self.frame)
+            seed=self.model.seed, frame=self.frame, transmission=self._per_unit[2])
         self.sensor.encode(encoder)
         self.display.use_input(self.sensor.linear_buffer)
         self.display.encode(encoder)

@@ -33,7 +33,7 @@ WORKGROUP = (8, 8)
 B_PARAMS, B_RGB_IN, B_LINEAR_OUT, B_RAW_OUT = 0, 1, 2, 3
 
 SENSOR_LAYOUT = UniformLayout("SensorParams", [
-    ("electrons_per_unit", "vec4<f32>"),
+    ("electrons_per_unit", "vec4<f32>"), ("transmission", "vec4<f32>"),
     ("width", "u32"), ("height", "u32"), ("seed", "u32"), ("frame", "u32"),
     ("fx", "f32"), ("fy", "f32"), ("cx", "f32"), ("cy", "f32"),
     ("dark_e", "f32"), ("read_noise_e", "f32"), ("full_well_e", "f32"), ("gain", "f32"),
@@ -69,7 +69,8 @@ class CameraSensorPass:
         self.settings = None
 
     def set_exposure(self, sensor, *, electrons_per_unit, exposure_s: float, iso: float,
-                     intrinsics=None, seed: int = 0, frame: int = 0, noise: bool = True) -> None:
+                     intrinsics=None, seed: int = 0, frame: int = 0, noise: bool = True,
+                     transmission=(1.0, 1.0, 1.0)) -> None:
         """The frame's settings.
 
         Parameters
@@ -85,6 +86,9 @@ class CameraSensorPass:
             The noise's seed and frame number (a new frame, new noise).
         noise : bool
             False: the mean signal, rounded (for tests).
+        transmission : 3 floats
+            Scales the input camera RGB per channel before the sensor (a dome
+            port's :meth:`aquaspec.optics.dome_port.DomePort.radiance_factor`).
         """
         e = np.asarray(electrons_per_unit, dtype=float).reshape(3)
         if not np.all(np.isfinite(e)) or np.any(e <= 0):
@@ -93,7 +97,8 @@ class CameraSensorPass:
         k = sensor.gain(iso)
         fx, fy, cx, cy = intrinsics if intrinsics is not None else (1.0, 1.0, 0.0, 0.0)
         data = SENSOR_LAYOUT.pack(
-            electrons_per_unit=[*e, 0.0], width=self.width, height=self.height,
+            electrons_per_unit=[*e, 0.0], transmission=[*np.asarray(transmission, float), 1.0],
+            width=self.width, height=self.height,
             seed=int(seed) & 0xFFFFFFFF, frame=int(frame) & 0xFFFFFFFF,
             fx=fx, fy=fy, cx=cx, cy=cy, dark_e=sensor.dark_current_e_per_s * exposure_s,
             read_noise_e=sensor.dark_noise_e, full_well_e=sensor.full_well_e, gain=k,

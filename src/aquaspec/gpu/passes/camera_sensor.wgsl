@@ -1,8 +1,9 @@
 // The camera sensor on the GPU: natural vignetting and EMVA 1288 noise, one
 // invocation per pixel, in camera RGB before white balance.
 //
-// Twin of aquaspec.optics.lens.ThinLens.vignetting_factor (cos^4 of the chief
-// ray's angle) and aquaspec.optics.sensor.Emva1288Sensor.capture (float64
+// Twin of a port's transmission per channel (given), then
+// aquaspec.optics.lens.ThinLens.vignetting_factor (cos^4 of the chief ray's
+// angle) and aquaspec.optics.sensor.Emva1288Sensor.capture (float64
 // NumPy). Per channel: mean photoelectrons mu_e = rgb * electrons_per_unit;
 // a Poisson number of mu_e + dark_e electrons (Knuth's product of uniforms
 // below POISSON_GAUSS, a rounded normal of the same mean and variance above),
@@ -89,7 +90,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let ty = (f32(gid.y) + 0.5 - params.cy) / params.fy;
     let q = 1.0 + tx * tx + ty * ty;
     let vignette = select(1.0, 1.0 / (q * q), params.vignetting != 0u);
-    let rgb = max(rgb_in[p].xyz, vec3<f32>(0.0)) * vignette;
+    let rgb = max(rgb_in[p].xyz, vec3<f32>(0.0)) * params.transmission.xyz * vignette;
     let r = expose(rgb.x, params.electrons_per_unit.x, p, 0u);
     let g = expose(rgb.y, params.electrons_per_unit.y, p, 1u);
     let b = expose(rgb.z, params.electrons_per_unit.z, p, 2u);

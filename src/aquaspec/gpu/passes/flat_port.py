@@ -1,7 +1,9 @@
 """The flat port pass: a port's image resampled from a pinhole render in water, on the GPU.
 
 The GPU twin of :func:`aquaspec.optics.remap.port_image` for camera RGB
-(one wavelength per channel; WGSL: ``flat_port.wgsl`` beside this module),
+(one wavelength per channel; WGSL: ``flat_port.wgsl`` beside this module)
+times :meth:`aquaspec.optics.flat_port.FlatPort.radiance_factor` (the
+radiance in air),
 the cheap per-pixel part of :mod:`aquaspec.rendering.camera_model` a live
 view needs. ``tests/optics/test_flat_port_pass.py`` holds the two together.
 

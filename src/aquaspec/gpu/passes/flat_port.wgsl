@@ -9,7 +9,9 @@
 // times, then a bilinear read clamped to the image's edge. The depth comes
 // from the render's G-buffer (aquaspec.gpu.gbuffer: the surface texture's x,
 // the ray distance S as f32 bits, negative for open water, where the port is
-// central), made axial as optics.remap.axial_depth does.
+// central), made axial as optics.remap.axial_depth does. Each channel is then
+// scaled to the radiance in air, FlatPort.radiance_factor: T / n_w^2, the two
+// faces' unpolarised Fresnel transmittance over the water's index squared.
 
 {{ port_struct }}
 
@@ -22,6 +24,16 @@ const ITERATIONS: u32 = {{ iterations }}u;
 
 fn tan_of_sin(s: f32) -> f32 {
     return s / sqrt(1.0 - s * s);
+}
+
+// Unpolarised Fresnel transmittance into an index n times the incident one
+// (n > 1), incidence cosine cos_i (medium.interface.fresnel_transmittance).
+fn fresnel_t(cos_i: f32, n: f32) -> f32 {
+    let sin_t = sqrt(max(1.0 - cos_i * cos_i, 0.0)) / n;
+    let cos_t = sqrt(1.0 - sin_t * sin_t);
+    let rs = (cos_i - n * cos_t) / (cos_i + n * cos_t);
+    let rp = (cos_t - n * cos_i) / (cos_t + n * cos_i);
+    return 1.0 - 0.5 * (rs * rs + rp * rp);
 }
 
 fn clamp_index(x: f32, n: u32) -> u32 {
@@ -59,7 +71,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         ux = tx / rho;
         uy = ty / rho;
     }
-    let sin_a = rho / sqrt(1.0 + rho * rho);
+    let cos_a = 1.0 / sqrt(1.0 + rho * rho);
+    let sin_a = rho * cos_a;
     var out = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     for (var c = 0u; c < 3u; c = c + 1u) {
         let tan_g = tan_of_sin(sin_a / params.n_glass[c]);
@@ -84,7 +97,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 col = params.water_cx + params.water_fx * t * ux - 0.5;
             }
         }
-        out[c] = bilinear(row, col, c);
+        let n_w = params.n_water[c];
+        let n_g = params.n_glass[c];
+        let cos_w = sqrt(1.0 - (sin_a / n_w) * (sin_a / n_w));
+        let t_port = fresnel_t(cos_a, n_g) * fresnel_t(cos_w, n_g / n_w);
+        out[c] = bilinear(row, col, c) * t_port / (n_w * n_w);
     }
     rgb_out[gid.y * params.width + gid.x] = out;
 }
