@@ -10,7 +10,8 @@ from aquaspec.cli.common import (MAX_OCEAN_DEPTH_M, add_band_options, add_light_
                                 add_rgbd_options, add_sensor_options,
                                 add_spread_scattering_option, add_sun_rendering_options,
                                 add_water_options, check_camspec, comma_floats, depth_metres,
-                                exposure_value, parse_depth_albedo, parse_range, rgbd_from,
+                                exposure_value, finite_float, parse_depth_albedo, parse_range,
+                                rgbd_from,
                                 shadow_map_from, sun_from, waves_from)
 from aquaspec.colour.display import TONEMAPS, WHITE_BALANCE_METHODS
 from aquaspec.errors import AquaspecError
@@ -22,7 +23,7 @@ from aquaspec.io.save import save_image
 from aquaspec.io.sidecar import sidecar_path
 from aquaspec.light.lamp import PRESETS, SPEC_KEYS, parse_lamps
 from aquaspec.optics.presets import CAMERA_MODELS, get_camera_model
-from aquaspec.scene.camera import parse_size
+from aquaspec.scene.camera import DEFAULT_LOOK_DOWN_DEG, camera_above, parse_size
 from aquaspec.scene.seabed import Seabed
 
 
@@ -95,6 +96,15 @@ def register(sub):
         p, wind_help="--light sun-sky: a wind sea on the surface (wind speed in m/s at 19.5 m, "
                      "Pierson-Moskowitz spectrum) whose waves focus the sun into caustics on "
                      "surfaces and in the water (default: a flat surface)")
+    p.add_argument("--camera-height", type=finite_float, metavar="M",
+                   help="put the camera M metres above the sea: the flat surface mirrors the "
+                        "sky (Fresnel) and shows the water's colour and the seabed (--seabed; "
+                        "the built-in scene's sand by default) through it (light-field model; "
+                        "meshes under the water, the sun's glint and waves are not drawn from "
+                        "above yet)")
+    p.add_argument("--look-down", type=finite_float, default=DEFAULT_LOOK_DOWN_DEG,
+                   metavar="DEG", help="with --camera-height: the view's angle below the "
+                                       f"horizon, 0-90 (default {DEFAULT_LOOK_DOWN_DEG:g})")
     p.add_argument("--camera-model", metavar="PRESET[:SETTINGS]",
                    help="a real underwater camera: port, lens and noisy sensor (EMVA 1288), "
                         f"one of {', '.join(CAMERA_MODELS)}, optionally with settings, e.g. "
@@ -134,6 +144,13 @@ def run(args):
     waves = waves_from(args)
     lamps = parse_lamps(args.lamp)     # bad specs fail before any rendering
     camera_model = get_camera_model(args.camera_model)
+    camera = None
+    if args.camera_height is not None:
+        if args.mesh or rgbd is not None:
+            raise AquaspecError("--camera-height shows the sea from above; --mesh and --rgbd "
+                                "are under-water views (not drawn from above yet)")
+        camera = camera_above(args.camera_height, args.look_down, width=size[0],
+                              height=size[1])
 
     def progress(msg):
         print(f"aquaspec render: {msg}", file=sys.stderr, flush=True)
@@ -151,7 +168,7 @@ def run(args):
                  exposure=args.exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
                  layers=bool(args.layers), backend=args.backend, progress=progress,
-                 camera_model=camera_model)
+                 camera_model=camera_model, camera=camera)
     files = save_image(args.output, res.display, res.linear_rgb if args.linear else None,
                        res.params, linear_path=args.linear, layers=res.layers,
                        layers_path=args.layers)

@@ -47,7 +47,9 @@ from aquaspec.light.lamp import parse_lamps
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, SurfaceLight, surface_light
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import DEFAULT_SOURCE, Water, get_water
-from aquaspec.rendering.appearance import check_depth, colour_of_setup
+from aquaspec.rendering.above import above_params, above_water, shade_above
+from aquaspec.rendering.appearance import (WHITE_CARD_DISTANCE_M, check_depth,  # noqa: F401
+                                           colour_of_setup, white_card)
 from aquaspec.rendering.camera_model import camera_view, through_camera
 from aquaspec.rendering.lamps import add_gpu_lamps, gpu_lamp_light, lamp_params, numpy_lamp_terms
 from aquaspec.rendering.layers import black_gbuffer, image_layers
@@ -56,7 +58,7 @@ from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.result import RenderResult
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.builtin import builtin_scene
-from aquaspec.scene.camera import Camera, camera_depth, parse_size
+from aquaspec.scene.camera import Camera, parse_size
 from aquaspec.scene.gbuffer import GBuffer
 from aquaspec.scene.load import load_mesh, place_in_front
 from aquaspec.scene.rgbd import gbuffer_from_rgbd, load_rgbd
@@ -70,26 +72,6 @@ from aquaspec.transport.froxels import froxel_description
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MONZON2022
 
 BACKENDS = ("gpu", "numpy")
-#: Distance of the grey card used as reference by ``white_balance="white-patch"``.
-WHITE_CARD_DISTANCE_M = 1.0
-
-
-def white_card(camera: Camera) -> dict:
-    """Where ``white_balance="white-patch"``'s grey card is: the diver's custom
-    white balance, a card held :data:`WHITE_CARD_DISTANCE_M` in front of the
-    camera along its view, facing it (keyword arguments of
-    :func:`aquaspec.rendering.appearance.colour_of_setup`). Where that would be above
-    the water (a camera near the surface looking up) the card is held level
-    with the camera instead, in the view's compass direction."""
-    depth = camera_depth(camera)
-    view = np.asarray(camera.forward, dtype=float)
-    if depth - WHITE_CARD_DISTANCE_M * view[1] < 0:
-        flat = np.array([view[0], 0.0, view[2]])
-        norm = np.linalg.norm(flat)
-        view = flat / norm if norm > 1e-6 else np.array([0.0, 0.0, -1.0])
-    return {"depth_m": depth, "distance_m": WHITE_CARD_DISTANCE_M, "view": view}
-
-
 def as_waves(waves, wave_time=None):
     """``render(waves=, wave_time=)`` as a :class:`aquaspec.light.waves.Waves`
     or None: None, a ``Waves``, or a wind speed in m/s (``Waves(wind_speed)``);
@@ -261,7 +243,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         outside=outside,
         ms_model=ms_model, phase=phase, forward_cone_deg=forward_cone_deg,
         cone_spread=cone_spread, spread_scattering=spread_scattering,
-        ambient_shadow=ambient_shadow, occlusion=occlusion, say=say, lamps=lamps, surface=surface)
+        ambient_shadow=ambient_shadow, occlusion=occlusion, say=say, lamps=lamps,
+        surface="flat" if camera is not None and above_water(camera) else surface)
     view = _view(scene=scene, camera=camera, mesh=mesh, albedo=albedo, rgbd=rgbd,
                  depth_m=depth, width=width, height=height, say=say)
     view, optics = camera_view(view, camera_model, setup)
@@ -271,7 +254,9 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     view = _with_seabed_plane(view, seabed, setup)
     setup = _with_seabed(setup, seabed, view)
     reference, white_card_info = _white_patch_reference(setup, view.camera, white_balance)
-    if backend == "gpu":
+    if above_water(view.camera):
+        shaded = _Shaded(*shade_above(setup, view, backend, return_radiance, say, optics), None)
+    elif backend == "gpu":
         shaded = _shade_on_gpu(setup, view, map_size, return_radiance, say, renderer)
     else:
         shaded = _shade_in_numpy(setup, view, map_size, return_radiance, say)
@@ -284,7 +269,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     params = _params(setup, depth, view, backend, info, t0, white_card_info, map_size,
                      layer_set is not None)
     return RenderResult(display, shaded.linear, shaded.radiance, shaded.gbuffer,
-                        {**params, **optics_params}, layer_set, raw)
+                        {**params, **optics_params, **above_params(view)}, layer_set, raw)
 
 
 def _spectral_setup(*, water, source, sensor, camspec, bands, wavelength_range, light,
@@ -378,7 +363,7 @@ def _with_seabed(setup: SpectralSetup, seabed, view: _View) -> SpectralSetup:
 
 def _check_below_camera(bed, camera) -> float:
     """How far the seabed ``bed`` lies below ``camera``, m (> 0, else an error)."""
-    d_cam = camera_depth(camera)
+    d_cam = -float(camera.position[1])                   # < 0: a camera above the sea
     if float(bed.depth_m) <= d_cam:
         raise AquaspecError(f"the seabed at {float(bed.depth_m):g} m is not below the "
                             f"camera at {d_cam:g} m; accepted: a seabed deeper than "

@@ -18,6 +18,7 @@ from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.light.sun import surface_irradiance
 from aquaspec.medium.water import Water
 from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.camera import Camera, camera_depth
 from aquaspec.transport import monzon2022 as model
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MONZON2022, ms_model_name
 from aquaspec.transport.sun_scattering import phase_from_log_table, single_scattering_open
@@ -197,3 +198,23 @@ def colour_of_setup(setup, *, depth_m: float, distance_m: float,
     if not all(np.isfinite(out["water_rgb"]) & np.isfinite(out["grey_card_rgb"])):
         raise AquaspecError("the model produced a non-finite colour; please report this input")
     return out
+
+
+#: Distance of the grey card used as reference by ``white_balance="white-patch"``.
+WHITE_CARD_DISTANCE_M = 1.0
+
+
+def white_card(camera: Camera) -> dict:
+    """Where ``white_balance="white-patch"``'s grey card is: the diver's custom
+    white balance, a card held :data:`WHITE_CARD_DISTANCE_M` in front of the
+    camera along its view, facing it (keyword arguments of
+    :func:`aquaspec.rendering.appearance.colour_of_setup`). Where that would be above
+    the water (a camera near the surface looking up) the card is held level
+    with the camera instead, in the view's compass direction."""
+    depth = camera_depth(camera)
+    view = np.asarray(camera.forward, dtype=float)
+    if depth - WHITE_CARD_DISTANCE_M * view[1] < 0:
+        flat = np.array([view[0], 0.0, view[2]])
+        norm = np.linalg.norm(flat)
+        view = flat / norm if norm > 1e-6 else np.array([0.0, 0.0, -1.0])
+    return {"depth_m": depth, "distance_m": WHITE_CARD_DISTANCE_M, "view": view}

@@ -178,3 +178,24 @@ def camera_depth(camera) -> float:
         raise AquaspecError(f"camera is {-d_o:g} m above the water surface (position y = "
                             f"{camera.position[1]:g}); the shading needs y <= 0")
     return d_o
+
+
+#: How far below the horizon a camera above the sea looks by default (degrees).
+DEFAULT_LOOK_DOWN_DEG = 30.0
+
+
+def camera_above(height_m: float, look_down_deg: float = DEFAULT_LOOK_DOWN_DEG, *,
+                 width: int, height: int, fov_y_deg: float = 60.0):
+    """A camera ``height_m`` above the sea at the origin, looking towards -z
+    and ``look_down_deg`` below the horizon (0 ... 90: level to straight down)."""
+    h, d = float(height_m), float(look_down_deg)
+    if not (np.isfinite(h) and 0.0 < h <= 10_000.0):
+        raise AquaspecError(f"camera height {height_m!r} m; accepted: above the sea, "
+                            "0 < height <= 10000 m")
+    if not (np.isfinite(d) and 0.0 <= d <= 90.0):
+        raise AquaspecError(f"look-down angle {look_down_deg!r} degrees; accepted: 0 (level) "
+                            "to 90 (straight down)")
+    pitch = np.radians(min(d, 89.9))            # (straight down: an up vector must exist)
+    p = np.array([0.0, h, 0.0])
+    forward = np.array([0.0, -np.sin(pitch), -np.cos(pitch)])
+    return Camera.look_at(p, p + forward, width=width, height=height, fov_y_deg=fov_y_deg)

@@ -1,0 +1,84 @@
+"""Rendering with the camera above the sea (issue 30): step 3 of
+:func:`aquaspec.rendering.api.render` when the camera is above ``y = 0``.
+
+The model is :func:`aquaspec.shading.above_water.sea_from_above`: the flat
+surface mirrors the sky (Fresnel) and lets out the light field's radiance
+from just below it along the refracted rays, down to the light field's
+seabed (the scene's, e.g. the built-in scene's sand, or ``seabed=``) or into
+deep water. It needs the light-field model and the flat surface, which a
+camera above the water makes the default. What is not drawn yet, and said
+in the render's metadata (:func:`above_params`): meshes under the water,
+the sun's disc, glint and single scattering, waves and lamps.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.colour.sensors import radiance_to_rgb
+from aquaspec.errors import AquaspecError
+from aquaspec.shading.above_water import sea_from_above
+
+#: What the view from above leaves out (in its metadata).
+NOT_DRAWN = ("meshes under the water (only the light field's seabed is seen)",
+             "the sun's disc, its glint on the surface and its single scattering in the water",
+             "waves", "lamps")
+
+
+def above_water(camera) -> bool:
+    """Whether ``camera`` is above the sea (``position.y > 0``)."""
+    return float(np.asarray(camera.position, dtype=float)[1]) > 0.0
+
+
+def check_above(setup, view, backend: str, optics=None) -> None:
+    """Refuse what the view from above cannot do, naming it."""
+    if optics is not None:
+        raise AquaspecError("a camera model's port looks into water; a camera above the sea "
+                            "takes none yet (accepted: camera_model=None)")
+    if setup.ms_model != "lightfield":
+        raise AquaspecError(f"a camera above the sea needs the light-field model (ms_model "
+                            f"{setup.ms_model!r}): the water's colour from above is its "
+                            "radiance looking down from the surface")
+    if setup.surface != "flat":
+        raise AquaspecError("a camera above the sea sees it through the real surface: "
+                            f"surface 'flat' (got {setup.surface!r})")
+    if view.from_rgbd:
+        raise AquaspecError("an RGB-D photograph is taken under water; a camera above the sea "
+                            "needs a scene (or the built-in one)")
+    if view.description["kind"] in ("mesh", "user"):
+        raise AquaspecError("meshes under the water are not drawn from above yet (only the "
+                            "light field's seabed is seen); accepted with a camera above the "
+                            "sea: the built-in scene, whose sand is the seabed, and seabed=")
+    if setup.lamps:
+        raise AquaspecError("lamps light the water around a camera under water; a camera "
+                            "above the sea takes none (accepted: lamps=())")
+    if backend not in ("numpy", "gpu"):
+        raise AquaspecError(f"backend {backend!r}; accepted: gpu, numpy")
+
+
+def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=None):
+    """``(linear camera RGB (H, W, 3), band radiance or None)`` of the sea seen
+    from ``view.camera`` above it (:func:`check_above` first, with the
+    camera model ``optics``). The NumPy model runs for both backends until
+    the view from above has a GPU pass."""
+    check_above(setup, view, backend, optics)
+    cam = view.camera
+    say(f"the sea seen from {float(cam.position[1]):g} m above it, {cam.width}x{cam.height} "
+        f"pixels x {setup.bands.n} bands (NumPy)")
+    med = setup.medium([])
+    radiance = sea_from_above(cam, setup.lightfield_tables(), a=med["a"], b=med["b"],
+                              e0=med["e0"])
+    linear = radiance_to_rgb(radiance, med["response_weights"])
+    return linear, (radiance if return_radiance else None)
+
+
+def above_params(view) -> dict:
+    """The render's metadata entry for a camera above the sea (``{}`` below it)."""
+    if not above_water(view.camera):
+        return {}
+    return {"above_water": {
+        "height_m": float(view.camera.position[1]),
+        "model": "aquaspec.shading.above_water.sea_from_above: R(mu) L_sky + (1 - R(mu)) / "
+                 "n^2 L_w(0, t), the light field looking down from just below the flat surface",
+        "shaded_in": "NumPy (no GPU pass yet, whatever the backend)",
+        "not_drawn": list(NOT_DRAWN)}}

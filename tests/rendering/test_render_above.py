@@ -1,0 +1,86 @@
+"""render() and `aquaspec render` with the camera above the sea (issue 30)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import aquaspec
+from aquaspec.cli import main
+from aquaspec.errors import AquaspecError
+from aquaspec.scene.camera import camera_above
+from aquaspec.scene.seabed import Seabed
+
+W, H = 24, 16
+
+
+def test_render_from_above_is_the_sea_from_above_model():
+    """The image is sea_from_above's radiance on the setup's flat-surface
+    tables (the built-in scene's sand as the seabed), the surface is made
+    flat, and the metadata say what is not drawn."""
+    from aquaspec.rendering.setup import SpectralSetup
+    from aquaspec.shading.above_water import sea_from_above
+    cam = camera_above(4.0, 40.0, width=W, height=H)
+    res = aquaspec.render(water="II", camera=cam, size=(W, H), bands=4, backend="numpy",
+                          seabed=Seabed(6.0, 0.3), return_radiance=True)
+    assert res.params["surface"] == "flat"
+    above = res.params["above_water"]
+    assert above["height_m"] == 4.0 and any("meshes" in x for x in above["not_drawn"])
+    setup = res.params  # the setup is rebuilt below from the same inputs
+    from aquaspec.colour.bands import Bands
+    from aquaspec.colour.sensors import get_sensor
+    from aquaspec.light.sky import surface_light
+    from aquaspec.medium.water import get_water
+    s = SpectralSetup(get_water("II"), get_sensor("human"), surface_light("overcast"),
+                      Bands(4), surface="flat", seabed=Seabed(6.0, 0.3))
+    med = s.medium([])
+    expect = sea_from_above(cam, s.lightfield_tables(), a=med["a"], b=med["b"], e0=med["e0"])
+    np.testing.assert_allclose(res.radiance, expect, rtol=1e-6)
+    assert setup["seabed"]["depth_m"] == 6.0
+
+
+def test_looking_straight_down_sees_no_sky_but_its_reflection():
+    cam = camera_above(10.0, 90.0, width=W, height=H)
+    res = aquaspec.render(water="IB", camera=cam, size=(W, H), bands=4, backend="numpy")
+    assert np.all(cam.ray_directions()[..., 1] < -0.7)
+    assert np.all(np.isfinite(res.linear_rgb)) and np.all(res.linear_rgb[..., 2] > 0)
+
+
+@pytest.mark.parametrize("kw,match", [
+    ({"ms_model": "monzon2022"}, "surface .flat. is the light field.s top boundary"),
+    ({"lamps": ["rov-pair"]}, "lamps"),
+    ({"camera_model": "dslr-flat-port"}, "camera model's port looks into water"),
+    ({"mesh": "x"}, None),
+])
+def test_what_from_above_refuses(kw, match, tmp_path):
+    cam = camera_above(3.0, width=W, height=H)
+    if "mesh" in kw:
+        obj = tmp_path / "tri.obj"
+        obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+        kw, match = {"mesh": obj}, "meshes under the water are not drawn from above"
+    with pytest.raises(AquaspecError, match=match):
+        aquaspec.render(camera=cam, size=(W, H), bands=4, backend="numpy", **kw)
+
+
+def test_camera_above_checks_its_angles():
+    with pytest.raises(AquaspecError, match="above the sea"):
+        camera_above(0.0, width=W, height=H)
+    with pytest.raises(AquaspecError, match="0 \\(level\\) to 90"):
+        camera_above(2.0, -5.0, width=W, height=H)
+    cam = camera_above(2.0, 30.0, width=W, height=H)
+    assert cam.forward[1] == pytest.approx(-0.5)
+
+
+def test_cli_camera_height(tmp_path, capsys):
+    out = tmp_path / "above.png"
+    assert main(["render", "--camera-height", "6", "--look-down", "45", "--size", f"{W}x{H}",
+                 "--bands", "4", "--backend", "numpy", "--seabed", "4,0.3",
+                 "-o", str(out)]) == 0
+    meta = json.loads((tmp_path / "above.png.json").read_text())
+    assert meta["above_water"]["height_m"] == 6.0
+    assert meta["camera"]["position_m"][1] == 6.0
+    assert main(["render", "--camera-height", "6", "--rgbd", "a.png", "b.png",
+                 "--intrinsics", "1,1,1,1", "-o", str(out)]) == 2
+    assert "--camera-height shows the sea from above" in capsys.readouterr().err
