@@ -237,11 +237,13 @@ def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
     grid = np.arange(m) * (n / float(m)) - 0.5
     rows = np.broadcast_to(grid[:, None], (m, m))          # z of each facet; x: rows.T
     a, b = [], []
+    f = int(supersample)
     for axis, x0 in ((0, rows.T), (2, rows)):
         slope = t[..., axis].reshape(-1)[keep] / ty
-        a.append(np.asarray(x0.reshape(-1)[keep] + h.reshape(-1)[keep] * slope * scale,
-                            np.float32))
-        b.append(np.asarray((slope + s[axis] / mu0) * scale, np.float32))
+        # (in the splat's f x f finer texels: the texel's own area, f x f summed)
+        a.append(np.asarray(f * (x0.reshape(-1)[keep] + h.reshape(-1)[keep] * slope * scale)
+                            + 0.5 * (f - 1), np.float32))
+        b.append(np.asarray(f * (slope + s[axis] / mu0) * scale, np.float32))
     w = w[keep] * ((n * n) / float(m * m))
     alpha = np.radians(sun_radius_deg)
     a_perp = alpha / n_water
@@ -255,9 +257,7 @@ def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
     def one(k):
         d = float(depths[k])
         dd = np.float32(d)
-        f = int(supersample)        # the texel's own area: f x f finer texels summed
-        c = splat_texels(f * (b[0] * dd + a[0]) + 0.5 * (f - 1),
-                         f * (b[1] * dd + a[1]) + 0.5 * (f - 1), w, f * n)
+        c = splat_texels(b[0] * dd + a[0], b[1] * dd + a[1], w, f * n)
         c = c.reshape(n, f, n, f).sum(axis=(1, 3))
         c = disc_blur(c, (d * a_par / mu0 ** 2, d * a_perp / mu0), dir_h, tile_m,
                       cov=d * d * spread, wavenumbers=k_half)
