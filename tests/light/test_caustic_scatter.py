@@ -165,3 +165,38 @@ def test_bad_transfer_is_refused_by_name(kw, word):
     args.update(kw)
     with pytest.raises(AquaspecError, match=word):
         cs.ScatterTransfer(**args)
+
+
+def test_the_renderers_setup_carries_its_map_into_the_scattered_light():
+    """A setup with waves reads the still map through the transfer of its own
+    bands (b, c - c_sun), and a loop read through it is the same map at t = 0."""
+    from aquaspec.colour.bands import Bands
+    from aquaspec.colour.sensors import get_sensor
+    from aquaspec.light import caustics
+    from aquaspec.light.sky import surface_light
+    from aquaspec.medium.water import load_water
+    from aquaspec.rendering.setup import SpectralSetup
+
+    sea = caustics.Waves(4.0, grid=32, tile_m=2.0, seed=3)
+    setup = SpectralSetup(load_water("1C"), get_sensor("human"),
+                          surface_light("sun-sky", sun_elevation_deg=55.0), Bands(4),
+                          ms_model="seeds", waves=sea)
+    inputs = setup.sun_inputs()
+    tr = inputs.caustics.scatter
+    bw = setup.water.on_bands(setup.bands)
+    np.testing.assert_allclose(tr.b, bw.b)
+    np.testing.assert_allclose(tr.beam_gap, bw.c - inputs.c_sun, atol=1e-12)
+    sun = setup.light.sun
+    plain = caustics.cached_caustic_map(sea, sun.elevation_deg, sun.azimuth_deg,
+                                        n_water=sun.n_water)
+    want = caustics.mip_levels(cs.scatter_slices(plain.levels[0], plain.depths, 2.0, tr))
+    for got, w in zip(inputs.caustics.levels, want):
+        np.testing.assert_array_equal(got, w)
+    assert np.std(want[0][8] - plain.levels[0][8]) > 0.01          # it changed the map
+    loop = caustics.caustic_loop(sea, sun.elevation_deg, sun.azimuth_deg, frames=2,
+                                 n_water=sun.n_water, scatter=tr)
+    assert loop.scatter is tr and caustics.caustic_loop(
+        sea, sun.elevation_deg, sun.azimuth_deg, frames=2, n_water=sun.n_water,
+        scatter=tr) is loop
+    for got, w in zip(loop.frame_levels(0), want):
+        np.testing.assert_array_equal(got, w)
