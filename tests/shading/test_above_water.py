@@ -49,6 +49,7 @@ def test_a_black_sea_shows_the_sky_by_fresnel_alone():
     cam = _camera()
     out, med = _shade(_setup(water), cam)
     mu_i = -cam.ray_directions()[..., 1]
+    assert np.all(mu_i > 0)
     expect = (1.0 - fresnel_transmittance(mu_i))[..., None] * med["e0"] / (
         diffuse_transmittance() * np.pi)
     np.testing.assert_allclose(out, expect, rtol=1e-4)
@@ -80,6 +81,19 @@ def test_the_water_term_is_the_light_field_looking_down_from_the_surface():
     deep, _ = _shade(_setup(water), cam)
     bed, open_ = out.mean(axis=(0, 1)), deep.mean(axis=(0, 1))
     assert np.all(bed[2:] > 1.1 * open_[2:]) and bed[0] < 0.95 * open_[0]
+
+
+def test_the_table_of_the_water_below_is_the_direct_evaluation():
+    """The frame interpolates the water's radiance in t_y: within 1e-5 of
+    evaluating the tables per ray, over a seabed and in deep water."""
+    cam = _camera(size=16, fov=70.0)
+    for bed in (None, Seabed(4.0, 0.4)):
+        setup = _setup(load_water("II"), seabed=bed, phase="petzold")
+        med = setup.medium([])
+        kw = dict(a=med["a"], b=med["b"], e0=med["e0"])
+        fast = sea_from_above(cam, setup.lightfield_tables(), **kw)
+        exact = sea_from_above(cam, setup.lightfield_tables(), exact=True, **kw)
+        np.testing.assert_allclose(fast, exact, rtol=1e-5)
 
 
 def test_rays_above_the_horizon_see_the_sky():

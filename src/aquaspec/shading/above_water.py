@@ -43,6 +43,9 @@ from aquaspec.errors import AquaspecError
 from aquaspec.medium.interface import (FLAT_NORMAL, N_WATER, diffuse_transmittance,
                                        fresnel_transmittance, refract)
 
+#: Nodes of :func:`water_below_table` over the refracted rays' ``t_y``.
+TABLE_NODES = 1024
+
 
 def sky_radiance_above(tables, e0) -> np.ndarray:
     """The uniform sky's radiance in air, ``E0 s / (t_d pi)`` per band (n,)."""
@@ -50,10 +53,13 @@ def sky_radiance_above(tables, e0) -> np.ndarray:
             / (diffuse_transmittance() * np.pi))
 
 
-def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER) -> np.ndarray:
+def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
+                   exact: bool = False) -> np.ndarray:
     """Band radiance (H, W, n) reaching a camera above the flat sea (module
     docstring). ``tables``: the flat surface's light-field tables (with the
-    seabed, if any, as their lower boundary); ``a``, ``b``, ``e0``: per band."""
+    seabed, if any, as their lower boundary); ``a``, ``b``, ``e0``: per band.
+    The water's radiance is interpolated in :func:`water_below_table`
+    (``exact``: evaluated per ray from the tables instead)."""
     if tables.surface != "fresnel":
         raise AquaspecError("the sea seen from above needs the flat surface's light field "
                             f"(surface 'flat'); these tables have surface {tables.surface!r}")
@@ -72,9 +78,32 @@ def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER) -> np.
         mu_i = -vd[:, 1]
         t, _ = refract(vd, FLAT_NORMAL, n_water)
         r = 1.0 - fresnel_transmittance(mu_i, n_water)
-        t_y = t[:, 1:2]
-        water = tables.pixel_radiance(a=np.asarray(a, float), b=np.asarray(b, float),
-                                      e0=np.asarray(e0, float), depth_o=np.zeros_like(t_y),
-                                      v_y=t_y, s=np.full_like(t_y, np.inf))
+        if exact:
+            t_y = t[:, 1:2]
+            water = tables.pixel_radiance(a=np.asarray(a, float), b=np.asarray(b, float),
+                                          e0=np.asarray(e0, float), depth_o=np.zeros_like(t_y),
+                                          v_y=t_y, s=np.full_like(t_y, np.inf))
+        else:
+            nodes, table = water_below_table(tables, a=a, b=b, e0=e0, n_water=n_water)
+            water = np.stack([np.interp(t[:, 1], nodes, table[:, i])
+                              for i in range(table.shape[1])], axis=-1)
         out[down] = r[:, None] * sky + ((1.0 - r) / n_water ** 2)[:, None] * water
     return out.reshape(shape + (sky.size,))
+
+
+def water_below_table(tables, *, a, b, e0, n_water: float = N_WATER,
+                      nodes: int = TABLE_NODES):
+    """``(t_y, L_w)``: the light field's radiance just below the surface
+    looking down along ``t_y`` (ascending nodes over the refracted rays'
+    range ``[-1, -cos theta_c]``), (nodes,) and (nodes, n). It depends on the
+    ray only through ``t_y`` (the water is horizontally uniform), so a frame
+    needs it once: interpolated linearly in ``t_y`` it is within 1e-5 of the
+    direct evaluation at :data:`TABLE_NODES` nodes (tested), and the frame
+    costs a lookup per pixel instead of the tables' per-ray evaluation
+    (about 27 s at 1280x720 with 8 bands)."""
+    edge = np.sqrt(1.0 - 1.0 / n_water ** 2)
+    t_y = np.linspace(-1.0, -edge, nodes)[:, None]
+    water = tables.pixel_radiance(a=np.asarray(a, float), b=np.asarray(b, float),
+                                  e0=np.asarray(e0, float), depth_o=np.zeros_like(t_y),
+                                  v_y=t_y, s=np.full_like(t_y, np.inf))
+    return t_y[:, 0], np.asarray(water, dtype=float)
