@@ -9,9 +9,14 @@ the default light-field model's extinctions; ``--ms-model monzon2022`` for c);
 Mitsuba's ``volpathmis`` without a path-length limit. Prints aquaspec /
 Mitsuba per band, on the card's pixels and on the open water around it.
 
+aquaspec's model is printed with the lamps' glow (their light scattered more
+than once, :mod:`aquaspec.transport.lamp_halo`; "+halo") and without it.
+``--cache DIR`` keeps Mitsuba's images there (one ``.npy`` per water, phase
+function and sample count) and reads them back on the next run.
+
 Usage::
 
-    python tools/lamp_vs_mitsuba.py [--spp 8192] [--cases IB:isotropic,II:hg,...]
+    python tools/lamp_vs_mitsuba.py [--spp 8192] [--cases IB:isotropic,II:hg,...] [--cache DIR]
 
 Needs the ``validation`` extra (Mitsuba 3). HG is g = 0.92, as aquaspec's default.
 """
@@ -19,7 +24,9 @@ Needs the ``validation`` extra (Mitsuba 3). HG is g = 0.92, as aquaspec's defaul
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -30,6 +37,7 @@ from aquaspec.light.sky import surface_light
 from aquaspec.medium.phase import HenyeyGreenstein
 from aquaspec.medium.water import load_water
 from aquaspec.rendering.api import render
+from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.validation.reference import render_reference
@@ -57,7 +65,12 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--spp", type=int, default=8192)
     p.add_argument("--cases", default=CASES, help=f"WATER:PHASE,... (default {CASES})")
+    p.add_argument("--cache", type=Path, help="keep Mitsuba's images in this directory")
     args = p.parse_args(argv)
+    lamp_inputs = SpectralSetup.lamp_inputs
+
+    def without_halo(self, camera):
+        return [dataclasses.replace(i, halo=False) for i in lamp_inputs(self, camera)]
     scene, cam, lamp, on_card = card_scene()
     bands = Bands(5)
     for case in args.cases.split(","):
@@ -65,17 +78,31 @@ def main(argv=None):
         water = load_water(water_name)
         g = HenyeyGreenstein().g if phase == "hg" else 0.0
         t0 = time.time()
-        ref = render_reference(scene, cam, water, surface_light("none"), spp=args.spp,
-                               bands=bands, phase=phase, g=g, lamps=[lamp])["band_radiance"]
+        cached = None if args.cache is None else args.cache / f"{water_name}_{phase}_{args.spp}.npy"
+        if cached is not None and cached.exists():
+            ref = np.load(cached)
+        else:
+            ref = render_reference(scene, cam, water, surface_light("none"), spp=args.spp,
+                                   bands=bands, phase=phase, g=g, lamps=[lamp])["band_radiance"]
+            if cached is not None:
+                cached.parent.mkdir(parents=True, exist_ok=True)
+                np.save(cached, ref)
         seconds = time.time() - t0
         for model in ("monzon2022", "lightfield"):
-            rad = render(water=water, scene=scene, camera=cam, bands=bands.n, light="none",
-                         lamps=[lamp], backend="numpy", return_radiance=True, exposure=0,
-                         seabed=None, ms_model=model, phase=phase).radiance
-            for region, mask in (("card", on_card), ("water", ~on_card)):
-                ratio = rad[mask].mean(0) / ref[mask].mean(0)
-                print(f"{water_name:3s} {phase:9s} {model:10s} {region:5s} "
-                      + " ".join(f"{x:5.2f}" for x in ratio), flush=True)
+            for halo in (False, True):
+                SpectralSetup.lamp_inputs = lamp_inputs if halo else without_halo
+                try:
+                    rad = render(water=water, scene=scene, camera=cam, bands=bands.n,
+                                 light="none", lamps=[lamp], backend="numpy",
+                                 return_radiance=True, exposure=0, seabed=None, ms_model=model,
+                                 phase=phase).radiance
+                finally:
+                    SpectralSetup.lamp_inputs = lamp_inputs
+                for region, mask in (("card", on_card), ("water", ~on_card)):
+                    ratio = rad[mask].mean(0) / ref[mask].mean(0)
+                    label = model + ("+halo" if halo else "")
+                    print(f"{water_name:3s} {phase:9s} {label:15s} {region:5s} "
+                          + " ".join(f"{x:5.2f}" for x in ratio), flush=True)
         print(f"    (Mitsuba {args.spp} spp, {seconds:.0f} s)", flush=True)
 
 

@@ -17,12 +17,13 @@ from aquaspec.transport.sun_scattering import log_phase_table
 WL = np.array([450.0, 600.0])
 
 
-def inputs(lamp, phase="hg"):
+def inputs(lamp, phase="hg", halo=False):
     b = np.array([0.3, 0.2])
     return ls.LampInputs(lamp, np.array([2.0, 1.0]), np.array([0.45, 0.6]),
                          np.array([0.4, 0.55]), b,
                          log_phase_table(phase, b=b, wavelength_nm=WL, g=0.8)
-                         if phase == "hg" else log_phase_table(phase, b=b, wavelength_nm=WL))
+                         if phase == "hg" else log_phase_table(phase, b=b, wavelength_nm=WL),
+                         forward=np.array([0.3, 0.2]), halo=halo)
 
 
 def test_depths_and_their_coordinate():
@@ -99,6 +100,25 @@ def test_the_columns_against_the_march_per_pixel():
         assert abs(got.sum() / ref.sum() - 1) < 0.005
     plain = lf.lamp_froxel_lookup(lf.lamp_froxel_grid(inp, g.camera), g.camera, g.distance)
     np.testing.assert_allclose(lamp_radiance(g, [inp], rho_of_hits=black), plain, rtol=1e-12)
+
+
+def test_the_glow_in_the_columns_against_a_fine_march():
+    """The glow scattered towards the camera (lamp_halo), summed per column
+    over the depths' slices by their midpoints, against 512 slices per pixel:
+    within 1 % on average and 3 % at the 99th percentile (measured 0.2 % and
+    0.9 %), open water and the wall."""
+    from aquaspec.transport.lamp_halo import halo_veil
+    g, lamp = scene(96, 64)
+    inp = inputs(lamp, halo=True)
+    plain = lf.lamp_froxel_lookup(lf.lamp_froxel_grid(inputs(lamp), g.camera), g.camera,
+                                  g.distance)
+    glow = lf.lamp_froxel_lookup(lf.lamp_froxel_grid(inp, g.camera), g.camera,
+                                 g.distance) - plain
+    ref = halo_veil(inp, g.camera.position, g.camera.ray_directions().reshape(-1, 3),
+                    g.distance.reshape(-1)).reshape(glow.shape)
+    assert np.all(ref > 0)
+    rel = np.abs(glow - ref).sum(-1) / ref.sum(-1)
+    assert rel.mean() < 0.01 and np.quantile(rel, 0.99) < 0.03
 
 
 def test_up_rays_end_at_the_water_surface():

@@ -224,7 +224,8 @@ class SpectralSetup:
         The lamps' light, from the lamp and on its way to the camera, has the
         extinction surfaces' light has towards the camera: ``c - f b`` with the
         light field's forward cone (scattering within it stays in the beam),
-        ``c`` with the seeds' model. (The sun's beam's delta-M ``c*`` on the
+        ``c`` with the seeds' model (``forward`` is that ``f``, for the lamps'
+        glow, :mod:`aquaspec.transport.lamp_halo`). (The sun's beam's delta-M ``c*`` on the
         lamp's path left a card lit through Jerlov II with HG 0.92 at 0.41-0.68
         of Mitsuba's all-orders radiance, the forward cone at 1.04-1.07; see
         docs/model.md, Lamps.)
@@ -238,13 +239,16 @@ class SpectralSetup:
             c_ray = a + b if tables is None else np.asarray(tables.ray_extinction(a, b), float)
             self.cache.lamp_bands = {
                 "b": b, "c": c_ray,
+                "forward": (None if tables is None
+                            else np.asarray(tables.forward_fraction, dtype=float)),
                 "log_phase": log_phase_table(self.phase, b=b,
                                              wavelength_nm=self.bands.centers_nm,
                                              **dict(self.phase_params)),
                 "intensity": [lamp.intensity_on(self.bands) for lamp in self.lamps]}
         lb = self.cache.lamp_bands
         return [LampInputs(lamp.placed(camera), lb["intensity"][k], lb["c"], lb["c"], lb["b"],
-                           lb["log_phase"]) for k, lamp in enumerate(self.lamps)]
+                           lb["log_phase"], forward=lb["forward"])
+                for k, lamp in enumerate(self.lamps)]
 
     def medium(self, materials) -> dict:
         """Keyword arguments of :func:`aquaspec.shading.shade.shade_gbuffer` and the

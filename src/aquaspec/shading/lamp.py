@@ -2,8 +2,9 @@
 
 Each pixel gets, for every lamp, the lit surface's light carried to the
 camera, ``rho / pi E exp(-c_view S)`` with ``E`` the lamp's irradiance
-(:func:`aquaspec.transport.lamp_scattering.lamp_irradiance`), plus the lamp's
-light scattered once along the pixel's ray up to the surface it meets, or
+(:func:`aquaspec.transport.lamp_scattering.lamp_irradiance`) and its glow's
+(:func:`aquaspec.transport.lamp_halo.halo_on_surfaces`, unshadowed), plus the
+lamp's light scattered once, and its glow scattered towards the camera, along the pixel's ray up to the surface it meets, or
 the water surface for an open-water ray going up: read from the lamp's
 columns (``veil="froxels"``, :mod:`aquaspec.transport.lamp_froxels`, as the
 GPU does) or marched per pixel (``veil="march"``,
@@ -23,6 +24,7 @@ from aquaspec.scene.lamp_shadow import lamp_visibility
 from aquaspec.errors import AquaspecError
 from aquaspec.transport import monzon2022 as model
 from aquaspec.transport.lamp_froxels import LAMP_SLICES, lamp_froxel_grid, lamp_froxel_lookup
+from aquaspec.transport.lamp_halo import halo_on_surfaces, halo_veil
 from aquaspec.transport.lamp_scattering import (DEFAULT_SAMPLES, LampInputs, lamp_irradiance,
                                                 single_scattering)
 
@@ -69,8 +71,13 @@ def lamp_radiance(gbuffer, lamps, *, rho_of_hits, shadows=None,
         else:
             out += single_scattering(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
                                      n_samples=n_samples, visibility=vis_fn).reshape(out.shape)
+            if inp.halo:
+                out += halo_veil(inp, cam.position, dirs.reshape(-1, 3),
+                                 s_ray.reshape(-1)).reshape(out.shape)
         if rho is not None:
             vis = 1.0 if shadow is None else lamp_visibility(*shadow, pos, normals=normal)
             e = lamp_irradiance(inp, pos, normal, vis)
+            if inp.halo:
+                e = e + halo_on_surfaces(inp, pos, normal)
             out[hit] += rho / np.pi * e * np.exp(-np.asarray(inp.c_view) * s[hit, None])
     return out

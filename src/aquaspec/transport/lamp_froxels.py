@@ -18,6 +18,9 @@ each column's central ray is integrated once, front to back:
   each sampled at its middle with the lamp's visibility there: the midpoint
   rule of the march with ``K`` samples, so the column's total is the march's
   value on its central ray;
+- the lamp's glow (its light scattered more than once, :mod:`aquaspec.transport.lamp_halo`)
+  scattered towards the camera is added between the depths below, one
+  midpoint each, up to DEPTH_MAX_M or the water surface;
 - the sums up to each slice boundary, ``U_k`` (per band), are the column's
   single scattering up to the distances ``t(u_k)``; it is read at the
   :data:`LAMP_DEPTHS` + 1 distances of :func:`depth_boundaries` (0, then
@@ -54,50 +57,22 @@ import numpy as np
 from aquaspec.scene.camera import camera_depth
 from aquaspec.transport import monzon2022 as model
 from aquaspec.transport.froxels import column_directions, froxel_tile
+from aquaspec.transport.lamp_halo import halo_along_rays
+from aquaspec.transport.lamp_depths import (DEPTH_M0, DEPTH_MAX_M, LAMP_DEPTHS,  # noqa: F401
+                                            depth_boundaries, depth_coordinate, depth_step)
 from aquaspec.transport.lamp_scattering import (LampInputs, cone_interval, equiangular_range,
                                                 ray_angles, sample_terms)
 
 #: Slices per column (the march's samples on the column's central ray).
 LAMP_SLICES = 32
-#: Distances the columns are read at: 0, then ``LAMP_DEPTHS - 1`` geometric
-#: from DEPTH_M0 (offset) to DEPTH_MAX_M, then infinity (:func:`depth_boundaries`).
-LAMP_DEPTHS = 64
-DEPTH_M0 = 0.05
-DEPTH_MAX_M = 200.0
 #: Widest column at the image's centre, degrees.
 LAMP_COLUMN_DEG = 1.5
-
-
 def lamp_tile(camera) -> int:
     """The side of a lamp column in pixels: as many pixels as
     :data:`LAMP_COLUMN_DEG` spans at the image centre, at least 1, at most
     :func:`aquaspec.transport.froxels.froxel_tile` of the width."""
     px = int(np.floor(min(camera.fx, camera.fy) * np.tan(np.radians(LAMP_COLUMN_DEG))))
     return int(np.clip(px, 1, froxel_tile(camera.width)))
-
-
-def depth_step(depths: int = LAMP_DEPTHS) -> float:
-    """``h``: the logarithmic step of :func:`depth_boundaries`."""
-    return float(np.log1p(DEPTH_MAX_M / DEPTH_M0) / (depths - 1))
-
-
-def depth_boundaries(depths: int = LAMP_DEPTHS) -> np.ndarray:
-    """The distances the columns are read at, (depths + 1,), m:
-    ``t_j = DEPTH_M0 (exp(j h) - 1)`` for ``j < depths`` (``t_0 = 0``,
-    ``t_{depths-1} = DEPTH_MAX_M``) and ``inf`` last."""
-    j = np.arange(depths)
-    return np.append(DEPTH_M0 * np.expm1(j * depth_step(depths)), np.inf)
-
-
-def depth_coordinate(s, depths: int = LAMP_DEPTHS) -> np.ndarray:
-    """The index ``x`` in [0, depths] of distances ``s`` (m, ``inf`` allowed)
-    among :func:`depth_boundaries`: ``ln(1 + s / DEPTH_M0) / h`` up to
-    DEPTH_MAX_M, then ``depths - 1 + (1 - DEPTH_MAX_M / s)`` (``depths`` at infinity)."""
-    s = np.maximum(np.asarray(s, dtype=float), 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        near = np.log1p(np.minimum(s, DEPTH_MAX_M) / DEPTH_M0) / depth_step(depths)
-        far = depths - 1 + (1.0 - DEPTH_MAX_M / np.maximum(s, DEPTH_MAX_M))
-    return np.where(s <= DEPTH_MAX_M, near, far)
 
 
 def open_lengths(camera, dirs) -> np.ndarray:
@@ -157,6 +132,15 @@ def lamp_froxel_grid(inp: LampInputs, camera, *, visibility=None, tile: int | No
     f = (x - k0)[..., None]
     rows = np.arange(v.shape[0])[:, None]
     cum = (1.0 - f) * sums[rows, k0] + f * sums[rows, k0 + 1]
+    if inp.halo:
+        # The glow scattered towards the camera, one midpoint per depth slice up to
+        # DEPTH_MAX_M, cut at the water surface (lamp_halo.halo_along_rays).
+        t = depth_boundaries(depths)[:-1]
+        t = np.minimum(t[None, :], length[:, None])
+        inc = halo_along_rays(inp, camera.position, v, t[:, :-1], t[:, 1:])
+        glow = np.concatenate([np.zeros((v.shape[0], 1, inc.shape[-1])),
+                               np.cumsum(inc, axis=1)], axis=1)           # (P, J, n)
+        cum = cum + np.concatenate([glow, glow[:, -1:]], axis=1)
     return LampFroxels(tile, cum.reshape(shape + cum.shape[1:]))
 
 

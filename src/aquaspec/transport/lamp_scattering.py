@@ -91,7 +91,10 @@ class LampInputs:
     ``intensity`` (n,): ``I0`` per band, W sr^-1 nm^-1
     (:meth:`aquaspec.light.lamp.Lamp.intensity_on`); ``c_lamp``, ``c_view``,
     ``b`` (n,) in 1/m; ``log_phase`` (n, K): the band phase functions'
-    :func:`aquaspec.transport.sun_scattering.log_phase_table`.
+    :func:`aquaspec.transport.sun_scattering.log_phase_table`; ``forward``
+    (n,): the share ``f`` of scattering counted as none in ``c_lamp = c - f b``
+    (None: 0); ``halo``: whether the light scattered more than once is added
+    (:mod:`aquaspec.transport.lamp_halo`).
     """
 
     lamp: Lamp
@@ -100,6 +103,20 @@ class LampInputs:
     c_view: np.ndarray
     b: np.ndarray
     log_phase: np.ndarray
+    forward: np.ndarray | None = None
+    halo: bool = True
+
+    @property
+    def forward_share(self) -> np.ndarray:
+        """``f`` per band (zeros when not given)."""
+        return (np.zeros(np.asarray(self.b).shape) if self.forward is None
+                else np.asarray(self.forward, dtype=float))
+
+    @property
+    def iso_fraction(self) -> float:
+        """The lamp's mean intensity over the sphere over its on-axis one,
+        ``int f dOmega / 4 pi`` (1 for a point light)."""
+        return float(self.lamp.solid_angle_sr() / (4.0 * np.pi))
 
     def phase(self, cos_psi) -> np.ndarray:
         """The band phase functions at ``cos_psi`` (...), (..., n), from the table."""

@@ -31,7 +31,8 @@ values over ``[0, cone]``, uniform); 9 the shadow faces (uniform); 10 the shadow
 maps (a depth array); 11 their comparison sampler; 12 the image; 13 the veil as
 build_veil writes it (storage), 14 the same as a 3-D texture (columns x rows x
 depths, every lamp's summed, :func:`aquaspec.gpu.passes.sun.froxel_format`), 15 its linear
-clamped sampler. Every table read per pixel or per sample is in a uniform
+clamped sampler; 16 the lamps' glow's table (:func:`aquaspec.transport.lamp_halo.lamp_halo_table`,
+the first lamp's: every lamp has the same water; uniform). Every table read per pixel or per sample is in a uniform
 buffer or a texture: storage reads were most of the pass's time on lavapipe.
 """
 
@@ -53,6 +54,7 @@ from aquaspec.scene.lamp_shadow import (BIAS_TEXELS, DEFAULT_LAMP_MAP_SIZE, FAR_
                                         NORMAL_OFFSET_TEXELS, lamp_shadow_faces)
 from aquaspec.transport.lamp_froxels import (DEPTH_M0, DEPTH_MAX_M, LAMP_DEPTHS, LAMP_SLICES,
                                              depth_step, lamp_tile)
+from aquaspec.transport.lamp_halo import MIN_HALO_RANGE_M, lamp_halo_table
 from aquaspec.transport.lamp_scattering import MIN_DISTANCE_M, MIN_RANGE_M, LampInputs
 from aquaspec.transport.sun_scattering import PHASE_TABLE_SIZE
 
@@ -65,7 +67,7 @@ PARAMS_LAYOUT = UniformLayout("LampParams", CAMERA_FIELDS + [
 LAMP_DTYPE = np.dtype([("position", np.float32, 3), ("cos_cut", np.float32),
                        ("direction", np.float32, 3), ("cone", np.float32),
                        ("first_face", np.uint32), ("n_faces", np.uint32), ("clip", np.uint32),
-                       ("pad", np.uint32)])
+                       ("iso", np.float32)])
 #: Entries of each lamp's profile table over [0, cone].
 PROFILE_SIZE = 513
 #: Most lamps one pass takes, and most shadow-map faces (a cube each).
@@ -77,11 +79,11 @@ WORKGROUP = (8, 8)
 _BINDINGS = {0: "uniform", 1: "uint", 2: "float", 3: "read", 4: "uniform", 5: "read",
              6: "uniform", 7: "uniform", 8: "uniform", 9: "uniform", 10: "depth_array",
              11: "comparison_sampler", 12: "write", 13: "write", 14: "filterable_3d",
-             15: "sampler"}
+             15: "sampler", 16: "uniform"}
 #: Bindings held in uniform buffers (the phase table and the materials too when
 #: they fit): storage reads per band were most of the pass's time on lavapipe
 #: (577 -> 226 ms at 160x90, 8 bands, two lamps, for the per-band constants).
-_UNIFORM = (4, 6, 7, 8, 9)
+_UNIFORM = (4, 6, 7, 8, 9, 16)
 #: The phase table goes in a uniform buffer too when it fits WebGPU's 64 KiB
 #: (up to 32 bands of PHASE_TABLE_SIZE entries), else in storage.
 UNIFORM_BYTES = 65536
@@ -183,6 +185,8 @@ class LampPass:
                 "@group(0) @binding(3) var<storage, read> materials: array<f32>;",
                 material_read="materials[k / 4u][k % 4u]" if key else "materials[k]",
                 max_lamps=MAX_LAMPS, intensity_vec4=MAX_LAMPS * self._groups,
+                halo_vec4=self.n_bands * LAMP_DEPTHS,
+                min_halo_range=f"{MIN_HALO_RANGE_M:.9g}",
                 profile_vec4=-(-MAX_LAMPS * PROFILE_SIZE // 4), face_vec4=3 * MAX_FACES,
                 bias_texels=f"{BIAS_TEXELS:.9g}",
                 normal_offset_texels=f"{NORMAL_OFFSET_TEXELS:.9g}",
@@ -229,7 +233,8 @@ class LampPass:
             lamp = inp.lamp
             own = lamp_shadow_faces(lamp, self.map_size)
             rows[k] = (lamp.position, np.cos(lamp.cone_rad), lamp.direction, lamp.cone_rad,
-                       len(faces), len(own), int(lamp.cone_deg < 90.0), 0)
+                       len(faces), len(own), int(lamp.cone_deg < 90.0),
+                       inp.iso_fraction if inp.halo else 0.0)
             faces += own
         if len(faces) > MAX_FACES:
             raise AquaspecError(f"{len(faces)} shadow-map faces; the lamp pass takes {MAX_FACES}")
@@ -247,7 +252,8 @@ class LampPass:
         face_table = np.zeros((MAX_FACES, 3, 4), np.float32)
         face_table[:len(faces)] = face_rows(faces)
         data = {3: table, 4: band, 5: np.asarray(first.log_phase, np.float32),
-                6: lamp_rows, 7: intensity, 8: profiles, 9: face_table}
+                6: lamp_rows, 7: intensity, 8: profiles, 9: face_table,
+                16: lamp_halo_table(first).astype(np.float32)}
         self._buffers = {}
         for b, arr in data.items():
             arr = np.ascontiguousarray(arr)

@@ -13,8 +13,10 @@
 // - main, one invocation per pixel: the veil sampled from veil_tex (trilinear:
 //   the four columns around the pixel, the depths around its distance), and per
 //   lamp a lit surface's light
-//   rho / pi I0 f(alpha) V max(0, n.l) exp(-c_lamp r) / r^2 exp(-c_view S),
-//   summed over the bands in camera RGB; added to rgb_out.
+//   rho / pi I0 f(alpha) V max(0, n.l) exp(-c_lamp r) / r^2 exp(-c_view S)
+//   and its glow's rho / pi E_glow exp(-c_view S) (unshadowed, lamp_halo),
+//   summed over the bands in camera RGB; added to rgb_out. The columns also hold
+//   the glow scattered towards the camera (halo_column).
 //
 // Everything read per pixel or per sample is in uniform buffers or textures:
 // storage-buffer reads were most of the pass's time on lavapipe.
@@ -42,7 +44,7 @@ struct LampGpu {
     first_face: u32,
     n_faces: u32,
     clip: u32,
-    pad: u32,
+    iso: f32,
 };
 
 const N_BANDS: u32 = {{ n_bands }}u;
@@ -79,6 +81,19 @@ const MIN_RANGE: f32 = {{ min_range }};
 @group(0) @binding(13) var<storage, read_write> veil_out: array<{{ veil_word }}>;
 @group(0) @binding(14) var veil_tex: texture_3d<f32>;
 @group(0) @binding(15) var veil_sampler: sampler;
+@group(0) @binding(16) var<uniform> halo: array<vec4<f32>, {{ halo_vec4 }}>;
+
+const MIN_HALO_RANGE: f32 = {{ min_halo_range }};
+
+// The glow's table of band i at distance r from a lamp (lamp_halo.halo_lookup),
+// divided by r: r phi / 4, r |F| / 2, r b* phi / 4 pi, r 3 b* g* |F| / 4 pi per unit
+// intensity, linear between the depths of lamp_depths.depth_boundaries.
+fn halo_at(i: u32, r: f32) -> vec4<f32> {
+    let x = clamp(log(1.0 + r / DEPTH_M0) / DEPTH_STEP, 0.0, f32(N_DEPTHS - 1u));
+    let m0 = min(u32(floor(x)), N_DEPTHS - 2u);
+    let e = i * N_DEPTHS + m0;
+    return mix(halo[e], halo[e + 1u], x - f32(m0)) / r;
+}
 
 // Entry k of the phase table (uniform, four to a vec4, when it fits; else storage).
 fn phase_entry(k: u32) -> f32 {
@@ -266,6 +281,7 @@ fn lamp_column(k: u32, a: u32, b: u32, v: vec3<f32>) {
         for (; j <= N_DEPTHS; j = j + 1u) {
             store_veil(a, b, j, vec3<f32>(0.0), add);
         }
+        halo_column(k, a, b, v, open_length(v));
         return;
     }
     let scale = 2.0 * PI * step / dist;
@@ -310,6 +326,40 @@ fn lamp_column(k: u32, a: u32, b: u32, v: vec3<f32>) {
         }
         acc = acc + inc;
     }
+    halo_column(k, a, b, v, open_length(v));
+}
+
+// Lamp k's glow scattered towards the camera along column (a, b)'s ray v of open
+// length len: one midpoint per depth slice up to DEPTH_MAX (cut at len), summed and
+// added to the column's depths (lamp_froxels.lamp_froxel_grid, lamp_halo.halo_along_rays).
+fn halo_column(k: u32, a: u32, b: u32, v: vec3<f32>, len: f32) {
+    let iso = lamps[k].iso;
+    if (iso <= 0.0) {
+        return;
+    }
+    let q = lamps[k].position;
+    var acc = vec3<f32>(0.0);
+    var t_a = 0.0;
+    for (var j = 1u; j < N_DEPTHS; j = j + 1u) {
+        let t_b = min(depth_boundary(j), len);
+        let dt = max(t_b - t_a, 0.0);
+        if (dt > 0.0) {
+            let tm = 0.5 * (t_a + t_b);
+            let rel = lp.position + v * tm - q;
+            let r = max(length(rel), MIN_HALO_RANGE);
+            let rv = dot(rel, v) / r;
+            for (var n = 0u; n < N_BANDS; n = n + 1u) {
+                let h = halo_at(n, r);
+                let q0 = bands[2u * n];
+                let src = max(h.z - h.w * rv, 0.0) * exp(-q0.y * tm);
+                acc = acc + (dt * iso * src * intensity[k * BAND_GROUPS + n / 4u][n % 4u])
+                            * bands[2u * n + 1u].xyz;
+            }
+        }
+        t_a = t_b;
+        store_veil(a, b, j, acc, true);
+    }
+    store_veil(a, b, N_DEPTHS, acc, true);
 }
 
 // The lamps' veil at pixel (col, row), depth index x (lamp_froxels.lamp_froxel_lookup).
@@ -373,23 +423,30 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let to_lamp = lamps[k].position - pos;
             let len = length(to_lamp);
             let r = max(len, MIN_RANGE);
-            let cos_n = max(dot(n, to_lamp) / r, 0.0);
-            if (cos_n <= 0.0) {
-                continue;
+            let cos_n = dot(n, to_lamp) / r;
+            // The direct light: beam, shadow, max(0, n . l) / r^2 (and 1 / pi).
+            var g = 0.0;
+            if (cos_n > 0.0) {
+                let f = beam(k, -dot(to_lamp, lamps[k].direction) / max(len, 1e-30));
+                if (f > 0.0) {
+                    g = f * cos_n * lamp_visibility(k, pos, n, true) / (PI * r * r);
+                }
             }
-            let f = beam(k, -dot(to_lamp, lamps[k].direction) / max(len, 1e-30));
-            if (f <= 0.0) {
-                continue;
-            }
-            let g = f * cos_n * lamp_visibility(k, pos, n, true) / (PI * r * r);
-            if (g <= 0.0) {
+            let iso = lamps[k].iso / PI;
+            let rh = max(len, MIN_HALO_RANGE);
+            let cos_h = dot(n, to_lamp) / rh;
+            if (g <= 0.0 && iso <= 0.0) {
                 continue;
             }
             for (var i = 0u; i < N_BANDS; i = i + 1u) {
                 let q0 = bands[2u * i];
-                let e = exp(-q0.x * r - q0.y * s);
-                acc = acc + (g * rho[i] * e * intensity[k * BAND_GROUPS + i / 4u][i % 4u])
-                            * bands[2u * i + 1u].xyz;
+                var e = g * exp(-q0.x * r);
+                if (iso > 0.0) {
+                    let h = halo_at(i, rh);
+                    e = e + iso * max(h.x + h.y * cos_h, 0.0);
+                }
+                acc = acc + (rho[i] * e * exp(-q0.y * s)
+                             * intensity[k * BAND_GROUPS + i / 4u][i % 4u]) * bands[2u * i + 1u].xyz;
             }
         }
     }
