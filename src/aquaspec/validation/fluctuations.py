@@ -200,10 +200,13 @@ def format_fluctuations(res: dict) -> str:
     return "\n".join(lines)
 
 
+_STYLES = (":", "-.", (0, (5, 1, 1, 1, 1, 1)))
+
+
 def plot_fluctuations(res: dict, path, extra=None):
     """CV against depth, measured (markers) and rendered (lines; dashed: the
-    unscattered beam alone); ``extra``: more results drawn dotted, labelled
-    by their tile. Returns the path."""
+    unscattered beam alone); ``extra``: more results (other tiles) drawn
+    dotted, dash-dotted, ..., labelled by their tile. Returns the path."""
     # deferred: matplotlib is heavy to import and only the figure needs it
     import matplotlib
     matplotlib.use("Agg")
@@ -219,11 +222,11 @@ def plot_fluctuations(res: dict, path, extra=None):
         ax.plot(d, [r[j] for r in res["rendered"]], "-", color=col,
                 label=f"aquaspec, {wl:g} nm")
         ax.plot(d, [r[j] for r in res["unscattered"]], "--", color=col, lw=0.8)
-        for other in extra or ():
-            ax.plot(d, [r[j] for r in other["rendered"]], ":", color=col, lw=1.0)
+        for other, style in zip(extra or (), _STYLES):
+            ax.plot(d, [r[j] for r in other["rendered"]], linestyle=style, color=col, lw=1.0)
     ax.plot([], [], "k--", lw=0.8, label="beam only (before)")
-    for other in extra or ():
-        ax.plot([], [], "k:", label=f"tile {other['map']['tile_m']:g} m / "
+    for other, style in zip(extra or (), _STYLES):
+        ax.plot([], [], linestyle=style, color="k", label=f"tile {other['map']['tile_m']:g} m / "
                 f"{other['map']['texels']}")
     ax.set_yscale("log")
     ax.set_xlabel("depth (m)")
