@@ -215,7 +215,8 @@ class ScatterTransfer:
     def describe(self) -> dict:
         return {"model": "small-angle transfer (Wells 1973)", "b_per_m": list(self.b),
                 "beam_gap_per_m": list(self.beam_gap), "wavelength_nm": list(self.wavelength_nm),
-                "phase": self.phase, "mu0": self.mu0}
+                "phase": self.phase if isinstance(self.phase, str) else self.phase.name,
+                "phase_params": dict(self.phase_params), "mu0": self.mu0}
 
     def table(self):
         """``(v, bQ)``: the bands' mean of ``b Q(v)`` (1/m) on :func:`table_wavenumbers`."""

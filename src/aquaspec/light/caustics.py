@@ -203,7 +203,8 @@ class CausticMap:
     def describe(self) -> dict:
         return {**self.waves.describe(), "slices": int(self.depths.size),
                 "max_depth_m": self.max_depth, "texels": int(self.levels[0].shape[-1]),
-                "texel_m": self.texel, "mean_facet_weight": self.mean_weight, **self.info}
+                "texel_m": self.texel, "mean_facet_weight": self.mean_weight, **self.info,
+                **({} if self.scatter is None else {"scatter": self.scatter.describe()})}
 
 
 def caustic_slices(h, hx, hz, tile_m: float, n: int, air_to_sun, depths, *,
