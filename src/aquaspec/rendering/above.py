@@ -59,15 +59,23 @@ def check_above(setup, view, backend: str, optics=None) -> None:
 def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=None):
     """``(linear camera RGB (H, W, 3), band radiance or None)`` of the sea seen
     from ``view.camera`` above it (:func:`check_above` first, with the
-    camera model ``optics``). The NumPy model runs for both backends until
-    the view from above has a GPU pass."""
+    camera model ``optics``): on the GPU (:class:`aquaspec.gpu.passes.above.AbovePass`)
+    or in NumPy (``backend="numpy"``, or when the band radiance is asked for)."""
     check_above(setup, view, backend, optics)
     cam = view.camera
+    where = "NumPy" if backend == "numpy" or return_radiance else "GPU"
     say(f"the sea seen from {float(cam.position[1]):g} m above it, {cam.width}x{cam.height} "
-        f"pixels x {setup.bands.n} bands (NumPy)")
+        f"pixels x {setup.bands.n} bands ({where})")
     med = setup.medium([])
-    radiance = sea_from_above(cam, setup.lightfield_tables(), a=med["a"], b=med["b"],
-                              e0=med["e0"])
+    tables = setup.lightfield_tables()
+    if where == "GPU":
+        from aquaspec.gpu.device import get_device   # deferred: wgpu only on the GPU path
+        from aquaspec.gpu.passes.above import AbovePass
+        gpu = AbovePass(get_device()[1], cam.width, cam.height)
+        gpu.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
+                       response_weights=med["response_weights"])
+        return gpu.render(cam).astype(np.float64), None
+    radiance = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"])
     linear = radiance_to_rgb(radiance, med["response_weights"])
     return linear, (radiance if return_radiance else None)
 
@@ -80,5 +88,4 @@ def above_params(view) -> dict:
         "height_m": float(view.camera.position[1]),
         "model": "aquaspec.shading.above_water.sea_from_above: R(mu) L_sky + (1 - R(mu)) / "
                  "n^2 L_w(0, t), the light field looking down from just below the flat surface",
-        "shaded_in": "NumPy (no GPU pass yet, whatever the backend)",
         "not_drawn": list(NOT_DRAWN)}}

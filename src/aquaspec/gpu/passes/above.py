@@ -1,0 +1,86 @@
+"""The sea seen from above a flat surface, on the GPU (camera RGB per pixel).
+
+Twin of :func:`aquaspec.shading.above_water.sea_from_above` (WGSL:
+``above.wgsl`` beside this module; ``tests/gpu/passes/test_above_pass.py``
+holds it against the NumPy reference). The per-frame work is one small
+dispatch: per pixel the Fresnel reflection of the sky and, through the
+surface, a lookup in the table of the water's light just below it over the
+refracted ray's ``t_y`` (:func:`aquaspec.shading.above_water.water_below_table`),
+which depends on the water, the light and the seabed but not on the camera:
+it is uploaded once per medium (:meth:`AbovePass.set_medium`), so a moving
+camera costs the dispatch alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
+from aquaspec.gpu.buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
+                                  upload_buffer)
+from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
+from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch
+from aquaspec.gpu.layout import UniformLayout
+from aquaspec.gpu.shaders import load_wgsl
+from aquaspec.medium.interface import N_WATER
+from aquaspec.shading.above_water import sky_radiance_above, water_below_table
+
+PARAMS_LAYOUT = UniformLayout("AboveParams", CAMERA_FIELDS + [
+    ("sky_rgb", "vec3<f32>"), ("n_water", "f32"),
+    ("width", "u32"), ("height", "u32"), ("nodes", "u32"), ("edge_cos", "f32"),
+])
+#: Compute workgroup size (x, y) of above.wgsl: one pixel per invocation.
+WORKGROUP = (8, 8)
+
+
+class AbovePass:
+    """The view from above at ``width`` x ``height`` on ``device``: camera RGB
+    into :attr:`rgb_buffer` ((H, W) vec4)."""
+
+    def __init__(self, device, width: int, height: int):
+        self.device, self.width, self.height = device, int(width), int(height)
+        self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="above params")
+        self.rgb_buffer = create_storage_buffer(device, self.width * self.height * 16,
+                                                label="above rgb")
+        self._layout = bind_group_layout(device, {0: "uniform", 1: "read", 2: "write"})
+        code = load_wgsl("above.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
+                         params_struct_name=PARAMS_LAYOUT.name)
+        self._pipeline = compute_pipeline(device, self._layout, code, "above.wgsl")
+        self._water = self._bind_group = None
+        self._medium = None
+
+    def set_medium(self, tables, *, a, b, e0, response_weights) -> None:
+        """Upload the water's table below the surface and the sky, in camera RGB."""
+        t_y, water = water_below_table(tables, a=a, b=b, e0=e0)
+        w = np.asarray(response_weights, dtype=np.float64)
+        table = np.zeros((t_y.size, 4), dtype=np.float32)
+        table[:, :3] = water @ w
+        if self._water is None or self._water.size != table.nbytes:
+            self._water = create_storage_buffer(self.device, table, label="above water")
+            self._bind_group = None
+        else:
+            upload_buffer(self.device, self._water, table)
+        self._medium = {"sky_rgb": sky_radiance_above(tables, e0) @ w, "nodes": t_y.size,
+                        "edge_cos": float(-t_y[-1])}
+
+    def encode(self, encoder, camera, timestamp_writes=None) -> None:
+        """Record the pass for ``camera`` (after :meth:`set_medium`)."""
+        if self._medium is None:
+            raise RuntimeError("AbovePass.set_medium first")
+        upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
+            **camera_fields(camera), **self._medium, n_water=N_WATER, width=self.width,
+            height=self.height))
+        if self._bind_group is None:
+            self._bind_group = self.device.create_bind_group(
+                layout=self._layout, entries=bind_group_entries(
+                    {0: self._params, 1: self._water, 2: self.rgb_buffer}))
+        groups = (-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]), 1)
+        record_dispatch(encoder, self._pipeline, self._bind_group, groups, timestamp_writes)
+
+    def render(self, camera) -> np.ndarray:
+        """Run the pass for ``camera`` and read back camera RGB, (H, W, 3) float32."""
+        encoder = self.device.create_command_encoder()
+        self.encode(encoder, camera)
+        self.device.queue.submit([encoder.finish()])
+        out = read_buffer(self.device, self.rgb_buffer, np.float32, (self.height, self.width, 4))
+        return out[..., :3]
