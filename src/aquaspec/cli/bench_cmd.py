@@ -74,6 +74,11 @@ def register(sub):
                    help="time the frame with N shadowed lamps fixed to the camera (2: the "
                         "rov-pair preset) against the frame without them, in the same run, "
                         "and print the ratio (default size 1280x720, 8 bands)")
+    p.add_argument("--surface", action="store_true",
+                   help="time the frames of the sea surface in one run (default 1280x720, 8 "
+                        "bands): the built-in view under the index-matched and the flat "
+                        "surface, looking up through the flat one, and the sea seen from 5 m "
+                        "above it, each with its ratio to the first")
     p.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference ratio "
                    "(with a sun the reference shades it too: seconds per size)")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
@@ -105,6 +110,9 @@ def run(args):
         # deferred: loads wgpu; only a shadow map size is checked against the device
         from aquaspec.gpu.device import max_texture_size
         shadow_map_from(args, max_texture_size())
+    if args.surface:
+        return _run_surface(args, sizes_text if args.sizes else "1280x720", args.bands or "8",
+                            args.frames if args.frames is not None else 12)
     if args.lamps is not None:
         return _run_lamps(args, sizes_text if args.sizes else "1280x720",
                           args.bands or "8", frames)
@@ -146,6 +154,27 @@ def _run_lamps(args, sizes_text, bands_text, frames):
             print(f"lamps: {row['lamps']} at {size[0]}x{size[1]}, {n} bands: frame with them / "
                   f"without = {row['ratio']:.2f} ({row['lamp_frame_wall_ms']:.1f} / "
                   f"{row['frame_wall_ms']:.1f} ms)")
+            results.append(row)
+    if args.json:
+        text = json.dumps(results if len(results) > 1 else results[0], indent=2)
+        write_file_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
+    return 0
+
+
+def _run_surface(args, sizes_text, bands_text, frames):
+    """``bench --surface``: each size and band count, the surface's frames."""
+    # deferred: the bench loads wgpu and every GPU pass; `aquaspec --help` need not
+    from aquaspec.apps.surface_bench import format_surface, run_surface_bench
+    if args.light != "overcast" or args.motion or args.compare_seeds or args.lamps:
+        raise AquaspecError("--surface times the surface's frames alone; accepted without "
+                            "--light sun-sky, --motion, --compare-seeds and --lamps")
+    results = []
+    for size in [parse_size(s) for s in sizes_text.split(",") if s]:
+        for n in [int(b) for b in bands_text.split(",") if b]:
+            row = run_surface_bench(width=size[0], height=size[1], n_bands=n, frames=frames,
+                                    warmup=args.warmup, water=args.water, depth_m=args.depth,
+                                    progress=lambda m: print(m, file=sys.stderr, flush=True))
+            print(format_surface(row))
             results.append(row)
     if args.json:
         text = json.dumps(results if len(results) > 1 else results[0], indent=2)

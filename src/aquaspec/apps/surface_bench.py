@@ -1,0 +1,118 @@
+"""What the sea surface costs a frame: ``aquaspec bench --surface``.
+
+Frames of the same size and band count, timed in the same run, alternated,
+each a whole displayed frame submitted at once and waited for (the wall
+clock: a software adapter's timestamps do not bracket a pass's work):
+
+- ``below``: the built-in scene under the index-matched surface, geometry +
+  shading with the display fused (:meth:`aquaspec.rendering.renderer.Renderer.draw_frame`);
+- ``below_flat``: the same view under the flat surface (its light field:
+  Snell's window, the water mirrored outside it);
+- ``looking_up_flat``: the built-in scene's camera turned 60 degrees up, under
+  the flat surface (the window in view);
+- ``above``: a camera 5 m above the sea looking 30 degrees down
+  (:class:`aquaspec.gpu.passes.above.AbovePass`) + the display pass; the
+  light field's table below the surface is uploaded once, as the medium is.
+
+Each is reported with its ratio to ``below``. The machine may be shared:
+compare ratios from one run.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from aquaspec.colour.bands import Bands
+from aquaspec.colour.display import display_settings
+from aquaspec.colour.sensors import get_sensor
+from aquaspec.gpu.device import adapter_info
+from aquaspec.gpu.passes.above import AbovePass
+from aquaspec.gpu.passes.display import DisplayPass
+from aquaspec.light.sky import surface_light
+from aquaspec.medium.water import get_water
+from aquaspec.rendering.renderer import Renderer
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.builtin import builtin_scene
+from aquaspec.scene.camera import Camera, camera_above
+
+#: The frames compared (module docstring), in the order they are run.
+FRAMES = ("below", "below_flat", "looking_up_flat", "above")
+
+
+def _tilted_up(camera: Camera, degrees: float) -> Camera:
+    """``camera`` turned ``degrees`` up about its right axis."""
+    a = np.radians(degrees)
+    f = np.asarray(camera.forward) * np.cos(a) + np.asarray(camera.true_up) * np.sin(a)
+    p = np.asarray(camera.position, dtype=float)
+    return Camera.look_at(p, p + f, width=camera.width, height=camera.height,
+                          fov_y_deg=float(np.degrees(2 * np.arctan(camera.height / 2
+                                                                   / camera.fy))))
+
+
+def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
+                      frames: int = 12, warmup: int = 3, water="IB", depth_m: float = 5.0,
+                      progress=None) -> dict:
+    """Median wall time of each frame of :data:`FRAMES` and its ratio to ``below``."""
+    say = progress or (lambda m: None)
+    bands = Bands(n_bands)
+    w = get_water(water)
+    sensor, light = get_sensor("human"), surface_light("overcast")
+    setups = {s: SpectralSetup(w, sensor, light, bands, surface=s)
+              for s in ("index-matched", "flat")}
+    scene, cam = builtin_scene(depth_m, width=width, height=height)
+    up = _tilted_up(cam, 60.0)
+    say(f"bench --surface: {width}x{height}, {n_bands} bands: compiling and first frames")
+    below = Renderer(width, height, n_bands)
+    below.auto_display(scene, cam, setups["index-matched"])
+    flat = Renderer(width, height, n_bands)
+    flat.auto_display(scene, cam, setups["flat"])
+    device = below.deferred.device
+    above_cam = camera_above(5.0, 30.0, width=width, height=height)
+    above = AbovePass(device, width, height)
+    tables = setups["flat"].lightfield_tables()
+    med = setups["flat"].medium([])
+    above.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
+                     response_weights=med["response_weights"])
+    show = DisplayPass(width, height, device=device)
+    rgb = above.render(above_cam)
+    s = display_settings(rgb)
+    show.set_settings(exposure_ev=s["exposure_ev"], white_balance_gains=s["white_balance_gains"],
+                      matrix=s["matrix"])
+    show.use_input(above.rgb_buffer)
+
+    def draw_above():
+        enc = device.create_command_encoder()
+        above.encode(enc, above_cam)
+        show.encode(enc)
+        device.queue.submit([enc.finish()])
+        below.wait()
+
+    run = {"below": lambda: below.draw_frame(scene, cam, setups["index-matched"]),
+           "below_flat": lambda: flat.draw_frame(scene, cam, setups["flat"]),
+           "looking_up_flat": lambda: flat.draw_frame(scene, up, setups["flat"]),
+           "above": draw_above}
+    times = {k: [] for k in FRAMES}
+    for i in range(warmup + frames):
+        for name in FRAMES:
+            t0 = time.perf_counter()
+            run[name]()
+            if i >= warmup:
+                times[name].append(1e3 * (time.perf_counter() - t0))
+    ms = {k: float(np.median(v)) for k, v in times.items()}
+    return {"size": [width, height], "bands": n_bands, "water": w.name, "depth_m": depth_m,
+            "frames": frames, "frame_wall_ms": ms,
+            "ratio_to_below": {k: ms[k] / ms["below"] for k in FRAMES},
+            "adapter": adapter_info()}
+
+
+def format_surface(result: dict) -> str:
+    """The result as lines of text: each frame's median and its ratio."""
+    w, h = result["size"]
+    lines = [f"surface frames at {w}x{h}, {result['bands']} bands, Jerlov {result['water']} "
+             f"(median wall ms over {result['frames']} frames; ratio to 'below'):"]
+    for k in FRAMES:
+        lines.append(f"  {k:16s} {result['frame_wall_ms'][k]:8.1f} ms   "
+                     f"{result['ratio_to_below'][k]:.2f}")
+    return "\n".join(lines)
