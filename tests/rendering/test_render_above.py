@@ -65,8 +65,8 @@ def test_what_from_above_refuses(kw, match, tmp_path):
 
 
 def test_camera_above_checks_its_angles():
-    with pytest.raises(AquaspecError, match="above the sea"):
-        camera_above(0.0, width=W, height=H)
+    with pytest.raises(AquaspecError, match="0 \\(at the waterline\\) to 10000 m"):
+        camera_above(-0.5, width=W, height=H)
     with pytest.raises(AquaspecError, match="0 \\(level\\) to 90"):
         camera_above(2.0, -5.0, width=W, height=H)
     cam = camera_above(2.0, 30.0, width=W, height=H)
@@ -84,3 +84,25 @@ def test_cli_camera_height(tmp_path, capsys):
     assert main(["render", "--camera-height", "6", "--rgbd", "a.png", "b.png",
                  "--intrinsics", "1,1,1,1", "-o", str(out)]) == 2
     assert "--camera-height shows the sea from above" in capsys.readouterr().err
+
+
+def test_a_camera_at_the_waterline_sees_sky_above_and_water_below():
+    """Half-and-half: the camera's centre on the surface. Rays going up see
+    the sky in air (the same as a camera above the sea sees above its
+    horizon); rays going down see the water exactly as a camera a hair under
+    the surface does under the flat surface."""
+    cam = camera_above(0.0, 10.0, width=W, height=H, fov_y_deg=70.0)
+    res = aquaspec.render(water="IB", camera=cam, size=(W, H), bands=4, backend="numpy")
+    assert "waterline" in res.params and res.params["surface"] == "flat"
+    up = cam.ray_directions()[..., 1] > 0
+    assert up.any() and (~up).any()
+    high = camera_above(2.0, 0.0, width=W, height=H, fov_y_deg=70.0)
+    sky = aquaspec.render(water="IB", camera=high, size=(W, H), bands=4, backend="numpy")
+    high_up = high.ray_directions()[..., 1] > 0
+    np.testing.assert_allclose(res.linear_rgb[up][0], sky.linear_rgb[high_up][0], rtol=1e-9)
+    import dataclasses
+    under = dataclasses.replace(cam, position=np.array([0.0, -1e-5, 0.0]))
+    water = aquaspec.render(water="IB", camera=under, size=(W, H), bands=4, backend="numpy",
+                            surface="flat")
+    np.testing.assert_allclose(res.linear_rgb[~up], water.linear_rgb[~up], rtol=2e-3)
+    assert res.linear_rgb[up].sum(axis=-1).min() > 3 * res.linear_rgb[~up].sum(axis=-1).max()

@@ -101,7 +101,9 @@ def register(sub):
                         "sky (Fresnel) and shows the water's colour and the seabed (--seabed; "
                         "the built-in scene's sand by default) through it (light-field model; "
                         "meshes under the water, the sun's glint and waves are not drawn from "
-                        "above yet)")
+                        "above yet); 0: the camera at the waterline, half in water (the "
+                        "half-and-half view: the sky above the line, the built-in scene "
+                        "below it)")
     p.add_argument("--look-down", type=finite_float, default=DEFAULT_LOOK_DOWN_DEG,
                    metavar="DEG", help="with --camera-height: the view's angle below the "
                                        f"horizon, 0-90 (default {DEFAULT_LOOK_DOWN_DEG:g})")
@@ -146,7 +148,7 @@ def run(args):
     camera_model = get_camera_model(args.camera_model)
     camera = None
     if args.camera_height is not None:
-        if args.mesh or rgbd is not None:
+        if rgbd is not None or (args.mesh and args.camera_height > 0):
             raise AquaspecError("--camera-height shows the sea from above; --mesh and --rgbd "
                                 "are under-water views (not drawn from above yet)")
         camera = camera_above(args.camera_height, args.look_down, width=size[0],

@@ -17,7 +17,7 @@ import numpy as np
 
 from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.errors import AquaspecError
-from aquaspec.shading.above_water import sea_from_above
+from aquaspec.shading.above_water import sea_from_above, sky_radiance_above
 
 #: What the view from above leaves out (in its metadata).
 NOT_DRAWN = ("meshes under the water (only the light field's seabed is seen)",
@@ -25,9 +25,46 @@ NOT_DRAWN = ("meshes under the water (only the light field's seabed is seen)",
              "waves", "lamps")
 
 
+#: A camera within this of ``y = 0`` (m) is at the waterline.
+WATERLINE_M = 1e-6
+
+
 def above_water(camera) -> bool:
-    """Whether ``camera`` is above the sea (``position.y > 0``)."""
-    return float(np.asarray(camera.position, dtype=float)[1]) > 0.0
+    """Whether ``camera`` is above the sea (``position.y`` above the waterline)."""
+    return float(np.asarray(camera.position, dtype=float)[1]) > WATERLINE_M
+
+
+def at_waterline(camera) -> bool:
+    """Whether ``camera``'s centre is on the surface (half-and-half, :func:`waterline_sky`)."""
+    return abs(float(np.asarray(camera.position, dtype=float)[1])) <= WATERLINE_M
+
+
+def in_air_view(camera) -> bool:
+    """Whether ``camera`` sees through the air at all (above the sea or at the
+    waterline): its render takes the flat surface."""
+    return camera is not None and (above_water(camera) or at_waterline(camera))
+
+
+def waterline_sky(setup, camera, linear, radiance=None):
+    """The half-and-half frame of a camera on the surface (its lens half in
+    water, as behind a dome port at the waterline): rays going up leave from
+    the surface straight into the air and see the sky
+    (:func:`aquaspec.shading.above_water.sky_radiance_above`, uniform), rays
+    going down see the water as rendered from depth 0. Returns ``(linear,
+    radiance)`` with the upper rays replaced (``radiance`` None stays None).
+    Needs the flat surface (the light field the water's half is lit by)."""
+    if setup.surface != "flat":
+        raise AquaspecError("a camera at the waterline sees the sea through the real surface: "
+                            f"surface 'flat' (got {setup.surface!r})")
+    med = setup.medium([])
+    sky = sky_radiance_above(setup.lightfield_tables(), med["e0"])
+    up = camera.ray_directions()[..., 1] > 0
+    linear = np.array(linear, dtype=np.float64, copy=True)
+    linear[up] = sky @ np.asarray(med["response_weights"], dtype=np.float64)
+    if radiance is not None:
+        radiance = np.array(radiance, dtype=np.float64, copy=True)
+        radiance[up] = sky
+    return linear, radiance
 
 
 def check_above(setup, view, backend: str, optics=None) -> None:
@@ -81,7 +118,14 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
 
 
 def above_params(view) -> dict:
-    """The render's metadata entry for a camera above the sea (``{}`` below it)."""
+    """The render's metadata entry for a camera above the sea or at the
+    waterline (``{}`` below it)."""
+    if at_waterline(view.camera):
+        return {"waterline": {"model": "half-and-half: rays going up see the sky in air "
+                                       "(uniform, E0 s / (t_d pi)), rays going down the water "
+                                       "rendered from depth 0 under the flat surface",
+                              "not_drawn": ["anything above the water but the sky",
+                                            "the sun's disc", "the meniscus on the port"]}}
     if not above_water(view.camera):
         return {}
     return {"above_water": {

@@ -47,7 +47,8 @@ from aquaspec.light.lamp import parse_lamps
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, SurfaceLight, surface_light
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import DEFAULT_SOURCE, Water, get_water
-from aquaspec.rendering.above import above_params, above_water, shade_above
+from aquaspec.rendering.above import (above_params, above_water, at_waterline, in_air_view,
+                                     shade_above, waterline_sky)
 from aquaspec.rendering.appearance import (WHITE_CARD_DISTANCE_M, check_depth,  # noqa: F401
                                            colour_of_setup, white_card)
 from aquaspec.rendering.camera_model import camera_view, through_camera
@@ -244,7 +245,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         ms_model=ms_model, phase=phase, forward_cone_deg=forward_cone_deg,
         cone_spread=cone_spread, spread_scattering=spread_scattering,
         ambient_shadow=ambient_shadow, occlusion=occlusion, say=say, lamps=lamps,
-        surface="flat" if camera is not None and above_water(camera) else surface)
+        surface="flat" if in_air_view(camera) else surface)
     view = _view(scene=scene, camera=camera, mesh=mesh, albedo=albedo, rgbd=rgbd,
                  depth_m=depth, width=width, height=height, say=say)
     view, optics = camera_view(view, camera_model, setup)
@@ -260,6 +261,9 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         shaded = _shade_on_gpu(setup, view, map_size, return_radiance, say, renderer)
     else:
         shaded = _shade_in_numpy(setup, view, map_size, return_radiance, say)
+    if at_waterline(view.camera):
+        linear, radiance = waterline_sky(setup, view.camera, shaded.linear, shaded.radiance)
+        shaded = dataclasses.replace(shaded, linear=linear, radiance=radiance)
     _check_finite_image(shaded.linear)
     layer_set = _layers(setup, view, shaded, backend, say) if layers else None
     shaded, raw, optics_params = through_camera(optics, shaded, setup, view, say)

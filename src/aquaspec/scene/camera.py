@@ -187,11 +187,12 @@ DEFAULT_LOOK_DOWN_DEG = 30.0
 def camera_above(height_m: float, look_down_deg: float = DEFAULT_LOOK_DOWN_DEG, *,
                  width: int, height: int, fov_y_deg: float = 60.0):
     """A camera ``height_m`` above the sea at the origin, looking towards -z
-    and ``look_down_deg`` below the horizon (0 ... 90: level to straight down)."""
+    and ``look_down_deg`` below the horizon (0 ... 90: level to straight down);
+    ``height_m`` 0 puts its centre on the surface (the half-and-half view)."""
     h, d = float(height_m), float(look_down_deg)
-    if not (np.isfinite(h) and 0.0 < h <= 10_000.0):
-        raise AquaspecError(f"camera height {height_m!r} m; accepted: above the sea, "
-                            "0 < height <= 10000 m")
+    if not (np.isfinite(h) and 0.0 <= h <= 10_000.0):
+        raise AquaspecError(f"camera height {height_m!r} m; accepted: 0 (at the waterline) to "
+                            "10000 m above the sea")
     if not (np.isfinite(d) and 0.0 <= d <= 90.0):
         raise AquaspecError(f"look-down angle {look_down_deg!r} degrees; accepted: 0 (level) "
                             "to 90 (straight down)")
