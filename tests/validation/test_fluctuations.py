@@ -41,18 +41,20 @@ def test_plate_cv_of_a_known_pattern():
     np.testing.assert_allclose(cv, beam / (beam + diffuse) * std, rtol=1e-12)
 
 
-@pytest.mark.slow
-def test_scattered_light_carries_the_flicker_deep(tmp_path):
-    """The check with the renderer's own maps and light field: the transfer into
-    the scattered light keeps the flicker where the unscattered beam has
-    died (the beam alone gave 5-20 times too little at 9.58 m), red flickers
-    more than blue at depth (as measured), and the CV falls with depth."""
-    from aquaspec.cli import main
+@pytest.fixture(scope="module")
+def one_sea():
+    """The check with the renderer's own maps and light field, one sea (the
+    command pools 8)."""
+    return fl.fluctuation_check(seeds=(0,))
 
-    assert main(["validate", "--fluctuations", "-o", str(tmp_path)]) == 0
-    res = json.loads((tmp_path / "fluctuations.json").read_text())
-    assert (tmp_path / "fluctuations.png").stat().st_size > 1000
-    assert "| measured, 532 nm |" in (tmp_path / "fluctuations.md").read_text()
+
+@pytest.mark.slow
+def test_scattered_light_carries_the_flicker_deep(one_sea):
+    """The transfer into the scattered light keeps the flicker where the
+    unscattered beam has died (the beam alone gave 5-20 times too little at
+    9.58 m), red flickers more than blue at depth (as measured), and the CV
+    falls with depth."""
+    res = one_sea
     rendered, beam_only = np.array(res["rendered"]), np.array(res["unscattered"])
     measured = np.array(res["measured"])
     deep = np.array(res["depth_m"]) > 6.0
@@ -63,6 +65,24 @@ def test_scattered_light_carries_the_flicker_deep(tmp_path):
     # Nothing fitted: the measurement is only compared with.
     np.testing.assert_allclose(np.array(res["ratio"]), rendered / measured, rtol=1e-12)
     assert res["source"].startswith("Darecki, Stramski & Sokolski 2011")
+
+
+@pytest.mark.slow
+def test_cli_writes_the_table_the_json_and_the_plot(one_sea, tmp_path, monkeypatch):
+    from aquaspec.cli import main
+
+    monkeypatch.setattr(fl, "fluctuation_check", lambda **kw: one_sea)
+    assert main(["validate", "--fluctuations", "-o", str(tmp_path)]) == 0
+    assert json.loads((tmp_path / "fluctuations.json").read_text()) == one_sea
+    assert (tmp_path / "fluctuations.png").stat().st_size > 1000
+    assert "| measured, 532 nm |" in (tmp_path / "fluctuations.md").read_text()
+
+
+def test_pooled_cv_pools_the_variances():
+    beam, diffuse = np.array([0.5]), np.array([0.5])
+    cv = fl.pooled_cv(beam, diffuse, [np.array([1.0]), np.array([1.0])],
+                      [np.array([0.2]), np.array([0.4])])
+    assert cv[0] == pytest.approx(0.5 * np.sqrt(0.5 * (0.04 + 0.16)))
 
 
 def test_tyler_and_fluctuations_are_refused_together(tmp_path, capsys):
