@@ -10,6 +10,10 @@ clock: a software adapter's timestamps do not bracket a pass's work):
   Snell's window, the water mirrored outside it);
 - ``looking_up_flat``: the built-in scene's camera turned 60 degrees up, under
   the flat surface (the window in view);
+- ``waterline``: the half-and-half view, a camera on the surface looking 8
+  degrees down: its GPU frame is the water's half rendered from depth 0 (the
+  sky's half is filled in after the read-back by
+  :func:`aquaspec.rendering.above.waterline_sky`, not timed here);
 - ``above``: a camera 5 m above the sea looking 30 degrees down
   (:class:`aquaspec.gpu.passes.above.AbovePass`) + the display pass; the
   light field's table below the surface is uploaded once, as the medium is.
@@ -38,7 +42,7 @@ from aquaspec.scene.builtin import builtin_scene
 from aquaspec.scene.camera import Camera, camera_above
 
 #: The frames compared (module docstring), in the order they are run.
-FRAMES = ("below", "below_flat", "looking_up_flat", "above")
+FRAMES = ("below", "below_flat", "looking_up_flat", "waterline", "above")
 
 
 def _tilted_up(camera: Camera, degrees: float) -> Camera:
@@ -63,6 +67,7 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
               for s in ("index-matched", "flat")}
     scene, cam = builtin_scene(depth_m, width=width, height=height)
     up = _tilted_up(cam, 60.0)
+    waterline = camera_above(0.0, 8.0, width=width, height=height)
     say(f"bench --surface: {width}x{height}, {n_bands} bands: compiling and first frames")
     below = Renderer(width, height, n_bands)
     below.auto_display(scene, cam, setups["index-matched"])
@@ -92,6 +97,7 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
     run = {"below": lambda: below.draw_frame(scene, cam, setups["index-matched"]),
            "below_flat": lambda: flat.draw_frame(scene, cam, setups["flat"]),
            "looking_up_flat": lambda: flat.draw_frame(scene, up, setups["flat"]),
+           "waterline": lambda: flat.draw_frame(scene, waterline, setups["flat"]),
            "above": draw_above}
     times = {k: [] for k in FRAMES}
     for i in range(warmup + frames):
