@@ -276,7 +276,8 @@ def plot_fluctuations(res: dict, path, extra=None):
     ax.set_title(f"wind {res['conditions']['wind_m_s']} m/s, sun zenith "
                  f"{res['conditions']['sun_zenith_deg']} deg, c(555) = "
                  f"{res['conditions']['c555_per_m']} 1/m; tile {res['map']['tile_m']:g} m / "
-                 f"{res['map']['texels']}", fontsize=8)
+                 f"{res['map']['texels']}, {len(res['map'].get('seeds', [0]))} seas pooled; "
+                 "others one sea", fontsize=8)
     ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
     return write_figure(path, fig, dpi=100)
