@@ -108,3 +108,44 @@ def test_table_and_what_it_adds():
     # No scattering, no glow.
     clear = inputs(lamp, b=(0.0, 0.0))
     assert np.all(lh.halo_on_surfaces(clear, p, n) == 0)
+
+
+@pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")
+def test_spot_factor():
+    """A spot lamp's glow over the point source's of the same power: 1 for a
+    point lamp; its mean over the sphere 1 (the power); on the axis 2 m out,
+    against the diffusion source integrated directly (the line integrals of the
+    Green function along the lamp's directions, weighted by its profile)."""
+    from aquaspec.transport.lamp_halo import halo_tables  # noqa: F401 (public API)
+    point = Lamp((0.0, -5.0, 0.0), cone_deg=180.0, intensity_w_sr=1.0, frame="world")
+    np.testing.assert_allclose(lh.spot_factor(inputs(point), [0.5, 2.0]), 1.0)
+    spot = Lamp((0.0, -5.0, 0.0), direction=(0, 0, -1), cone_deg=40.0, power_w=10.0,
+                frame="world")
+    inp = inputs(spot, b=(0.547, 1.627), forward=(0.117, 0.117))
+    alpha = np.linspace(0.0, np.pi, 721)
+    a = lh.spot_factor(inp, [2.0], alpha)
+    mean = 0.5 * np.sum(0.5 * (a[..., 1:] * np.sin(alpha[1:]) + a[..., :-1] * np.sin(alpha[:-1]))
+                        * np.diff(alpha), axis=-1)
+    np.testing.assert_allclose(mean, 1.0, rtol=2e-3)
+    # l = 0 is the closed form.
+    _, bs, _, d, k = lh.reduced_medium(inp.b, inp.c_lamp, inp.forward_share,
+                                       lh.phase_asymmetry(inp.log_phase))
+    q0 = lh._radial_moments(np.array([0.5, 2.0]), inp.c_lamp[0], k[0], [0])[:, 0]
+    np.testing.assert_allclose(4 * np.pi * bs[0] / d[0] * q0,
+                               lh.halo_fluence(np.array([0.5, 2.0]), bs[0], inp.c_lamp[0], d[0],
+                                               k[0])[:, 0], rtol=1e-6)
+    # Directly: phi(x) = b* int dOmega' f int drho exp(-c rho) G(|x - rho w'|).
+    i = 1
+    c = inp.c_lamp[i]
+
+    def line(mu):
+        def g(rho):
+            s = np.sqrt(max(4.0 + rho * rho - 4.0 * rho * mu, 1e-12))
+            return np.exp(-c * rho - k[i] * s) / (4 * np.pi * d[i] * s)
+        return quad(g, 0, 60, points=[2.0 * mu] if mu > 0 else None, limit=400)[0]
+    th = np.linspace(0.0, np.pi, 181)
+    ks = np.array([line(np.cos(x)) for x in th])
+    w = np.sin(th)
+    integ = lambda y: np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(th))
+    direct = integ(spot.relative_intensity(th) * ks * w) / (inp.iso_fraction * integ(ks * w))
+    assert a[i, 0, 0] == pytest.approx(direct, rel=0.03)

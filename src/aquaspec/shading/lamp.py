@@ -24,7 +24,7 @@ from aquaspec.scene.lamp_shadow import lamp_visibility
 from aquaspec.errors import AquaspecError
 from aquaspec.transport import monzon2022 as model
 from aquaspec.transport.lamp_froxels import LAMP_SLICES, lamp_froxel_grid, lamp_froxel_lookup
-from aquaspec.transport.lamp_halo import halo_on_surfaces, halo_veil
+from aquaspec.transport.lamp_halo import halo_on_surfaces, halo_tables, halo_veil
 from aquaspec.transport.lamp_scattering import (DEFAULT_SAMPLES, LampInputs, lamp_irradiance,
                                                 single_scattering)
 
@@ -65,19 +65,21 @@ def lamp_radiance(gbuffer, lamps, *, rho_of_hits, shadows=None,
             raise TypeError(f"lamps[{k}] is {type(inp).__name__}; expected LampInputs")
         shadow = None if shadows is None else shadows[k]
         vis_fn = None if shadow is None else (lambda x, sh=shadow: lamp_visibility(*sh, x))
+        tables = halo_tables(inp) if inp.halo else None
         if veil == "froxels":
-            grid = lamp_froxel_grid(inp, cam, visibility=vis_fn, slices=LAMP_SLICES)
+            grid = lamp_froxel_grid(inp, cam, visibility=vis_fn, slices=LAMP_SLICES,
+                                    halo_tables=tables)
             out += lamp_froxel_lookup(grid, cam, s)
         else:
             out += single_scattering(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
                                      n_samples=n_samples, visibility=vis_fn).reshape(out.shape)
             if inp.halo:
-                out += halo_veil(inp, cam.position, dirs.reshape(-1, 3),
-                                 s_ray.reshape(-1)).reshape(out.shape)
+                out += halo_veil(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
+                                 tables=tables).reshape(out.shape)
         if rho is not None:
             vis = 1.0 if shadow is None else lamp_visibility(*shadow, pos, normals=normal)
             e = lamp_irradiance(inp, pos, normal, vis)
             if inp.halo:
-                e = e + halo_on_surfaces(inp, pos, normal)
+                e = e + halo_on_surfaces(inp, pos, normal, tables)
             out[hit] += rho / np.pi * e * np.exp(-np.asarray(inp.c_view) * s[hit, None])
     return out

@@ -107,11 +107,12 @@ def u_at(t, t_star, dist, t0, t1, ua, ub):
 
 def lamp_froxel_grid(inp: LampInputs, camera, *, visibility=None, tile: int | None = None,
                      slices: int = LAMP_SLICES, depths: int = LAMP_DEPTHS,
-                     phase=None) -> LampFroxels:
+                     phase=None, halo_tables=None) -> LampFroxels:
     """The lamp's single scattering integrated front to back along each column
     and read at :func:`depth_boundaries` (module docstring).
     ``visibility(points (..., 3)) -> (...)``: the lamp's visibility (None: 1);
-    ``phase`` as for :func:`sample_terms`; ``tile``: by default :func:`lamp_tile`."""
+    ``phase`` as for :func:`sample_terms`; ``tile``: by default :func:`lamp_tile`;
+    ``halo_tables``: :func:`aquaspec.transport.lamp_halo.halo_tables` (None: made here)."""
     tile = lamp_tile(camera) if tile is None else int(tile)
     dirs = column_directions(camera, tile)
     shape = dirs.shape[:2]
@@ -137,7 +138,7 @@ def lamp_froxel_grid(inp: LampInputs, camera, *, visibility=None, tile: int | No
         # DEPTH_MAX_M, cut at the water surface (lamp_halo.halo_along_rays).
         t = depth_boundaries(depths)[:-1]
         t = np.minimum(t[None, :], length[:, None])
-        inc = halo_along_rays(inp, camera.position, v, t[:, :-1], t[:, 1:])
+        inc = halo_along_rays(inp, camera.position, v, t[:, :-1], t[:, 1:], halo_tables)
         glow = np.concatenate([np.zeros((v.shape[0], 1, inc.shape[-1])),
                                np.cumsum(inc, axis=1)], axis=1)           # (P, J, n)
         cum = cum + np.concatenate([glow, glow[:, -1:]], axis=1)

@@ -32,7 +32,8 @@ maps (a depth array); 11 their comparison sampler; 12 the image; 13 the veil as
 build_veil writes it (storage), 14 the same as a 3-D texture (columns x rows x
 depths, every lamp's summed, :func:`aquaspec.gpu.passes.sun.froxel_format`), 15 its linear
 clamped sampler; 16 the lamps' glow's table (:func:`aquaspec.transport.lamp_halo.lamp_halo_table`,
-the first lamp's: every lamp has the same water; uniform). Every table read per pixel or per sample is in a uniform
+the first lamp's: every lamp has the same water; uniform); 17 their spot factors
+(a 2-D array texture, read through 15). Every table read per pixel or per sample is in a uniform
 buffer or a texture: storage reads were most of the pass's time on lavapipe.
 """
 
@@ -54,7 +55,8 @@ from aquaspec.scene.lamp_shadow import (BIAS_TEXELS, DEFAULT_LAMP_MAP_SIZE, FAR_
                                         NORMAL_OFFSET_TEXELS, lamp_shadow_faces)
 from aquaspec.transport.lamp_froxels import (DEPTH_M0, DEPTH_MAX_M, LAMP_DEPTHS, LAMP_SLICES,
                                              depth_step, lamp_tile)
-from aquaspec.transport.lamp_halo import MIN_HALO_RANGE_M, lamp_halo_table
+from aquaspec.transport.lamp_halo import (MIN_HALO_RANGE_M, SPOT_ANGLES, lamp_halo_table,
+                                          lamp_spot_table)
 from aquaspec.transport.lamp_scattering import MIN_DISTANCE_M, MIN_RANGE_M, LampInputs
 from aquaspec.transport.sun_scattering import PHASE_TABLE_SIZE
 
@@ -79,7 +81,7 @@ WORKGROUP = (8, 8)
 _BINDINGS = {0: "uniform", 1: "uint", 2: "float", 3: "read", 4: "uniform", 5: "read",
              6: "uniform", 7: "uniform", 8: "uniform", 9: "uniform", 10: "depth_array",
              11: "comparison_sampler", 12: "write", 13: "write", 14: "filterable_3d",
-             15: "sampler", 16: "uniform"}
+             15: "sampler", 16: "uniform", 17: "filterable_array"}
 #: Bindings held in uniform buffers (the phase table and the materials too when
 #: they fit): storage reads per band were most of the pass's time on lavapipe
 #: (577 -> 226 ms at 160x90, 8 bands, two lamps, for the per-band constants).
@@ -185,7 +187,7 @@ class LampPass:
                 "@group(0) @binding(3) var<storage, read> materials: array<f32>;",
                 material_read="materials[k / 4u][k % 4u]" if key else "materials[k]",
                 max_lamps=MAX_LAMPS, intensity_vec4=MAX_LAMPS * self._groups,
-                halo_vec4=self.n_bands * LAMP_DEPTHS,
+                halo_vec4=self.n_bands * LAMP_DEPTHS, spot_angles=SPOT_ANGLES,
                 min_halo_range=f"{MIN_HALO_RANGE_M:.9g}",
                 profile_vec4=-(-MAX_LAMPS * PROFILE_SIZE // 4), face_vec4=3 * MAX_FACES,
                 bias_texels=f"{BIAS_TEXELS:.9g}",
@@ -264,12 +266,38 @@ class LampPass:
             else:
                 self._buffers[b] = create_storage_buffer(self.device, arr,
                                                          label=f"lamps binding {b}")
+        self._spot = self._spot_texture(lamps)
         self._lamps, self._faces = lamps, faces
         self._veil = None
         if self._maps is None or self._maps.layers != len(faces):
             self._maps = DepthMapArray(self.device, self.map_size, len(faces),
                                        label="lamp shadow maps")
         self.shadowed = False
+
+    def _spot_texture(self, lamps):
+        """The lamps' spot factors (:func:`aquaspec.transport.lamp_halo.lamp_spot_table`)
+        as a 2-D array texture: layer ``k * groups + g`` holds lamp k's bands
+        4g ... 4g + 3 (rgba) over the distances (x) and angles (y); 1 without the glow."""
+        groups, n = self._groups, self.n_bands
+        data = np.ones((len(lamps) * groups, SPOT_ANGLES, LAMP_DEPTHS, 4), np.float32)
+        for k, inp in enumerate(lamps):
+            if not inp.halo:
+                continue
+            spot = np.zeros((4 * groups, LAMP_DEPTHS, SPOT_ANGLES))
+            spot[:n] = lamp_spot_table(inp)
+            data[k * groups:(k + 1) * groups] = np.transpose(
+                spot.reshape(groups, 4, LAMP_DEPTHS, SPOT_ANGLES), (0, 3, 2, 1))
+        half = self.veil_format == "rgba16float"
+        tex = self.device.create_texture(
+            label="lamp spot factors", size=(LAMP_DEPTHS, SPOT_ANGLES, data.shape[0]),
+            format=self.veil_format, dimension="2d",
+            usage=wgpu.TextureUsage.TEXTURE_BINDING | wgpu.TextureUsage.COPY_DST)
+        self.device.queue.write_texture(
+            {"texture": tex, "mip_level": 0, "origin": (0, 0, 0)},
+            np.ascontiguousarray(data, np.float16 if half else np.float32),
+            {"offset": 0, "bytes_per_row": (8 if half else 16) * LAMP_DEPTHS,
+             "rows_per_image": SPOT_ANGLES}, (LAMP_DEPTHS, SPOT_ANGLES, data.shape[0]))
+        return tex.create_view(dimension="2d-array")
 
     # ---- shadows ----------------------------------------------------------------
     def encode_shadow_maps(self, encoder, raster, scene) -> bool:
@@ -351,7 +379,7 @@ class LampPass:
                 0: self._params, 1: gbuffer_textures["surface"].create_view(),
                 2: gbuffer_textures["sigmoid"].create_view(), **self._buffers,
                 10: maps.view, 11: self._shadow_sampler, 12: rgb_buffer, 13: veil_buf,
-                14: veil_view, 15: self._veil_sampler}))
+                14: veil_view, 15: self._veil_sampler, 17: self._spot}))
         cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
         cp.set_pipeline(self._build)
         cp.set_bind_group(0, self._group)

@@ -83,7 +83,19 @@ const MIN_RANGE: f32 = {{ min_range }};
 @group(0) @binding(15) var veil_sampler: sampler;
 @group(0) @binding(16) var<uniform> halo: array<vec4<f32>, {{ halo_vec4 }}>;
 
+@group(0) @binding(17) var spot_tex: texture_2d_array<f32>;
+
 const MIN_HALO_RANGE: f32 = {{ min_halo_range }};
+const SPOT_ANGLES: f32 = {{ spot_angles }}.0;
+
+// Lamp k's spot factor (lamp_halo.spot_lookup) for bands 4g ... 4g + 3 at distance r
+// and cos(alpha) from its axis: bilinear in the distances' index and the angle.
+fn spot_at(k: u32, g: u32, r: f32, cos_a: f32) -> vec4<f32> {
+    let x = clamp(log(1.0 + r / DEPTH_M0) / DEPTH_STEP, 0.0, f32(N_DEPTHS - 1u));
+    let y = acos(clamp(cos_a, -1.0, 1.0)) / PI * (SPOT_ANGLES - 1.0);
+    let uv = vec2<f32>((x + 0.5) / f32(N_DEPTHS), (y + 0.5) / SPOT_ANGLES);
+    return textureSampleLevel(spot_tex, veil_sampler, uv, k * BAND_GROUPS + g, 0.0);
+}
 
 // The glow's table of band i at distance r from a lamp (lamp_halo.halo_lookup),
 // divided by r: r phi / 4, r |F| / 2, r b* phi / 4 pi, r 3 b* g* |F| / 4 pi per unit
@@ -348,8 +360,13 @@ fn halo_column(k: u32, a: u32, b: u32, v: vec3<f32>, len: f32) {
             let rel = lp.position + v * tm - q;
             let r = max(length(rel), MIN_HALO_RANGE);
             let rv = dot(rel, v) / r;
+            let cos_a = dot(rel, lamps[k].direction) / r;
+            var sp = vec4<f32>(1.0);
             for (var n = 0u; n < N_BANDS; n = n + 1u) {
-                let h = halo_at(n, r);
+                if (n % 4u == 0u) {
+                    sp = spot_at(k, n / 4u, r, cos_a);
+                }
+                let h = halo_at(n, r) * sp[n % 4u];
                 let q0 = bands[2u * n];
                 let src = max(h.z - h.w * rv, 0.0) * exp(-q0.y * tm);
                 acc = acc + (dt * iso * src * intensity[k * BAND_GROUPS + n / 4u][n % 4u])
@@ -438,11 +455,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (g <= 0.0 && iso <= 0.0) {
                 continue;
             }
+            let cos_a = -dot(to_lamp, lamps[k].direction) / rh;
+            var sp = vec4<f32>(1.0);
             for (var i = 0u; i < N_BANDS; i = i + 1u) {
                 let q0 = bands[2u * i];
                 var e = g * exp(-q0.x * r);
                 if (iso > 0.0) {
-                    let h = halo_at(i, rh);
+                    if (i % 4u == 0u) {
+                        sp = spot_at(k, i / 4u, rh, cos_a);
+                    }
+                    let h = halo_at(i, rh) * sp[i % 4u];
                     e = e + iso * max(h.x + h.y * cos_h, 0.0);
                 }
                 acc = acc + (rho[i] * e * exp(-q0.y * s)
