@@ -111,3 +111,28 @@ def test_snells_window_against_the_path_tracer():
     assert abs(edge["aquaspec"] - edge["snell"]) < 1.0
     assert abs(edge["reference"] - edge["snell"]) < 1.0
     np.testing.assert_allclose(r["e0_ratio"], 1.0, atol=0.04)
+
+
+@pytest.mark.slow
+def test_validate_surface_cli(tmp_path, monkeypatch):
+    """`aquaspec validate --surface`: both checks at a tiny size (and 6 bands
+    instead of the reference's 30, to keep it short), the tables and the
+    JSON written, every ratio finite."""
+    mitsuba()
+    import json
+    from aquaspec.cli import main
+    from aquaspec.validation import surface_study
+
+    def fewer_bands(check):
+        return lambda *a, **kw: check(*a, **{**kw, "bands": Bands(6)})
+    for name in ("compare_window", "compare_above"):
+        monkeypatch.setattr(surface_study, name, fewer_bands(getattr(surface_study, name)))
+    out = tmp_path / "v"
+    assert main(["validate", "--surface", "--waters", "IB", "--size", "16x16", "--spp", "16",
+                 "-o", str(out)]) == 0
+    res = json.loads((out / "surface.json").read_text())
+    assert [r["seabed_depth_m"] for r in res["above"]] == [None, 3.0, 10.0]
+    for row in res["above"]:
+        assert np.all(np.isfinite(row["nikon-5100-npl"]["ratio_rgb"]))
+    assert "Snell" in (out / "surface.md").read_text()
+    assert main(["validate", "--surface", "--phase", "hg", "-o", str(out)]) == 2

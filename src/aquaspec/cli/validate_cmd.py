@@ -116,6 +116,12 @@ def register(sub):
                         "from the renderer's caustic maps and light field) with Darecki et "
                         "al.'s measurement (2011, from jerlov); needs no path tracer; writes "
                         "fluctuations.json, fluctuations.md and fluctuations.png")
+    p.add_argument("--surface", action="store_true",
+                   help="only compare the flat sea surface (Mitsuba's dielectric, overcast sky) "
+                        "with the path tracer: Snell's window from below (IB, 5 m, looking up) "
+                        "and the sea from 5 m above over --waters, deep and over grey seabeds "
+                        "at 3 and 10 m; with --phase isotropic or petzold, --spp, --sensors "
+                        "(default nikon-5100-npl); writes surface.json and surface.md")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default: reference/ in $AQUASPEC_CACHE, or "
                    "~/.cache/aquaspec/reference)")
     p.add_argument("--no-cache", action="store_true",
@@ -161,10 +167,14 @@ def run(args):
     if args.view != "level" and scene_names != ("board",):
         raise AquaspecError(f"--view {args.view} with --scene {args.scene}; accepted: "
                             "--scene board only (the other scenes are level views)")
-    if args.tyler and args.fluctuations:
-        raise AquaspecError("--tyler and --fluctuations are two separate checks; accepted: one")
+    if sum((args.tyler, args.fluctuations, args.surface)) > 1:
+        raise AquaspecError("--tyler, --fluctuations and --surface are separate checks; "
+                            "accepted: one")
     out_dir = _output_dir(args.out, "tyler.json" if args.tyler else
-                          "fluctuations.json" if args.fluctuations else "validation.json")
+                          "fluctuations.json" if args.fluctuations else
+                          "surface.json" if args.surface else "validation.json")
+    if args.surface:
+        return _run_surface(args, out_dir)
     if args.tyler:
         return _run_tyler(out_dir)
     if args.fluctuations:
@@ -255,6 +265,29 @@ def _run_fluctuations(out):
     md = write_file_atomically(out / "fluctuations.md", lambda t: Path(t).write_text(table + "\n"))
     png = plot_fluctuations(res, out / "fluctuations.png")
     print(f"wrote {js}, {md}, {png}")
+    return 0
+
+
+def _run_surface(args, out):
+    # deferred: aquaspec.validation loads wgpu and every GPU pass; `aquaspec --help` need not
+    from aquaspec.validation.surface_study import format_surface_study, run_surface_study
+    # deferred: as above
+    from aquaspec.validation.reference import require_mitsuba
+    if args.phase not in ("isotropic", "petzold"):
+        raise AquaspecError(f"--surface with --phase {args.phase}; accepted: isotropic, petzold")
+    require_mitsuba()
+    names = [n.strip() for n in (args.sensors or "nikon-5100-npl").split(",") if n.strip()]
+    sensors = [get_sensor(n, args.camspec) for n in names]
+    w, h = parse_size(args.size)
+    res = run_surface_study(waters=tuple(x.strip() for x in args.waters.split(",") if x.strip()),
+                            phase=args.phase, size=min(w, h), spp=args.spp, sensors=sensors,
+                            progress=lambda m: print(m, file=sys.stderr, flush=True))
+    table = format_surface_study(res)
+    print(table)
+    doc = json.dumps(res, indent=1)
+    js = write_file_atomically(out / "surface.json", lambda t: Path(t).write_text(doc))
+    md = write_file_atomically(out / "surface.md", lambda t: Path(t).write_text(table + "\n"))
+    print(f"wrote {js}, {md}")
     return 0
 
 

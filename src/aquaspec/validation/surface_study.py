@@ -1,0 +1,88 @@
+"""``aquaspec validate --surface``: the flat sea surface against the path tracer.
+
+Two checks of :mod:`aquaspec.validation.window_check` and
+:mod:`aquaspec.validation.above_check`, both with Mitsuba's smooth
+``dielectric`` as the surface and an overcast sky above it:
+
+- from below: Jerlov IB at 5 m looking straight up, the brightness and hue
+  inside Snell's window, outside it and at the zenith, and the window's edge
+  on the centre row against Snell's;
+- from above: each water of ``waters`` over deep water and grey seabeds at 3
+  and 10 m, the image's mean colour (relative error and hue).
+
+:func:`format_surface_study` tabulates them (markdown).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.colour.bands import Bands
+from aquaspec.validation.above_check import compare_above
+from aquaspec.validation.reference import REFERENCE_BANDS
+from aquaspec.validation.window_check import compare_window
+
+#: The seabeds the view from above is checked over (None: deep water).
+SEABEDS = (None, 3.0, 10.0)
+
+
+def run_surface_study(*, waters=("I", "IB", "II", "3C"), phase: str = "isotropic",
+                      size: int = 48, spp: int = 256, sensors=("nikon-5100-npl",),
+                      bands: Bands = REFERENCE_BANDS, progress=None) -> dict:
+    """Both checks (module docstring); the images are left out of the result."""
+    say = progress or (lambda m: None)
+    say(f"Snell's window from below: IB, 5 m, {phase}, {size} px, {spp} spp")
+    win = compare_window("IB", phase=phase, size=size, spp=spp, sensors=sensors, bands=bands)
+    below = {"edge_px": win["edge_px"], "reference_seconds": win["reference_seconds"],
+             "regions": {name: {k: v for k, v in reg.items() if k != "band_ratio"}
+                         for name, reg in win["regions"].items()}}
+    above = []
+    for water in waters:
+        for bed in SEABEDS:
+            say(f"the sea from above: {water}, seabed {bed or 'none (deep)'}, {phase}")
+            r = compare_above(water, seabed_depth_m=bed, phase=phase, size=size, spp=spp,
+                              sensors=sensors, bands=bands)
+            above.append({"water": water, "seabed_depth_m": bed,
+                          "reference_seconds": r["reference_seconds"],
+                          **{s: r[s] for s in r if isinstance(r[s], dict)}})
+    return _plain({"phase": phase, "size": size, "spp": spp, "bands": bands.describe(),
+                   "below": below, "above": above})
+
+
+def _plain(x):
+    """``x`` with NumPy arrays and scalars as lists and floats (for JSON)."""
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    return x
+
+
+def format_surface_study(res: dict) -> str:
+    """Markdown tables of :func:`run_surface_study`'s result."""
+    lines = [f"Phase function {res['phase']}, {res['size']} px, {res['spp']} spp, overcast sky.",
+             "", "From below (Jerlov IB, 5 m, looking up): aquaspec / Mitsuba brightness and "
+             "hue difference", "", "| region | sensor | brightness | hue (deg) |", "|---|---|---|---|"]
+    for name, reg in res["below"]["regions"].items():
+        for sensor, m in reg.items():
+            if isinstance(m, dict):
+                lines.append(f"| {name} ({reg['pixels']} px) | {sensor} | "
+                             f"{m['brightness_ratio']:.3f} | {m['hue_deg']:.2f} |")
+    e = res["below"]["edge_px"]
+    lines += ["", f"Window's edge on the centre row: Snell {e['snell']:.2f} px, aquaspec "
+                  f"{e['aquaspec']:.1f}, Mitsuba {e['reference']:.1f}.", "",
+              "From above (camera 5 m up, 60 degrees down): mean colour, relative error and hue",
+              "", "| water | seabed | sensor | RGB ratio | error | hue (deg) |",
+              "|---|---|---|---|---|---|"]
+    for row in res["above"]:
+        bed = "deep" if row["seabed_depth_m"] is None else f"{row['seabed_depth_m']:g} m"
+        for sensor, m in row.items():
+            if isinstance(m, dict):
+                ratio = " ".join(f"{x:.3f}" for x in m["ratio_rgb"])
+                lines.append(f"| {row['water']} | {bed} | {sensor} | {ratio} | "
+                             f"{100 * m['rgb_error']:.1f} % | {m['hue_deg']:.2f} |")
+    return "\n".join(lines)
