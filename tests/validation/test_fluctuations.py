@@ -89,4 +89,5 @@ def test_tyler_and_fluctuations_are_refused_together(tmp_path, capsys):
     from aquaspec.cli import main
 
     assert main(["validate", "--tyler", "--fluctuations", "-o", str(tmp_path)]) != 0
-    assert "--tyler and --fluctuations" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--tyler" in err and "--fluctuations" in err and "separate checks" in err
