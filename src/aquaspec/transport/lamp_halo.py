@@ -201,10 +201,30 @@ def lamp_halo_table(inp) -> np.ndarray:
                       depth_boundaries()[:-1])
 
 
+#: The last spot tables made, by their inputs (a lamp pair's second is the first's).
+_SPOT_CACHE: dict = {}
+_SPOT_CACHE_SIZE = 8
+
+
 def lamp_spot_table(inp) -> np.ndarray:
     """:func:`spot_factor` at the glow table's distances and :data:`SPOT_ANGLES`
-    angles over [0, pi], (n, LAMP_DEPTHS, SPOT_ANGLES)."""
-    return spot_factor(inp, depth_boundaries()[:-1])
+    angles over [0, pi], (n, LAMP_DEPTHS, SPOT_ANGLES); the last few kept by
+    the lamp's profile and the water's per-band inputs."""
+    moments = profile_moments(inp.lamp, np.arange(SPOT_ORDERS + 1))
+    key = tuple(np.asarray(x, dtype=float).tobytes() for x in
+                (moments, inp.b, inp.c_lamp, inp.forward_share, inp.log_phase))
+    if key not in _SPOT_CACHE:
+        if len(_SPOT_CACHE) >= _SPOT_CACHE_SIZE:
+            _SPOT_CACHE.pop(next(iter(_SPOT_CACHE)))
+        # Smooth in the distances' index: made at every other and the last, linear between.
+        t = depth_boundaries()[:-1]
+        coarse = np.unique(np.append(np.arange(0, t.size, 2), t.size - 1))
+        made = spot_factor(inp, t[coarse], moments=moments)                # (n, C, A)
+        idx = np.arange(t.size)
+        _SPOT_CACHE[key] = np.stack([[np.interp(idx, coarse, made[i, :, j])
+                                      for j in range(made.shape[2])]
+                                     for i in range(made.shape[0])]).transpose(0, 2, 1)
+    return _SPOT_CACHE[key].copy()
 
 
 def halo_tables(inp) -> tuple:
@@ -300,16 +320,16 @@ def _radial_moments(r, c, kappa, orders) -> np.ndarray:
     (r (R,), scalars c, kappa; orders (L,)), (R, L): composite Gauss-Legendre
     on panels of ``rho / r`` dense at ``rho = r``, where ``e^{-kappa R} / 4 pi R``'s
     moments peak, and a last panel to where ``exp(-c rho)`` is below 1e-12."""
-    x, w = np.polynomial.legendre.leggauss(16)
+    x, w = np.polynomial.legendre.leggauss(12)
     r = np.asarray(r, dtype=float)[:, None]
     edges = [e * r for e in _PANELS] + [r * _PANELS[-1] + 28.0 / max(c, 1e-3)]
     out = np.zeros((r.shape[0], len(orders)))
     lo_ord = np.asarray(orders, dtype=float)[None, None, :]
     for a, b in zip(edges[:-1], edges[1:]):
-        rho = 0.5 * (a + b) + 0.5 * (b - a) * x[None, :]                 # (R, 16)
+        rho = 0.5 * (a + b) + 0.5 * (b - a) * x[None, :]                 # (R, 12)
         wt = 0.5 * (b - a) * w[None, :]
         small, big = np.minimum(rho, r), np.maximum(rho, r)
-        ik = _ik(lo_ord, kappa * small[..., None], kappa * big[..., None])   # (R, 16, L)
+        ik = _ik(lo_ord, kappa * small[..., None], kappa * big[..., None])   # (R, 12, L)
         out += np.einsum("rq,rql->rl", wt * np.exp(-c * rho), ik)
     return out * kappa / (2.0 * np.pi ** 2) * (2.0 * np.asarray(orders) + 1.0)[None, :]
 
@@ -326,7 +346,7 @@ def profile_moments(lamp, orders) -> np.ndarray:
     return np.asarray(out)
 
 
-def spot_factor(inp, distances, angles=None) -> np.ndarray:
+def spot_factor(inp, distances, angles=None, moments=None) -> np.ndarray:
     """How much more (or less) glow a spot lamp makes than the point source of
     its power: ``A(r, alpha) = phi_spot / (iso_fraction phi)`` per band, (n, R, A), at
     ``distances`` (R,) and angles from its axis ``angles`` (A,) (default
@@ -341,11 +361,12 @@ def spot_factor(inp, distances, angles=None) -> np.ndarray:
 
     (:func:`_radial_moments`), up to :data:`SPOT_ORDERS` with Lanczos' factors
     ``s_l = sinc(l / (L + 1))`` against ringing at the beam's edge; ``l = 0`` is
-    the point source of the same power. A point lamp's factor is 1."""
+    the point source of the same power. A point lamp's factor is 1.
+    ``moments``: :func:`profile_moments` of the lamp, if already made."""
     angles = np.linspace(0.0, np.pi, SPOT_ANGLES) if angles is None else np.asarray(angles)
     r = np.maximum(np.asarray(distances, dtype=float), MIN_HALO_RANGE_M)
     orders = np.arange(SPOT_ORDERS + 1)
-    fl = profile_moments(inp.lamp, orders)
+    fl = profile_moments(inp.lamp, orders) if moments is None else np.asarray(moments)
     if np.allclose(fl[1:], 0.0, atol=1e-9 * fl[0]):
         return np.ones((np.asarray(inp.b).size, r.size, angles.size))
     sigma = np.sinc(orders / (SPOT_ORDERS + 1.0))

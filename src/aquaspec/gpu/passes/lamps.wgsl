@@ -88,23 +88,32 @@ const MIN_RANGE: f32 = {{ min_range }};
 const MIN_HALO_RANGE: f32 = {{ min_halo_range }};
 const SPOT_ANGLES: f32 = {{ spot_angles }}.0;
 
-// Lamp k's spot factor (lamp_halo.spot_lookup) for bands 4g ... 4g + 3 at distance r
-// and cos(alpha) from its axis: bilinear in the distances' index and the angle.
-fn spot_at(k: u32, g: u32, r: f32, cos_a: f32) -> vec4<f32> {
+// Where distance r falls in the glow's table and the spot factors (lamp_depths'
+// index of r, clamped to the table): (x, m0, fraction).
+fn halo_index(r: f32) -> vec3<f32> {
     let x = clamp(log(1.0 + r / DEPTH_M0) / DEPTH_STEP, 0.0, f32(N_DEPTHS - 1u));
-    let y = acos(clamp(cos_a, -1.0, 1.0)) / PI * (SPOT_ANGLES - 1.0);
-    let uv = vec2<f32>((x + 0.5) / f32(N_DEPTHS), (y + 0.5) / SPOT_ANGLES);
-    return textureSampleLevel(spot_tex, veil_sampler, uv, k * BAND_GROUPS + g, 0.0);
+    let m0 = min(floor(x), f32(N_DEPTHS - 2u));
+    return vec3<f32>(x, m0, x - m0);
 }
 
-// The glow's table of band i at distance r from a lamp (lamp_halo.halo_lookup),
+// The glow's table of band i at halo_index hi of distance r (lamp_halo.halo_lookup),
 // divided by r: r phi / 4, r |F| / 2, r b* phi / 4 pi, r 3 b* g* |F| / 4 pi per unit
 // intensity, linear between the depths of lamp_depths.depth_boundaries.
-fn halo_at(i: u32, r: f32) -> vec4<f32> {
-    let x = clamp(log(1.0 + r / DEPTH_M0) / DEPTH_STEP, 0.0, f32(N_DEPTHS - 1u));
-    let m0 = min(u32(floor(x)), N_DEPTHS - 2u);
-    let e = i * N_DEPTHS + m0;
-    return mix(halo[e], halo[e + 1u], x - f32(m0)) / r;
+fn halo_at(i: u32, hi: vec3<f32>, r: f32) -> vec4<f32> {
+    let e = i * N_DEPTHS + u32(hi.y);
+    return mix(halo[e], halo[e + 1u], hi.z) / r;
+}
+
+// Where the spot factors are read at halo_index hi and cos(alpha) from a lamp's axis.
+fn spot_uv(hi: vec3<f32>, cos_a: f32) -> vec2<f32> {
+    let y = acos(clamp(cos_a, -1.0, 1.0)) / PI * (SPOT_ANGLES - 1.0);
+    return vec2<f32>((hi.x + 0.5) / f32(N_DEPTHS), (y + 0.5) / SPOT_ANGLES);
+}
+
+// Lamp k's spot factor (lamp_halo.spot_lookup) for bands 4g ... 4g + 3 at spot_uv uv:
+// bilinear in the distances' index and the angle.
+fn spot_at(k: u32, g: u32, uv: vec2<f32>) -> vec4<f32> {
+    return textureSampleLevel(spot_tex, veil_sampler, uv, k * BAND_GROUPS + g, 0.0);
 }
 
 // Entry k of the phase table (uniform, four to a vec4, when it fits; else storage).
@@ -360,13 +369,14 @@ fn halo_column(k: u32, a: u32, b: u32, v: vec3<f32>, len: f32) {
             let rel = lp.position + v * tm - q;
             let r = max(length(rel), MIN_HALO_RANGE);
             let rv = dot(rel, v) / r;
-            let cos_a = dot(rel, lamps[k].direction) / r;
+            let hi = halo_index(r);
+            let uv = spot_uv(hi, dot(rel, lamps[k].direction) / r);
             var sp = vec4<f32>(1.0);
             for (var n = 0u; n < N_BANDS; n = n + 1u) {
                 if (n % 4u == 0u) {
-                    sp = spot_at(k, n / 4u, r, cos_a);
+                    sp = spot_at(k, n / 4u, uv);
                 }
-                let h = halo_at(n, r) * sp[n % 4u];
+                let h = halo_at(n, hi, r) * sp[n % 4u];
                 let q0 = bands[2u * n];
                 let src = max(h.z - h.w * rv, 0.0) * exp(-q0.y * tm);
                 acc = acc + (dt * iso * src * intensity[k * BAND_GROUPS + n / 4u][n % 4u])
@@ -430,11 +440,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             sig = textureLoad(gb_sigmoid, vec2<i32>(i32(col), i32(row)), 0).xyz;
         }
         let pos = lp.position + v * s;
-        // The pixel's reflectance once for every lamp (a per-pixel material's
-        // sigmoid would be evaluated per lamp and band otherwise).
+        // The pixel's reflectance times exp(-c_view S), once for every lamp (a
+        // per-pixel material's sigmoid would be evaluated per lamp and band otherwise).
         var rho: array<f32, N_BANDS>;
         for (var i = 0u; i < N_BANDS; i = i + 1u) {
-            rho[i] = reflectance(word.w, sig, i, bands[2u * i].w);
+            let q0 = bands[2u * i];
+            rho[i] = reflectance(word.w, sig, i, q0.w) * exp(-q0.y * s);
         }
         for (var k = 0u; k < lp.n_lamps; k = k + 1u) {
             let to_lamp = lamps[k].position - pos;
@@ -455,20 +466,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (g <= 0.0 && iso <= 0.0) {
                 continue;
             }
-            let cos_a = -dot(to_lamp, lamps[k].direction) / rh;
+            let hi = halo_index(rh);
+            let uv = spot_uv(hi, -dot(to_lamp, lamps[k].direction) / rh);
             var sp = vec4<f32>(1.0);
             for (var i = 0u; i < N_BANDS; i = i + 1u) {
                 let q0 = bands[2u * i];
-                var e = g * exp(-q0.x * r);
+                var e = 0.0;
+                if (g > 0.0) {
+                    e = g * exp(-q0.x * r);
+                }
                 if (iso > 0.0) {
                     if (i % 4u == 0u) {
-                        sp = spot_at(k, i / 4u, rh, cos_a);
+                        sp = spot_at(k, i / 4u, uv);
                     }
-                    let h = halo_at(i, rh) * sp[i % 4u];
+                    let h = halo_at(i, hi, rh) * sp[i % 4u];
                     e = e + iso * max(h.x + h.y * cos_h, 0.0);
                 }
-                acc = acc + (rho[i] * e * exp(-q0.y * s)
-                             * intensity[k * BAND_GROUPS + i / 4u][i % 4u]) * bands[2u * i + 1u].xyz;
+                acc = acc + (rho[i] * e * intensity[k * BAND_GROUPS + i / 4u][i % 4u])
+                            * bands[2u * i + 1u].xyz;
             }
         }
     }
