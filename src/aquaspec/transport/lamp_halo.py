@@ -294,9 +294,15 @@ def halo_veil(inp, origin, dirs, s, n_slices: int = 512, tables=None) -> np.ndar
     ``n_slices`` geometric slices to the ray's end, a reference for the
     columns' sums."""
     s = np.minimum(np.asarray(s, dtype=float).reshape(-1), DEPTH_MAX_M)
+    dirs = np.asarray(dirs, dtype=float).reshape(-1, 3)
+    tables = halo_tables(inp) if tables is None else tables
     frac = np.expm1(np.linspace(0.0, np.log(1e4), n_slices + 1)) / (1e4 - 1.0)
-    t = s[:, None] * frac[None, :]
-    return halo_along_rays(inp, origin, dirs, t[:, :-1], t[:, 1:], tables).sum(axis=1)
+    out = np.zeros((s.size, np.asarray(inp.b).size))
+    for r0 in range(0, s.size, 256):                 # memory: rays x slices x bands x 4
+        t = s[r0:r0 + 256, None] * frac[None, :]
+        out[r0:r0 + 256] = halo_along_rays(inp, origin, dirs[r0:r0 + 256], t[:, :-1],
+                                           t[:, 1:], tables).sum(axis=1)
+    return out
 
 
 #: Legendre orders of a spot lamp's glow (:func:`spot_factor`), and its angles.
