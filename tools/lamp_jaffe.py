@@ -6,7 +6,7 @@ hold the water's light alone, the backscatter), a spot lamp (cone 40 degrees,
 10 W, equal-energy spectrum) beside the camera at a separation ``s``, aimed
 at the card's centre; no daylight; Jerlov II. For each separation, the mean
 camera-independent band radiance over the card's pixels (the five bands'
-mean), aquaspec (NumPy backend, default model) and Mitsuba, plotted side by
+mean), aquaspec (NumPy backend, default model, the glow included) and Mitsuba, plotted side by
 side.
 
 Usage::
@@ -74,7 +74,7 @@ def main(argv=None):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         fig, ax = plt.subplots(figsize=(5, 3.4), dpi=110)
-        ax.plot(SEPARATIONS_M, ours, "o-", label="aquaspec (single scattering)")
+        ax.plot(SEPARATIONS_M, ours, "o-", label="aquaspec (single scattering and glow)")
         ax.errorbar(SEPARATIONS_M, theirs, yerr=2 * np.asarray(noise), fmt="s--",
                     label="Mitsuba 3 (all orders)")
         ax.set_xscale("log")

@@ -5,7 +5,9 @@
 ``"rov-pair"`` (:func:`aquaspec.light.lamp.parse_lamps`), kept in
 :attr:`aquaspec.rendering.setup.SpectralSetup.lamps`. Their light on
 surfaces, shadowed by a map per lamp, and scattered once towards the camera
-(:mod:`aquaspec.transport.lamp_scattering`) is added to the image: on the
+(:mod:`aquaspec.transport.lamp_scattering`, per column of pixels:
+:mod:`aquaspec.transport.lamp_froxels`), and their glow (the light scattered
+more than once, :mod:`aquaspec.transport.lamp_halo`) are added to the image: on the
 GPU by a :class:`aquaspec.gpu.passes.lamps.LampPass` over the G-buffer the
 renderer last shaded, in camera RGB (:func:`add_gpu_lamps`); in NumPy by
 :func:`aquaspec.shading.shade.shade_gbuffer` with the arguments of
@@ -64,8 +66,8 @@ def add_gpu_lamps(shaded, setup: SpectralSetup, view, say=None):
     if not setup.lamps:
         return shaded
     if say is not None:
-        say(f"{len(setup.lamps)} lamp(s): shadow maps, lit surfaces and single scattering "
-            "on the GPU")
+        say(f"{len(setup.lamps)} lamp(s): shadow maps, lit surfaces, single scattering and "
+            "glow on the GPU")
     shaded.lamps = gpu_lamp_pass(shaded.renderer, setup, view)
     shaded.linear = shaded.linear + gpu_lamp_light(shaded.renderer, shaded.lamps, view)
     return shaded
