@@ -114,6 +114,45 @@ def test_gpu_matches_numpy_with_wide_columns(device):
     assert np.median(rel) < 1e-3
 
 
+@pytest.mark.slow
+def test_many_bands_read_the_glow_table_from_storage(device):
+    """Past 64 bands the glow's table no longer fits a uniform buffer (nor, past
+    32, the phase table) and is read from storage: the GPU still matches NumPy
+    (a point lamp, whose spot factors are 1, with 72 bands)."""
+    from aquaspec.colour.bands import Bands
+    from aquaspec.gpu.gbuffer import GBufferTextures
+    from aquaspec.gpu.passes.lamps import LampPass
+    from aquaspec.gpu.passes.raster import RasterPass
+    n = 72
+    scene, cam = scene_and_camera(24, 16)
+    bands = Bands(n, 400.0, 700.0)
+    b = np.linspace(0.3, 0.2, n)
+    lamp = Lamp((-1.0, -5.5, -1.0), cone_deg=180.0, intensity_w_sr=0.8, frame="world")
+    inp = LampInputs(lamp.placed(cam), lamp.intensity_on(bands), 0.1 + b, 0.1 + b, b,
+                     log_phase_table("petzold", b=b, wavelength_nm=bands.centers_nm),
+                     forward=np.full(n, 0.3))
+    raster = RasterPass(device)
+    gbt = GBufferTextures(device, cam.width, cam.height)
+    lp = LampPass(device, cam.width, cam.height, n, map_size=64)
+    assert not lp._halo_uniform and not lp._phase_uniform
+    mb = np.stack([m.on_bands(bands) for m in scene.materials])
+    w = np.ones((n, 3)) * np.array([1.0, 2.0, 0.5])
+    t = (bands.centers_nm - 550.0) / 100.0
+    lp.set_inputs([inp], response_weights=w, material_bands=mb, sigmoid_centers_t=t)
+    enc = device.create_command_encoder()
+    raster.render_to(gbt, scene, cam, encoder=enc)
+    lp.encode_shadow_maps(enc, raster, None)
+    lp.encode(enc, cam, gbt.textures)
+    device.queue.submit([enc.finish()])
+    gpu = lp.read_rgb()
+    g = raster.read_gbuffer(scene, cam, gbt.textures)
+    rad = lamp_radiance(g, [inp], rho_of_hits=lambda m: hit_reflectance(
+        g.material[m], g.sigmoid[m], mb, t))
+    ref = radiance_to_rgb(rad.reshape(-1, n), w).reshape(gpu.shape)
+    assert np.all(ref > 0)
+    assert np.max(np.abs(gpu - ref) / ref) < RTOL
+
+
 def test_shadow_darkens_the_wall_behind_the_blocker(device):
     """(Without the glow, which the shadows do not darken.)"""
     scene, cam = scene_and_camera()

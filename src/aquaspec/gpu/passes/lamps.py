@@ -130,6 +130,8 @@ class LampPass:
         self.map_size, self.slices = int(map_size), int(slices)
         self._groups = -(-self.n_bands // 4)
         self._phase_uniform = 4 * self.n_bands * PHASE_TABLE_SIZE <= UNIFORM_BYTES
+        # The glow's table (a vec4 per band and distance) in a uniform buffer up to 64 bands.
+        self._halo_uniform = 16 * self.n_bands * LAMP_DEPTHS <= UNIFORM_BYTES
         self.veil_format = froxel_format(device)
         self._texel = 8 if self.veil_format == "rgba16float" else 16
         self._pipelines = {}
@@ -187,7 +189,10 @@ class LampPass:
                 "@group(0) @binding(3) var<storage, read> materials: array<f32>;",
                 material_read="materials[k / 4u][k % 4u]" if key else "materials[k]",
                 max_lamps=MAX_LAMPS, intensity_vec4=MAX_LAMPS * self._groups,
-                halo_vec4=self.n_bands * LAMP_DEPTHS, spot_angles=SPOT_ANGLES,
+                halo_binding=(f"var<uniform> halo: array<vec4<f32>, {self.n_bands * LAMP_DEPTHS}>"
+                              if self._halo_uniform else
+                              "var<storage, read> halo: array<vec4<f32>>"),
+                halo_read_0="halo[e]", halo_read_1="halo[e + 1u]", spot_angles=SPOT_ANGLES,
                 min_halo_range=f"{MIN_HALO_RANGE_M:.9g}",
                 profile_vec4=-(-MAX_LAMPS * PROFILE_SIZE // 4), face_vec4=3 * MAX_FACES,
                 bias_texels=f"{BIAS_TEXELS:.9g}",
@@ -195,7 +200,8 @@ class LampPass:
                 min_distance=f"{MIN_DISTANCE_M:.9g}", min_range=f"{MIN_RANGE_M:.9g}")
             module = self.device.create_shader_module(label="lamps.wgsl", code=src)
             kinds = {**_BINDINGS, 3: "uniform" if key else "read",
-                     5: "uniform" if self._phase_uniform else "read"}
+                     5: "uniform" if self._phase_uniform else "read",
+                     16: "uniform" if self._halo_uniform else "read"}
             bgl = bind_group_layout(self.device, kinds)
             layout = self.device.create_pipeline_layout(bind_group_layouts=[bgl])
             self._pipelines[key] = tuple(
@@ -259,7 +265,8 @@ class LampPass:
         self._buffers = {}
         for b, arr in data.items():
             arr = np.ascontiguousarray(arr)
-            if b in _UNIFORM or (b == 5 and self._phase_uniform) or (b == 3 and in_uniform):
+            if ((b in _UNIFORM and not (b == 16 and not self._halo_uniform))
+                    or (b == 5 and self._phase_uniform) or (b == 3 and in_uniform)):
                 self._buffers[b] = create_uniform_buffer(self.device, arr.nbytes,
                                                          label=f"lamps binding {b}")
                 upload_buffer(self.device, self._buffers[b], arr)
@@ -279,6 +286,10 @@ class LampPass:
         as a 2-D array texture: layer ``k * groups + g`` holds lamp k's bands
         4g ... 4g + 3 (rgba) over the distances (x) and angles (y); 1 without the glow."""
         groups, n = self._groups, self.n_bands
+        most = self.device.limits.get("max-texture-array-layers", 256)
+        if len(lamps) * groups > most:
+            raise AquaspecError(f"{len(lamps)} lamps x {groups} groups of four bands need "
+                                f"{len(lamps) * groups} texture layers; this device takes {most}")
         data = np.ones((len(lamps) * groups, SPOT_ANGLES, LAMP_DEPTHS, 4), np.float32)
         for k, inp in enumerate(lamps):
             if not inp.halo:

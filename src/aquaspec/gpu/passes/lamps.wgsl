@@ -81,7 +81,7 @@ const MIN_RANGE: f32 = {{ min_range }};
 @group(0) @binding(13) var<storage, read_write> veil_out: array<{{ veil_word }}>;
 @group(0) @binding(14) var veil_tex: texture_3d<f32>;
 @group(0) @binding(15) var veil_sampler: sampler;
-@group(0) @binding(16) var<uniform> halo: array<vec4<f32>, {{ halo_vec4 }}>;
+@group(0) @binding(16) {{ halo_binding }};
 
 @group(0) @binding(17) var spot_tex: texture_2d_array<f32>;
 
@@ -101,7 +101,7 @@ fn halo_index(r: f32) -> vec3<f32> {
 // intensity, linear between the depths of lamp_depths.depth_boundaries.
 fn halo_at(i: u32, hi: vec3<f32>, r: f32) -> vec4<f32> {
     let e = i * N_DEPTHS + u32(hi.y);
-    return mix(halo[e], halo[e + 1u], hi.z) / r;
+    return mix({{ halo_read_0 }}, {{ halo_read_1 }}, hi.z) / r;
 }
 
 // Where the spot factors are read at halo_index hi and cos(alpha) from a lamp's axis.
