@@ -153,6 +153,33 @@ def test_many_bands_read_the_glow_table_from_storage(device):
     assert np.max(np.abs(gpu - ref) / ref) < RTOL
 
 
+def test_display_fused_into_the_pixel_pass(device):
+    """encode_pixels(display=True) gives the display pass's image of its linear
+    result, byte for byte but for rounding (at most 1 of 255)."""
+    from aquaspec.gpu.passes.display import DisplayPass
+    scene, cam = scene_and_camera()
+    _, _, lp, _ = run(device, scene, cam, lamp_inputs(cam), True)
+    disp = DisplayPass(cam.width, cam.height, device=device)
+    disp.use_input(lp.rgb_buffer)
+    settings = dict(exposure_ev=3.0, white_balance_gains=(1.0, 0.9, 1.2), tonemap="filmic")
+    disp.set_settings(**settings)
+    lp.set_display(**settings)
+    enc = device.create_command_encoder()
+    disp.encode(enc)
+    device.queue.submit([enc.finish()])
+    ref = disp.read().astype(int)
+    lin = lp.read_rgb()
+    # The pixel pass again, this time from a black image, into the display.
+    enc = device.create_command_encoder()
+    enc.clear_buffer(lp.rgb_buffer)
+    lp.encode_pixels(enc, display=True)
+    device.queue.submit([enc.finish()])
+    got = lp.read_display().astype(int)
+    assert np.all(np.abs(got - ref) <= 1) and ref.max() > 50
+    np.testing.assert_allclose(lp.read_rgb(), 0.0)     # the linear image left alone
+    assert lin.max() > 0
+
+
 def test_shadow_darkens_the_wall_behind_the_blocker(device):
     """(Without the glow, which the shadows do not darken.)"""
     scene, cam = scene_and_camera()

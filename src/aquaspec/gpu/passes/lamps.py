@@ -47,6 +47,7 @@ from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
 from aquaspec.gpu.buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
                                   upload_buffer)
 from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
+from aquaspec.gpu.display_transform import DISPLAY_LAYOUT, display_template, display_uniform
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.passes.depth_maps import DepthMapArray
 from aquaspec.gpu.passes.sun import froxel_format
@@ -81,7 +82,8 @@ WORKGROUP = (8, 8)
 _BINDINGS = {0: "uniform", 1: "uint", 2: "float", 3: "read", 4: "uniform", 5: "read",
              6: "uniform", 7: "uniform", 8: "uniform", 9: "uniform", 10: "depth_array",
              11: "comparison_sampler", 12: "write", 13: "write", 14: "filterable_3d",
-             15: "sampler", 16: "uniform", 17: "filterable_array"}
+             15: "sampler", 16: "uniform", 17: "filterable_array", 18: "uniform", 19: "write",
+             20: "write"}
 #: Bindings held in uniform buffers (the phase table and the materials too when
 #: they fit): storage reads per band were most of the pass's time on lavapipe
 #: (577 -> 226 ms at 160x90, 8 bands, two lamps, for the per-band constants).
@@ -153,6 +155,12 @@ class LampPass:
             address_mode_w=wgpu.AddressMode.clamp_to_edge,
             mag_filter=wgpu.FilterMode.linear, min_filter=wgpu.FilterMode.linear)
         self._no_maps = DepthMapArray(device, 16, 1, label="no lamp shadows")
+        #: The display transform fused into the per-pixel pass (:meth:`set_display`).
+        self._display = create_uniform_buffer(device, DISPLAY_LAYOUT, label="lamp display")
+        self.display_buffer = create_storage_buffer(device, 4 * self.width * self.height,
+                                                    label="lamp display rgba8")
+        self._status = create_storage_buffer(device, 16, label="lamp display status")
+        self.display_settings = None
         self._maps = None
         self._buffers = None
         self._lamps = []
@@ -160,9 +168,15 @@ class LampPass:
         self.shadowed = False
 
     def _use_pipelines(self, materials_in_uniform: bool) -> None:
-        """Compile (once) and select the pipelines for where the materials are."""
-        key = bool(materials_in_uniform)
-        if key not in self._pipelines:
+        """Select (compiling once) the pipelines for where the materials are."""
+        self._mat_key = bool(materials_in_uniform)
+        self._pipeline, self._build = self._pipelines_for(self._mat_key, None)
+        self._layout = self._layouts[self._mat_key]
+
+    def _pipelines_for(self, key: bool, tonemap):
+        """``(main, build_veil)`` for materials in a uniform buffer (``key``) and the
+        display transform with ``tonemap`` fused in main (None: linear RGB out)."""
+        if (key, tonemap) not in self._pipelines:
             phase_vec4 = self.n_bands * PHASE_TABLE_SIZE // 4
             half = self.veil_format == "rgba16float"
             src = load_wgsl(
@@ -197,21 +211,21 @@ class LampPass:
                 profile_vec4=-(-MAX_LAMPS * PROFILE_SIZE // 4), face_vec4=3 * MAX_FACES,
                 bias_texels=f"{BIAS_TEXELS:.9g}",
                 normal_offset_texels=f"{NORMAL_OFFSET_TEXELS:.9g}",
-                min_distance=f"{MIN_DISTANCE_M:.9g}", min_range=f"{MIN_RANGE_M:.9g}")
+                min_distance=f"{MIN_DISTANCE_M:.9g}", min_range=f"{MIN_RANGE_M:.9g}",
+                **display_template(tonemap))
             module = self.device.create_shader_module(label="lamps.wgsl", code=src)
-            kinds = {**_BINDINGS, 3: "uniform" if key else "read",
-                     5: "uniform" if self._phase_uniform else "read",
-                     16: "uniform" if self._halo_uniform else "read"}
-            bgl = bind_group_layout(self.device, kinds)
-            layout = self.device.create_pipeline_layout(bind_group_layouts=[bgl])
-            self._pipelines[key] = tuple(
+            if key not in self._layouts:
+                kinds = {**_BINDINGS, 3: "uniform" if key else "read",
+                         5: "uniform" if self._phase_uniform else "read",
+                         16: "uniform" if self._halo_uniform else "read"}
+                self._layouts[key] = bind_group_layout(self.device, kinds)
+            layout = self.device.create_pipeline_layout(bind_group_layouts=[self._layouts[key]])
+            self._pipelines[(key, tonemap)] = tuple(
                 self.device.create_compute_pipeline(
                     label=f"lamps {entry}", layout=layout,
                     compute={"module": module, "entry_point": entry})
                 for entry in ("main", "build_veil"))
-            self._layouts[key] = bgl
-        self._pipeline, self._build = self._pipelines[key]
-        self._layout = self._layouts[key]
+        return self._pipelines[(key, tonemap)]
 
     # ---- inputs ---------------------------------------------------------------
     def set_inputs(self, lamps, *, response_weights, material_bands, sigmoid_centers_t) -> None:
@@ -390,7 +404,8 @@ class LampPass:
                 0: self._params, 1: gbuffer_textures["surface"].create_view(),
                 2: gbuffer_textures["sigmoid"].create_view(), **self._buffers,
                 10: maps.view, 11: self._shadow_sampler, 12: rgb_buffer, 13: veil_buf,
-                14: veil_view, 15: self._veil_sampler, 17: self._spot}))
+                14: veil_view, 15: self._veil_sampler, 17: self._spot, 18: self._display,
+                19: self.display_buffer, 20: self._status}))
         cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
         cp.set_pipeline(self._build)
         cp.set_bind_group(0, self._group)
@@ -402,15 +417,47 @@ class LampPass:
             {"texture": veil_tex, "mip_level": 0, "origin": (0, 0, 0)},
             (cols[0], cols[1], LAMP_DEPTHS + 1))
 
-    def encode_pixels(self, encoder, timestamp_writes=None) -> None:
-        """Record the per-pixel pass of the last :meth:`encode_veil`."""
+    def set_display(self, *, exposure_ev, white_balance_gains=(1.0, 1.0, 1.0), matrix=None,
+                    tonemap="filmic") -> None:
+        """The display transform :meth:`encode_pixels` fuses in with ``display=True``
+        (as :meth:`aquaspec.gpu.passes.display.DisplayPass.set_settings`)."""
+        data, self.display_settings = display_uniform(
+            self.width, self.height, exposure_ev=exposure_ev,
+            white_balance_gains=white_balance_gains, matrix=matrix, tonemap=tonemap)
+        upload_buffer(self.device, self._display, data)
+
+    def encode_pixels(self, encoder, timestamp_writes=None, *, display: bool = False) -> None:
+        """Record the per-pixel pass of the last :meth:`encode_veil`: the lamps'
+        light added to its image; ``display=True``: that image through the
+        display transform of :meth:`set_display` into :attr:`display_buffer`
+        (packed RGBA8, read with :meth:`read_display`) instead, saving the
+        display pass."""
         if self._group is None:
             raise AquaspecError("LampPass.encode_veil() first")
+        pipeline = self._pipeline
+        if display:
+            if self.display_settings is None:
+                raise AquaspecError("LampPass.set_display() first")
+            self.device.queue.write_buffer(self._status, 0,
+                                           np.array([0, 0xFFFFFFFF, 0, 0], np.uint32))
+            pipeline = self._pipelines_for(self._mat_key, self.display_settings["tonemap"])[0]
         cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
-        cp.set_pipeline(self._pipeline)
+        cp.set_pipeline(pipeline)
         cp.set_bind_group(0, self._group)
         cp.dispatch_workgroups(-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]))
         cp.end()
+
+    def read_display(self) -> np.ndarray:
+        """The last fused display image (H, W, 3) uint8; refuses one with
+        non-finite pixels (as :meth:`aquaspec.gpu.passes.display.DisplayPass.read`)."""
+        status = read_buffer(self.device, self._status, np.uint32, (4,))
+        if status[0]:
+            row, col = divmod(int(status[1]), self.width)
+            raise AquaspecError(f"{int(status[0])} pixel(s) not finite after the lamps and the "
+                                f"display transform, the first at row {row}, column {col}")
+        rgba = read_buffer(self.device, self.display_buffer, np.uint32,
+                           (self.height, self.width))
+        return np.stack([(rgba >> (8 * c)) & 0xFF for c in range(3)], axis=-1).astype(np.uint8)
 
     def read_rgb(self) -> np.ndarray:
         """The pass's own image (H, W, 3) float32 in camera RGB."""

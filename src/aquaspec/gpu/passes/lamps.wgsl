@@ -85,6 +85,16 @@ const MIN_RANGE: f32 = {{ min_range }};
 
 @group(0) @binding(17) var spot_tex: texture_2d_array<f32>;
 
+// DISPLAY: the image's linear RGB plus the lamps goes through the display
+// transform (display.wgsl) and out as packed RGBA8, saving the display pass.
+{{ display_struct }}
+const DISPLAY: bool = {{ display }};
+const TONEMAP: u32 = {{ tonemap_id }}u;
+@group(0) @binding(18) var<uniform> dparams: {{ display_struct_name }};
+@group(0) @binding(19) var<storage, read_write> rgba_out: array<u32>;
+@group(0) @binding(20) var<storage, read_write> status: array<atomic<u32>>;
+#include "tonemap.wgsl"
+
 const MIN_HALO_RANGE: f32 = {{ min_halo_range }};
 const SPOT_ANGLES: f32 = {{ spot_angles }}.0;
 
@@ -488,5 +498,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     let idx = row * lp.width + col;
-    rgb_out[idx] = rgb_out[idx] + vec4<f32>(acc, 0.0);
+    let total = rgb_out[idx].xyz + acc;
+    if (!DISPLAY) {
+        rgb_out[idx] = vec4<f32>(total, 0.0);
+        return;
+    }
+    // display.wgsl's main.
+    let c = max(total, vec3<f32>(0.0));
+    let xd = vec3<f32>(dot(dparams.m0, c), dot(dparams.m1, c), dot(dparams.m2, c));
+    if (any_non_finite(total) || any_non_finite(xd)) {
+        atomicAdd(&status[0], 1u);
+        atomicMin(&status[1], idx);
+        rgba_out[idx] = 0xff000000u;
+        return;
+    }
+    rgba_out[idx] = display_rgba8(xd);
 }
