@@ -21,5 +21,25 @@ export XDG_RUNTIME_DIR
 "$A" render --rgbd "$TMP/rgbd_photo.png" "$TMP/rgbd_depth.png" --intrinsics 420,420,320,180 \
     --water IB --depth 5 --bands 16 -o "$TMP/rgbd_underwater.png"
 
+# The sea surface's row (1280x720, 16 bands).
+"$A" render --camera-height 5 --look-down 30 --water IB -o "$TMP/surface_above_ib.png"
+"$A" render --camera-height 5 --look-down 30 --water 3C -o "$TMP/surface_above_3c.png"
+"$A" render --camera-height 0 --look-down 8 --water IB -o "$TMP/surface_half.png"
+"$PY" - "$TMP/surface_window.png" <<'PYEOF'
+import sys
+import numpy as np
+import aquaspec
+from aquaspec.io.save import save_image
+from aquaspec.scene.builtin import builtin_scene
+from aquaspec.scene.camera import Camera
+scene, cam = builtin_scene(5.0, width=1280, height=720)
+a = np.radians(60)          # the built-in camera turned 60 degrees up
+f = np.asarray(cam.forward) * np.cos(a) + np.asarray(cam.true_up) * np.sin(a)
+up = Camera.look_at(cam.position, cam.position + f, width=1280, height=720, fov_y_deg=90.0)
+r = aquaspec.render(water="IB", scene=scene, camera=up, size=(1280, 720), bands=16)
+save_image(sys.argv[1], r.display, None, r.params)
+PYEOF
+
 cp "$TMP/overcast.png" "$TMP/sun_caustics.png" "$TMP/turbid.png" "$TMP/lamps_deep.png" \
-   "$TMP/rgbd_photo.png" "$TMP/rgbd_underwater.png" "$OUT/"
+   "$TMP/rgbd_photo.png" "$TMP/rgbd_underwater.png" "$TMP/surface_above_ib.png" \
+   "$TMP/surface_above_3c.png" "$TMP/surface_half.png" "$TMP/surface_window.png" "$OUT/"

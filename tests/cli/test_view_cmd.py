@@ -34,7 +34,7 @@ class TestScriptMode:
         out = tmp_path / "run"
         assert main(["view", "--offscreen", "--script", str(script), "--frames", "3",
                      "--record", str(out), "--water", "IB", "--size", "96x54",
-                     "--bands", "6"]) == 0
+                     "--bands", "6", "--surface", "index-matched"]) == 0
         frames = [out / f"frame_{i:05d}.png" for i in range(3)]
         assert all(f.is_file() for f in frames)
         assert not list(out.glob(".*part*"))            # no temporary file left behind

@@ -121,7 +121,10 @@ def test_keys_fly_the_camera_and_change_the_water(x_display, tmp_path):
         time.sleep(WATER_WAIT_S)
 
     # --frames: a cap, so that the window closes even if Escape is lost.
+    # (The index-matched surface: under the flat one the shallow view's red is 0 and the
+    # blue-to-red ratio below is not defined.)
     stdout, _ = _run_view(x_display, ["--size", "160x90", "--bands", "6", "--depth", "1.5",
+                                      "--surface", "index-matched",
                                       "--frames", "5000", "--record", str(out)], act)
     run = json.loads((out / "run.json").read_text())
     assert run["mode"] == "window"

@@ -72,14 +72,17 @@ class TestPictures:
         blue_keep = contrast[5.0][1] / contrast[0.0][1]
         assert 0 < red_keep < blue_keep < 1, (red_keep, blue_keep)
 
-    @pytest.mark.parametrize("ms_model, name", [("seeds", "reference_IB_5m.png"),
-                                                ("lightfield", "reference_IB_5m_lightfield.png")])
-    def test_reference_image(self, tmp_path, ms_model, name):
-        """Regression against tests/data/reference_IB_5m*.png (the seeds' model, and
-        the default light field with the cone spread); writes a diff image on failure."""
+    @pytest.mark.parametrize("ms_model, surface, name", [
+        ("seeds", None, "reference_IB_5m.png"),
+        ("lightfield", "index-matched", "reference_IB_5m_lightfield.png"),
+        ("lightfield", None, "reference_IB_5m_flat.png")])
+    def test_reference_image(self, tmp_path, ms_model, surface, name):
+        """Regression against tests/data/reference_IB_5m*.png (the seeds' model, the
+        light field with the cone spread under the index-matched surface, and the
+        default: the same under the flat surface); writes a diff image on failure."""
         ref_path = DATA / name
         res = render(water="IB", depth_m=5.0, size=(160, 90), bands=8, exposure=-1.5,
-                     ms_model=ms_model)
+                     ms_model=ms_model, surface=surface)
         got = res.display.astype(float)
         ref = np.asarray(Image.open(ref_path).convert("RGB"), dtype=float)
         diff = np.abs(got - ref)
@@ -186,11 +189,13 @@ class TestWhiteCard:
                    white_balance="white-patch", backend="numpy")
 
     def test_human_white_patch_adapts_the_cones(self):
-        """Blue water's card has a negative linear-sRGB red: the eye's von Kries
+        """Blue water's card has a negative linear-sRGB red (under the
+        index-matched surface, whose sky shines in at every angle; under the
+        flat one this card's red is just above 0): the eye's von Kries
         adaptation still balances it (a camera's per-channel gains could not)."""
         from aquaspec.rendering.api import render
         res = render(water="IB", depth_m=5.0, size=(32, 18), bands=8,
-                     white_balance="white-patch", backend="numpy")
+                     white_balance="white-patch", backend="numpy", surface="index-matched")
         ref = np.array(res.params["white_card"]["camera_rgb"])
         assert ref[0] < 0
         disp = res.params["display"]

@@ -125,7 +125,7 @@ def test_validate_surface_cli(tmp_path, monkeypatch):
 
     def fewer_bands(check):
         return lambda *a, **kw: check(*a, **{**kw, "bands": Bands(6)})
-    for name in ("compare_window", "compare_above"):
+    for name in ("compare_window", "compare_above", "compare_level"):
         monkeypatch.setattr(surface_study, name, fewer_bands(getattr(surface_study, name)))
     out = tmp_path / "v"
     assert main(["validate", "--surface", "--waters", "IB", "--size", "16x16", "--spp", "16",
@@ -135,4 +135,5 @@ def test_validate_surface_cli(tmp_path, monkeypatch):
     for row in res["above"]:
         assert np.all(np.isfinite(row["nikon-5100-npl"]["ratio_rgb"]))
     assert "Snell" in (out / "surface.md").read_text()
+    assert set(res["level"]) == {"top", "middle", "bottom"}
     assert main(["validate", "--surface", "--phase", "hg", "-o", str(out)]) == 2

@@ -62,6 +62,7 @@ from aquaspec.light.waves import Waves
 from aquaspec.medium.water import JERLOV_TYPES, get_water
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.transport.models import ms_model_name
 
 #: Spectral setups kept for switching back (the oldest others dropped).
 KEEP_SETUPS = 12
@@ -167,7 +168,8 @@ class LiveView:
         return SpectralSetup(
             get_water(water, s.water_source), get_sensor(s.sensor, s.camspec), light,
             Bands(s.bands), ms_model=s.ms_model, phase=s.phase, phase_params=s.phase_params,
-            cone_spread=s.cone_spread, surface=s.surface,
+            cone_spread=s.cone_spread,
+            surface=s.surface if ms_model_name(s.ms_model) == "lightfield" else "index-matched",
             spread_scattering=s.spread_scattering,
             seabed=self.seabed if s.ms_model == "lightfield" else None, waves=waves)
 

@@ -65,8 +65,10 @@ class ViewSettings:
     #: :func:`~aquaspec.scene.rgbd.gbuffer_from_rgbd` take them; the view is
     #: the photograph's own (the camera moves only up and down).
     rgbd: tuple | None = None
-    #: The water surface seen from below (:data:`aquaspec.rendering.setup.SURFACE_MODELS`).
-    surface: str = "index-matched"
+    #: The water surface seen from below (:data:`aquaspec.rendering.setup.SURFACE_MODELS`);
+    #: the seeds' model, which has no top boundary to change, is always shown
+    #: with the index-matched one.
+    surface: str = "flat"
     #: Linear RGB albedo replacing the mesh's colours (as ``render(albedo=)``).
     albedo: tuple | None = None
     #: ``(depth_m, albedo)``: a flat grey seabed, the light field's lower

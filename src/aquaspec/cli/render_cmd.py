@@ -72,11 +72,11 @@ def register(sub):
                         "see (GPU and NumPy); with --backend numpy the water in the "
                         "occluders' shadow scatters less too (light-field model; an RGB-D "
                         "image's occluder is its visible surface)")
-    p.add_argument("--surface", default="index-matched", choices=("index-matched", "flat"),
-                   help="the water surface seen from below (light-field model): flat, the "
-                        "real interface (the sky in Snell's window, the water mirrored "
-                        "outside it); index-matched, no interface (the validation's setting; "
-                        "default)")
+    p.add_argument("--surface", default=None, choices=("index-matched", "flat"),
+                   help="the water surface seen from below: flat, the real interface (the "
+                        "sky in Snell's window, the water mirrored outside it; the default "
+                        "with the light-field model); index-matched, no interface (the "
+                        "validation's setting; the default with --ms-model monzon2022)")
     p.add_argument("--seabed", default="scene", metavar="scene|none|DEPTH[,ALBEDO]",
                    help="the light field's lower boundary: the scene's (default; the "
                         "built-in scene's sand), none (deep water), or a flat Lambertian "

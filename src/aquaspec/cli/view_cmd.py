@@ -75,9 +75,9 @@ def register(sub):
     p.add_argument("--mesh", metavar="FILE",
                    help="show this OBJ/PLY/glTF/GLB/STL/OFF instead of the built-in scene, "
                         "placed 3 m in front of the camera at --depth, in open water")
-    p.add_argument("--surface", default="index-matched", choices=("index-matched", "flat"),
-                   help="the water surface seen from below, as for render (default "
-                        "index-matched)")
+    p.add_argument("--surface", default="flat", choices=("index-matched", "flat"),
+                   help="the water surface seen from below, as for render (default flat; "
+                        "the seeds' model always sees the index-matched one)")
     p.add_argument("--albedo", metavar="R,G,B",
                    help="linear RGB albedo for --mesh, e.g. 0.5,0.4,0.3 (as for render)")
     p.add_argument("--seabed", default=None, metavar="DEPTH[,ALBEDO]",

@@ -57,7 +57,7 @@ from aquaspec.rendering.layers import black_gbuffer, image_layers
 from aquaspec.rendering.limits import check_render_memory
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.result import RenderResult
-from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.rendering.setup import SpectralSetup, render_surface
 from aquaspec.scene.builtin import builtin_scene
 from aquaspec.scene.camera import Camera, parse_size
 from aquaspec.scene.gbuffer import GBuffer
@@ -104,7 +104,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            ms_model: str = DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
            spread_scattering: str = "single", ambient_shadow: bool = False,
-           occlusion: bool = False, seabed="scene", lamps=(), surface="index-matched",
+           occlusion: bool = False, seabed="scene", lamps=(), surface=None,
            exposure="auto", white_balance="none", tonemap="filmic",
            colour_matrix="auto", return_radiance: bool = False, layers: bool = False,
            backend: str = "gpu", progress=None, renderer: Renderer | None = None
@@ -175,9 +175,12 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         (:mod:`aquaspec.transport.lightfield.shadow`; goes with ``spread_scattering="multiple"``).
         Integrated in NumPy from the G-buffer with either backend (the GPU's
         image has it subtracted in camera RGB): seconds per image.
-    surface : {"index-matched", "flat"}
+    surface : {None, "index-matched", "flat"}
         The surface seen from below (light field): ``flat`` the real interface,
-        ``index-matched`` none (:data:`aquaspec.rendering.setup.SURFACE_MODELS`).
+        ``index-matched`` none (:data:`aquaspec.rendering.setup.SURFACE_MODELS`); None
+        (default): ``flat`` with the light field, ``index-matched`` with the seeds' model
+        (:func:`aquaspec.rendering.setup.render_surface`). A camera above the sea or at the
+        waterline always has the flat surface (:mod:`aquaspec.rendering.above`).
     occlusion : bool
         The scene's occlusion of the ambient light field (light-field model, scenes and meshes):
         surfaces under a ledge or before a wall get the light of the directions they see
@@ -245,7 +248,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         ms_model=ms_model, phase=phase, forward_cone_deg=forward_cone_deg,
         cone_spread=cone_spread, spread_scattering=spread_scattering,
         ambient_shadow=ambient_shadow, occlusion=occlusion, say=say, lamps=lamps,
-        surface="flat" if in_air_view(camera) else surface)
+        surface="flat" if in_air_view(camera) else render_surface(surface, ms_model))
     view = _view(scene=scene, camera=camera, mesh=mesh, albedo=albedo, rgbd=rgbd,
                  depth_m=depth, width=width, height=height, say=say)
     view, optics = camera_view(view, camera_model, setup)

@@ -17,7 +17,7 @@ from aquaspec.light.sky import SurfaceLight, surface_light
 from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.light.sun import surface_irradiance
 from aquaspec.medium.water import Water
-from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.rendering.setup import SpectralSetup, render_surface
 from aquaspec.scene.camera import Camera, camera_depth
 from aquaspec.transport import monzon2022 as model
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MONZON2022, ms_model_name
@@ -91,7 +91,8 @@ def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
                  distance_m: float, light: SurfaceLight | None = None,
                  ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
                  ms_model: str = DEFAULT_MS_MODEL, phase: str = "petzold",
-                 forward_cone_deg: float = 15.0, view=HORIZONTAL_VIEW) -> dict:
+                 forward_cone_deg: float = 15.0, view=HORIZONTAL_VIEW,
+                 surface: str | None = None) -> dict:
     """Camera RGB of open water and of a grey card at ``distance_m``, seen along ``view``.
 
     ``ms_model`` picks the multiple-scattering model
@@ -101,7 +102,9 @@ def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
     light field of :mod:`aquaspec.transport.lightfield.solve` with phase function ``phase``).
     ``view`` (3,), y up, defaults to the horizontal :data:`HORIZONTAL_VIEW`;
     the card faces the camera. A light with a sun (``sun-sky``) is treated as
-    the renderer treats it (:func:`colour_of_setup`).
+    the renderer treats it (:func:`colour_of_setup`). ``surface``: as
+    :func:`aquaspec.rendering.api.render`'s (None: the flat surface with the
+    light field, :func:`aquaspec.rendering.setup.render_surface`).
 
     Returns a dict with ``water_rgb``, ``grey_card_rgb`` (linear camera RGB,
     lists of 3 floats) and every parameter used.
@@ -109,7 +112,8 @@ def water_colour(water: Water, sensor: Sensor, bands: Bands, *, depth_m: float,
     check_ms_model(ms_model)
     setup = SpectralSetup(water, sensor, light or surface_light("overcast"), bands,
                           ambient=ambient, outside=outside, ms_model=ms_model, phase=phase,
-                          forward_cone_deg=forward_cone_deg, cone_spread=False)
+                          forward_cone_deg=forward_cone_deg, cone_spread=False,
+                          surface=render_surface(surface, ms_model))
     return colour_of_setup(setup, depth_m=depth_m, distance_m=distance_m, view=view)
 
 

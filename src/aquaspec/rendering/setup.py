@@ -42,6 +42,18 @@ from aquaspec.transport.sun_scattering import SunInputs, log_phase_table
 #: path-traced validation's setting and the thesis's).
 SURFACE_MODELS = {"index-matched": "null", "flat": "fresnel"}
 
+
+def render_surface(surface, ms_model) -> str:
+    """The surface a render uses: ``surface``, or for None the default, the
+    real flat surface with the light-field model (renders are for real water;
+    its level, upward and downward views match the path tracer's dielectric
+    surface within a few per cent, docs/validation.md) and the index-matched
+    one with the seeds' model, whose light has no top boundary to change.
+    The validation study's :class:`SpectralSetup` keeps ``index-matched``."""
+    if surface is not None:
+        return surface
+    return "flat" if ms_model_name(ms_model) == "lightfield" else "index-matched"
+
 LAMP_MODEL = ("aquaspec.transport.lamp_scattering: direct light on surfaces "
               "I(alpha) exp(-c_lamp r) max(0, n.l) / r^2 with a shadow map per lamp, and "
               "single scattering along each view ray (equiangular midpoint rule); c_lamp "

@@ -7,6 +7,8 @@ Two checks of :mod:`aquaspec.validation.window_check` and
 - from below: Jerlov IB at 5 m looking straight up, the brightness and hue
   inside Snell's window, outside it and at the zenith, and the window's edge
   on the centre row against Snell's;
+- level: IB at 5 m looking level, the mean colour of the top, middle and
+  bottom quarters of the rows;
 - from above: each water of ``waters`` over deep water and grey seabeds at 3
   and 10 m, the image's mean colour (relative error and hue).
 
@@ -20,7 +22,7 @@ import numpy as np
 from aquaspec.colour.bands import Bands
 from aquaspec.validation.above_check import compare_above
 from aquaspec.validation.reference import REFERENCE_BANDS
-from aquaspec.validation.window_check import compare_window
+from aquaspec.validation.window_check import compare_level, compare_window
 
 #: The seabeds the view from above is checked over (None: deep water).
 SEABEDS = (None, 3.0, 10.0)
@@ -36,6 +38,8 @@ def run_surface_study(*, waters=("I", "IB", "II", "3C"), phase: str = "isotropic
     below = {"edge_px": win["edge_px"], "reference_seconds": win["reference_seconds"],
              "regions": {name: {k: v for k, v in reg.items() if k != "band_ratio"}
                          for name, reg in win["regions"].items()}}
+    say(f"the level view: IB, 5 m, {phase}, {size} px, {spp} spp")
+    level = compare_level("IB", phase=phase, size=size, spp=spp, sensors=sensors, bands=bands)
     above = []
     for water in waters:
         for bed in SEABEDS:
@@ -46,7 +50,7 @@ def run_surface_study(*, waters=("I", "IB", "II", "3C"), phase: str = "isotropic
                           "reference_seconds": r["reference_seconds"],
                           **{s: r[s] for s in r if isinstance(r[s], dict)}})
     return _plain({"phase": phase, "size": size, "spp": spp, "bands": bands.describe(),
-                   "below": below, "above": above})
+                   "below": below, "level": level["rows"], "above": above})
 
 
 def _plain(x):
@@ -75,6 +79,12 @@ def format_surface_study(res: dict) -> str:
     e = res["below"]["edge_px"]
     lines += ["", f"Window's edge on the centre row: Snell {e['snell']:.2f} px, aquaspec "
                   f"{e['aquaspec']:.1f}, Mitsuba {e['reference']:.1f}.", "",
+              "Level view (Jerlov IB, 5 m, open water): aquaspec / Mitsuba camera RGB", "",
+              "| rows | sensor | RGB ratio |", "|---|---|---|"]
+    for name, per in res["level"].items():
+        for sensor, ratio in per.items():
+            lines.append(f"| {name} | {sensor} | {' '.join(f'{x:.3f}' for x in ratio)} |")
+    lines += ["",
               "From above (camera 5 m up, 60 degrees down): mean colour, relative error and hue",
               "", "| water | seabed | sensor | RGB ratio | error | hue (deg) |",
               "|---|---|---|---|---|---|"]

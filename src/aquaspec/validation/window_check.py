@@ -172,3 +172,38 @@ def compare_window(water: str = "IB", *, depth_m: float = DEPTH_M, phase: str = 
         out["e0_reference"] = meter
         out["e0_ratio"] = e0 / meter
     return out
+
+
+def level_camera(depth_m: float = DEPTH_M, size: int = 32, fov_deg: float = 60.0) -> Camera:
+    """A square camera at ``depth_m`` looking level (towards -z)."""
+    p = np.array([0.0, -float(depth_m), 0.0])
+    return Camera.look_at(p, p + [0.0, 0.0, -1.0], width=size, height=size, fov_y_deg=fov_deg)
+
+
+def compare_level(water: str = "IB", *, depth_m: float = DEPTH_M, phase: str = "petzold",
+                  size: int = 32, spp: int = 512, sensors=("nikon-5100-npl",), seed: int = 0,
+                  bands: Bands = REFERENCE_BANDS) -> dict:
+    """Open water seen level under the flat surface against the path tracer:
+    per band of rows (``top``, ``middle``, ``bottom`` quarters) and sensor
+    the ratio aquaspec / reference of the mean camera RGB. This is the view
+    where the surface changes most (the sky no longer shines in at grazing
+    angles)."""
+    if phase not in PHASES:
+        raise AquaspecError(f"phase {phase!r}; accepted: {', '.join(PHASES)}")
+    w, sky = load_water(water), surface_light("overcast")
+    cam = level_camera(depth_m, size)
+    ref = render_reference(open_water(cam), cam, w, sky, spp=spp, seed=seed, bands=bands,
+                           phase=phase, surface="flat")["band_radiance"]
+    aq, _ = aquaspec_radiance(cam, w, sky, phase, bands)
+    q = size // 4
+    rows = {"top": slice(0, q), "middle": slice(size // 2 - q // 2, size // 2 + q // 2),
+            "bottom": slice(size - q, size)}
+    out = {"water": water, "phase": phase, "size": size, "spp": spp, "rows": {}}
+    for name, r in rows.items():
+        out["rows"][name] = {}
+        for s in sensors:
+            sensor = get_sensor(s) if isinstance(s, str) else s
+            rm = bands_to_rgb(ref[r], sensor, bands).reshape(-1, 3).mean(axis=0)
+            am = bands_to_rgb(aq[r], sensor, bands).reshape(-1, 3).mean(axis=0)
+            out["rows"][name][sensor.name] = am / rm
+    return out
