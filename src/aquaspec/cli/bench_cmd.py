@@ -155,9 +155,7 @@ def _run_lamps(args, sizes_text, bands_text, frames):
                   f"without = {row['ratio']:.2f} ({row['lamp_frame_wall_ms']:.1f} / "
                   f"{row['frame_wall_ms']:.1f} ms)")
             results.append(row)
-    if args.json:
-        text = json.dumps(results if len(results) > 1 else results[0], indent=2)
-        write_file_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
+    _write_results(args.json, results)
     return 0
 
 
@@ -176,9 +174,7 @@ def _run_surface(args, sizes_text, bands_text, frames):
                                     progress=lambda m: print(m, file=sys.stderr, flush=True))
             print(format_surface(row))
             results.append(row)
-    if args.json:
-        text = json.dumps(results if len(results) > 1 else results[0], indent=2)
-        write_file_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
+    _write_results(args.json, results)
     return 0
 
 
@@ -198,7 +194,12 @@ def _run_motion(args, sizes, bands, frames, sun_elevation, sun_azimuth, waves):
                 progress=lambda m: print(m, file=sys.stderr, flush=True))
             print(format_motion(result))
             results.append(result)
-    if args.json:
-        text = json.dumps(results if len(results) > 1 else results[0], indent=2)
-        write_file_atomically(args.json, lambda tmp: Path(tmp).write_text(text))
+    _write_results(args.json, results)
     return 0
+
+
+def _write_results(path, results) -> None:
+    """``--json``: the one result, or the list of them (nothing without a path)."""
+    if path:
+        text = json.dumps(results if len(results) > 1 else results[0], indent=2)
+        write_file_atomically(path, lambda tmp: Path(tmp).write_text(text))
