@@ -30,7 +30,7 @@ def test_live_frames_match_render(model):
     scene, cam = builtin_scene(5.0, width=W, height=H)
     setup = SpectralSetup(load_water("IB"), get_sensor("nikon5100-npl"),
                           surface_light("overcast"), Bands(N), ms_model="lightfield",
-                          seabed=scene.seabed)
+                          seabed=scene.seabed, surface="flat")      # render()'s default
     r = Renderer(W, H, N)
     r.set_camera_model(model)
     r.auto_display(scene, cam, setup)
