@@ -69,10 +69,15 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
     up = _tilted_up(cam, 60.0)
     waterline = camera_above(0.0, 8.0, width=width, height=height)
     say(f"bench --surface: {width}x{height}, {n_bands} bands: compiling and first frames")
-    below = Renderer(width, height, n_bands)
-    below.auto_display(scene, cam, setups["index-matched"])
-    flat = Renderer(width, height, n_bands)
-    flat.auto_display(scene, cam, setups["flat"])
+    # One renderer per frame: a renderer rebuilds its water table when the
+    # camera's depth changes, which alternating views would make it do every frame.
+    views = {"below": (cam, "index-matched"), "below_flat": (cam, "flat"),
+             "looking_up_flat": (up, "flat"), "waterline": (waterline, "flat")}
+    renderers = {}
+    for name, (view, surface) in views.items():
+        renderers[name] = Renderer(width, height, n_bands)
+        renderers[name].auto_display(scene, view, setups[surface])
+    below = renderers["below"]
     device = below.deferred.device
     above_cam = camera_above(5.0, 30.0, width=width, height=height)
     above = AbovePass(device, width, height)
@@ -94,11 +99,9 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
         device.queue.submit([enc.finish()])
         below.wait()
 
-    run = {"below": lambda: below.draw_frame(scene, cam, setups["index-matched"]),
-           "below_flat": lambda: flat.draw_frame(scene, cam, setups["flat"]),
-           "looking_up_flat": lambda: flat.draw_frame(scene, up, setups["flat"]),
-           "waterline": lambda: flat.draw_frame(scene, waterline, setups["flat"]),
-           "above": draw_above}
+    run = {name: (lambda r=renderers[name], v=view, s=setups[surface]:
+                  r.draw_frame(scene, v, s)) for name, (view, surface) in views.items()}
+    run["above"] = draw_above
     times = {k: [] for k in FRAMES}
     for i in range(warmup + frames):
         for name in FRAMES:
