@@ -9,20 +9,13 @@
 // surface looking along it, in camera RGB, interpolated linearly from a
 // table over t_y in [-1, -cos theta_c] (above_water.water_below_table).
 
+#include "fresnel.wgsl"
+
 {{ params_struct }}
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 @group(0) @binding(1) var<storage, read> water: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rgb_out: array<vec4<f32>>;
-
-fn fresnel_transmittance(cos_i: f32, n: f32) -> f32 {
-    let c = clamp(cos_i, 0.0, 1.0);
-    let sin_t = sqrt(max(1.0 - c * c, 0.0)) / n;
-    let cos_t = sqrt(max(1.0 - sin_t * sin_t, 0.0));
-    let rs = (c - n * cos_t) / (c + n * cos_t);
-    let rp = (cos_t - n * c) / (cos_t + n * c);
-    return 1.0 - 0.5 * (rs * rs + rp * rp);
-}
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {

@@ -13,6 +13,8 @@
 // scaled to the radiance in air, FlatPort.radiance_factor: T / n_w^2, the two
 // faces' unpolarised Fresnel transmittance over the water's index squared.
 
+#include "fresnel.wgsl"
+
 {{ port_struct }}
 
 const ITERATIONS: u32 = {{ iterations }}u;
@@ -24,16 +26,6 @@ const ITERATIONS: u32 = {{ iterations }}u;
 
 fn tan_of_sin(s: f32) -> f32 {
     return s / sqrt(1.0 - s * s);
-}
-
-// Unpolarised Fresnel transmittance into an index n times the incident one
-// (n > 1), incidence cosine cos_i (medium.interface.fresnel_transmittance).
-fn fresnel_t(cos_i: f32, n: f32) -> f32 {
-    let sin_t = sqrt(max(1.0 - cos_i * cos_i, 0.0)) / n;
-    let cos_t = sqrt(1.0 - sin_t * sin_t);
-    let rs = (cos_i - n * cos_t) / (cos_i + n * cos_t);
-    let rp = (cos_t - n * cos_i) / (cos_t + n * cos_i);
-    return 1.0 - 0.5 * (rs * rs + rp * rp);
 }
 
 fn clamp_index(x: f32, n: u32) -> u32 {
@@ -100,7 +92,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let n_w = params.n_water[c];
         let n_g = params.n_glass[c];
         let cos_w = sqrt(1.0 - (sin_a / n_w) * (sin_a / n_w));
-        let t_port = fresnel_t(cos_a, n_g) * fresnel_t(cos_w, n_g / n_w);
+        let t_port = fresnel_transmittance(cos_a, n_g) * fresnel_transmittance(cos_w, n_g / n_w);
         out[c] = bilinear(row, col, c) * t_port / (n_w * n_w);
     }
     rgb_out[gid.y * params.width + gid.x] = out;
