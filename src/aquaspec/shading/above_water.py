@@ -47,10 +47,21 @@ from aquaspec.medium.interface import (FLAT_NORMAL, N_WATER, diffuse_transmittan
 TABLE_NODES = 1024
 
 
+def sky_irradiance_above(tables, e0) -> np.ndarray:
+    """The uniform sky's irradiance in air that gives ``E0`` below the flat
+    surface, ``E_sky = E0 s / t_d`` per band (n,) (module docstring)."""
+    return np.asarray(e0, dtype=float) * tables.sky_share() / diffuse_transmittance()
+
+
+def e0_below(tables, e_sky) -> np.ndarray:
+    """``E0`` below the flat surface under a uniform sky of irradiance
+    ``e_sky`` in air: :func:`sky_irradiance_above` inverted, ``t_d E_sky / s``."""
+    return diffuse_transmittance() * np.asarray(e_sky, dtype=float) / tables.sky_share()
+
+
 def sky_radiance_above(tables, e0) -> np.ndarray:
-    """The uniform sky's radiance in air, ``E0 s / (t_d pi)`` per band (n,)."""
-    return (np.asarray(e0, dtype=float) * tables.sky_share()
-            / (diffuse_transmittance() * np.pi))
+    """The uniform sky's radiance in air, ``E_sky / pi`` per band (n,)."""
+    return sky_irradiance_above(tables, e0) / np.pi
 
 
 def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,

@@ -34,13 +34,12 @@ from aquaspec.colour.reflectance import Reflectance
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import surface_light
-from aquaspec.medium.interface import diffuse_transmittance
 from aquaspec.medium.water import load_water
 from aquaspec.rendering.setup import SpectralSetup
-from aquaspec.scene.camera import Camera
+from aquaspec.scene.camera import Camera, camera_above
 from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.scene.seabed import Seabed
-from aquaspec.shading.above_water import sea_from_above
+from aquaspec.shading.above_water import e0_below, sea_from_above
 from aquaspec.validation import metrics
 from aquaspec.validation.reference import (REFERENCE_BANDS, bands_to_rgb, lightfield_phase,
                                            require_mitsuba, scene_dict)
@@ -59,13 +58,9 @@ PHASES = ("isotropic", "petzold")
 def above_camera(size: int = 48, height_m: float = HEIGHT_M,
                  pitch_deg: float = PITCH_DEG) -> Camera:
     """A square camera ``height_m`` above the sea looking down at ``pitch_deg``
-    (towards -z)."""
-    if not height_m > 0:
-        raise AquaspecError(f"height {height_m!r} m; the camera must be above the sea (> 0 m)")
-    p = np.array([0.0, float(height_m), 0.0])
-    pitch = np.radians(pitch_deg)
-    forward = np.array([0.0, -np.sin(pitch), -np.cos(pitch)])
-    return Camera.look_at(p, p + forward, width=size, height=size, fov_y_deg=FOV_DEG)
+    (towards -z): :func:`aquaspec.scene.camera.camera_above` at this check's
+    field of view."""
+    return camera_above(height_m, pitch_deg, width=size, height=size, fov_y_deg=FOV_DEG)
 
 
 def _seabed_scene(depth_m, camera) -> Scene:
@@ -105,7 +100,7 @@ def aquaspec_from_above(camera, water, sky, *, seabed_depth_m, phase,
     setup = SpectralSetup(water, get_sensor("human"), sky, bands, surface="flat",
                           phase=method, phase_params=params, seabed=bed)
     tables = setup.lightfield_tables()
-    e0 = diffuse_transmittance() * sky.on_bands(bands) / tables.sky_share()
+    e0 = e0_below(tables, sky.on_bands(bands))
     med = setup.medium([])
     return sea_from_above(camera, tables, a=med["a"], b=med["b"], e0=e0), e0
 

@@ -17,9 +17,8 @@ Two checks of :mod:`aquaspec.validation.window_check` and
 
 from __future__ import annotations
 
-import numpy as np
-
 from aquaspec.colour.bands import Bands
+from aquaspec.io.metadata import to_jsonable
 from aquaspec.validation.above_check import compare_above
 from aquaspec.validation.reference import REFERENCE_BANDS
 from aquaspec.validation.window_check import compare_level, compare_window
@@ -49,21 +48,8 @@ def run_surface_study(*, waters=("I", "IB", "II", "3C"), phase: str = "isotropic
             above.append({"water": water, "seabed_depth_m": bed,
                           "reference_seconds": r["reference_seconds"],
                           **{s: r[s] for s in r if isinstance(r[s], dict)}})
-    return _plain({"phase": phase, "size": size, "spp": spp, "bands": bands.describe(),
-                   "below": below, "level": level["rows"], "above": above})
-
-
-def _plain(x):
-    """``x`` with NumPy arrays and scalars as lists and floats (for JSON)."""
-    if isinstance(x, dict):
-        return {k: _plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    return x
+    return to_jsonable({"phase": phase, "size": size, "spp": spp, "bands": bands.describe(),
+                   "below": below, "level": level["rows"], "above": above}, "surface study")
 
 
 def format_surface_study(res: dict) -> str:

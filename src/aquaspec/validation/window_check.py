@@ -41,12 +41,13 @@ from aquaspec.colour.reflectance import Reflectance
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import surface_light
-from aquaspec.medium.interface import diffuse_transmittance, snell_window_cos
+from aquaspec.medium.interface import snell_window_cos
 from aquaspec.medium.water import load_water
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.scene.raycast import raycast_gbuffer
+from aquaspec.shading.above_water import e0_below
 from aquaspec.shading.shade import shade_gbuffer
 from aquaspec.validation import metrics
 from aquaspec.validation.meters import measure_downwelling
@@ -115,7 +116,7 @@ def aquaspec_radiance(camera: Camera, water, sky, phase: str, bands: Bands = REF
                           phase=method, phase_params=params)
     tables = setup.lightfield_tables()
     e_sky = sky.on_bands(bands)
-    e0 = diffuse_transmittance() * e_sky / tables.sky_share()
+    e0 = e0_below(tables, e_sky)
     scene = open_water(camera)
     gb = raycast_gbuffer(scene, camera)
     med = setup.medium(gb.materials)
