@@ -13,6 +13,8 @@ the sun's disc, glint and single scattering, waves and lamps.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from aquaspec.colour.sensors import radiance_to_rgb
@@ -106,15 +108,22 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
     med = setup.medium([])
     tables = setup.lightfield_tables()
     if where == "GPU":
-        from aquaspec.gpu.device import get_device   # deferred: wgpu only on the GPU path
-        from aquaspec.gpu.passes.above import AbovePass
-        gpu = AbovePass(get_device()[1], cam.width, cam.height)
+        gpu = _above_pass(cam.width, cam.height)
         gpu.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
                        response_weights=med["response_weights"])
         return gpu.render(cam).astype(np.float64), None
     radiance = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"])
     linear = radiance_to_rgb(radiance, med["response_weights"])
     return linear, (radiance if return_radiance else None)
+
+
+@functools.lru_cache(maxsize=2)
+def _above_pass(width: int, height: int):
+    """The GPU pass of the view from above at one size, compiled once and kept
+    for the next renders (``aquaspec synth`` makes many of one size)."""
+    from aquaspec.gpu.device import get_device   # deferred: wgpu only on the GPU path
+    from aquaspec.gpu.passes.above import AbovePass
+    return AbovePass(get_device()[1], width, height)
 
 
 def above_params(view) -> dict:
