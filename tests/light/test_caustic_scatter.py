@@ -200,3 +200,49 @@ def test_the_renderers_setup_carries_its_map_into_the_scattered_light():
         scatter=tr) is loop
     for got, w in zip(loop.frame_levels(0), want):
         np.testing.assert_array_equal(got, w)
+
+
+def _random_slices(n=64, tile=4.0, k=5, seed=1):
+    """Slices of mean 1 with a red spectrum (detail at every scale of the tile)."""
+    rng = np.random.default_rng(seed)
+    kx, kz = half_wavenumbers(n, tile)
+    spec = (rng.normal(size=(k,) + kx.shape) + 1j * rng.normal(size=(k,) + kx.shape)) \
+        / (1.0 + np.hypot(kx, kz))
+    c = np.fft.irfft2(spec, s=(n, n))
+    return (1.0 + 0.3 * c / c.std(axis=(1, 2), keepdims=True)).astype(np.float32)
+
+
+def test_band_scales_give_each_band_its_own_contrast():
+    """1 + s_i (C_shared - 1) has the standard deviation of band i's own
+    transfer (the exact filter's, within the binning's 1 %), and the band
+    of the mean exponent (one band) is scaled by 1."""
+    level0 = _random_slices()
+    depths = np.array([0.0, 0.5, 2.0, 6.0, 12.0])
+    tr = cs.ScatterTransfer.for_beam(b=[0.9, 0.6, 0.4], c=[1.2, 0.8, 0.9],
+                                     c_sun=[1.0, 0.7, 0.85], wavelength_nm=[443, 532, 670],
+                                     to_sun=[0.35, 0.9, 0.25] / np.linalg.norm([0.35, 0.9, 0.25]))
+    scales = cs.band_scales(level0, depths, 4.0, tr)
+    assert scales.shape == (5, 3)
+    shared = cs.scatter_slices(level0, depths, 4.0, tr).std(axis=(1, 2))
+    for i in range(3):
+        own = cs.scatter_slices(level0, depths, 4.0, tr.band(i)).std(axis=(1, 2))
+        np.testing.assert_allclose(scales[:, i], own / shared, rtol=0.01)
+        np.testing.assert_allclose(
+            cs.contrast_scale(level0, depths, 4.0, tr.band(i), tr), own / shared, rtol=0.01)
+    np.testing.assert_allclose(scales[0], 1.0, atol=1e-12)        # at the surface
+    assert scales[-1, 0] > 1.5 and scales[-1, 2] < 0.7             # blue and red part deep
+    one = tr.band(1)
+    np.testing.assert_allclose(cs.band_scales(level0, depths, 4.0, one), 1.0, rtol=1e-9)
+    with pytest.raises(AquaspecError, match="band 3"):
+        tr.band(3)
+    with pytest.raises(AquaspecError, match="depths"):
+        cs.band_scales(level0, depths[:3], 4.0, tr)
+
+
+def test_band_tables_are_the_bands_own():
+    tr = cs.ScatterTransfer.for_beam(b=[0.9, 0.4], c=[1.2, 0.9], c_sun=[1.0, 0.85],
+                                     wavelength_nm=[443, 670], to_sun=[0.0, 1.0, 0.0])
+    v, rows = tr.band_tables()
+    for i in range(2):
+        np.testing.assert_allclose(rows[i], tr.band(i).table()[1], rtol=1e-12)
+    np.testing.assert_allclose(rows.mean(axis=0), tr.table()[1], rtol=1e-12)

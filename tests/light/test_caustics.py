@@ -377,3 +377,21 @@ def test_strong_wind_blurs_deep_caustics():
     assert soft.levels[0][1].std() < 0.8 * sharp.levels[0][1].std()
     calm = W.Waves(2.0, grid=64, tile_m=2.0)
     assert W.unresolved_slope_variance(calm) == 0.0
+
+
+def test_slice_interp_reads_the_slices_as_the_lookup():
+    """Per-slice values read between slices linearly in sqrt(d / D), as
+    sample() reads a map whose slices are constant."""
+    from aquaspec.light.caustic_sample import slice_interp
+
+    depths = cst.slice_depths(10.0, 5)
+    values = np.array([1.0, 2.0, 4.0, 3.0, 0.5])
+    level0 = np.broadcast_to(values[:, None, None], (5, 16, 16)).astype(np.float32)
+    cmap = cst.CausticMap(waves=W.Waves(3.0, tile_m=2.0, grid=16),
+                               to_sun=np.array([0.0, 1.0, 0.0]), depths=depths,
+                               levels=cst.mip_levels(level0), mean_weight=1.0)
+    d = np.array([0.0, 0.3, 1.7, 5.0, 9.9, 12.0])
+    pts = np.stack([np.full_like(d, 0.4), -d, np.full_like(d, 1.1)], axis=-1)
+    np.testing.assert_allclose(slice_interp(values, d, 10.0), cst.sample(cmap, pts),
+                               rtol=1e-6)
+    np.testing.assert_allclose(slice_interp(values, depths, 10.0), values, rtol=1e-12)

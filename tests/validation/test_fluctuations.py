@@ -68,6 +68,31 @@ def test_scattered_light_carries_the_flicker_deep(one_sea):
 
 
 @pytest.mark.slow
+def test_one_factor_for_all_bands_and_its_per_band_scale(one_sea):
+    """A default render's one factor (its bands' mean transfer) flickers too
+    little in blue and too much in red at depth; scaled per band and slice it
+    gives each wavelength's own CV within 2 %."""
+    own = np.array(one_sea["ratio"])
+    shared = np.array(one_sea["ratio_shared"])
+    scaled = np.array(one_sea["ratio_scaled"])
+    deep = np.array(one_sea["depth_m"]) > 6.0
+    assert np.all(shared[deep, 0] < 0.8 * own[deep, 0])
+    assert np.all(shared[deep, 2] > 1.4 * own[deep, 2])
+    np.testing.assert_allclose(scaled, own, rtol=0.02)
+    assert len(one_sea["shared_transfer"]["b_per_m"]) == fl.RENDER_BANDS
+
+
+def test_render_bands_are_the_renderers_default():
+    import inspect
+
+    from aquaspec.rendering.api import render
+
+    params = inspect.signature(render).parameters
+    assert params["bands"].default == fl.RENDER_BANDS
+    assert tuple(params["wavelength_range"].default) == fl.RENDER_RANGE_NM
+
+
+@pytest.mark.slow
 def test_cli_writes_the_table_the_json_and_the_plot(one_sea, tmp_path, monkeypatch):
     from aquaspec.cli import main
 
@@ -75,7 +100,8 @@ def test_cli_writes_the_table_the_json_and_the_plot(one_sea, tmp_path, monkeypat
     assert main(["validate", "--fluctuations", "-o", str(tmp_path)]) == 0
     assert json.loads((tmp_path / "fluctuations.json").read_text()) == one_sea
     assert (tmp_path / "fluctuations.png").stat().st_size > 1000
-    assert "| measured, 532 nm |" in (tmp_path / "fluctuations.md").read_text()
+    table = (tmp_path / "fluctuations.md").read_text()
+    assert "| measured, 532 nm |" in table and "bands, scaled / measured, 670 nm" in table
 
 
 def test_pooled_cv_pools_the_variances():

@@ -37,6 +37,25 @@ def lod_of(footprint_m, texel_m, n_levels):
     return np.clip(np.log2(f), 0.0, n_levels - 1.0)
 
 
+def slice_position(depth_m, max_depth_m: float, n_slices: int):
+    """Where the lookup reads depth ``depth_m`` (...): slice ``k0`` and the
+    fraction ``fk`` towards ``k0 + 1`` (slices at ``D (k / (K - 1))^2``,
+    linear between them in ``sqrt(d / D)``, clamped to ``[0, D]``)."""
+    d = np.clip(np.asarray(depth_m, dtype=float), 0.0, max_depth_m)
+    x = np.sqrt(d / max_depth_m) * (n_slices - 1)
+    k0 = np.minimum(np.floor(x), n_slices - 2).astype(np.int64)
+    return k0, x - k0
+
+
+def slice_interp(values, depth_m, max_depth_m: float) -> np.ndarray:
+    """Per-slice ``values`` (K, ...) read at ``depth_m`` (D,) as the lookup
+    reads the slices (:func:`slice_position`): (D, ...)."""
+    v = np.asarray(values, dtype=float)
+    k0, fk = slice_position(np.atleast_1d(depth_m), max_depth_m, v.shape[0])
+    fk = fk.reshape(fk.shape + (1,) * (v.ndim - 1))
+    return (1.0 - fk) * v[k0] + fk * v[k0 + 1]
+
+
 def sample(cmap, points, footprint_m=0.0) -> np.ndarray:
     """The caustic factor of ``cmap`` (:class:`aquaspec.light.caustics.CausticMap`)
     at points (..., 3), each averaged over about
@@ -45,10 +64,7 @@ def sample(cmap, points, footprint_m=0.0) -> np.ndarray:
     p = np.asarray(points, dtype=float)
     u = foot(p, cmap.to_sun)
     d = np.clip(-p[..., 1], 0.0, cmap.max_depth)
-    n_k = cmap.depths.size
-    x = np.sqrt(d / cmap.max_depth) * (n_k - 1)
-    k0 = np.minimum(np.floor(x), n_k - 2).astype(np.int64)
-    fk = x - k0
+    k0, fk = slice_position(d, cmap.max_depth, cmap.depths.size)
     lod = np.broadcast_to(lod_of(footprint_m, cmap.texel, len(cmap.levels)), d.shape)
     m0 = np.floor(lod).astype(np.int64)
     fm = lod - m0

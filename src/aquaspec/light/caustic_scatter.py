@@ -59,7 +59,7 @@ nothing here is fitted.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -218,9 +218,27 @@ class ScatterTransfer:
                 "phase": self.phase if isinstance(self.phase, str) else self.phase.name,
                 "phase_params": dict(self.phase_params), "mu0": self.mu0}
 
+    def band(self, i: int) -> "ScatterTransfer":
+        """The transfer of band ``i`` alone (its own ``G``, not the bands' mean)."""
+        if not 0 <= int(i) < len(self.b):
+            raise AquaspecError(f"band {i!r}; accepted: 0 to {len(self.b) - 1}")
+        i = int(i)
+        return replace(self, b=(self.b[i],), beam_gap=(self.beam_gap[i],),
+                       wavelength_nm=(self.wavelength_nm[i],))
+
     def table(self):
         """``(v, bQ)``: the bands' mean of ``b Q(v)`` (1/m) on :func:`table_wavenumbers`."""
         return _table(self.phase, self.phase_params, self.b, self.wavelength_nm)
+
+    def band_tables(self):
+        """``(v, bQ)``: each band's ``b Q(v)`` (n_bands, V) (1/m)."""
+        return _band_tables(self.phase, self.phase_params, self.b, self.wavelength_nm)
+
+    def beam_wavenumber(self, kx, kz) -> np.ndarray:
+        """``q = |(k_par / mu0, k_perp)|`` (rad/m) of horizontal wavevectors ``(kx, kz)``."""
+        ux, uz = self.sun_xz
+        kx, kz = np.asarray(kx, dtype=float), np.asarray(kz, dtype=float)
+        return np.hypot((kx * ux + kz * uz) / self.mu0, kz * ux - kx * uz)
 
     def log_gain(self, kx, kz, depth_m) -> np.ndarray:
         """``ln G`` at horizontal wavevectors ``(kx, kz)`` (rad/m) and depth
@@ -230,8 +248,7 @@ class ScatterTransfer:
         if not (np.isfinite(d) and d >= 0):
             raise AquaspecError(f"depth {depth_m!r} m; accepted: finite, >= 0")
         s = d / self.mu0
-        ux, uz = self.sun_xz
-        q = np.hypot((kx * ux + kz * uz) / self.mu0, kz * ux - kx * uz)
+        q = self.beam_wavenumber(kx, kz)
         v, bq = self.table()
         qs = np.where(q > 0, q, 1.0)
         along = np.where(q > 0, np.interp(q * s, v, bq) / qs, bq[1] / v[1] * s)
@@ -244,13 +261,21 @@ class ScatterTransfer:
 
 
 @lru_cache(maxsize=16)
-def _table(phase, phase_params, b, wavelength_nm):
+def _band_tables(phase, phase_params, b, wavelength_nm):
     v = table_wavenumbers()
     p = displacement_transform(phase, v, b=np.array(b), wavelength_nm=np.array(wavelength_nm),
                                **dict(phase_params))
-    bq = np.mean(np.asarray(b)[:, None] * cumulative(v, p), axis=0)
+    bq = np.asarray(b)[:, None] * cumulative(v, p)
     bq.setflags(write=False)
     return v, bq
+
+
+@lru_cache(maxsize=16)
+def _table(phase, phase_params, b, wavelength_nm):
+    v, bq = _band_tables(phase, phase_params, b, wavelength_nm)
+    mean = np.mean(bq, axis=0)
+    mean.setflags(write=False)
+    return v, mean
 
 
 def scatter_slices(level0, depths, tile_m: float, transfer: ScatterTransfer) -> np.ndarray:
@@ -282,4 +307,86 @@ def slice_gains(transfer: ScatterTransfer, depths: tuple, n: int, tile_m: float)
     out = np.exp(np.minimum(np.stack([transfer.log_gain(kx, kz, d) for d in depths]),
                             LOG_GAIN_LIMIT)).astype(np.float32)
     out.setflags(write=False)
+    return out
+
+
+
+#: Log-spaced wavenumber bins over which a slice's power is summed for
+#: :func:`band_scales` and :func:`contrast_scale` (``G`` at each bin's mean ``q``).
+SCALE_BINS = 512
+
+
+def _binned_power(level0, tile_m: float, transfer: ScatterTransfer):
+    """``(q, power)``: the mean beam wavenumber ``q`` (B,) of each occupied
+    bin and each slice's power in it (K, B), the mean left out (Parseval on
+    the real FFT: its columns held once for two counted twice)."""
+    c = np.asarray(level0, dtype=np.float32)
+    if c.ndim != 3 or c.shape[1] != c.shape[2]:
+        raise AquaspecError(f"caustic slices of shape {c.shape}; accepted: (K, n, n)")
+    n = c.shape[-1]
+    power = np.abs(sfft.rfft2(c, workers=workers())).astype(float) ** 2
+    power[:, :, 1:(n + 1) // 2] *= 2.0
+    q = transfer.beam_wavenumber(*half_wavenumbers(n, float(tile_m)))
+    pos = q > 0
+    edges = np.geomspace(q[pos].min(), q[pos].max() * (1.0 + 1e-9), SCALE_BINS + 1)
+    idx = np.where(pos, np.clip(np.searchsorted(edges, q, side="right") - 1, 0,
+                                SCALE_BINS - 1), SCALE_BINS).ravel()
+    count = np.bincount(idx, minlength=SCALE_BINS + 1)[:SCALE_BINS]
+    keep = count > 0
+    q_mean = np.bincount(idx, weights=q.ravel(), minlength=SCALE_BINS + 1)[:SCALE_BINS][keep]
+    per = np.stack([np.bincount(idx, weights=p.ravel(), minlength=SCALE_BINS + 1)[:SCALE_BINS]
+                    for p in power])
+    return q_mean / count[keep], per[:, keep]
+
+
+def _check_depths(level0, depths):
+    depths = np.asarray(depths, dtype=float)
+    if np.ndim(level0) != 3 or np.shape(level0)[0] != depths.size:
+        raise AquaspecError(f"caustic slices of shape {np.shape(level0)} at {depths.size} "
+                            "depths; accepted: (K, n, n) with K depths")
+    return depths
+
+
+def band_scales(level0, depths, tile_m: float, transfer: ScatterTransfer) -> np.ndarray:
+    """Per slice and band (K, n_bands): the standard deviation of ``level0``
+    (K, n, n; before any transfer) carried by each band's own transfer over
+    that carried by the bands' shared one (:meth:`ScatterTransfer.log_gain`,
+    the mean exponent). The renderer's texture holds the shared factor
+    ``C``; band ``i`` reads ``1 + s_i (C - 1)``, as contrasted as its own
+    transfer would make it (its pattern blurred as the bands' mean: the
+    shapes of ``G`` differ less than their levels). Sums of the power over
+    :data:`SCALE_BINS` wavenumber bins; the factor's clip at
+    +-:data:`FACTOR_LIMIT` is not applied; 1 where the shared transfer
+    leaves no fluctuation."""
+    depths = _check_depths(level0, depths)
+    q, power = _binned_power(level0, tile_m, transfer)
+    v, bq = transfer.band_tables()
+    gap = np.asarray(transfer.beam_gap)
+    out = np.ones((depths.size, len(transfer.b)))
+    for k, d in enumerate(depths):
+        s = float(d) / transfer.mu0
+        lg = np.minimum(np.stack([np.interp(q * s, v, row) / q for row in bq])
+                        - gap[:, None] * s, LOG_GAIN_LIMIT)
+        shared = np.minimum(np.mean(lg, axis=0), LOG_GAIN_LIMIT)
+        ref = np.sum(power[k] * np.exp(2.0 * shared))
+        if ref > 0:
+            out[k] = np.sqrt(np.sum(power[k] * np.exp(2.0 * lg), axis=1) / ref)
+    return out
+
+
+def contrast_scale(level0, depths, tile_m: float, transfer: ScatterTransfer,
+                   reference: ScatterTransfer) -> np.ndarray:
+    """Per slice (K,), the standard deviation of ``level0`` (K, n, n; before
+    any transfer) carried by ``transfer`` over that carried by ``reference``
+    (both their bands' mean exponents; binned as :func:`band_scales`; the
+    same beam direction). 1 where ``reference`` leaves no fluctuation."""
+    depths = _check_depths(level0, depths)
+    q, power = _binned_power(level0, tile_m, reference)
+    out = np.ones(depths.size)
+    for k, d in enumerate(depths):
+        lg = [np.minimum(t.log_gain(-q * t.sun_xz[1], q * t.sun_xz[0], d), LOG_GAIN_LIMIT)
+              for t in (transfer, reference)]
+        ref = np.sum(power[k] * np.exp(2.0 * lg[1]))
+        if ref > 0:
+            out[k] = np.sqrt(np.sum(power[k] * np.exp(2.0 * lg[0])) / ref)
     return out

@@ -34,6 +34,14 @@ What aquaspec renders there, with nothing fitted to these data:
 
       CV = std(E_beam C) / (E_beam mean(C) + E_diffuse).
 
+Each wavelength's factor is carried by its own band's transfer (``rendered``:
+what a one-band render, or a renderer with a factor per band, gives). A
+default render (:data:`RENDER_BANDS` bands) holds one factor for all its
+bands, carried by their mean transfer (``rendered_shared``); with each
+band's contrast scale per slice on it (``rendered_scaled``,
+:func:`aquaspec.light.caustic_scatter.contrast_scale`) it is as contrasted
+as the band's own.
+
 Darecki's CV is of a time series at one point; this is the spread over the
 tile at one instant (the same statistics for a stationary, homogeneous sea),
 pooled over several independent seas (:data:`DEFAULT_SEEDS`,
@@ -54,7 +62,8 @@ from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.io.png import write_figure
 from aquaspec.light import caustics
-from aquaspec.light.caustic_scatter import ScatterTransfer
+from aquaspec.light.caustic_sample import slice_interp
+from aquaspec.light.caustic_scatter import ScatterTransfer, contrast_scale
 from aquaspec.light.sky import surface_light
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import Water, get_water
@@ -73,6 +82,9 @@ COLLECTOR_M = 0.0025
 DEFAULT_SEEDS = tuple(range(8))
 #: The width of each rendered band around the measured wavelength, nm.
 BAND_WIDTH_NM = 10.0
+#: The renderer's default bands (:func:`aquaspec.rendering.api.render`): its
+#: caustic texture holds one factor for them all, the transfer's band mean.
+RENDER_BANDS, RENDER_RANGE_NM = 16, (400.0, 700.0)
 #: The acceptance of issue 34: within 30 % at every depth and wavelength.
 TOLERANCE = 0.30
 SOURCE = ("Darecki, Stramski & Sokolski 2011, J. Geophys. Res. 116, C00H09, "
@@ -99,6 +111,15 @@ def _setup(water, light, wavelength_nm, waves):
     return SpectralSetup(water, get_sensor("human"), light,
                          Bands(1, wavelength_nm - half, wavelength_nm + half),
                          ms_model="lightfield", waves=waves)
+
+
+def render_transfer(water, light, sea) -> ScatterTransfer:
+    """The transfer into the scattered light that a default render
+    (:data:`RENDER_BANDS` bands) of ``water`` under ``light`` with ``sea``
+    puts on its one caustic texture (the setup's own, the bands' mean)."""
+    setup = SpectralSetup(water, get_sensor("human"), light, Bands(RENDER_BANDS, *RENDER_RANGE_NM),
+                          ms_model="lightfield", waves=sea)
+    return setup.sun_inputs().caustics.scatter
 
 
 def factor_stats(cmap, depths, *, points: int, collector_m: float = COLLECTOR_M):
@@ -154,11 +175,18 @@ def fluctuation_check(*, tile_m: float = 8.0, grid: int = 256, seeds=DEFAULT_SEE
     if not seas:
         raise AquaspecError(f"seeds {seeds!r}; accepted: at least one sea's seed")
     shape = (depths.size, wls.size)
-    out = {k: np.zeros(shape) for k in ("rendered", "unscattered", "beam_share")}
+    out = {k: np.zeros(shape) for k in ("rendered", "unscattered", "beam_share",
+                                         "rendered_shared", "rendered_scaled")}
     per_seed = np.zeros((len(seas),) + shape)
     bands = []
     points = 2 * int(map_kwargs.get("texels") or grid)
     plain = {}
+    # What a default render puts on its one texture (the bands' mean transfer),
+    # read as it is and with each wavelength's contrast scale per slice.
+    shared = render_transfer(water, light, seas[0])
+    shared_stats = [factor_stats(caustics.cached_caustic_map(
+        sea, sun.elevation_deg, sun.azimuth_deg, n_water=sun.n_water, scatter=shared,
+        **map_kwargs), depths, points=points) for sea in seas]
     for j, wl in enumerate(wls):
         setup = _setup(water, light, float(wl), None)
         tables = setup.lightfield_tables()
@@ -171,20 +199,26 @@ def fluctuation_check(*, tile_m: float = 8.0, grid: int = 256, seeds=DEFAULT_SEE
         scatter = ScatterTransfer.for_beam(b=bw.b, c=bw.c, c_sun=inputs.c_sun,
                                            wavelength_nm=setup.bands.centers_nm,
                                            to_sun=sun.to_sun, phase=setup.phase)
-        stats, stats_plain = [], []
+        stats, stats_plain, stats_scaled = [], [], []
         for i, sea in enumerate(seas):
             cmap = caustics.cached_caustic_map(sea, sun.elevation_deg, sun.azimuth_deg,
                                                n_water=sun.n_water, scatter=scatter,
                                                **map_kwargs)
+            raw = caustics.cached_caustic_map(sea, sun.elevation_deg, sun.azimuth_deg,
+                                              n_water=sun.n_water, **map_kwargs)
             if i not in plain:
-                plain[i] = factor_stats(caustics.cached_caustic_map(
-                    sea, sun.elevation_deg, sun.azimuth_deg, n_water=sun.n_water,
-                    **map_kwargs), depths, points=points)
+                plain[i] = factor_stats(raw, depths, points=points)
             stats.append(factor_stats(cmap, depths, points=points))
             stats_plain.append(plain[i])
             per_seed[i, :, j] = beam * stats[-1][1] / (beam * stats[-1][0] + diffuse)
+            scale = slice_interp(contrast_scale(raw.levels[0], raw.depths, sea.tile_m,
+                                                scatter, shared), depths, raw.max_depth)
+            m, sd = shared_stats[i]
+            stats_scaled.append((1.0 + scale * (m - 1.0), scale * sd))
         out["rendered"][:, j] = pooled_cv(beam, diffuse, *zip(*stats))
         out["unscattered"][:, j] = pooled_cv(beam, diffuse, *zip(*stats_plain))
+        out["rendered_shared"][:, j] = pooled_cv(beam, diffuse, *zip(*shared_stats))
+        out["rendered_scaled"][:, j] = pooled_cv(beam, diffuse, *zip(*stats_scaled))
         out["beam_share"][:, j] = beam / (beam + diffuse)
         bands.append({"wavelength_nm": float(wl), "a_per_m": float(bw.a[0]),
                       "b_per_m": float(bw.b[0]), "c_per_m": float(bw.c[0]),
@@ -209,6 +243,9 @@ def fluctuation_check(*, tile_m: float = 8.0, grid: int = 256, seeds=DEFAULT_SEE
         "measured": measured.tolist(),
         **{k: v.tolist() for k, v in out.items()},
         "ratio": ratio.tolist(), "ratio_unscattered": (out["unscattered"] / measured).tolist(),
+        "ratio_shared": (out["rendered_shared"] / measured).tolist(),
+        "ratio_scaled": (out["rendered_scaled"] / measured).tolist(),
+        "shared_transfer": shared.describe(),
         "tolerance": TOLERANCE,
         "within_tolerance": bool(np.all(np.abs(ratio - 1.0) <= TOLERANCE)),
         "seconds": time.perf_counter() - t0,
@@ -217,7 +254,9 @@ def fluctuation_check(*, tile_m: float = 8.0, grid: int = 256, seeds=DEFAULT_SEE
 
 def format_fluctuations(res: dict) -> str:
     """The CV table: per wavelength the measured row, the rendered one with
-    the transfer into the scattered light, and the unscattered beam's."""
+    the transfer into the scattered light, and the unscattered beam's; the
+    ratios of a default render's one shared factor and of that factor
+    scaled per band (:func:`aquaspec.light.caustic_scatter.contrast_scale`)."""
     d = res["depth_m"]
     lines = [f"CV of downwelling irradiance vs {res['source']}",
              f"wind {res['conditions']['wind_m_s']} m/s, sun zenith "
@@ -228,7 +267,11 @@ def format_fluctuations(res: dict) -> str:
              "|---|" + "---|" * len(d)]
     for j, wl in enumerate(res["wavelength_nm"]):
         for key, label in (("measured", "measured"), ("rendered", "aquaspec"),
-                           ("unscattered", "beam only"), ("ratio", "aquaspec / measured")):
+                           ("unscattered", "beam only"), ("ratio", "aquaspec / measured"),
+                           ("ratio_shared", f"{RENDER_BANDS} bands, one factor / measured"),
+                           ("ratio_scaled", f"{RENDER_BANDS} bands, scaled / measured")):
+            if key not in res:
+                continue
             row = [r[j] for r in res[key]]
             lines.append(f"| {label}, {wl:g} nm | " + " | ".join(f"{x:.3f}" for x in row) + " |")
             if key == "rendered" and len(res["map"]["seeds"]) > 1:
