@@ -55,6 +55,7 @@ from aquaspec.rendering.camera_model import camera_view, through_camera
 from aquaspec.rendering.lamps import add_gpu_lamps, gpu_lamp_light, lamp_params, numpy_lamp_terms
 from aquaspec.rendering.layers import black_gbuffer, image_layers
 from aquaspec.rendering.limits import check_render_memory
+from aquaspec.rendering.marine_snow import add_marine_snow, parse_marine_snow
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.result import RenderResult
 from aquaspec.rendering.setup import SpectralSetup, render_surface
@@ -99,7 +100,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            size=(1280, 720), scene=None, camera: Camera | None = None, mesh=None, albedo=None,
            rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
            sun_azimuth_deg=None, sun_shadow_map: int | None = None, waves=None,
-           wave_time: float | None = None, camera_model=None,
+           wave_time: float | None = None, camera_model=None, marine_snow=None,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
            ms_model: str = DEFAULT_MS_MODEL, phase: str = "petzold",
            forward_cone_deg: float | None = None, cone_spread: bool | None = None,
@@ -225,6 +226,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         Called with a short message at each stage.
     camera_model : str or aquaspec.optics.presets.CameraModel, optional
         A real camera's port, lens and noisy sensor (:mod:`aquaspec.rendering.camera_model`).
+    marine_snow : None, density per m^3, "DENSITY[,SEED]" or MarineSnow
+        Particles drawn over the image (:mod:`aquaspec.rendering.marine_snow`; off by default).
     renderer : Renderer, optional
         A :class:`aquaspec.rendering.renderer.Renderer` of the image's size and
         band count to shade with (``backend="gpu"``): kept by the caller
@@ -235,6 +238,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     if backend not in BACKENDS:
         raise AquaspecError(f"backend {backend!r} is unknown; accepted: {', '.join(BACKENDS)}")
     depth = check_depth(depth_m)
+    snow = parse_marine_snow(marine_snow)
     width, height = parse_size(size)
     if rgbd is None:
         check_render_memory(bands, width, height, ms_model=ms_model, backend=backend)
@@ -267,6 +271,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     if at_waterline(view.camera):
         linear, radiance = waterline_sky(setup, view.camera, shaded.linear, shaded.radiance)
         shaded = dataclasses.replace(shaded, linear=linear, radiance=radiance)
+    shaded, snow_params = add_marine_snow(snow, shaded, setup, view, optics, backend,
+                                          say, above=above_water(view.camera))
     _check_finite_image(shaded.linear)
     layer_set = _layers(setup, view, shaded, backend, say) if layers else None
     shaded, raw, optics_params = through_camera(optics, shaded, setup, view, say)
@@ -276,7 +282,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     params = _params(setup, depth, view, backend, info, t0, white_card_info, map_size,
                      layer_set is not None)
     return RenderResult(display, shaded.linear, shaded.radiance, shaded.gbuffer,
-                        {**params, **optics_params, **above_params(view)}, layer_set, raw)
+                        {**params, **optics_params, **above_params(view), **snow_params},
+                        layer_set, raw)
 
 
 def _spectral_setup(*, water, source, sensor, camspec, bands, wavelength_range, light,
