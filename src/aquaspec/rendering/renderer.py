@@ -29,6 +29,7 @@ from aquaspec.gpu.passes.caustics import CausticLoopPass
 from aquaspec.gpu.passes.sun import SunPass
 from aquaspec.light.caustics import DEFAULT_LOOP_FRAMES, caustic_loop
 from aquaspec.rendering.live_camera import LiveCamera
+from aquaspec.rendering.marine_snow import LiveSnow, parse_marine_snow
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera, check_size
 from aquaspec.scene.gbuffer import GBuffer
@@ -104,6 +105,8 @@ class Renderer:
         self._shown_gbuffer = None  # the host G-buffer whose textures the frames read
         #: Live frames through a camera model (:meth:`set_camera_model`), or None.
         self.live_camera = None
+        #: Marine snow over the live frames (:meth:`set_marine_snow`), or None.
+        self.snow = None
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         """Upload ``setup``'s medium for a scene of ``materials`` to the shading
@@ -374,6 +377,19 @@ class Renderer:
         if metered_green is not None:
             self.live_camera.metered_green = metered_green
 
+    def set_marine_snow(self, snow, time_s: float | None = None) -> None:
+        """Draw marine snow over :meth:`encode_frame`'s frames (a
+        :class:`aquaspec.scene.particles.MarineSnow` or a ``--marine-snow`` spec;
+        None: none), its particles drifted to ``time_s`` seconds
+        (:class:`aquaspec.rendering.marine_snow.LiveSnow`)."""
+        if snow is None:
+            self.snow = None
+            return
+        if self.snow is None or self.snow.snow != parse_marine_snow(snow):
+            self.snow = LiveSnow(snow, self.deferred.device, self.width, self.height)
+        if time_s is not None:
+            self.snow.time_s = float(time_s)
+
     def set_display(self, settings: dict) -> None:
         """Display settings (``exposure_ev``, ``white_balance_gains``, ``matrix``,
         ``tonemap``, as :func:`aquaspec.colour.display.display_settings` gives
@@ -415,7 +431,8 @@ class Renderer:
         field ``"sun shadow"``, ``"sun froxels"``, ``"shading+display"`` (the sun
         added and the display fused in it), with the seeds' model ``"shading"``,
         ``"sun shadow"``, ``"sun"``, ``"display"``; with :meth:`set_camera_model`
-        the shading unfused, then ``"camera+display"``) and returns
+        the shading unfused, then ``"camera+display"``; with :meth:`set_marine_snow`
+        the shading unfused, ``"particles"``, then ``"display"``) and returns
         the encoder for the next one: a benchmark submits and times each pass
         with it. Returns the encoder last returned by ``split`` (``encoder``
         itself without it).
@@ -446,11 +463,21 @@ class Renderer:
             encoder = split("geometry", encoder)
         if sun is not None and self._advance_waves(encoder, setup):
             encoder = split("waves", encoder)
-        if live is not None:
+        if live is not None or self.snow is not None:
             encoder = self.encode_shading(encoder, sun, camera, scene, split=split)
+            if self.snow is not None:
+                self.snow.encode(encoder, shading.rgb_buffer,
+                                 self.deferred.gbuffer.textures["surface"], camera, setup)
+                encoder = split("particles", encoder)
+        if live is not None:
             live.encode(encoder, shading.rgb_buffer, self.deferred.gbuffer, sensor_camera, setup)
             self._last_display = live.display
             return split("camera+display", encoder)
+        if self.snow is not None:
+            self._display.use_input(shading.rgb_buffer)
+            self._display.encode(encoder)
+            self._last_display = self._display
+            return split("display", encoder)
         if sun is None or self._use_lightfield:
             # The sun's light in the shading pass's band loop, the display fused.
             encoder = self.encode_shading(encoder, sun, camera, scene, split=split,
