@@ -23,6 +23,7 @@ from aquaspec.io.save import save_image
 from aquaspec.io.sidecar import sidecar_path
 from aquaspec.light.lamp import PRESETS, SPEC_KEYS, parse_lamps
 from aquaspec.optics.presets import CAMERA_MODELS, get_camera_model
+from aquaspec.scene.particles import parse_marine_snow
 from aquaspec.scene.camera import DEFAULT_LOOK_DOWN_DEG, camera_above, parse_size
 from aquaspec.scene.seabed import Seabed
 
@@ -113,6 +114,10 @@ def register(sub):
                         "dslr-flat-port:iso=3200,exposure=0.01,seed=1,dof=off (default: a "
                         "perfect pinhole; docs/camera-model.md); --linear then writes the "
                         "noisy raw frame")
+    p.add_argument("--marine-snow", metavar="DENSITY[,SEED][,KEY=VALUE...]",
+                   help="suspended particles drawn over the image: DENSITY per m^3 (e.g. 300), "
+                        "seeded; keys albedo, range (m), slope, dmin, dmax (mm), blur (px), "
+                        "current (vx:vy:vz m/s) (default: none; docs/marine-snow.md)")
     p.add_argument("--backend", default="gpu", choices=("gpu", "numpy"),
                    help="gpu (WGSL through wgpu) or numpy (the slow reference)")
     p.add_argument("-o", "--output", required=True, metavar="OUT.png", help="output PNG")
@@ -146,6 +151,7 @@ def run(args):
     waves = waves_from(args)
     lamps = parse_lamps(args.lamp)     # bad specs fail before any rendering
     camera_model = get_camera_model(args.camera_model)
+    marine_snow = parse_marine_snow(args.marine_snow)
     camera = None
     if args.camera_height is not None:
         if rgbd is not None or (args.mesh and args.camera_height > 0):
@@ -170,7 +176,7 @@ def run(args):
                  exposure=args.exposure, white_balance=args.white_balance, tonemap=args.tonemap,
                  colour_matrix=None if args.colour_matrix == "none" else "auto",
                  layers=bool(args.layers), backend=args.backend, progress=progress,
-                 camera_model=camera_model, camera=camera)
+                 camera_model=camera_model, camera=camera, marine_snow=marine_snow)
     files = save_image(args.output, res.display, res.linear_rgb if args.linear else None,
                        res.params, linear_path=args.linear, layers=res.layers,
                        layers_path=args.layers)

@@ -170,7 +170,9 @@ def parse_marine_snow(spec) -> MarineSnow | None:
                                     f"{', '.join(SPEC_KEYS)}")
             kw[SPEC_KEYS[key]] = (tuple(float(v) for v in value.split(":"))
                                   if key == "current" else float(value))
-    except ValueError:
+    except ValueError as exc:
+        if isinstance(exc, AquaspecError):
+            raise
         raise AquaspecError(f"marine snow {spec!r}; accepted: 'DENSITY[,SEED][,key=value...]' "
                             "with numbers, e.g. '200,7' or '200,7,albedo=0.4,current=0.1:0:0'"
                             ) from None
