@@ -10,7 +10,10 @@ A mesh's reflectance is either one material (``material``: an index into
 per-vertex UVs, or per-vertex colours. Those colours are stored as *linear*
 RGB in [0, 1]; the geometry pass turns them into Jakob-Hanika sigmoid
 coefficients once per texel or vertex (:meth:`Mesh.texture_sigmoid`) and
-interpolates the coefficients.
+interpolates the coefficients. A texture is mip-mapped (the chain is built
+in linear RGB and each level fitted: :meth:`Mesh.texture_mips`). Any mesh
+with ``uv`` can also carry a tangent-space normal map (``normal_map``,
+:mod:`aquaspec.scene.texture`), which perturbs the shading normal.
 
 ``Scene.materials`` holds reflectance objects. Only a duck type is assumed
 here: an object with a ``name`` and either ``rgb`` (a linear albedo triple
@@ -28,6 +31,7 @@ from aquaspec.colour.reflectance import fit_sigmoid_image
 from aquaspec.colour.srgb import srgb_decode
 from aquaspec.errors import AquaspecError
 from aquaspec.scene.camera import Camera
+from aquaspec.scene.texture import mip_chain, vertex_tangents
 
 
 def image_to_linear_rgb(image, *, is_srgb: bool = True, what: str = "image") -> np.ndarray:
@@ -122,6 +126,10 @@ class Mesh:
         Linear per-vertex colours in [0, 1] (scanned meshes), interpolated
         over each triangle.
     name : str
+    normal_map : (H, W, 3) float, optional
+        Tangent-space unit normals (glTF convention: +x along u, +y along v,
+        +z out of the surface; decode images with
+        :func:`aquaspec.scene.texture.decode_normal_map`). Needs ``uv``.
     """
 
     vertices: np.ndarray
@@ -132,6 +140,7 @@ class Mesh:
     texture: np.ndarray | None = None
     vertex_rgb: np.ndarray | None = None
     name: str = "mesh"
+    normal_map: np.ndarray | None = None
 
     def __post_init__(self):
         self.vertices = _as_array(self.vertices, "vertices", (3,), np.float64)
@@ -175,6 +184,20 @@ class Mesh:
                 raise AquaspecError(f"mesh {self.name!r} has a texture but no uv coordinates")
             self.texture = image_to_linear_rgb(self.texture, is_srgb=False,
                                                what=f"texture of mesh {self.name!r}")
+        if self.normal_map is not None:
+            if self.uv is None:
+                raise AquaspecError(f"mesh {self.name!r} has a normal map but no uv coordinates")
+            nm = np.asarray(self.normal_map, dtype=np.float32)
+            if nm.ndim != 3 or nm.shape[2] != 3 or min(nm.shape[:2]) < 1 \
+                    or not np.all(np.isfinite(nm)):
+                raise AquaspecError(f"normal map of mesh {self.name!r} has shape {nm.shape}; "
+                                    "expected finite (H, W, 3) tangent-space normals")
+            length = np.linalg.norm(nm, axis=-1, keepdims=True)
+            if np.any(length < 1e-6) or np.any(nm[..., 2] < 0):
+                raise AquaspecError(f"normal map of mesh {self.name!r} must hold non-zero "
+                                    "vectors with z >= 0 (decode images with "
+                                    "aquaspec.scene.texture.decode_normal_map)")
+            self.normal_map = nm / length
         if self.vertex_rgb is not None:
             c = _as_array(self.vertex_rgb, "vertex_rgb", (3,), np.float64)
             if len(c) != len(self.vertices) or not np.all((c >= 0) & (c <= 1)):
@@ -197,11 +220,42 @@ class Mesh:
         return cls(v[f.reshape(-1)], np.arange(3 * len(f)).reshape(-1, 3), n, **kwargs)
 
     def texture_sigmoid(self) -> np.ndarray:
-        """Jakob-Hanika coefficients of every texel, (H, W, 3) float32 (cached)."""
-        cached = getattr(self, "_texture_sigmoid", None)
+        """Jakob-Hanika coefficients of every texel, (H, W, 3) float32 (mip level 0)."""
+        return self.texture_mips()[0]
+
+    def texture_mips(self) -> list:
+        """Jakob-Hanika coefficients of each mip level of the texture, level 0
+        first, each (h, w, 3) float32 (cached): the chain is box-filtered in
+        linear RGB (:func:`aquaspec.scene.texture.mip_chain`), then every
+        level is fitted."""
+        cached = getattr(self, "_texture_mips", None)
         if cached is None or cached[0] is not self.texture:
-            cached = (self.texture, fit_sigmoid_image(self.texture).astype(np.float32))
-            self._texture_sigmoid = cached
+            levels = [fit_sigmoid_image(level).astype(np.float32)
+                      for level in mip_chain(self.texture)]
+            cached = (self.texture, levels)
+            self._texture_mips = cached
+        return cached[1]
+
+    def normal_mips(self) -> list:
+        """Mip levels of the normal map (averaged vectors, not renormalised),
+        each (h, w, 3) float32 (cached)."""
+        cached = getattr(self, "_normal_mips", None)
+        if cached is None or cached[0] is not self.normal_map:
+            cached = (self.normal_map, [lv.astype(np.float32)
+                                        for lv in mip_chain(self.normal_map)])
+            self._normal_mips = cached
+        return cached[1]
+
+    def tangents(self) -> np.ndarray:
+        """Per-vertex unit tangents with handedness (V, 4) from the uv
+        (:func:`aquaspec.scene.texture.vertex_tangents`); needs ``uv``."""
+        if self.uv is None:
+            raise AquaspecError(f"mesh {self.name!r} has no uv coordinates, so no tangents")
+        cached = getattr(self, "_tangents", None)
+        if cached is None or cached[0] is not self.vertices:
+            cached = (self.vertices, vertex_tangents(self.vertices, self.faces, self.normals,
+                                                     self.uv))
+            self._tangents = cached
         return cached[1]
 
     def vertex_sigmoid(self) -> np.ndarray:
@@ -233,7 +287,7 @@ class Mesh:
             # A mirror flips the winding; keep counter-clockwise front faces.
             faces = faces[:, ::-1]
         return Mesh(v, faces, n, self.material, self.uv, self.texture, self.vertex_rgb,
-                    self.name)
+                    self.name, self.normal_map)
 
 
 @dataclass

@@ -7,8 +7,9 @@ their projected bounding boxes): the distance ``S`` from the camera centre to
 the first surface (``inf`` for open water), the world normal turned to the
 camera's side of the triangle, and the material index, or
 :data:`~aquaspec.scene.gbuffer.PER_PIXEL` with the Jakob-Hanika sigmoid
-coefficients for textured (:func:`bilinear_repeat`) and vertex-coloured
-meshes (:func:`reflectance_mode`). The renderer's NumPy backend and the
+coefficients for textured (mip-mapped, trilinear:
+:mod:`aquaspec.scene.texture`) and vertex-coloured meshes
+(:func:`reflectance_mode`); a normal map perturbs the normal. The renderer's NumPy backend and the
 validation use it; the tests hold the geometry pass against it.
 """
 
@@ -20,7 +21,8 @@ from aquaspec.errors import AquaspecError
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
 from aquaspec.scene.mesh import Mesh, Scene
-from aquaspec.numerics import bilinear_blend, repeat_cell
+from aquaspec.scene.texture import (bilinear_repeat, mip_lod, perturb_normals,
+                                    quad_uv_differences, sample_trilinear)
 
 #: Reflectance modes of a mesh: one material, a texture of sigmoid
 #: coefficients, or sigmoid coefficients per vertex.
@@ -46,14 +48,10 @@ def check_scene(scene, camera) -> None:
     scene.validate()
 
 
-def bilinear_repeat(image, uv):
-    """Bilinear sample of ``image`` (H, W, C) at ``uv`` (N, 2) with repeat wrapping,
-    texel centres at half-integers, v up: as raster.wgsl samples a mesh's texture."""
-    h, w = image.shape[:2]
-    xa, xb, fx = repeat_cell(uv[:, 0] * w - 0.5, w)
-    ya, yb, fy = repeat_cell((1.0 - uv[:, 1]) * h - 0.5, h)
-    return bilinear_blend(image[ya, xa], image[ya, xb], image[yb, xa], image[yb, xb],
-                          fy[:, None], fx[:, None])
+# bilinear_repeat (one mip level's filter) lives in aquaspec.scene.texture and is
+# re-exported here for older callers.
+__all__ = ["MODE_MATERIAL", "MODE_TEXTURE", "MODE_VERTEX", "RAYCAST_TILE", "bilinear_repeat",
+           "check_scene", "raycast_gbuffer", "reflectance_mode"]
 
 
 #: Side of the square pixel tiles :func:`raycast_gbuffer` bins triangles into.
@@ -213,7 +211,19 @@ def raycast_gbuffer(scene: Scene, camera: Camera, *, max_elements: int = 2_000_0
         tri = mesh.vertices[f]
         g = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         g = np.where((np.einsum("ij,ij->i", g, dirs[sel]) > 0)[:, None], -g, g)
-        n = np.where((np.einsum("ij,ij->i", n, g) < 0)[:, None], -n, n)
+        # The side is decided by the vertex normal; a normal map's tilt follows it.
+        flip = np.einsum("ij,ij->i", n, g) < 0
+        if mesh.uv is not None and (mesh.texture is not None or mesh.normal_map is not None):
+            duv_dx, duv_dy = quad_uv_differences(tri, mesh.uv[f], camera, sel // camera.width,
+                                                 sel % camera.width)
+            uv = interp(mesh.uv)
+
+            def trilinear(levels):
+                lod = mip_lod(duv_dx, duv_dy, levels[0].shape[:2], len(levels))
+                return sample_trilinear([lv.astype(np.float64) for lv in levels], uv, lod)
+        if mesh.normal_map is not None:
+            n = perturb_normals(n, interp(mesh.tangents()), trilinear(mesh.normal_mips()))
+        n = np.where(flip[:, None], -n, n)
         normal[sel] = n
         mode = reflectance_mode(mesh)
         if mode == MODE_MATERIAL:
@@ -221,8 +231,7 @@ def raycast_gbuffer(scene: Scene, camera: Camera, *, max_elements: int = 2_000_0
         else:
             material[sel] = PER_PIXEL
             if mode == MODE_TEXTURE:
-                sigmoid[sel] = bilinear_repeat(mesh.texture_sigmoid().astype(np.float64),
-                                                interp(mesh.uv))
+                sigmoid[sel] = trilinear(mesh.texture_mips())
             else:
                 sigmoid[sel] = interp(mesh.vertex_sigmoid().astype(np.float64))
     h, w = camera.height, camera.width

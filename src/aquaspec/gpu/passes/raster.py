@@ -12,8 +12,18 @@ buffer (WGSL: ``raster.wgsl`` beside this module). Per pixel it writes
   its triangle, so the mesh's winding does not matter);
 - the material index, or :data:`~aquaspec.scene.gbuffer.PER_PIXEL` for textured
   and vertex-coloured meshes, whose Jakob-Hanika sigmoid coefficients are
-  fitted once per texel / vertex and interpolated (bilinearly between
-  texels, repeat wrapping; barycentrically between vertices).
+  fitted once per texel / vertex and interpolated (textures: mip-mapped,
+  trilinear with repeat wrapping, the level of detail from the uv's
+  screen-space derivatives, :mod:`aquaspec.scene.texture`; vertex colours:
+  barycentrically);
+- with a tangent-space normal map on the mesh (``Mesh.normal_map``), the
+  normal perturbed by the mip-mapped map in the tangent frame of
+  :meth:`~aquaspec.scene.mesh.Mesh.tangents`.
+
+Textures and normal maps are uploaded with their whole mip chain
+(rgba32float) and filtered by hand with ``textureLoad``, so that no
+``float32-filterable`` feature is needed and the GPU's sums are the NumPy
+reference's.
 
 The targets are in the G-buffer layout of :mod:`aquaspec.gpu.gbuffer`
 (:attr:`RasterPass.targets`, valid after :meth:`RasterPass.encode`):
@@ -61,6 +71,9 @@ _ENTRY = {MODE_MATERIAL: "material", MODE_TEXTURE: "texture", MODE_VERTEX: "vert
 _EXTRA_WORDS = {MODE_MATERIAL: 1, MODE_TEXTURE: 2, MODE_VERTEX: 3}
 #: Bytes per vertex of each mode: position, normal, then the mode's attribute.
 VERTEX_STRIDE = {m: 4 * (6 + k) for m, k in _EXTRA_WORDS.items()}
+#: Words a normal map adds: uv (2 f32, not for the texture mode, which has
+#: them already) and the tangent with its handedness (4 f32).
+_NM_WORDS = {MODE_MATERIAL: 6, MODE_TEXTURE: 4, MODE_VERTEX: 6}
 
 
 def _vertex_data(mesh: Mesh) -> np.ndarray:
@@ -68,10 +81,13 @@ def _vertex_data(mesh: Mesh) -> np.ndarray:
 
     Every mode: position (3 f32), normal (3 f32); then material mode: the
     material index (u32); texture mode: uv (2 f32); vertex mode: the sigmoid
-    coefficients (3 f32).
+    coefficients (3 f32). With a normal map: then uv (2 f32; not repeated in
+    texture mode) and the tangent (4 f32, :meth:`Mesh.tangents`).
     """
     mode = reflectance_mode(mesh)
-    data = np.zeros((len(mesh.vertices), 6 + _EXTRA_WORDS[mode]), dtype=np.float32)
+    k = 6 + _EXTRA_WORDS[mode]
+    nm = mesh.normal_map is not None
+    data = np.zeros((len(mesh.vertices), k + (_NM_WORDS[mode] if nm else 0)), dtype=np.float32)
     data[:, 0:3] = mesh.vertices
     data[:, 3:6] = mesh.normals
     if mode == MODE_MATERIAL:
@@ -80,6 +96,11 @@ def _vertex_data(mesh: Mesh) -> np.ndarray:
         data[:, 6:8] = mesh.uv
     else:
         data[:, 6:9] = mesh.vertex_sigmoid()
+    if nm:
+        if mode != MODE_TEXTURE:
+            data[:, k:k + 2] = mesh.uv
+            k += 2
+        data[:, k:k + 4] = mesh.tangents()
     return data
 
 
@@ -93,9 +114,12 @@ class _Draw:
     its own bind group.
     """
 
-    def __init__(self, device, mode, meshes, bind_group):
+    def __init__(self, device, mode, meshes, bind_group, normal_map=False):
         self.mode = mode
+        self.normal_map = normal_map
         data = [_vertex_data(m) for m in meshes]
+        #: Bytes per vertex (the depth-map passes read the positions).
+        self.stride = 4 * data[0].shape[1]
         offsets = np.cumsum([0] + [len(d) for d in data])[:-1]
         faces = np.concatenate([m.faces + o for m, o in zip(meshes, offsets)])
         self.vertex = device.create_buffer_with_data(
@@ -112,21 +136,24 @@ class _Draw:
         self.bind_group = bind_group
 
 
-def _texture_view(device, mesh: Mesh):
-    coeffs = mesh.texture_sigmoid()
-    h, w = coeffs.shape[:2]
+def _mip_texture_view(device, levels, what):
+    """A rgba32float texture holding the mip chain ``levels`` (each (h, w, 3)), its view."""
+    h, w = levels[0].shape[:2]
     limit = device.limits["max-texture-dimension-2d"]
     if max(h, w) > limit:
-        raise AquaspecError(f"texture of mesh {mesh.name!r} is {w}x{h}; this GPU "
-                            f"accepts textures up to {limit} pixels a side")
-    rgba = np.zeros((h, w, 4), np.float32)
-    rgba[..., :3] = coeffs
+        raise AquaspecError(f"{what} is {w}x{h}; this GPU accepts textures up to {limit} "
+                            "pixels a side")
     tex = device.create_texture(size=(w, h, 1), format=wgpu.TextureFormat.rgba32float,
+                                mip_level_count=len(levels),
                                 usage=wgpu.TextureUsage.TEXTURE_BINDING
                                 | wgpu.TextureUsage.COPY_DST)
-    device.queue.write_texture({"texture": tex, "mip_level": 0, "origin": (0, 0, 0)},
-                               rgba, {"offset": 0, "bytes_per_row": 16 * w,
-                                      "rows_per_image": h}, (w, h, 1))
+    for k, level in enumerate(levels):
+        lh, lw = level.shape[:2]
+        rgba = np.zeros((lh, lw, 4), np.float32)
+        rgba[..., :3] = level
+        device.queue.write_texture({"texture": tex, "mip_level": k, "origin": (0, 0, 0)},
+                                   rgba, {"offset": 0, "bytes_per_row": 16 * lw,
+                                          "rows_per_image": lh}, (lw, lh, 1))
     return tex.create_view()
 
 
@@ -156,10 +183,14 @@ class RasterPass:
         self._cam_layout = device.create_bind_group_layout(entries=[
             {"binding": 0, "visibility": wgpu.ShaderStage.VERTEX | wgpu.ShaderStage.FRAGMENT,
              "buffer": {"type": wgpu.BufferBindingType.uniform}}])
+        # Group 1: the coefficient texture (binding 1) and the normal map
+        # (binding 2) of one mesh, each with its mip chain; a 1x1 stand-in
+        # fills the one a mesh does not have.
         self._tex_layout = device.create_bind_group_layout(entries=[
-            {"binding": 1, "visibility": wgpu.ShaderStage.FRAGMENT,
+            {"binding": b, "visibility": wgpu.ShaderStage.FRAGMENT,
              "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float,
-                         "view_dimension": wgpu.TextureViewDimension.d2}}])
+                         "view_dimension": wgpu.TextureViewDimension.d2}} for b in (1, 2)])
+        self._blank = _mip_texture_view(device, [np.zeros((1, 1, 3), np.float32)], "blank")
         self._pipeline_layouts = {
             False: device.create_pipeline_layout(bind_group_layouts=[self._cam_layout]),
             True: device.create_pipeline_layout(
@@ -176,29 +207,37 @@ class RasterPass:
         self._size = None
         self.targets = {}
 
-    def _pipeline(self, mode, per_pixel):
-        key = (mode, per_pixel)
+    def _pipeline(self, mode, normal_map, per_pixel):
+        key = (mode, normal_map, per_pixel)
         if key in self._pipelines:
             return self._pipelines[key]
         module = self._module
         f32x3, f32x2 = wgpu.VertexFormat.float32x3, wgpu.VertexFormat.float32x2
         extra = {MODE_MATERIAL: wgpu.VertexFormat.uint32, MODE_TEXTURE: f32x2,
                  MODE_VERTEX: f32x3}[mode]
-        name = _ENTRY[mode]
+        name = _ENTRY[mode] + ("_nm" if normal_map else "")
         fragment = f"fs_{name}2" if per_pixel and mode == MODE_MATERIAL else f"fs_{name}"
         targets = [{"format": wgpu.TextureFormat.rgba32uint}]
         if per_pixel:
             targets.append({"format": wgpu.TextureFormat.rgba32float})
+        attributes = [{"format": f32x3, "offset": 0, "shader_location": 0},
+                      {"format": f32x3, "offset": 12, "shader_location": 1},
+                      {"format": extra, "offset": 24, "shader_location": 2}]
+        offset = 4 * (6 + _EXTRA_WORDS[mode])
+        if normal_map:
+            # uv at location 3 (the texture mode has it at 2), the tangent at 4.
+            if mode != MODE_TEXTURE:
+                attributes.append({"format": f32x2, "offset": offset, "shader_location": 3})
+                offset += 8
+            attributes.append({"format": wgpu.VertexFormat.float32x4, "offset": offset,
+                               "shader_location": 4})
+            offset += 16
         pipe = self.device.create_render_pipeline(
             label=f"gbuffer {name}",
-            layout=self._pipeline_layouts[mode == MODE_TEXTURE],
+            layout=self._pipeline_layouts[mode == MODE_TEXTURE or normal_map],
             vertex={"module": module, "entry_point": f"vs_{name}", "buffers": [{
-                "array_stride": VERTEX_STRIDE[mode],
-                "step_mode": wgpu.VertexStepMode.vertex,
-                "attributes": [
-                    {"format": f32x3, "offset": 0, "shader_location": 0},
-                    {"format": f32x3, "offset": 12, "shader_location": 1},
-                    {"format": extra, "offset": 24, "shader_location": 2}]}]},
+                "array_stride": offset, "step_mode": wgpu.VertexStepMode.vertex,
+                "attributes": attributes}]},
             primitive={"topology": wgpu.PrimitiveTopology.triangle_list,
                        "cull_mode": wgpu.CullMode.none},
             depth_stencil={"format": DEPTH_FORMAT,
@@ -211,7 +250,7 @@ class RasterPass:
 
     def draws(self, scene: Scene) -> list:
         """The scene's draw calls (uploaded once per scene): each has ``mode``,
-        ``vertex`` (position at offset 0, :data:`VERTEX_STRIDE` of its mode),
+        ``vertex`` (position at offset 0, ``stride`` bytes a vertex),
         ``index``, ``index_format`` and ``count``. The sun's shadow map
         (:mod:`aquaspec.gpu.passes.sun`) draws the same buffers."""
         self._upload(scene)
@@ -230,14 +269,23 @@ class RasterPass:
         # order within a mode (the depth test decides what is seen, exact ties
         # aside).
         for mode in (MODE_MATERIAL, MODE_VERTEX):
-            meshes = [m for m in scene.meshes if reflectance_mode(m) == mode]
+            meshes = [m for m in scene.meshes if reflectance_mode(m) == mode
+                      and m.normal_map is None]
             if meshes:
                 draws.append(_Draw(self.device, mode, meshes, None))
-        for m in scene.meshes:
-            if reflectance_mode(m) == MODE_TEXTURE:
-                group = self.device.create_bind_group(layout=self._tex_layout, entries=[
-                    {"binding": 1, "resource": _texture_view(self.device, m)}])
-                draws.append(_Draw(self.device, MODE_TEXTURE, [m], group))
+        # Meshes with their own textures: one draw each, grouped by pipeline.
+        own = [m for m in scene.meshes
+               if reflectance_mode(m) == MODE_TEXTURE or m.normal_map is not None]
+        for m in sorted(own, key=lambda m: (reflectance_mode(m), m.normal_map is None)):
+            coeff = (_mip_texture_view(self.device, m.texture_mips(), f"texture of mesh "
+                                       f"{m.name!r}") if m.texture is not None else self._blank)
+            normal = (_mip_texture_view(self.device, m.normal_mips(), f"normal map of mesh "
+                                        f"{m.name!r}") if m.normal_map is not None
+                      else self._blank)
+            group = self.device.create_bind_group(layout=self._tex_layout, entries=[
+                {"binding": 1, "resource": coeff}, {"binding": 2, "resource": normal}])
+            draws.append(_Draw(self.device, reflectance_mode(m), [m], group,
+                               m.normal_map is not None))
         self._draws = draws
         self._scene = scene
         self.per_pixel = any(d.mode != MODE_MATERIAL for d in draws)
@@ -295,9 +343,9 @@ class RasterPass:
         rp.set_bind_group(0, self._cam_group)
         mode = None
         for d in self._draws:
-            if d.mode != mode:
-                mode = d.mode
-                rp.set_pipeline(self._pipeline(mode, self.per_pixel))
+            if (d.mode, d.normal_map) != mode:
+                mode = (d.mode, d.normal_map)
+                rp.set_pipeline(self._pipeline(d.mode, d.normal_map, self.per_pixel))
             if d.bind_group is not None:
                 rp.set_bind_group(1, d.bind_group)
             rp.set_vertex_buffer(0, d.vertex)

@@ -19,9 +19,12 @@
 const PER_PIXEL: u32 = 0xFFFFFFFFu;
 
 @group(0) @binding(0) var<uniform> cam: RasterCamera;
-// Per-texel sigmoid coefficients of a textured mesh (rgba32float is not
-// filterable, so the bilinear filter is done here with textureLoad).
+// Per-texel sigmoid coefficients of a textured mesh and its tangent-space
+// normal map, each with its mip chain (aquaspec.scene.texture). rgba32float
+// is filterable only with the optional float32-filterable feature, so the
+// trilinear filter is done here with textureLoad.
 @group(1) @binding(1) var coeff_tex: texture_2d<f32>;
+@group(1) @binding(2) var normal_tex: texture_2d<f32>;
 
 // Vertex layouts, one per mode (aquaspec.gpu.passes.raster._vertex_data): position,
 // normal, then the mode's own attribute at location 2. Each mode passes on
@@ -37,6 +40,31 @@ struct VsTextureIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
+};
+
+// With a normal map: uv at location 3 (texture mode: 2) and the tangent
+// (xyz, handedness w) at 4.
+struct VsMaterialNmIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) material: u32,
+    @location(3) uv: vec2<f32>,
+    @location(4) tangent: vec4<f32>,
+};
+
+struct VsTextureNmIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(4) tangent: vec4<f32>,
+};
+
+struct VsVertexNmIn {
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) coeff: vec3<f32>,
+    @location(3) uv: vec2<f32>,
+    @location(4) tangent: vec4<f32>,
 };
 
 struct VsVertexIn {
@@ -67,6 +95,32 @@ struct VsVertexOut {
     @location(2) coeff: vec3<f32>,
 };
 
+struct VsMaterialNmOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) rel: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) @interpolate(flat) material: u32,
+    @location(3) uv: vec2<f32>,
+    @location(4) tangent: vec4<f32>,
+};
+
+struct VsTextureNmOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) rel: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(4) tangent: vec4<f32>,
+};
+
+struct VsVertexNmOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) rel: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) coeff: vec3<f32>,
+    @location(3) uv: vec2<f32>,
+    @location(4) tangent: vec4<f32>,
+};
+
 struct FsOut1 {
     @location(0) surface: vec4<u32>,
 };
@@ -94,13 +148,35 @@ fn vs_vertex(v: VsVertexIn) -> VsVertexOut {
                        v.normal, v.coeff);
 }
 
+@vertex
+fn vs_material_nm(v: VsMaterialNmIn) -> VsMaterialNmOut {
+    return VsMaterialNmOut(cam.view_proj * vec4<f32>(v.position, 1.0),
+                           v.position - cam.position, v.normal, v.material, v.uv, v.tangent);
+}
+
+@vertex
+fn vs_texture_nm(v: VsTextureNmIn) -> VsTextureNmOut {
+    return VsTextureNmOut(cam.view_proj * vec4<f32>(v.position, 1.0),
+                          v.position - cam.position, v.normal, v.uv, v.tangent);
+}
+
+@vertex
+fn vs_vertex_nm(v: VsVertexNmIn) -> VsVertexNmOut {
+    return VsVertexNmOut(cam.view_proj * vec4<f32>(v.position, 1.0),
+                         v.position - cam.position, v.normal, v.coeff, v.uv, v.tangent);
+}
+
 fn wrap(i: i32, n: i32) -> i32 {
     return ((i % n) + n) % n;
 }
 
-// Bilinear, repeat-wrapped; uv origin at the bottom-left, texel row 0 at the top.
-fn sample_coeff(uv: vec2<f32>) -> vec3<f32> {
-    let size = vec2<i32>(textureDimensions(coeff_tex));
+// Bilinear on mip level `level`, repeat-wrapped; uv origin at the
+// bottom-left, texel row 0 at the top (aquaspec.scene.texture.bilinear_repeat).
+// The level's size is computed (WebGPU's mip sizes: max(1, size >> level)):
+// lavapipe answered textureDimensions(tex, level) with one lane's level for
+// every lane of a SIMD group whose pixels use different levels.
+fn bilinear_level(tex: texture_2d<f32>, uv: vec2<f32>, level: i32) -> vec3<f32> {
+    let size = max(vec2<i32>(textureDimensions(tex, 0)) >> vec2<u32>(u32(level)), vec2<i32>(1));
     let p = vec2<f32>(uv.x, 1.0 - uv.y) * vec2<f32>(size) - 0.5;
     let p0 = floor(p);
     let f = p - p0;
@@ -109,11 +185,24 @@ fn sample_coeff(uv: vec2<f32>) -> vec3<f32> {
     let x1 = wrap(i0.x + 1, size.x);
     let y0 = wrap(i0.y, size.y);
     let y1 = wrap(i0.y + 1, size.y);
-    let a = textureLoad(coeff_tex, vec2<i32>(x0, y0), 0).xyz;
-    let b = textureLoad(coeff_tex, vec2<i32>(x1, y0), 0).xyz;
-    let c = textureLoad(coeff_tex, vec2<i32>(x0, y1), 0).xyz;
-    let d = textureLoad(coeff_tex, vec2<i32>(x1, y1), 0).xyz;
+    let a = textureLoad(tex, vec2<i32>(x0, y0), level).xyz;
+    let b = textureLoad(tex, vec2<i32>(x1, y0), level).xyz;
+    let c = textureLoad(tex, vec2<i32>(x0, y1), level).xyz;
+    let d = textureLoad(tex, vec2<i32>(x1, y1), level).xyz;
     return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}
+
+// Trilinear: the level of detail from the uv's screen derivatives
+// (aquaspec.scene.texture.mip_lod), bilinear on the two nearest levels.
+fn trilinear(tex: texture_2d<f32>, uv: vec2<f32>, duv_dx: vec2<f32>,
+             duv_dy: vec2<f32>) -> vec3<f32> {
+    let levels = i32(textureNumLevels(tex));
+    let size = vec2<f32>(textureDimensions(tex, 0));
+    let rho = max(length(duv_dx * size), length(duv_dy * size));
+    let lod = select(0.0, clamp(log2(rho), 0.0, f32(levels - 1)), rho > 1.0);
+    let l0 = i32(floor(lod));
+    let l1 = min(l0 + 1, levels - 1);
+    return mix(bilinear_level(tex, uv, l0), bilinear_level(tex, uv, l1), lod - f32(l0));
 }
 
 // The triangle's own plane, from screen-space derivatives of the
@@ -140,10 +229,30 @@ fn oct_encode(n: vec3<f32>) -> vec2<f32> {
     return select(p, (1.0 - abs(p.yx)) * s, n.y < 0.0);
 }
 
-fn surface_out(rel: vec3<f32>, normal: vec3<f32>, material: u32) -> vec4<u32> {
-    let n = facing_normal(rel, normal);
+// The normal perturbed by a normal-map sample m (unnormalised, filtered) in
+// the tangent frame, put on the camera's side as the vertex normal is
+// (aquaspec.scene.texture.perturb_normals).
+fn mapped_normal(rel: vec3<f32>, normal: vec3<f32>, tangent: vec4<f32>,
+                 m: vec3<f32>) -> vec3<f32> {
+    let n = normalize(normal);
+    let t = tangent.xyz - n * dot(n, tangent.xyz);
+    let tl = length(t);
+    let t3 = select(vec3<f32>(0.0), t / tl, tl > 0.0);
+    let b = cross(n, t3) * select(1.0, -1.0, tangent.w < 0.0);
+    let p = t3 * m.x + b * m.y + n * m.z;
+    let pl = length(p);
+    let mapped = select(n, p / pl, pl > 0.0);
+    let facing = facing_normal(rel, n);
+    return select(-mapped, mapped, dot(facing, n) > 0.0);
+}
+
+fn pack_surface(rel: vec3<f32>, n: vec3<f32>, material: u32) -> vec4<u32> {
     return vec4<u32>(bitcast<u32>(length(rel)), bitcast<u32>(n.y), pack2x16snorm(oct_encode(n)),
                      material);
+}
+
+fn surface_out(rel: vec3<f32>, normal: vec3<f32>, material: u32) -> vec4<u32> {
+    return pack_surface(rel, facing_normal(rel, normal), material);
 }
 
 // One fragment entry point per mode (MODE_*) and target set, each its own
@@ -163,7 +272,44 @@ fn fs_material2(in: VsMaterialOut) -> FsOut2 {
 
 @fragment
 fn fs_texture(in: VsTextureOut) -> FsOut2 {
-    return FsOut2(surface_out(in.rel, in.normal, PER_PIXEL), vec4<f32>(sample_coeff(in.uv), 0.0));
+    let dx = dpdxFine(in.uv);
+    let dy = dpdyFine(in.uv);
+    return FsOut2(surface_out(in.rel, in.normal, PER_PIXEL),
+                  vec4<f32>(trilinear(coeff_tex, in.uv, dx, dy), 0.0));
+}
+
+// With a normal map (the derivatives are taken first, in uniform control flow).
+@fragment
+fn fs_material_nm(in: VsMaterialNmOut) -> FsOut1 {
+    let dx = dpdxFine(in.uv);
+    let dy = dpdyFine(in.uv);
+    let n = mapped_normal(in.rel, in.normal, in.tangent, trilinear(normal_tex, in.uv, dx, dy));
+    return FsOut1(pack_surface(in.rel, n, in.material));
+}
+
+@fragment
+fn fs_material_nm2(in: VsMaterialNmOut) -> FsOut2 {
+    let dx = dpdxFine(in.uv);
+    let dy = dpdyFine(in.uv);
+    let n = mapped_normal(in.rel, in.normal, in.tangent, trilinear(normal_tex, in.uv, dx, dy));
+    return FsOut2(pack_surface(in.rel, n, in.material), vec4<f32>(0.0));
+}
+
+@fragment
+fn fs_texture_nm(in: VsTextureNmOut) -> FsOut2 {
+    let dx = dpdxFine(in.uv);
+    let dy = dpdyFine(in.uv);
+    let n = mapped_normal(in.rel, in.normal, in.tangent, trilinear(normal_tex, in.uv, dx, dy));
+    return FsOut2(pack_surface(in.rel, n, PER_PIXEL),
+                  vec4<f32>(trilinear(coeff_tex, in.uv, dx, dy), 0.0));
+}
+
+@fragment
+fn fs_vertex_nm(in: VsVertexNmOut) -> FsOut2 {
+    let dx = dpdxFine(in.uv);
+    let dy = dpdyFine(in.uv);
+    let n = mapped_normal(in.rel, in.normal, in.tangent, trilinear(normal_tex, in.uv, dx, dy));
+    return FsOut2(pack_surface(in.rel, n, PER_PIXEL), vec4<f32>(in.coeff, 0.0));
 }
 
 @fragment
