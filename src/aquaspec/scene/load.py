@@ -12,6 +12,21 @@ Colours: a texture image (sRGB-encoded, as in OBJ/MTL and glTF) is decoded
 to linear RGB; glTF's ``baseColorFactor`` and an MTL ``Kd`` are reflectances
 and are taken as linear; PLY/OBJ vertex colours and face colours (8-bit,
 sRGB-encoded by habit of scanners and viewers) are decoded to linear.
+
+Normal maps: glTF's ``normalTexture`` and an MTL ``norm`` map (or a
+``map_Bump``/``bump`` map that is a normal map, as Blender's OBJ exporter
+writes them: mean colour near (0.5, 0.5, 1)) become the mesh's tangent-space
+normal map (:func:`aquaspec.scene.texture.decode_normal_map`; glTF's
+``normalTexture.scale`` is not kept by trimesh and taken as 1). A bump map
+that is a height map is not used (its height unit is not defined) and is
+reported as ignored.
+
+What each material of the file held is reported in ``Scene.info["materials"]``
+(one entry per mesh: base colour texture size and factor, normal map,
+glTF ``metallicFactor``/``roughnessFactor`` with the defaults of glTF 2.0
+(1.0 each) when absent, and whether a metallic-roughness texture was given):
+only the diffuse part (the base colour) is rendered, the rest is reported
+so that a user sees what was dropped.
 """
 
 from __future__ import annotations
@@ -26,6 +41,7 @@ from aquaspec.errors import AquaspecError
 from aquaspec.io.limits import check_file_size
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.mesh import Mesh, Scene, image_to_linear_rgb
+from aquaspec.scene.texture import decode_normal_map
 
 #: File suffixes :func:`load_mesh` accepts.
 MESH_FORMATS = (".obj", ".ply", ".gltf", ".glb", ".stl", ".off")
@@ -69,7 +85,65 @@ def _texture_of(material):
     return image, factor
 
 
-def _mesh_from_trimesh(geom, transform, name, scene: Scene, albedo):
+#: Largest distance of a bump map's mean colour from (0.5, 0.5, 1) for it to
+#: be taken as a normal map rather than a height map.
+NORMAL_MAP_MEAN_TOL = 0.15
+
+
+def _image_size(image):
+    return None if image is None else [int(image.size[0]), int(image.size[1])]
+
+
+def _obj_map(material, keys, base_dir):
+    """The PIL image an MTL statement (``norm``, ``map_bump``, ...) names, or None
+    (trimesh keeps the statements it does not know as lists of words)."""
+    from PIL import Image
+
+    kwargs = getattr(material, "kwargs", None) or {}
+    for key in keys:
+        words = kwargs.get(key)
+        if not words:
+            continue
+        name = words[-1] if isinstance(words, (list, tuple)) else str(words)
+        path = os.path.join(base_dir, name)
+        if os.path.isfile(path):
+            with Image.open(path) as img:
+                return key, img.convert("RGB")
+    return None, None
+
+
+def _normal_map_of(material, base_dir, info):
+    """The decoded normal map of a trimesh material, or None; fills ``info``."""
+    image = getattr(material, "normalTexture", None)
+    if image is not None:
+        info["normal_map"] = {"source": "glTF normalTexture", "size": _image_size(image)}
+        return decode_normal_map(np.asarray(image.convert("RGB")), what="glTF normalTexture")
+    key, image = _obj_map(material, ("norm", "map_bump", "bump"), base_dir)
+    if image is None:
+        return None
+    rgb = np.asarray(image, dtype=np.float64) / 255.0
+    mean = rgb.reshape(-1, 3).mean(axis=0)
+    if key != "norm" and np.abs(mean - [0.5, 0.5, 1.0]).max() > NORMAL_MAP_MEAN_TOL:
+        info["ignored"] = info.get("ignored", []) + [f"MTL {key} (a height map)"]
+        return None
+    info["normal_map"] = {"source": f"MTL {key}", "size": _image_size(image)}
+    return decode_normal_map(np.asarray(image), what=f"MTL {key} map")
+
+
+def _pbr_info(material, info):
+    """glTF metallic-roughness parameters (reported, not rendered)."""
+    if not hasattr(material, "baseColorFactor"):
+        return
+    metallic = getattr(material, "metallicFactor", None)
+    roughness = getattr(material, "roughnessFactor", None)
+    info["metallic_factor"] = 1.0 if metallic is None else float(metallic)
+    info["roughness_factor"] = 1.0 if roughness is None else float(roughness)
+    mr = getattr(material, "metallicRoughnessTexture", None)
+    info["metallic_roughness_texture"] = _image_size(mr)
+    info["rendered"] = "base colour only (Lambertian); metallic-roughness reported, not used"
+
+
+def _mesh_from_trimesh(geom, transform, name, scene: Scene, albedo, base_dir=""):
     vertices = np.asarray(geom.vertices, dtype=float)
     faces = np.asarray(geom.faces, dtype=np.int64)
     normals = np.asarray(geom.vertex_normals, dtype=float)
@@ -79,32 +153,49 @@ def _mesh_from_trimesh(geom, transform, name, scene: Scene, albedo):
     visual = getattr(geom, "visual", None)
     kind = getattr(visual, "kind", None)
     kwargs = {}
-    colour = None
+    colour = factor = None
+    info = {"mesh": name}
+    material = getattr(visual, "material", None)
+    uv = getattr(visual, "uv", None)
+    has_uv = uv is not None and len(uv) == len(vertices)
+    if material is not None:
+        info["material"] = str(getattr(material, "name", None) or "")
+        _pbr_info(material, info)
+        if has_uv:
+            nm = _normal_map_of(material, base_dir, info)
+            if nm is not None:
+                kwargs.update(uv=np.asarray(uv, dtype=float), normal_map=nm)
     if albedo is not None:
         colour = albedo
     elif kind == "texture":
-        image, factor = _texture_of(visual.material)
-        uv = getattr(visual, "uv", None)
-        if image is not None and uv is not None and len(uv) == len(vertices):
+        image, factor = _texture_of(material)
+        if image is not None and has_uv:
             tex = image_to_linear_rgb(np.asarray(image.convert("RGB")), is_srgb=True,
                                       what=f"texture of {name!r}")
-            if factor is not None and hasattr(visual.material, "baseColorFactor"):
+            if factor is not None and hasattr(material, "baseColorFactor"):
                 tex = tex * factor.astype(np.float32)
             kwargs.update(uv=np.asarray(uv, dtype=float), texture=tex)
+            info["base_colour_texture"] = _image_size(image)
         else:
             colour = factor
     elif kind == "vertex":
         kwargs["vertex_rgb"] = srgb_decode(np.asarray(visual.vertex_colors)[:, :3] / 255.0)
+        info["vertex_colours"] = True
     elif kind == "face":
         # Faceted per-face colours: split vertices so each face owns its colour.
         fc = srgb_decode(np.asarray(visual.face_colors)[:, :3] / 255.0)
         idx = faces.reshape(-1)
+        scene.info.setdefault("materials", []).append({**info, "face_colours": True})
         return Mesh(vertices[idx], np.arange(len(idx)).reshape(-1, 3),
                     None if normals is None else normals[idx],
                     vertex_rgb=np.repeat(fc, 3, axis=0), name=name).transformed(transform)
-    if not kwargs:
+    if "texture" not in kwargs and "vertex_rgb" not in kwargs:
         colour = DEFAULT_ALBEDO if colour is None else colour
         kwargs["material"] = scene.add_material(rgb_material(colour, name))
+        info["albedo_linear_rgb"] = [float(c) for c in colour]
+    elif colour is None and "texture" in kwargs and factor is not None:
+        info["base_colour_factor"] = [float(c) for c in factor]
+    scene.info.setdefault("materials", []).append(info)
     return Mesh(vertices, faces, normals, name=name, **kwargs).transformed(transform)
 
 
@@ -162,7 +253,8 @@ def load_mesh(path, *, albedo=None) -> Scene:
         faces = getattr(geom, "faces", None)
         if faces is None or len(faces) == 0:
             continue
-        scene.add(_mesh_from_trimesh(geom, transform, str(node), scene, albedo))
+        scene.add(_mesh_from_trimesh(geom, transform, str(node), scene, albedo,
+                                     os.path.dirname(os.path.abspath(path))))
     if not scene.meshes:
         raise AquaspecError(f"mesh file {path!r} contains no triangles; accepted formats "
                             f"with triangle meshes: {_formats_text()}")

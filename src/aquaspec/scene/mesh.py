@@ -306,12 +306,17 @@ class Scene:
     seabed : aquaspec.scene.seabed.Seabed, optional
         The flat seabed the light field takes as its lower boundary (the
         built-in scene sets its terrain's); None: deep water below.
+    info : dict
+        What the scene's source reported, JSON-ready (the loader's
+        per-mesh material report, the built-in scene's variant and
+        materials); a render's metadata carries it.
     """
 
     meshes: list = field(default_factory=list)
     materials: list = field(default_factory=list)
     camera: Camera | None = None
     seabed: object = None
+    info: dict = field(default_factory=dict)
 
     def add_material(self, material) -> int:
         """Append a reflectance object and return its index."""
@@ -347,4 +352,5 @@ class Scene:
 
     def transformed(self, matrix) -> "Scene":
         """A copy with every mesh moved by the 4x4 affine ``matrix`` (camera dropped)."""
-        return Scene([m.transformed(matrix) for m in self.meshes], list(self.materials))
+        return Scene([m.transformed(matrix) for m in self.meshes], list(self.materials),
+                     info=dict(self.info))
