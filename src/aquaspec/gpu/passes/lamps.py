@@ -23,18 +23,21 @@ Two steps (maths in :mod:`aquaspec.transport.lamp_scattering`, NumPy twin
 Bindings of lamps.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
 surface and sigmoid textures; 3 material band reflectances (M * n f32; uniform
 when they fit in 64 KiB, else storage); 4 two vec4 per band (uniform); 5
-``ln p`` per band (uniform up to 32 bands, else storage)
-(:func:`aquaspec.transport.sun_scattering.log_phase_table`); 6 the lamps
+``ln p`` four bands a vec4 (:func:`grouped_rows` of
+:func:`aquaspec.transport.sun_scattering.log_phase_table`; uniform up to 32 bands,
+else storage); 6 the lamps
 (:data:`LAMP_DTYPE`, uniform, :data:`MAX_LAMPS`); 7 their on-axis intensity per
 band (uniform, four bands a vec4); 8 their beam profiles (:data:`PROFILE_SIZE`
 values over ``[0, cone]``, uniform); 9 the shadow faces (uniform); 10 the shadow
 maps (a depth array); 11 their comparison sampler; 12 the image; 13 the veil as
 build_veil writes it (storage), 14 the same as a 3-D texture (columns x rows x
 depths, every lamp's summed, :func:`aquaspec.gpu.passes.sun.froxel_format`), 15 its linear
-clamped sampler; 16 the lamps' glow's table (:func:`aquaspec.transport.lamp_halo.lamp_halo_table`,
-the first lamp's: every lamp has the same water; uniform); 17 their spot factors
+clamped sampler; 16 the lamps' glow's table (:func:`grouped_rows` of
+:func:`aquaspec.transport.lamp_halo.lamp_halo_table`, the first lamp's: every lamp
+has the same water; uniform up to 64 bands, else storage); 17 their spot factors
 (a 2-D array texture, read through 15). Every table read per pixel or per sample is in a uniform
-buffer or a texture: storage reads were most of the pass's time on lavapipe.
+buffer or a texture: storage reads were most of the pass's time on lavapipe. The
+band loops work on four bands a vec4 (the tables are laid out so).
 """
 
 from __future__ import annotations
@@ -99,6 +102,19 @@ def profile_table(lamp) -> np.ndarray:
     return lamp.relative_intensity(alpha).astype(np.float32)
 
 
+def grouped_rows(table, groups: int) -> np.ndarray:
+    """A per-band table (n, m, c) as lamps.wgsl reads it four bands a vec4:
+    (groups * m * c, 4) float32, row ``(q * m + j) * c + l`` holding entry
+    ``(j, l)`` of bands ``4q ... 4q + 3`` (0 past the last band)."""
+    table = np.asarray(table, dtype=np.float32)
+    table = table.reshape(table.shape[:2] + (-1,))
+    n, m, c = table.shape
+    out = np.zeros((4 * groups, m, c), np.float32)
+    out[:n] = table
+    return np.ascontiguousarray(out.reshape(groups, 4, m, c).transpose(0, 2, 3, 1)
+                                .reshape(-1, 4))
+
+
 def face_rows(faces) -> np.ndarray:
     """Three vec4 per face: right and focal length (texels), up, forward and size."""
     out = np.zeros((len(faces), 3, 4), np.float32)
@@ -131,9 +147,9 @@ class LampPass:
         self.width, self.height, self.n_bands = int(width), int(height), int(n_bands)
         self.map_size, self.slices = int(map_size), int(slices)
         self._groups = -(-self.n_bands // 4)
-        self._phase_uniform = 4 * self.n_bands * PHASE_TABLE_SIZE <= UNIFORM_BYTES
+        self._phase_uniform = 16 * self._groups * PHASE_TABLE_SIZE <= UNIFORM_BYTES
         # The glow's table (a vec4 per band and distance) in a uniform buffer up to 64 bands.
-        self._halo_uniform = 16 * self.n_bands * LAMP_DEPTHS <= UNIFORM_BYTES
+        self._halo_uniform = 64 * self._groups * LAMP_DEPTHS <= UNIFORM_BYTES
         self.veil_format = froxel_format(device)
         self._texel = 8 if self.veil_format == "rgba16float" else 16
         self._pipelines = {}
@@ -177,7 +193,7 @@ class LampPass:
         """``(main, build_veil)`` for materials in a uniform buffer (``key``) and the
         display transform with ``tonemap`` fused in main (None: linear RGB out)."""
         if (key, tonemap) not in self._pipelines:
-            phase_vec4 = self.n_bands * PHASE_TABLE_SIZE // 4
+            phase_vec4 = self._groups * PHASE_TABLE_SIZE
             half = self.veil_format == "rgba16float"
             src = load_wgsl(
                 "lamps.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
@@ -195,18 +211,17 @@ class LampPass:
                 near=f"{NEAR_M:.9g}", far=f"{FAR_M:.9g}", band_vec4=2 * self.n_bands,
                 phase_binding=(f"var<uniform> log_phase: array<vec4<f32>, {phase_vec4}>"
                                if self._phase_uniform
-                               else "var<storage, read> log_phase: array<f32>"),
-                phase_read=("log_phase[k / 4u][k % 4u]" if self._phase_uniform
-                            else "log_phase[k]"),
+                               else "var<storage, read> log_phase: array<vec4<f32>>"),
                 material_binding=("@group(0) @binding(3) var<uniform> materials: "
                                   f"array<vec4<f32>, {MATERIAL_VEC4}>;") if key else
                 "@group(0) @binding(3) var<storage, read> materials: array<f32>;",
                 material_read="materials[k / 4u][k % 4u]" if key else "materials[k]",
                 max_lamps=MAX_LAMPS, intensity_vec4=MAX_LAMPS * self._groups,
-                halo_binding=(f"var<uniform> halo: array<vec4<f32>, {self.n_bands * LAMP_DEPTHS}>"
+                halo_binding=(f"var<uniform> halo: array<vec4<f32>, "
+                              f"{4 * self._groups * LAMP_DEPTHS}>"
                               if self._halo_uniform else
                               "var<storage, read> halo: array<vec4<f32>>"),
-                halo_read_0="halo[e]", halo_read_1="halo[e + 1u]", spot_angles=SPOT_ANGLES,
+                spot_angles=SPOT_ANGLES,
                 min_halo_range=f"{MIN_HALO_RANGE_M:.9g}",
                 profile_vec4=-(-MAX_LAMPS * PROFILE_SIZE // 4), face_vec4=3 * MAX_FACES,
                 bias_texels=f"{BIAS_TEXELS:.9g}",
@@ -273,9 +288,9 @@ class LampPass:
         lamp_rows[:len(lamps)] = rows
         face_table = np.zeros((MAX_FACES, 3, 4), np.float32)
         face_table[:len(faces)] = face_rows(faces)
-        data = {3: table, 4: band, 5: np.asarray(first.log_phase, np.float32),
+        data = {3: table, 4: band, 5: grouped_rows(first.log_phase, self._groups),
                 6: lamp_rows, 7: intensity, 8: profiles, 9: face_table,
-                16: lamp_halo_table(first).astype(np.float32)}
+                16: grouped_rows(lamp_halo_table(first), self._groups)}
         self._buffers = {}
         for b, arr in data.items():
             arr = np.ascontiguousarray(arr)

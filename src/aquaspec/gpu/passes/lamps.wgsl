@@ -24,7 +24,10 @@
 // centre for sigmoid materials); [2i + 1] w_r, w_g, w_b, 0.
 // `intensity[k * BAND_GROUPS + i / 4][i % 4]`: lamp k's on-axis I0 in band i.
 // profile entry k * PROFILE_SIZE + j: f of lamp k at alpha_j = cone j / (PROFILE_SIZE - 1).
-// log_phase entry i * PHASE_SIZE + j: ln p of band i at psi_j = pi (j / (PHASE_SIZE - 1))^2.
+// log_phase entry q * PHASE_SIZE + j: ln p of bands 4q ... 4q + 3 (a vec4, 0 past the
+// last band) at psi_j = pi (j / (PHASE_SIZE - 1))^2.
+// halo entry 4 (q * N_DEPTHS + m) + c: the glow's table's component c for bands
+// 4q ... 4q + 3 at distance m (halo_at).
 // `faces`, three vec4 per shadow-map face: right (xyz) and focal length in
 // texels (w), up (xyz) and 0, forward (xyz) and the face's size in texels; layer
 // f of shadow_maps holds face f's perspective depth (near NEAR, far FAR).
@@ -106,12 +109,13 @@ fn halo_index(r: f32) -> vec3<f32> {
     return vec3<f32>(x, m0, x - m0);
 }
 
-// The glow's table of band i at halo_index hi of distance r (lamp_halo.halo_lookup),
-// divided by r: r phi / 4, r |F| / 2, r b* phi / 4 pi, r 3 b* g* |F| / 4 pi per unit
-// intensity, linear between the depths of lamp_depths.depth_boundaries.
-fn halo_at(i: u32, hi: vec3<f32>, r: f32) -> vec4<f32> {
-    let e = i * N_DEPTHS + u32(hi.y);
-    return mix({{ halo_read_0 }}, {{ halo_read_1 }}, hi.z) / r;
+// Component c of the glow's table (lamp_halo.halo_lookup) at halo_index hi for
+// bands 4q ... 4q + 3, linear between the depths of lamp_depths.depth_boundaries,
+// per unit intensity: c = 0 r phi / 4, 1 r |F| / 2, 2 r b* phi / 4 pi,
+// 3 r 3 b* g* |F| / 4 pi (divide by r).
+fn halo_at(q: u32, c: u32, hi: vec3<f32>) -> vec4<f32> {
+    let e = 4u * (q * N_DEPTHS + u32(hi.y)) + c;
+    return mix(halo[e], halo[e + 4u], hi.z);
 }
 
 // Where the spot factors are read at halo_index hi and cos(alpha) from a lamp's axis.
@@ -126,9 +130,10 @@ fn spot_at(k: u32, g: u32, uv: vec2<f32>) -> vec4<f32> {
     return textureSampleLevel(spot_tex, veil_sampler, uv, k * BAND_GROUPS + g, 0.0);
 }
 
-// Entry k of the phase table (uniform, four to a vec4, when it fits; else storage).
-fn phase_entry(k: u32) -> f32 {
-    return {{ phase_read }};
+// ln p of bands 4q ... 4q + 3 at entry j of the phase table (uniform when it
+// fits; else storage; 0 past the last band).
+fn phase_at(q: u32, j: u32) -> vec4<f32> {
+    return log_phase[q * PHASE_SIZE + j];
 }
 
 fn material_entry(k: u32) -> f32 {
@@ -335,13 +340,10 @@ fn lamp_column(k: u32, a: u32, b: u32, v: vec3<f32>) {
             let xp = u * f32(PHASE_SIZE - 1u);
             let p0 = min(u32(floor(xp)), PHASE_SIZE - 2u);
             let fp = xp - f32(p0);
-            for (var n = 0u; n < N_BANDS; n = n + 1u) {
-                let q0 = bands[2u * n];
-                let row = n * PHASE_SIZE + p0;
-                let ln_p = mix(phase_entry(row), phase_entry(row + 1u), fp);
-                let e = exp(ln_p - q0.x * r - q0.y * t);
-                inc = inc + (g * e * q0.z * intensity[k * BAND_GROUPS + n / 4u][n % 4u])
-                            * bands[2u * n + 1u].xyz;
+            for (var q = 0u; q < BAND_GROUPS; q = q + 1u) {
+                let ln_p = mix(phase_at(q, p0), phase_at(q, p0 + 1u), fp);
+                let e = exp(ln_p - band4(q, 0u) * r - band4(q, 1u) * t);
+                inc = inc + band_rgb(q, g * e * band4(q, 2u) * intensity[k * BAND_GROUPS + q]);
             }
         }
         // The depths in this slice [u_i, u_i + step]: linear in u between the sums.
@@ -381,16 +383,12 @@ fn halo_column(k: u32, a: u32, b: u32, v: vec3<f32>, len: f32) {
             let rv = dot(rel, v) / r;
             let hi = halo_index(r);
             let uv = spot_uv(hi, dot(rel, lamps[k].direction) / r);
-            var sp = vec4<f32>(1.0);
-            for (var n = 0u; n < N_BANDS; n = n + 1u) {
-                if (n % 4u == 0u) {
-                    sp = spot_at(k, n / 4u, uv);
-                }
-                let h = halo_at(n, hi, r) * sp[n % 4u];
-                let q0 = bands[2u * n];
-                let src = max(h.z - h.w * rv, 0.0) * exp(-q0.y * tm);
-                acc = acc + (dt * iso * src * intensity[k * BAND_GROUPS + n / 4u][n % 4u])
-                            * bands[2u * n + 1u].xyz;
+            for (var q = 0u; q < BAND_GROUPS; q = q + 1u) {
+                let sp = spot_at(k, q, uv);
+                let hz = halo_at(q, 2u, hi) / r * sp;
+                let hw = halo_at(q, 3u, hi) / r * sp;
+                let src = max(hz - hw * rv, vec4<f32>(0.0)) * exp(-band4(q, 1u) * tm);
+                acc = acc + band_rgb(q, dt * iso * src * intensity[k * BAND_GROUPS + q]);
             }
         }
         t_a = t_b;
@@ -427,6 +425,27 @@ fn reflectance(material: u32, sig: vec3<f32>, i: u32, t: f32) -> f32 {
     return material_entry(material * N_BANDS + i);
 }
 
+// Component c of the first vec4 of bands 4q ... 4q + 3 (0 past the last band).
+fn band4(q: u32, c: u32) -> vec4<f32> {
+    var out = vec4<f32>(0.0);
+    for (var j = 0u; j < 4u; j = j + 1u) {
+        let i = 4u * q + j;
+        if (i < N_BANDS) {
+            out[j] = bands[2u * i][c];
+        }
+    }
+    return out;
+}
+
+// Camera RGB of bands 4q ... 4q + 3 weighted by t (t is 0 past the last band).
+fn band_rgb(q: u32, t: vec4<f32>) -> vec3<f32> {
+    var out = vec3<f32>(0.0);
+    for (var j = 0u; j < 4u; j = j + 1u) {
+        out = out + t[j] * bands[2u * min(4u * q + j, N_BANDS - 1u) + 1u].xyz;
+    }
+    return out;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let col = gid.x;
@@ -450,12 +469,20 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             sig = textureLoad(gb_sigmoid, vec2<i32>(i32(col), i32(row)), 0).xyz;
         }
         let pos = lp.position + v * s;
-        // The pixel's reflectance times exp(-c_view S), once for every lamp (a
-        // per-pixel material's sigmoid would be evaluated per lamp and band otherwise).
-        var rho: array<f32, N_BANDS>;
-        for (var i = 0u; i < N_BANDS; i = i + 1u) {
-            let q0 = bands[2u * i];
-            rho[i] = reflectance(word.w, sig, i, q0.w) * exp(-q0.y * s);
+        // The pixel's reflectance times exp(-c_view S), four bands a vec4, once
+        // for every lamp; the band loops below work on those vec4 (on lavapipe a
+        // loop over single bands with dynamically indexed arrays cost more than
+        // its exponentials).
+        var rho: array<vec4<f32>, BAND_GROUPS>;
+        for (var q = 0u; q < BAND_GROUPS; q = q + 1u) {
+            var r4 = vec4<f32>(0.0);
+            for (var j = 0u; j < 4u; j = j + 1u) {
+                let i = 4u * q + j;
+                if (i < N_BANDS) {
+                    r4[j] = reflectance(word.w, sig, i, bands[2u * i].w);
+                }
+            }
+            rho[q] = r4 * exp(-band4(q, 1u) * s);
         }
         for (var k = 0u; k < lp.n_lamps; k = k + 1u) {
             let to_lamp = lamps[k].position - pos;
@@ -478,22 +505,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let hi = halo_index(rh);
             let uv = spot_uv(hi, -dot(to_lamp, lamps[k].direction) / rh);
-            var sp = vec4<f32>(1.0);
-            for (var i = 0u; i < N_BANDS; i = i + 1u) {
-                let q0 = bands[2u * i];
-                var e = 0.0;
+            for (var q = 0u; q < BAND_GROUPS; q = q + 1u) {
+                var e = vec4<f32>(0.0);
                 if (g > 0.0) {
-                    e = g * exp(-q0.x * r);
+                    e = g * exp(-band4(q, 0u) * r);
                 }
                 if (iso > 0.0) {
-                    if (i % 4u == 0u) {
-                        sp = spot_at(k, i / 4u, uv);
-                    }
-                    let h = halo_at(i, hi, rh) * sp[i % 4u];
-                    e = e + iso * max(h.x + h.y * cos_h, 0.0);
+                    let sp = spot_at(k, q, uv);
+                    let h0 = halo_at(q, 0u, hi) / rh;
+                    let h1 = halo_at(q, 1u, hi) / rh;
+                    e = e + iso * max(h0 * sp + (h1 * sp) * cos_h, vec4<f32>(0.0));
                 }
-                acc = acc + (rho[i] * e * intensity[k * BAND_GROUPS + i / 4u][i % 4u])
-                            * bands[2u * i + 1u].xyz;
+                let t = rho[q] * e * intensity[k * BAND_GROUPS + q];
+                acc = acc + band_rgb(q, t);
             }
         }
     }
