@@ -1,0 +1,84 @@
+"""The marine-snow pass (aquaspec.gpu.passes.particles) against its NumPy reference."""
+
+import numpy as np
+import pytest
+
+from aquaspec.scene.camera import Camera
+from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
+from aquaspec.shading.particles import composite, splat_image
+
+pytestmark = pytest.mark.gpu
+
+W, H = 160, 90
+#: The accumulation target is rgba16float: an 11-bit mantissa, summed over
+#: the discs that overlap a pixel; as a fraction of the image's largest value.
+ATOL_FRACTION = 5e-3
+
+
+def _surface(device, dist):
+    from aquaspec.gpu.gbuffer import GBufferTextures
+    cam = Camera.look_at([0, -5, 0], [0, -5, -1], width=W, height=H)
+    gb = GBufferTextures(device, W, H)
+    gb.upload(GBuffer(cam, dist, np.tile([0.0, 0.0, 1.0], (H, W, 1)),
+                      np.full((H, W), PER_PIXEL, np.uint32), np.zeros((H, W, 3))))
+    return gb.textures["surface"]
+
+
+def _records(n, seed=2):
+    rng = np.random.default_rng(seed)
+    rec = np.zeros((n, 8), np.float32)
+    rec[:, 0], rec[:, 1] = rng.uniform(-5, W + 5, n), rng.uniform(-5, H + 5, n)
+    rec[:, 2] = rng.uniform(0.5, 12.0, n)
+    rec[:, 3] = rng.uniform(0.2, 4.0, n)
+    rec[:, 4:7] = rng.uniform(0.0, 3.0, (n, 3)) * 1e-3     # small camera RGB: the scale matters
+    rec[:, 7] = rng.uniform(0.0, 1.0, n) * np.pi * rec[:, 2] ** 2
+    return rec
+
+
+class TestParticlePass:
+    def test_splat_and_compose_match_numpy(self, device):
+        from aquaspec.gpu.buffers import create_storage_buffer, read_buffer
+        from aquaspec.gpu.passes.particles import ParticlePass
+        dist = np.full((H, W), np.inf, np.float32)
+        dist[:, :80] = 2.0                  # half the image a wall 2 m away
+        dist[60:, 80:] = 0.5
+        rec = _records(300)
+        image = np.random.default_rng(5).uniform(0, 2e-3, (H, W, 4)).astype(np.float32)
+        buf = create_storage_buffer(device, image)
+        p = ParticlePass(device, W, H)
+        p.set_splats(rec)
+        enc = device.create_command_encoder()
+        p.encode(enc, _surface(device, dist), buf)
+        device.queue.submit([enc.finish()])
+        acc_gpu = p.read_accumulated()
+        out_gpu = read_buffer(device, buf, np.float32, (H, W, 4))[..., :3]
+        acc = splat_image(rec, dist)
+        out = composite(image[..., :3], acc)
+        assert (acc[..., 3] > 0).mean() > 0.5 and np.any(acc[:, :80, 3] == 0)
+        for k in range(4):
+            np.testing.assert_allclose(acc_gpu[..., k], acc[..., k],
+                                       atol=ATOL_FRACTION * np.abs(acc[..., k]).max())
+        np.testing.assert_allclose(out_gpu, out, atol=ATOL_FRACTION * out.max())
+
+    def test_no_particles_leaves_the_image(self, device):
+        from aquaspec.gpu.buffers import create_storage_buffer, read_buffer
+        from aquaspec.gpu.passes.particles import ParticlePass
+        p = ParticlePass(device, W, H)
+        image = np.random.default_rng(1).random((H, W, 4)).astype(np.float32)
+        buf = create_storage_buffer(device, image)
+        surface = _surface(device, np.full((H, W), np.inf, np.float32))
+        p.set_splats(_records(50))
+        enc = device.create_command_encoder()
+        p.encode_splat(enc, surface)
+        device.queue.submit([enc.finish()])
+        p.set_splats(np.zeros((0, 8), np.float32))
+        enc = device.create_command_encoder()
+        p.encode(enc, surface, buf)
+        device.queue.submit([enc.finish()])
+        np.testing.assert_array_equal(read_buffer(device, buf, np.float32, (H, W, 4)), image)
+
+    def test_bad_records(self, device):
+        from aquaspec.errors import AquaspecError
+        from aquaspec.gpu.passes.particles import ParticlePass
+        with pytest.raises(AquaspecError, match="accepted"):
+            ParticlePass(device, W, H).set_splats(np.zeros((3, 5)))
