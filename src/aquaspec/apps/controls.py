@@ -36,6 +36,7 @@ from aquaspec.light.waves import WIND_RANGE
 from aquaspec.medium.phase import PHASE_FUNCTIONS
 from aquaspec.medium.water import SOURCES, list_waters
 from aquaspec.rendering.setup import SURFACE_MODELS
+from aquaspec.scene.particles import parse_marine_snow
 from aquaspec.transport.models import MS_MODELS
 
 #: Phase functions offered, with the parameters the panel gives them
@@ -212,6 +213,16 @@ class ViewControls:
     @property
     def wave_speed(self) -> float:
         return self._speed
+
+    def set_marine_snow(self, spec) -> bool:
+        """Marine snow over the frames (a density per m^3, a ``--marine-snow`` spec,
+        or None: none); a cheap change (the particles drift on the view's clock)."""
+        try:
+            self.view.marine_snow = parse_marine_snow(spec)
+        except AquaspecError as exc:
+            self.view.message = f"not changed: {exc}"
+            return False
+        return True
 
     def set_render_scale(self, scale: float, target_fps: float | None = None) -> bool:
         """Render ``scale`` times the window's size (the automatic scale with

@@ -138,6 +138,8 @@ class LiveView:
         #: :meth:`aquaspec.rendering.renderer.Renderer.set_camera_model`), or None.
         self.camera_model = None
         self._metered_green = None  # its exposure, metered by auto_exposure()
+        #: Marine snow drifting on the view's clock (``--marine-snow``), or None.
+        self.marine_snow = None
         #: A line of news for the status text (a water loading, an error), or None.
         self.message = None
         #: Where the P key saves frames.
@@ -206,6 +208,7 @@ class LiveView:
         renderer.set_spectral(setup, self.scene.materials)
         renderer.set_display(display)
         renderer.set_camera_model(self.camera_model, metered_green=self._metered_green)
+        renderer.set_marine_snow(self.marine_snow, self.time_s)
         if setup.waves is not None:     # (the moving sea's pass compiled here too)
             renderer.set_wave_time(self.time_s, progressive=self.progressive_waves)
         encoder = renderer.encode_frame(self.device.create_command_encoder(), self.shown(camera),
@@ -535,6 +538,7 @@ class LiveView:
             self.renderer.set_wave_time(self.time_s, progressive=self.progressive_waves)
         camera = self.camera()
         self.renderer.set_camera_model(self.camera_model, metered_green=self._metered_green)
+        self.renderer.set_marine_snow(self.marine_snow, self.time_s)
         encoder = self.device.create_command_encoder()
         if profile:
             self.pass_ms = {}

@@ -34,6 +34,7 @@ from aquaspec.errors import AquaspecError
 from aquaspec.gpu.device import adapter_info
 from aquaspec.optics.flat_port import FlatPort
 from aquaspec.optics.presets import get_camera_model
+from aquaspec.scene.particles import parse_marine_snow
 
 #: Environment variable that forces the offscreen canvas (rendercanvas's own).
 FORCE_OFFSCREEN_ENV = "RENDERCANVAS_FORCE_OFFSCREEN"
@@ -112,7 +113,7 @@ def _slowest_second_fps(frame_ms: list, skip_s: float = 1.0) -> float | None:
 def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
              frames: int | None = None, record=None, mp4: bool = False, save_dir=".",
              scale: float = 1.0, target_fps: float | None = None, panel: bool = True,
-             progress=None, camera_model=None) -> dict:
+             progress=None, camera_model=None, marine_snow=None) -> dict:
     """Run the live view; returns the run's summary (frame rate, final pose).
 
     Parameters
@@ -142,6 +143,9 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
     camera_model : str or CameraModel, optional
         The frames through a real camera's port and noisy sensor
         (:mod:`aquaspec.rendering.live_camera`; no depth of field live).
+    marine_snow : None, a density per m^3, "DENSITY[,SEED][,...]" or MarineSnow
+        Particles drifting with the current on the view's clock
+        (:class:`aquaspec.rendering.marine_snow.LiveSnow`; the fixed blur, no depth of field).
     """
     say = progress or (lambda message: None)
     # rendercanvas's own switch (for tests and CI): offscreen, whatever is asked.
@@ -161,6 +165,7 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
                             "window that is not recording (recorded frames keep one size)")
     render_scale = RenderScale(scale, target_fps)     # checked before the scene is built
     camera_model = get_camera_model(camera_model)    # (and the camera model)
+    marine_snow = parse_marine_snow(marine_snow)     # (and the marine snow)
     if camera_model is not None and settings.rgbd is not None \
             and isinstance(camera_model.port, FlatPort):
         raise AquaspecError("--camera-model with a flat port needs a render made for it; an "
@@ -168,6 +173,7 @@ def run_view(settings: ViewSettings, *, offscreen: bool = False, script=None,
     window = None if offscreen else _window_backend()
     view = LiveView(settings, progress=say)
     view.camera_model = camera_model
+    view.marine_snow = marine_snow
     view.save_dir = Path(save_dir)
     view.render_scale = render_scale
     view.use_scale()

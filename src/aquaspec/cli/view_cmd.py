@@ -101,6 +101,9 @@ def register(sub):
                    help="the frames through a real underwater camera's port, vignetting and "
                         "noisy sensor, as for render (no depth of field live; default: a "
                         "perfect pinhole)")
+    p.add_argument("--marine-snow", metavar="DENSITY[,SEED][,KEY=VALUE...]",
+                   help="suspended particles drifting with the current (key current=vx:vy:vz "
+                        "m/s), as for render (default: none)")
     p.add_argument("--panel", action=argparse.BooleanOptionalAction, default=True,
                    help="in a window: the controls panel (imgui-bundle): water, sensor, bands, "
                         "models, exposure, tone map, sun, waves, render scale (default: on)")
@@ -159,7 +162,7 @@ def run(args):
                        frames=args.frames, record=args.record, mp4=args.mp4,
                        save_dir=args.save_dir, scale=args.scale, target_fps=args.target_fps,
                        panel=args.panel, progress=lambda m: print(m, file=sys.stderr),
-                       camera_model=args.camera_model)
+                       camera_model=args.camera_model, marine_snow=args.marine_snow)
     final = summary["final"]
     fps = "-" if summary["fps"] is None else f"{summary['fps']:.1f}"
     size = "x".join(str(v) for v in summary["render_size"])
