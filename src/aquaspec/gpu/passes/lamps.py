@@ -22,7 +22,7 @@ Two steps (maths in :mod:`aquaspec.transport.lamp_scattering`, NumPy twin
 
 Bindings of lamps.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
 surface and sigmoid textures; 3 material band reflectances (M * n f32; uniform
-when they fit in 64 KiB, else storage); 4 two vec4 per band (uniform); 5
+when they fit in 64 KiB, else storage); 4 eight vec4 per four bands (uniform; lamps.wgsl's ``bands``); 5
 ``ln p`` four bands a vec4 (:func:`grouped_rows` of
 :func:`aquaspec.transport.sun_scattering.log_phase_table`; uniform up to 32 bands,
 else storage); 6 the lamps
@@ -208,7 +208,7 @@ class LampPass:
                 veil_unpack=("vec3<f32>(unpack2x16float(veil_out[i].x), "
                              "unpack2x16float(veil_out[i].y).x)") if half
                 else "veil_out[i].xyz",
-                near=f"{NEAR_M:.9g}", far=f"{FAR_M:.9g}", band_vec4=2 * self.n_bands,
+                near=f"{NEAR_M:.9g}", far=f"{FAR_M:.9g}", band_vec4=8 * self._groups,
                 phase_binding=(f"var<uniform> log_phase: array<vec4<f32>, {phase_vec4}>"
                                if self._phase_uniform
                                else "var<storage, read> log_phase: array<vec4<f32>>"),
@@ -258,10 +258,10 @@ class LampPass:
         if w.shape != (n, 3):
             raise AquaspecError(f"response_weights has shape {w.shape}; expected ({n}, 3)")
         first = lamps[0]
-        band = np.zeros((n, 2, 4), np.float32)
-        band[:, 0, 0], band[:, 0, 1], band[:, 0, 2] = first.c_lamp, first.c_view, first.b
-        band[:, 0, 3] = sigmoid_centers_t
-        band[:, 1, :3] = w
+        per_band = np.zeros((4 * self._groups, 8), np.float32)
+        per_band[:n, 0], per_band[:n, 1], per_band[:n, 2] = first.c_lamp, first.c_view, first.b
+        per_band[:n, 3], per_band[:n, 4:7] = sigmoid_centers_t, w
+        band = per_band.reshape(self._groups, 4, 8).transpose(0, 2, 1)
         intensity = np.zeros((MAX_LAMPS, 4 * self._groups), np.float32)
         for k, inp in enumerate(lamps):
             intensity[k, :n] = inp.intensity

@@ -20,8 +20,10 @@
 //
 // Everything read per pixel or per sample is in uniform buffers or textures:
 // storage-buffer reads were most of the pass's time on lavapipe.
-// `bands`, two vec4 per band i: [2i] c_lamp, c_view, b, t (the normalised band
-// centre for sigmoid materials); [2i + 1] w_r, w_g, w_b, 0.
+// `bands`, eight vec4 per group of four bands 4q ... 4q + 3 (a band a component,
+// 0 past the last band): [8q] c_lamp, [8q + 1] c_view, [8q + 2] b, [8q + 3] t (the
+// normalised band centre for sigmoid materials), [8q + 4 ... 8q + 6] the camera
+// RGB weights w_r, w_g, w_b, [8q + 7] 0.
 // `intensity[k * BAND_GROUPS + i / 4][i % 4]`: lamp k's on-axis I0 in band i.
 // profile entry k * PROFILE_SIZE + j: f of lamp k at alpha_j = cone j / (PROFILE_SIZE - 1).
 // log_phase entry q * PHASE_SIZE + j: ln p of bands 4q ... 4q + 3 (a vec4, 0 past the
@@ -282,9 +284,12 @@ fn store_veil(a: u32, b: u32, z: u32, value: vec3<f32>, add: bool) {
 
 // One invocation per column (gid.x, gid.y): every lamp's veil, summed.
 @compute @workgroup_size(8, 8, 1)
-fn build_veil(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn build_veil(@builtin(global_invocation_id) gid: vec3<u32>,
+              @builtin(workgroup_id) wg: vec3<u32>,
+              @builtin(local_invocation_id) lid: vec3<u32>,
+              @builtin(num_workgroups) nwg: vec3<u32>) {
     let a = gid.x;
-    let b = gid.y;
+    let b = interleaved_row(wg.y, lid.y, nwg.y);
     if (a >= lp.cols_x || b >= lp.cols_y) {
         return;
     }
@@ -425,31 +430,34 @@ fn reflectance(material: u32, sig: vec3<f32>, i: u32, t: f32) -> f32 {
     return material_entry(material * N_BANDS + i);
 }
 
-// Component c of the first vec4 of bands 4q ... 4q + 3 (0 past the last band).
+// Band constant c of bands 4q ... 4q + 3 (the `bands` layout above; 0 past the last band).
 fn band4(q: u32, c: u32) -> vec4<f32> {
-    var out = vec4<f32>(0.0);
-    for (var j = 0u; j < 4u; j = j + 1u) {
-        let i = 4u * q + j;
-        if (i < N_BANDS) {
-            out[j] = bands[2u * i][c];
-        }
-    }
-    return out;
+    return bands[8u * q + c];
 }
 
-// Camera RGB of bands 4q ... 4q + 3 weighted by t (t is 0 past the last band).
+// Camera RGB of bands 4q ... 4q + 3 weighted by t.
 fn band_rgb(q: u32, t: vec4<f32>) -> vec3<f32> {
-    var out = vec3<f32>(0.0);
-    for (var j = 0u; j < 4u; j = j + 1u) {
-        out = out + t[j] * bands[2u * min(4u * q + j, N_BANDS - 1u) + 1u].xyz;
-    }
-    return out;
+    return vec3<f32>(dot(t, bands[8u * q + 4u]), dot(t, bands[8u * q + 5u]),
+                     dot(t, bands[8u * q + 6u]));
+}
+
+// The row of local row lid_y in workgroup row wg_y of nwg_y (as shading4.wgsl's):
+// rows of workgroups interleaved, top half / bottom half, so that lavapipe's
+// threads, each given a contiguous part of the dispatch, get both open water
+// and lit surfaces.
+fn interleaved_row(wg_y: u32, lid_y: u32, nwg_y: u32) -> u32 {
+    let half = (nwg_y + 1u) / 2u;
+    let block = select(half + wg_y / 2u, wg_y / 2u, wg_y % 2u == 0u);
+    return block * 8u + lid_y;
 }
 
 @compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn main(@builtin(global_invocation_id) gid: vec3<u32>,
+        @builtin(workgroup_id) wg: vec3<u32>,
+        @builtin(local_invocation_id) lid: vec3<u32>,
+        @builtin(num_workgroups) nwg: vec3<u32>) {
     let col = gid.x;
-    let row = gid.y;
+    let row = interleaved_row(wg.y, lid.y, nwg.y);
     if (col >= lp.width || row >= lp.height) {
         return;
     }
@@ -475,13 +483,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         // its exponentials).
         var rho: array<vec4<f32>, BAND_GROUPS>;
         for (var q = 0u; q < BAND_GROUPS; q = q + 1u) {
-            var r4 = vec4<f32>(0.0);
-            for (var j = 0u; j < 4u; j = j + 1u) {
-                let i = 4u * q + j;
-                if (i < N_BANDS) {
-                    r4[j] = reflectance(word.w, sig, i, bands[2u * i].w);
-                }
-            }
+            let t = band4(q, 3u);
+            let i = min(vec4<u32>(4u * q) + vec4<u32>(0u, 1u, 2u, 3u), vec4<u32>(N_BANDS - 1u));
+            let r4 = vec4<f32>(reflectance(word.w, sig, i.x, t.x),
+                               reflectance(word.w, sig, i.y, t.y),
+                               reflectance(word.w, sig, i.z, t.z),
+                               reflectance(word.w, sig, i.w, t.w));
+            // (Past the last band b is 0, so nothing is added there.)
             rho[q] = r4 * exp(-band4(q, 1u) * s);
         }
         for (var k = 0u; k < lp.n_lamps; k = k + 1u) {
