@@ -49,6 +49,7 @@ class TestRender:
         assert np.abs(d_gpu - d_cpu).mean() < 1e-3 * np.abs(d_cpu).max()
 
     def test_live_frame_matches_numpy(self, device):
+        from aquaspec.gpu.passes.display import DisplayPass
         from aquaspec.rendering.api import _spectral_setup
         from aquaspec.rendering.marine_snow import frame_splats, particle_light
         from aquaspec.rendering.renderer import Renderer
@@ -70,14 +71,20 @@ class TestRender:
         snow = parse_marine_snow("400,5")
         r.set_marine_snow(snow, 2.0)
         r.draw_frame(scene, cam, setup)
-        got = r.lightfield.read_rgb().astype(float)
+        got = r.read_display().astype(int)
         gbuffer = r.raster.read_gbuffer(scene, cam, r.deferred.gbuffer.textures)
         records = frame_splats(snow, particle_light(setup, cam, snow), cam, 2.0)
         want = composite(plain, splat_image(records, gbuffer.distance))
         assert np.abs(want - plain).max() > 0.02 * plain.max()
-        np.testing.assert_allclose(got, want, atol=2e-3 * want.max())
-        assert r.read_display().shape == (h, w, 3)
+        # The composed frame's display against the display pass of NumPy's composition:
+        # 8-bit codes within one (rounding), but where half floats tip a code over.
+        shown = DisplayPass(w, h, device=device)
+        shown.set_settings(**r._display.settings)
+        shown.upload(want)
+        shown.run()
+        diff = np.abs(got - shown.read().astype(int))
+        assert diff.max() <= 2 and (diff > 1).mean() < 1e-3
         # The drift moves the particles: another instant, another image.
         r.set_marine_snow(snow, 7.0)
         r.draw_frame(scene, cam, setup)
-        assert np.abs(r.lightfield.read_rgb() - got).max() > 1e-3 * want.max()
+        assert np.abs(r.read_display().astype(int) - got).max() > 10

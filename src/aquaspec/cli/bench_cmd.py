@@ -13,6 +13,7 @@ from aquaspec.cli.common import (MAX_OCEAN_DEPTH_M, add_spread_scattering_option
 from aquaspec.errors import AquaspecError
 from aquaspec.io.atomic import check_writable, write_file_atomically
 from aquaspec.scene.camera import parse_size
+from aquaspec.scene.particles import parse_marine_snow
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MS_MODEL_CHOICES
 
 
@@ -79,6 +80,13 @@ def register(sub):
                         "bands): the built-in view under the index-matched and the flat "
                         "surface, looking up through the flat one, and the sea seen from 5 m "
                         "above it, each with its ratio to the first")
+    p.add_argument("--detail", action="store_true",
+                   help="time whole displayed frames of the built-in scene plain and with "
+                        "marine snow (--marine-snow, default 200,1) drifting, and a detailed "
+                        "textured scene where one is built in, alternated in one run, with "
+                        "their ratios to the plain frame (default 1280x720, 8 bands)")
+    p.add_argument("--marine-snow", default=None, metavar="DENSITY[,SEED][,KEY=VALUE...]",
+                   help="with --detail: the particles timed (as for render)")
     p.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference ratio "
                    "(with a sun the reference shades it too: seconds per size)")
     p.add_argument("--json", metavar="OUT.json", help="write the results as JSON")
@@ -110,6 +118,9 @@ def run(args):
         # deferred: loads wgpu; only a shadow map size is checked against the device
         from aquaspec.gpu.device import max_texture_size
         shadow_map_from(args, max_texture_size())
+    if args.detail:
+        return _run_detail(args, sizes_text if args.sizes else "1280x720", args.bands or "8",
+                           frames)
     if args.surface:
         return _run_surface(args, sizes_text if args.sizes else "1280x720", args.bands or "8",
                             args.frames if args.frames is not None else 12)
@@ -173,6 +184,27 @@ def _run_surface(args, sizes_text, bands_text, frames):
                                     warmup=args.warmup, water=args.water, depth_m=args.depth,
                                     progress=lambda m: print(m, file=sys.stderr, flush=True))
             print(format_surface(row))
+            results.append(row)
+    _write_results(args.json, results)
+    return 0
+
+
+def _run_detail(args, sizes_text, bands_text, frames):
+    """``bench --detail``: each size and band count, the detailed frames against the plain."""
+    # deferred: the bench loads wgpu and every GPU pass; `aquaspec --help` need not
+    from aquaspec.apps.detail_bench import DEFAULT_SNOW, format_detail, run_detail_bench
+    snow = parse_marine_snow(args.marine_snow or DEFAULT_SNOW)    # refused before GPU work
+    if args.light == "sun-sky" or args.motion or args.lamps or args.surface:
+        raise AquaspecError("--detail times the detail alone; accepted without --light "
+                            "sun-sky, --motion, --lamps and --surface")
+    results = []
+    for size in [parse_size(s) for s in sizes_text.split(",") if s]:
+        for n in [int(b) for b in bands_text.split(",") if b]:
+            row = run_detail_bench(width=size[0], height=size[1], n_bands=n, frames=frames,
+                                   warmup=args.warmup, water=args.water, depth_m=args.depth,
+                                   marine_snow=snow,
+                                   progress=lambda m: print(m, file=sys.stderr, flush=True))
+            print(format_detail(row))
             results.append(row)
     _write_results(args.json, results)
     return 0

@@ -31,7 +31,8 @@ from aquaspec.errors import AquaspecError
 from aquaspec.gpu.passes.particles import ParticlePass
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.particles import MarineSnow, SnowField, parse_marine_snow  # noqa: F401
-from aquaspec.shading.particles import ParticleLight, composite, splat_image, splats
+from aquaspec.shading.particles import (MAX_RADIUS_PX, ParticleLight, composite, in_view,
+                                        splat_image, splats)
 
 _PASSES = weakref.WeakKeyDictionary()      # Renderer -> ParticlePass of its size
 _FIELDS: dict = {}                          # MarineSnow -> SnowField (the last few)
@@ -62,8 +63,8 @@ def frame_splats(snow: MarineSnow, light: ParticleLight, camera, time_s: float =
     """The splat records (:func:`aquaspec.shading.particles.splats`) of ``snow``'s
     particles for ``camera`` at ``time_s`` (s)."""
     pos, diam = snow_field(snow).at(camera.position, time_s)
-    ahead = (pos - camera.position) @ camera.forward > 0
-    pos, diam = pos[ahead], diam[ahead]
+    seen = in_view(pos, camera, MAX_RADIUS_PX + 1.0)
+    pos, diam = pos[seen], diam[seen]
     return splats(pos, diam, light.rgb(pos, camera.position), camera, blur_px=snow.blur_px,
                   coc_px=coc_px)
 
@@ -141,9 +142,12 @@ class LiveSnow:
             self._light_key = setup
         return self._light
 
-    def encode(self, encoder, rgb_buffer, surface_texture, camera, setup: SpectralSetup):
-        """Record the particles for ``camera`` over ``rgb_buffer`` (in place)."""
+    def encode(self, encoder, rgb_buffer, surface_texture, camera, setup: SpectralSetup, *,
+               display: bool = False):
+        """Record the particles for ``camera`` over ``rgb_buffer`` (in place), or
+        with ``display`` composed and shown into ``self.gpu.output`` (the
+        display settings given to ``self.gpu.set_display``)."""
         records = frame_splats(self.snow, self.light(setup, camera), camera, self.time_s)
         self.drawn = len(records)
         self.gpu.set_splats(records)
-        self.gpu.encode(encoder, surface_texture, rgb_buffer)
+        self.gpu.encode(encoder, surface_texture, rgb_buffer, display=display)

@@ -107,6 +107,7 @@ class Renderer:
         self.live_camera = None
         #: Marine snow over the live frames (:meth:`set_marine_snow`), or None.
         self.snow = None
+        self._snow_kept = None
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         """Upload ``setup``'s medium for a scene of ``materials`` to the shading
@@ -178,7 +179,8 @@ class Renderer:
             self._wave_loop = CausticLoopPass(self.deferred.device, loop)
         self._wave_loop.smooth = smooth
         self._wave_loop.encode(encoder, self.wave_time_s)
-        self.sun.use_caustic_texture(self._wave_loop.view, self._wave_loop.geometry)
+        self.sun.use_caustic_texture(self._wave_loop.view, self._wave_loop.geometry,
+                                     loop.band_scale)
         return True
 
     def render_scene(self, scene, camera: Camera, setup: SpectralSetup,
@@ -385,8 +387,15 @@ class Renderer:
         if snow is None:
             self.snow = None
             return
-        if self.snow is None or self.snow.snow != parse_marine_snow(snow):
-            self.snow = LiveSnow(snow, self.deferred.device, self.width, self.height)
+        spec = parse_marine_snow(snow)
+        if self.snow is None or self.snow.snow != spec:
+            # The last one is kept while the snow is off: switching back costs no compile.
+            kept = self._snow_kept
+            self.snow = kept if kept is not None and kept.snow == spec else LiveSnow(
+                spec, self.deferred.device, self.width, self.height)
+            self._snow_kept = self.snow
+            if self._display is not None and self._display.settings is not None:
+                self.snow.gpu.set_display(**self._display.settings)
         if time_s is not None:
             self.snow.time_s = float(time_s)
 
@@ -400,6 +409,8 @@ class Renderer:
         if self._display is None:
             self._display = DisplayPass(self.width, self.height, device=self.deferred.device)
         self._display.set_settings(**kw)
+        if self.snow is not None:
+            self.snow.gpu.set_display(**kw)
         if self.live_camera is not None:
             self.live_camera.display.set_settings(**kw)
 
@@ -432,7 +443,8 @@ class Renderer:
         added and the display fused in it), with the seeds' model ``"shading"``,
         ``"sun shadow"``, ``"sun"``, ``"display"``; with :meth:`set_camera_model`
         the shading unfused, then ``"camera+display"``; with :meth:`set_marine_snow`
-        the shading unfused, ``"particles"``, then ``"display"``) and returns
+        the shading unfused, then ``"particles+display"``, or with a camera model
+        ``"particles"`` before ``"camera+display"``) and returns
         the encoder for the next one: a benchmark submits and times each pass
         with it. Returns the encoder last returned by ``split`` (``encoder``
         itself without it).
@@ -466,18 +478,17 @@ class Renderer:
         if live is not None or self.snow is not None:
             encoder = self.encode_shading(encoder, sun, camera, scene, split=split)
             if self.snow is not None:
+                # Without a camera model the composition rides on the display's pass.
                 self.snow.encode(encoder, shading.rgb_buffer,
-                                 self.deferred.gbuffer.textures["surface"], camera, setup)
+                                 self.deferred.gbuffer.textures["surface"], camera, setup,
+                                 display=live is None)
+                if live is None:
+                    self._last_display = self.snow.gpu
+                    return split("particles+display", encoder)
                 encoder = split("particles", encoder)
-        if live is not None:
             live.encode(encoder, shading.rgb_buffer, self.deferred.gbuffer, sensor_camera, setup)
             self._last_display = live.display
             return split("camera+display", encoder)
-        if self.snow is not None:
-            self._display.use_input(shading.rgb_buffer)
-            self._display.encode(encoder)
-            self._last_display = self._display
-            return split("display", encoder)
         if sun is None or self._use_lightfield:
             # The sun's light in the shading pass's band loop, the display fused.
             encoder = self.encode_shading(encoder, sun, camera, scene, split=split,

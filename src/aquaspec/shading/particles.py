@@ -171,6 +171,19 @@ class ParticleLight:
         return self.radiance(positions, camera_position) @ self.response_weights
 
 
+def in_view(positions, camera, margin_px: float) -> np.ndarray:
+    """Which of ``positions`` (N, 3) lie beyond :data:`NEAR_M` along the axis
+    and project within ``margin_px`` of the image: the particles to light
+    (a cheap cull before :func:`splats`, which keeps the same ones and fewer)."""
+    p = np.asarray(positions, dtype=float) - camera.position
+    z = p @ camera.forward
+    zs = np.where(z > NEAR_M, z, 1.0)
+    col = camera.cx + camera.fx * (p @ camera.right) / zs
+    row = camera.cy - camera.fy * (p @ camera.true_up) / zs
+    return ((z > NEAR_M) & (col > -margin_px) & (col < camera.width + margin_px)
+            & (row > -margin_px) & (row < camera.height + margin_px))
+
+
 def splats(positions, diameters, rgb, camera, *, blur_px: float, coc_px=None) -> np.ndarray:
     """The particles in front of ``camera`` whose disc touches the image, as
     records of :data:`SPLAT_FIELDS` (M, 8) float32.

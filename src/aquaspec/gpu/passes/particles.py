@@ -13,7 +13,12 @@ this pass draws their discs. WGSL: ``particles.wgsl`` beside this module.
    frame's particles so that half floats hold it (11-bit mantissa: about
    0.05 % per particle).
 2. Compose (a compute pass, in place on a ``vec4<f32>`` image buffer, e.g.
-   the shading pass's ``rgb_buffer``), as :func:`aquaspec.shading.particles.composite`.
+   the shading pass's ``rgb_buffer``), as :func:`aquaspec.shading.particles.composite`;
+   or, with display settings (:meth:`ParticlePass.set_display`), composed and
+   shown in one pass (:mod:`aquaspec.gpu.passes.particles_display`, 8-bit sRGB in
+   :attr:`ParticlePass.output`):
+   on lavapipe a full-image pass costs about as much as the splat of ten
+   thousand particles, so the composition rides on the display's.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
 from aquaspec.gpu.buffers import create_texture, create_uniform_buffer, read_texture, upload_buffer
 from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch
 from aquaspec.gpu.layout import UniformLayout
+from aquaspec.gpu.passes.particles_display import SnowDisplayPass
 from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.shading.particles import SPLAT_FIELDS
 
@@ -83,6 +89,10 @@ class ParticlePass:
         self._surface = None
         self._compose_group = None
         self._target = None
+        self._display = None        # SnowDisplayPass, made by set_display
+        #: The display image's buffer (``display_buffer``: packed RGBA8), after :meth:`set_display`.
+        self.output = None
+        self.display_settings = None
 
     def set_splats(self, records) -> None:
         """Upload the frame's particles (:func:`aquaspec.shading.particles.splats`)."""
@@ -140,10 +150,36 @@ class ParticlePass:
         record_dispatch(encoder, self._compose, self._compose_group,
                         (-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]), 1))
 
-    def encode(self, encoder, surface_texture, rgb_buffer) -> None:
-        """Splat and compose (:meth:`set_splats` first)."""
+    def encode(self, encoder, surface_texture, rgb_buffer, *, display: bool = False) -> None:
+        """Splat and compose (:meth:`set_splats` first); with ``display``
+        composed and shown by :meth:`encode_display` (``rgb_buffer`` left as it was)."""
         self.encode_splat(encoder, surface_texture)
-        self.encode_compose(encoder, rgb_buffer)
+        if display:
+            self.encode_display(encoder, rgb_buffer)
+        else:
+            self.encode_compose(encoder, rgb_buffer)
+
+    # ------------------------------------------------------------- display
+    def set_display(self, **settings) -> None:
+        """Display settings of :meth:`encode_display`
+        (:meth:`aquaspec.gpu.passes.particles_display.SnowDisplayPass.set_settings`)."""
+        if self._display is None:
+            self._display = SnowDisplayPass(self.device, self.width, self.height, self.accum,
+                                            self.params, PARAMS)
+            self.output = self._display.output
+        self._display.set_settings(**settings)
+        self.display_settings = self._display.settings
+
+    def encode_display(self, encoder, rgb_buffer) -> None:
+        """Record the composition over ``rgb_buffer`` (read only) and the display
+        transform into :attr:`output` ``.display_buffer`` (:meth:`set_display` first)."""
+        if self._display is None:
+            raise AquaspecError("no display settings: call set_display() first")
+        self._display.encode(encoder, rgb_buffer)
+
+    def read_display(self) -> np.ndarray:
+        """The last :meth:`encode_display` image (H, W, 3) uint8."""
+        return self._display.read()
 
     def read_accumulated(self) -> np.ndarray:
         """The last splat as :func:`aquaspec.shading.particles.splat_image` gives it
