@@ -97,7 +97,7 @@ def _image_size(image):
 def _obj_map(material, keys, base_dir):
     """The PIL image an MTL statement (``norm``, ``map_bump``, ...) names, or None
     (trimesh keeps the statements it does not know as lists of words)."""
-    from PIL import Image
+    from PIL import Image  # deferred: as trimesh, only loading a mesh needs it
 
     kwargs = getattr(material, "kwargs", None) or {}
     for key in keys:

@@ -31,7 +31,7 @@ from aquaspec.colour.reflectance import fit_sigmoid_image
 from aquaspec.colour.srgb import srgb_decode
 from aquaspec.errors import AquaspecError
 from aquaspec.scene.camera import Camera
-from aquaspec.scene.texture import mip_chain, vertex_tangents
+from aquaspec.scene.texture import mip_chain, quantise_unorm8, vertex_tangents
 
 
 def image_to_linear_rgb(image, *, is_srgb: bool = True, what: str = "image") -> np.ndarray:
@@ -238,10 +238,11 @@ class Mesh:
 
     def normal_mips(self) -> list:
         """Mip levels of the normal map (averaged vectors, not renormalised),
-        each (h, w, 3) float32 (cached)."""
+        each (h, w, 3) float32 (cached), quantised as the GPU stores them
+        (8-bit unorm of (n + 1) / 2, :func:`aquaspec.scene.texture.quantise_unorm8`)."""
         cached = getattr(self, "_normal_mips", None)
         if cached is None or cached[0] is not self.normal_map:
-            cached = (self.normal_map, [lv.astype(np.float32)
+            cached = (self.normal_map, [quantise_unorm8(lv).astype(np.float32)
                                         for lv in mip_chain(self.normal_map)])
             self._normal_mips = cached
         return cached[1]

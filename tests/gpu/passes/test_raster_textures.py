@@ -13,9 +13,17 @@ from aquaspec.scene.texture import height_to_normal_map
 
 pytestmark = pytest.mark.gpu
 
-#: float32 uv derivatives and level of detail on the GPU against float64.
-COEFF_ATOL = 5e-3
-NORMAL_ATOL = 2e-3
+#: Beyond the envelope: the GPU's filter arithmetic against float64. The
+#: normal maps are 8-bit textures whose filtered sample comes back in steps
+#: of 2/255 of n (0.004 half a step); lavapipe's filter weights are coarse
+#: fractions. Measured on lavapipe (2026-11-28): at most 0.0097 (coefficients)
+#: and 0.0090 (normals) from the envelope.
+COEFF_ATOL = 0.012
+NORMAL_ATOL = 0.012
+#: The GPU's level of detail is implementation-defined (lavapipe approximates
+#: rho and log2 and filters "brilinearly"); its samples must lie within the
+#: reference's over lod +- LOD_SLACK.
+LOD_SLACK = 0.6
 
 
 @pytest.fixture(scope="module")
@@ -43,6 +51,21 @@ def interior(ref, gpu):
     return ok
 
 
+def envelope(scene, cam, name):
+    """Per pixel, the lowest and highest value of G-buffer field ``name`` over
+    ray-cast references with level-of-detail biases in [-LOD_SLACK, LOD_SLACK]."""
+    refs = [getattr(raycast_gbuffer(scene, cam, lod_bias=b), name)
+            for b in np.linspace(-LOD_SLACK, LOD_SLACK, 7)]
+    return np.min(refs, axis=0), np.max(refs, axis=0)
+
+
+def assert_within(got, lo, hi, atol):
+    below, above = lo - atol - got, got - hi - atol
+    worst = max(below.max(), above.max())
+    assert worst <= 0, (f"{int(((below > 0) | (above > 0)).sum())} of {got.size} values "
+                        f"outside the envelope by up to {worst:.3g}")
+
+
 def ripples(n=64, texel_m=0.01, amplitude=0.004, seed=0):
     rng = np.random.default_rng(seed)
     x = np.arange(n) * texel_m
@@ -61,7 +84,13 @@ class TestMipMapping:
         m = interior(ref, gpu)
         assert m.sum() > 1500
         assert np.all(gpu.material[m] == PER_PIXEL)
-        np.testing.assert_allclose(gpu.sigmoid[m], ref.sigmoid[m], atol=COEFF_ATOL, rtol=2e-3)
+        lo, hi = envelope(s, cam, "sigmoid")
+        assert_within(gpu.sigmoid[m], lo[m], hi[m], COEFF_ATOL)
+        # The slack is not all: far pixels do pick coarser levels (the lod
+        # spans several levels over the image and the samples differ from
+        # level 0's by far more than the tolerance).
+        level0 = raycast_gbuffer(s, cam, lod_bias=-20.0).sigmoid
+        assert np.abs(gpu.sigmoid[m] - level0[m]).max() > 0.2
 
     def test_far_texels_average_to_the_top_level(self, raster):
         """A texel-sized black-and-white checker seen from far: each pixel covers
@@ -100,13 +129,14 @@ class TestNormalMaps:
         m = interior(ref, gpu) & (gpu.material == ref.material)
         assert m.sum() > 2000
         assert set(np.unique(ref.material[m])) == {0, PER_PIXEL}
-        np.testing.assert_allclose(gpu.normal[m], ref.normal[m], atol=NORMAL_ATOL)
+        lo, hi = envelope(s, cam, "normal")
+        assert_within(gpu.normal[m], lo[m], hi[m], NORMAL_ATOL)
         # The map does tilt the normals (the floor is flat: y up everywhere).
         on_floor = m & (ref.material == 0)
         assert np.abs(ref.normal[on_floor][:, 0]).max() > 0.05
         pp = m & (ref.material == PER_PIXEL)
-        np.testing.assert_allclose(gpu.sigmoid[pp], ref.sigmoid[pp], atol=COEFF_ATOL,
-                                   rtol=2e-3)
+        lo, hi = envelope(s, cam, "sigmoid")
+        assert_within(gpu.sigmoid[pp], lo[pp], hi[pp], COEFF_ATOL)
 
     def test_back_side_normals_face_the_camera(self, raster):
         """Seen from below, the perturbed normal is turned to the camera's side."""
@@ -116,4 +146,5 @@ class TestNormalMaps:
         m = interior(ref, gpu)
         assert m.sum() > 500
         assert np.all(ref.normal[m][:, 1] < -0.5)
-        np.testing.assert_allclose(gpu.normal[m], ref.normal[m], atol=NORMAL_ATOL)
+        lo, hi = envelope(s, cam, "normal")
+        assert_within(gpu.normal[m], lo[m], hi[m], NORMAL_ATOL)

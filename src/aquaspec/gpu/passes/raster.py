@@ -21,9 +21,10 @@ buffer (WGSL: ``raster.wgsl`` beside this module). Per pixel it writes
   :meth:`~aquaspec.scene.mesh.Mesh.tangents`.
 
 Textures and normal maps are uploaded with their whole mip chain
-(rgba32float) and filtered by hand with ``textureLoad``, so that no
-``float32-filterable`` feature is needed and the GPU's sums are the NumPy
-reference's.
+(:data:`COEFF_FORMATS`, :data:`NORMAL_FORMAT`) and sampled by the texture
+units with a repeating trilinear sampler; the level of detail is the GPU's
+own approximation of the isotropic rule, so the tests hold the pass to the
+reference's samples over a range of levels (:mod:`aquaspec.scene.texture`).
 
 The targets are in the G-buffer layout of :mod:`aquaspec.gpu.gbuffer`
 (:attr:`RasterPass.targets`, valid after :meth:`RasterPass.encode`):
@@ -136,23 +137,38 @@ class _Draw:
         self.bind_group = bind_group
 
 
-def _mip_texture_view(device, levels, what):
-    """A rgba32float texture holding the mip chain ``levels`` (each (h, w, 3)), its view."""
+#: Texture formats of the coefficient textures: 32-bit floats where the
+#: device can filter them (the ``float32-filterable`` feature), 16-bit floats
+#: (always filterable) elsewhere.
+COEFF_FORMATS = ("rgba32float", "rgba16float")
+#: Normal maps are stored as 8-bit unorm, (n + 1) / 2 (as normal-map images
+#: are): lavapipe filters 8-bit textures on a fast path, about 2x faster per
+#: sample than 32-bit floats; :meth:`Mesh.normal_mips` holds the same
+#: quantised values for the NumPy reference.
+NORMAL_FORMAT = "rgba8unorm"
+
+
+def _mip_texture_view(device, levels, what, fmt):
+    """A texture of format ``fmt`` holding the mip chain ``levels`` (each (h, w, 3));
+    its view. ``rgba8unorm`` stores (x + 1) / 2 of values in [-1, 1]."""
     h, w = levels[0].shape[:2]
     limit = device.limits["max-texture-dimension-2d"]
     if max(h, w) > limit:
         raise AquaspecError(f"{what} is {w}x{h}; this GPU accepts textures up to {limit} "
                             "pixels a side")
-    tex = device.create_texture(size=(w, h, 1), format=wgpu.TextureFormat.rgba32float,
-                                mip_level_count=len(levels),
+    tex = device.create_texture(size=(w, h, 1), format=fmt, mip_level_count=len(levels),
                                 usage=wgpu.TextureUsage.TEXTURE_BINDING
                                 | wgpu.TextureUsage.COPY_DST)
     for k, level in enumerate(levels):
         lh, lw = level.shape[:2]
-        rgba = np.zeros((lh, lw, 4), np.float32)
-        rgba[..., :3] = level
+        if fmt == "rgba8unorm":
+            rgba = np.full((lh, lw, 4), 255, np.uint8)
+            rgba[..., :3] = np.clip(np.rint((np.asarray(level) + 1.0) * 127.5), 0, 255)
+        else:
+            rgba = np.zeros((lh, lw, 4), np.float32 if fmt == "rgba32float" else np.float16)
+            rgba[..., :3] = level
         device.queue.write_texture({"texture": tex, "mip_level": k, "origin": (0, 0, 0)},
-                                   rgba, {"offset": 0, "bytes_per_row": 16 * lw,
+                                   rgba, {"offset": 0, "bytes_per_row": rgba.itemsize * 4 * lw,
                                           "rows_per_image": lh}, (lw, lh, 1))
     return tex.create_view()
 
@@ -188,9 +204,17 @@ class RasterPass:
         # fills the one a mesh does not have.
         self._tex_layout = device.create_bind_group_layout(entries=[
             {"binding": b, "visibility": wgpu.ShaderStage.FRAGMENT,
-             "texture": {"sample_type": wgpu.TextureSampleType.unfilterable_float,
-                         "view_dimension": wgpu.TextureViewDimension.d2}} for b in (1, 2)])
-        self._blank = _mip_texture_view(device, [np.zeros((1, 1, 3), np.float32)], "blank")
+             "texture": {"sample_type": wgpu.TextureSampleType.float,
+                         "view_dimension": wgpu.TextureViewDimension.d2}} for b in (1, 2)] + [
+            {"binding": 3, "visibility": wgpu.ShaderStage.FRAGMENT,
+             "sampler": {"type": wgpu.SamplerBindingType.filtering}}])
+        self._sampler = device.create_sampler(
+            address_mode_u="repeat", address_mode_v="repeat", mag_filter="linear",
+            min_filter="linear", mipmap_filter="linear")
+        self.coeff_format = COEFF_FORMATS["float32-filterable" not in device.features]
+        self._blank = {fmt: _mip_texture_view(device, [np.zeros((1, 1, 3), np.float32)],
+                                              "blank", fmt)
+                       for fmt in (self.coeff_format, NORMAL_FORMAT)}
         self._pipeline_layouts = {
             False: device.create_pipeline_layout(bind_group_layouts=[self._cam_layout]),
             True: device.create_pipeline_layout(
@@ -278,12 +302,14 @@ class RasterPass:
                if reflectance_mode(m) == MODE_TEXTURE or m.normal_map is not None]
         for m in sorted(own, key=lambda m: (reflectance_mode(m), m.normal_map is None)):
             coeff = (_mip_texture_view(self.device, m.texture_mips(), f"texture of mesh "
-                                       f"{m.name!r}") if m.texture is not None else self._blank)
+                                       f"{m.name!r}", self.coeff_format)
+                     if m.texture is not None else self._blank[self.coeff_format])
             normal = (_mip_texture_view(self.device, m.normal_mips(), f"normal map of mesh "
-                                        f"{m.name!r}") if m.normal_map is not None
-                      else self._blank)
+                                        f"{m.name!r}", NORMAL_FORMAT)
+                      if m.normal_map is not None else self._blank[NORMAL_FORMAT])
             group = self.device.create_bind_group(layout=self._tex_layout, entries=[
-                {"binding": 1, "resource": coeff}, {"binding": 2, "resource": normal}])
+                {"binding": 1, "resource": coeff}, {"binding": 2, "resource": normal},
+                {"binding": 3, "resource": self._sampler}])
             draws.append(_Draw(self.device, reflectance_mode(m), [m], group,
                                m.normal_map is not None))
         self._draws = draws

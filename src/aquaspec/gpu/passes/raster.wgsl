@@ -19,12 +19,13 @@
 const PER_PIXEL: u32 = 0xFFFFFFFFu;
 
 @group(0) @binding(0) var<uniform> cam: RasterCamera;
-// Per-texel sigmoid coefficients of a textured mesh and its tangent-space
-// normal map, each with its mip chain (aquaspec.scene.texture). rgba32float
-// is filterable only with the optional float32-filterable feature, so the
-// trilinear filter is done here with textureLoad.
+// Per-texel sigmoid coefficients of a textured mesh (rgba32float where the
+// device has float32-filterable, else rgba16float) and its tangent-space
+// normal map (rgba8unorm of (n + 1) / 2), each with its mip chain
+// (aquaspec.scene.texture), sampled trilinearly by the texture units.
 @group(1) @binding(1) var coeff_tex: texture_2d<f32>;
 @group(1) @binding(2) var normal_tex: texture_2d<f32>;
+@group(1) @binding(3) var tex_sampler: sampler;
 
 // Vertex layouts, one per mode (aquaspec.gpu.passes.raster._vertex_data): position,
 // normal, then the mode's own attribute at location 2. Each mode passes on
@@ -166,43 +167,16 @@ fn vs_vertex_nm(v: VsVertexNmIn) -> VsVertexNmOut {
                          v.position - cam.position, v.normal, v.coeff, v.uv, v.tangent);
 }
 
-fn wrap(i: i32, n: i32) -> i32 {
-    return ((i % n) + n) % n;
-}
-
-// Bilinear on mip level `level`, repeat-wrapped; uv origin at the
-// bottom-left, texel row 0 at the top (aquaspec.scene.texture.bilinear_repeat).
-// The level's size is computed (WebGPU's mip sizes: max(1, size >> level)):
-// lavapipe answered textureDimensions(tex, level) with one lane's level for
-// every lane of a SIMD group whose pixels use different levels.
-fn bilinear_level(tex: texture_2d<f32>, uv: vec2<f32>, level: i32) -> vec3<f32> {
-    let size = max(vec2<i32>(textureDimensions(tex, 0)) >> vec2<u32>(u32(level)), vec2<i32>(1));
-    let p = vec2<f32>(uv.x, 1.0 - uv.y) * vec2<f32>(size) - 0.5;
-    let p0 = floor(p);
-    let f = p - p0;
-    let i0 = vec2<i32>(p0);
-    let x0 = wrap(i0.x, size.x);
-    let x1 = wrap(i0.x + 1, size.x);
-    let y0 = wrap(i0.y, size.y);
-    let y1 = wrap(i0.y + 1, size.y);
-    let a = textureLoad(tex, vec2<i32>(x0, y0), level).xyz;
-    let b = textureLoad(tex, vec2<i32>(x1, y0), level).xyz;
-    let c = textureLoad(tex, vec2<i32>(x0, y1), level).xyz;
-    let d = textureLoad(tex, vec2<i32>(x1, y1), level).xyz;
-    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
-}
-
-// Trilinear: the level of detail from the uv's screen derivatives
-// (aquaspec.scene.texture.mip_lod), bilinear on the two nearest levels.
+// Trilinear with the texture units: a repeating sampler with linear
+// min/mag/mip filters, the level of detail from the uv's fine screen
+// derivatives (aquaspec.scene.texture: the isotropic rule; each GPU
+// approximates it in its own way). uv origin at the bottom-left, texel row 0
+// at the top, so v is flipped.
 fn trilinear(tex: texture_2d<f32>, uv: vec2<f32>, duv_dx: vec2<f32>,
              duv_dy: vec2<f32>) -> vec3<f32> {
-    let levels = i32(textureNumLevels(tex));
-    let size = vec2<f32>(textureDimensions(tex, 0));
-    let rho = max(length(duv_dx * size), length(duv_dy * size));
-    let lod = select(0.0, clamp(log2(rho), 0.0, f32(levels - 1)), rho > 1.0);
-    let l0 = i32(floor(lod));
-    let l1 = min(l0 + 1, levels - 1);
-    return mix(bilinear_level(tex, uv, l0), bilinear_level(tex, uv, l1), lod - f32(l0));
+    let flip = vec2<f32>(1.0, -1.0);
+    return textureSampleGrad(tex, tex_sampler, vec2<f32>(uv.x, 1.0 - uv.y), duv_dx * flip,
+                             duv_dy * flip).xyz;
 }
 
 // The triangle's own plane, from screen-space derivatives of the
@@ -283,7 +257,8 @@ fn fs_texture(in: VsTextureOut) -> FsOut2 {
 fn fs_material_nm(in: VsMaterialNmOut) -> FsOut1 {
     let dx = dpdxFine(in.uv);
     let dy = dpdyFine(in.uv);
-    let n = mapped_normal(in.rel, in.normal, in.tangent, trilinear(normal_tex, in.uv, dx, dy));
+    let n = mapped_normal(in.rel, in.normal, in.tangent,
+                          trilinear(normal_tex, in.uv, dx, dy) * 2.0 - 1.0);
     return FsOut1(pack_surface(in.rel, n, in.material));
 }
 
@@ -291,7 +266,8 @@ fn fs_material_nm(in: VsMaterialNmOut) -> FsOut1 {
 fn fs_material_nm2(in: VsMaterialNmOut) -> FsOut2 {
     let dx = dpdxFine(in.uv);
     let dy = dpdyFine(in.uv);
-    let n = mapped_normal(in.rel, in.normal, in.tangent, trilinear(normal_tex, in.uv, dx, dy));
+    let n = mapped_normal(in.rel, in.normal, in.tangent,
+                          trilinear(normal_tex, in.uv, dx, dy) * 2.0 - 1.0);
     return FsOut2(pack_surface(in.rel, n, in.material), vec4<f32>(0.0));
 }
 
@@ -299,7 +275,8 @@ fn fs_material_nm2(in: VsMaterialNmOut) -> FsOut2 {
 fn fs_texture_nm(in: VsTextureNmOut) -> FsOut2 {
     let dx = dpdxFine(in.uv);
     let dy = dpdyFine(in.uv);
-    let n = mapped_normal(in.rel, in.normal, in.tangent, trilinear(normal_tex, in.uv, dx, dy));
+    let n = mapped_normal(in.rel, in.normal, in.tangent,
+                          trilinear(normal_tex, in.uv, dx, dy) * 2.0 - 1.0);
     return FsOut2(pack_surface(in.rel, n, PER_PIXEL),
                   vec4<f32>(trilinear(coeff_tex, in.uv, dx, dy), 0.0));
 }
@@ -308,7 +285,8 @@ fn fs_texture_nm(in: VsTextureNmOut) -> FsOut2 {
 fn fs_vertex_nm(in: VsVertexNmOut) -> FsOut2 {
     let dx = dpdxFine(in.uv);
     let dy = dpdyFine(in.uv);
-    let n = mapped_normal(in.rel, in.normal, in.tangent, trilinear(normal_tex, in.uv, dx, dy));
+    let n = mapped_normal(in.rel, in.normal, in.tangent,
+                          trilinear(normal_tex, in.uv, dx, dy) * 2.0 - 1.0);
     return FsOut2(pack_surface(in.rel, n, PER_PIXEL), vec4<f32>(in.coeff, 0.0));
 }
 
