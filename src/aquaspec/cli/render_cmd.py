@@ -25,6 +25,7 @@ from aquaspec.light.lamp import PRESETS, SPEC_KEYS, parse_lamps
 from aquaspec.optics.presets import CAMERA_MODELS, get_camera_model
 from aquaspec.scene.particles import parse_marine_snow
 from aquaspec.scene.camera import DEFAULT_LOOK_DOWN_DEG, camera_above, parse_size
+from aquaspec.scene.builtin import BUILTIN_VARIANTS, RENDER_DEFAULT_VARIANT
 from aquaspec.scene.seabed import Seabed
 
 
@@ -53,6 +54,10 @@ def register(sub):
     p.add_argument("--colour-matrix", default="auto", choices=("auto", "none"),
                    help="display: 'auto' maps camera RGB to sRGB with a matrix fitted on the "
                         "ColorChecker (identity for 'human'); 'none' shows raw camera RGB")
+    p.add_argument("--scene", choices=BUILTIN_VARIANTS, default=None,
+                   help=f"which built-in scene (default {RENDER_DEFAULT_VARIANT}): classic "
+                        "(smooth shapes, one material each) or detailed (rippled sand, rocks "
+                        "with crevices, seagrass, a fouled pipe, a wreck plate)")
     p.add_argument("--mesh", metavar="FILE", help="render this OBJ/PLY/glTF/GLB instead of the "
                                                    "built-in scene (placed 3 m in front)")
     p.add_argument("--albedo", metavar="R,G,B", help="linear RGB albedo for --mesh, e.g. 0.5,0.4,0.3")
@@ -165,7 +170,8 @@ def run(args):
 
     res = render(water=args.water, source=args.source, depth_m=args.depth, sensor=args.sensor,
                  camspec=args.camspec, bands=args.bands, wavelength_range=parse_range(args.range),
-                 size=size, mesh=args.mesh, albedo=albedo, rgbd=rgbd, light=args.light,
+                 size=size, mesh=args.mesh, albedo=albedo, builtin=args.scene, rgbd=rgbd,
+                 light=args.light,
                  irradiance_w_m2=args.irradiance, sun_elevation_deg=sun_elevation,
                  sun_azimuth_deg=sun_azimuth, sun_shadow_map=shadow_map,
                  waves=waves, ambient=args.ambient, outside="zero" if args.outside_zero else "error",

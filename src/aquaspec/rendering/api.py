@@ -59,7 +59,7 @@ from aquaspec.rendering.marine_snow import add_marine_snow, parse_marine_snow
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.result import RenderResult
 from aquaspec.rendering.setup import SpectralSetup, render_surface
-from aquaspec.scene.builtin import builtin_scene
+from aquaspec.scene.builtin import RENDER_DEFAULT_VARIANT, builtin_scene
 from aquaspec.scene.camera import Camera, parse_size
 from aquaspec.scene.gbuffer import GBuffer
 from aquaspec.scene.load import load_mesh, place_in_front
@@ -98,7 +98,8 @@ def as_waves(waves, wave_time=None):
 def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
            sensor="human", camspec=None, bands: int = 16, wavelength_range=(400.0, 700.0),
            size=(1280, 720), scene=None, camera: Camera | None = None, mesh=None, albedo=None,
-           rgbd=None, light="overcast", irradiance_w_m2=None, sun_elevation_deg=60.0,
+           builtin: str | None = None, rgbd=None, light="overcast", irradiance_w_m2=None,
+           sun_elevation_deg=60.0,
            sun_azimuth_deg=None, sun_shadow_map: int | None = None, waves=None,
            wave_time: float | None = None, camera_model=None, marine_snow=None,
            ambient: str = model.DEFAULT_AMBIENT, outside: str = "error",
@@ -131,6 +132,10 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         An OBJ/PLY/glTF/GLB placed in front of the camera at ``depth_m``.
     albedo : 3 floats, optional
         Linear RGB albedo replacing the mesh's colours.
+    builtin : str, optional
+        Which built-in scene (:data:`aquaspec.scene.builtin.BUILTIN_VARIANTS`)
+        when neither ``scene``, ``mesh`` nor ``rgbd`` is given;
+        :data:`aquaspec.scene.builtin.RENDER_DEFAULT_VARIANT` when None.
     rgbd : (image, depth, intrinsics), optional
         An RGB image (path or array), a metric depth map (path or array, m)
         and pinhole intrinsics ``(fx, fy, cx, cy)``: a photograph becomes an
@@ -254,7 +259,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         ambient_shadow=ambient_shadow, occlusion=occlusion, say=say, lamps=lamps,
         surface="flat" if in_air_view(camera) else render_surface(surface, ms_model))
     view = _view(scene=scene, camera=camera, mesh=mesh, albedo=albedo, rgbd=rgbd,
-                 depth_m=depth, width=width, height=height, say=say)
+                 depth_m=depth, width=width, height=height, say=say, builtin=builtin)
     view, optics = camera_view(view, camera_model, setup)
     if rgbd is not None:
         check_render_memory(bands, view.camera.width, view.camera.height, ms_model=ms_model,
@@ -327,17 +332,22 @@ class _View:
     description: dict
 
 
-def _scene_for(mesh, depth_m, width, height, albedo):
+def _scene_for(mesh, depth_m, width, height, albedo, builtin=None):
     if mesh is None:
-        return builtin_scene(depth_m, width=width, height=height)
+        return builtin_scene(depth_m, width=width, height=height,
+                             variant=RENDER_DEFAULT_VARIANT if builtin is None else builtin)
     scene = load_mesh(mesh, albedo=albedo)
     scene = place_in_front(scene, depth_m=depth_m, width=width, height=height)
     return scene, scene.camera
 
 
-def _view(*, scene, camera, mesh, albedo, rgbd, depth_m, width, height, say) -> _View:
+def _view(*, scene, camera, mesh, albedo, rgbd, depth_m, width, height, say,
+          builtin=None) -> _View:
     """Step 2: the scene and camera of :func:`render`'s arguments, or the
     G-buffer of its RGB-D photograph."""
+    if builtin is not None and (scene is not None or mesh is not None or rgbd is not None):
+        raise AquaspecError(f"builtin={builtin!r} names a built-in scene; it cannot be "
+                            "combined with scene=, mesh= or rgbd=")
     if rgbd is not None:
         image, depth_map, intrinsics = rgbd
         source_desc = {}
@@ -351,10 +361,11 @@ def _view(*, scene, camera, mesh, albedo, rgbd, depth_m, width, height, say) -> 
                       **source_desc})
     if scene is None:
         say("building the scene")
-        scene, default_cam = _scene_for(mesh, depth_m, width, height, albedo)
+        scene, default_cam = _scene_for(mesh, depth_m, width, height, albedo, builtin)
         return _View(scene, camera or default_cam, None, False,
                      {"kind": "builtin" if mesh is None else "mesh",
-                      **({"mesh": str(mesh)} if mesh is not None else {})})
+                      **({"mesh": str(mesh)} if mesh is not None else {}),
+                      **getattr(scene, "info", {})})
     camera = camera or scene.camera
     if camera is None:
         raise AquaspecError("a user scene needs a camera (scene.camera or camera=)")
