@@ -6,16 +6,17 @@ run, whole displayed frames of the built-in scene
 (:meth:`aquaspec.rendering.renderer.Renderer.draw_frame`: geometry, shading,
 display, submitted and waited for; what a live view draws):
 
-- ``plain``: the built-in scene, no particles (the display fused into the
-  shading pass);
+- ``plain``: the classic built-in scene, no particles (the display fused
+  into the shading pass);
 - ``particles``: the same with marine snow (:mod:`aquaspec.rendering.marine_snow`;
   the particles drifting 1/30 s per frame, so the host's part, their
   positions, light and discs, is redone every frame as in a live view, and
   the shading unfused from the display, followed by the splat, the
   composition and the display pass);
-- ``detailed`` / ``detailed_particles``: a detailed scene's frames (a
-  callable making ``(scene, camera)``, e.g. a textured built-in scene),
-  when given.
+- ``detailed`` / ``detailed_particles``: a detailed scene's frames, without
+  and with the particles, when given (a callable making ``(scene, camera)``;
+  ``bench --detail`` gives :func:`detailed_builtin`, the textured,
+  normal-mapped built-in scene).
 
 The frames are alternated, their wall-clock medians compared (the machine
 may be shared: compare ratios from one run). The host's part of the
@@ -53,7 +54,7 @@ def run_detail_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
     ``detailed_scene``: None, or a function ``(depth_m, width, height) -> (scene, camera)``."""
     say = progress or (lambda m: None)
     snow = parse_marine_snow(marine_snow)
-    scene, camera = builtin_scene(depth_m, width=width, height=height)
+    scene, camera = builtin_scene(depth_m, width=width, height=height, variant="classic")
     scenes = {"plain": scene}
     if detailed_scene is not None:
         scenes["detailed"] = detailed_scene(depth_m, width, height)[0]
@@ -119,6 +120,11 @@ def _passes_ms(r: Renderer, scene, camera, setup, snow, time_s, frames: int) -> 
 
         r.draw_frame(scene, camera, setup, split=split)
     return {k: float(np.median(v)) for k, v in out.items()}
+
+
+def detailed_builtin(depth_m: float, width: int, height: int):
+    """The detailed built-in scene (textures, normal maps; issue 32 items 1-2) and its camera."""
+    return builtin_scene(depth_m, width=width, height=height, variant="detailed")
 
 
 def format_detail(row: dict) -> str:

@@ -81,10 +81,11 @@ def register(sub):
                         "surface, looking up through the flat one, and the sea seen from 5 m "
                         "above it, each with its ratio to the first")
     p.add_argument("--detail", action="store_true",
-                   help="time whole displayed frames of the built-in scene plain and with "
-                        "marine snow (--marine-snow, default 200,1) drifting, and a detailed "
-                        "textured scene where one is built in, alternated in one run, with "
-                        "their ratios to the plain frame (default 1280x720, 8 bands)")
+                   help="time whole displayed frames of the classic built-in scene, plain "
+                        "and with marine snow (--marine-snow, default 200,1) drifting, and of "
+                        "the detailed built-in scene (textures, normal maps) without and with "
+                        "it, alternated in one run, with their ratios to the plain frame "
+                        "(default 1280x720, 8 bands)")
     p.add_argument("--marine-snow", default=None, metavar="DENSITY[,SEED][,KEY=VALUE...]",
                    help="with --detail: the particles timed (as for render)")
     p.add_argument("--no-numpy", action="store_true", help="skip the NumPy reference ratio "
@@ -192,7 +193,8 @@ def _run_surface(args, sizes_text, bands_text, frames):
 def _run_detail(args, sizes_text, bands_text, frames):
     """``bench --detail``: each size and band count, the detailed frames against the plain."""
     # deferred: the bench loads wgpu and every GPU pass; `aquaspec --help` need not
-    from aquaspec.apps.detail_bench import DEFAULT_SNOW, format_detail, run_detail_bench
+    from aquaspec.apps.detail_bench import (DEFAULT_SNOW, detailed_builtin, format_detail,
+                                            run_detail_bench)
     snow = parse_marine_snow(args.marine_snow or DEFAULT_SNOW)    # refused before GPU work
     if args.light == "sun-sky" or args.motion or args.lamps or args.surface:
         raise AquaspecError("--detail times the detail alone; accepted without --light "
@@ -202,7 +204,7 @@ def _run_detail(args, sizes_text, bands_text, frames):
         for n in [int(b) for b in bands_text.split(",") if b]:
             row = run_detail_bench(width=size[0], height=size[1], n_bands=n, frames=frames,
                                    warmup=args.warmup, water=args.water, depth_m=args.depth,
-                                   marine_snow=snow,
+                                   marine_snow=snow, detailed_scene=detailed_builtin,
                                    progress=lambda m: print(m, file=sys.stderr, flush=True))
             print(format_detail(row))
             results.append(row)
