@@ -58,6 +58,8 @@ class TestErrors:
          "a grid needs steps"),
         ({"inputs": INPUTS, "plan": {"seed": -1}}, "seed = -1; accepted: an integer >= 0"),
         ({"inputs": INPUTS, "render": {"tonemap": "sepia"}}, "tonemap = 'sepia'"),
+        ({"inputs": INPUTS, "render": {"marine_snow": "-2"}}, "density_per_m3=-2.0"),
+        ({"inputs": INPUTS, "render": {"marine_snow": True}}, "marine_snow = True; accepted"),
         ({"inputs": INPUTS, "output": {"manifest": ["xlsx"]}}, "accepted: one or more of csv"),
         ({"inputs": INPUTS, "output": {"layers": "yes"}}, "layers = 'yes'; accepted: true"),
     ])
@@ -71,3 +73,15 @@ class TestErrors:
         d = c.plan.dimensions["depth_m"]
         assert (d.low, d.high, d.steps) == (2.0, 6.0, 3)
         assert c.plan.dimensions["water"].values == ("IB", "II")
+
+
+class TestMarineSnow:
+    def test_spec_kept_and_each_sample_seeded_by_its_id(self):
+        from aquaspec.apps.synth.task import _marine_snow
+        c = config_from_dict({"inputs": INPUTS, "render": {"marine_snow": 300}})
+        assert c.render.marine_snow == "300" and c.render.describe()["marine_snow"] == "300"
+        assert "marine_snow" not in config_from_dict({"inputs": INPUTS}).render.describe()
+        a, b = _marine_snow("300,0,albedo=0.3", "img001-0"), _marine_snow("300", "img001-1")
+        assert a.seed != b.seed and a.albedo == 0.3
+        assert _marine_snow("300", "img001-0").seed == a.seed      # the same on a rerun
+        assert _marine_snow(None, "img001-0") is None

@@ -48,6 +48,7 @@ from aquaspec.colour.display import TONEMAPS
 from aquaspec.errors import AquaspecError
 from aquaspec.optics.flat_port import FlatPort
 from aquaspec.optics.presets import get_camera_model
+from aquaspec.scene.particles import parse_marine_snow
 from aquaspec.transport.models import DEFAULT_MS_MODEL, MS_MODEL_CHOICES
 
 #: Depth units and their metres.
@@ -132,6 +133,8 @@ class RenderConfig:
     backend: str = "gpu"
     #: A ``--camera-model`` preset (port, lens, noisy sensor), or None: the pinhole.
     camera_model: str | None = None
+    #: A ``--marine-snow`` spec (each sample's particles seeded from its id), or None.
+    marine_snow: str | None = None
 
     def describe(self) -> dict:
         return {"ms_model": self.ms_model, "phase": self.phase,
@@ -141,7 +144,8 @@ class RenderConfig:
                 "backend": self.backend,
                 # Only when set: a sample's id hashes this, and a run without a
                 # camera model keeps the ids it had before the key existed.
-                **({"camera_model": self.camera_model} if self.camera_model else {})}
+                **({"camera_model": self.camera_model} if self.camera_model else {}),
+                **({"marine_snow": self.marine_snow} if self.marine_snow else {})}
 
 
 @dataclass(frozen=True)
@@ -328,7 +332,14 @@ def _plan(t: dict) -> PlanConfig:
 
 def _render(t: dict, base: Path) -> RenderConfig:
     _only(t, ("ms_model", "phase", "wavelength_range", "camspec", "tonemap", "colour_matrix",
-              "backend", "camera_model"), "[render]")
+              "backend", "camera_model", "marine_snow"), "[render]")
+    marine_snow = t.get("marine_snow")
+    if marine_snow is not None:
+        if isinstance(marine_snow, bool) or not isinstance(marine_snow, (str, int, float)):
+            raise AquaspecError(f"[render] marine_snow = {marine_snow!r}; accepted: a spec "
+                                "'DENSITY[,SEED][,KEY=VALUE...]', e.g. \"200\"")
+        marine_snow = str(marine_snow)
+        parse_marine_snow(marine_snow)
     camera_model = t.get("camera_model")
     if camera_model is not None:
         if not isinstance(camera_model, str):
@@ -349,7 +360,7 @@ def _render(t: dict, base: Path) -> RenderConfig:
         tonemap=_choice(t, "tonemap", tuple(TONEMAPS), "filmic", "[render]"),
         colour_matrix=_choice(t, "colour_matrix", ("auto", "none"), "auto", "[render]"),
         backend=_choice(t, "backend", ("gpu", "numpy"), "gpu", "[render]"),
-        camera_model=camera_model)
+        camera_model=camera_model, marine_snow=marine_snow)
 
 
 def _output(t: dict, base: Path) -> OutputConfig:

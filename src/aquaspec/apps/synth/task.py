@@ -52,6 +52,7 @@ from aquaspec.light.sky import SurfaceLight, surface_light
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import Water, get_water
 from aquaspec.optics.presets import get_camera_model
+from aquaspec.scene.particles import parse_marine_snow
 from aquaspec.rendering.api import render
 from aquaspec.rendering.renderer import Renderer
 
@@ -175,7 +176,8 @@ class SampleTask:
                      colour_matrix=None if cfg.render.colour_matrix == "none" else "auto",
                      layers=cfg.output.layers, backend=cfg.render.backend,
                      renderer=self._renderer(width, height, p["bands"]),
-                     camera_model=_camera_model(cfg.render.camera_model, sample.sample_id))
+                     camera_model=_camera_model(cfg.render.camera_model, sample.sample_id),
+                     marine_snow=_marine_snow(cfg.render.marine_snow, sample.sample_id))
         display, linear, layers = _masked(res.display, res.linear_rgb, res.layers, rgbd,
                                           cfg.inputs.holes == "mask" and holes > 0)
         written = {"png": files.png, "sidecar": files.sidecar,
@@ -212,6 +214,15 @@ def _camera_model(spec, sample_id: str):
     if model is None:
         return None
     return dataclasses.replace(model, seed=zlib.crc32(sample_id.encode("utf-8")))
+
+
+def _marine_snow(spec, sample_id: str):
+    """The ``[render] marine_snow`` of one sample: its particles seeded from the
+    sample's id (each sample its own particles, the same on a rerun)."""
+    snow = parse_marine_snow(spec)
+    if snow is None:
+        return None
+    return dataclasses.replace(snow, seed=zlib.crc32(sample_id.encode("utf-8")))
 
 
 def _masked(display, linear, layers, rgbd: RGBD | None, mask: bool):
