@@ -132,3 +132,25 @@ class TestDiscs:
         acc = np.array([[[0, 0, 0, 0], [0.5, 0.5, 0.5, 0.25], [6.0, 6.0, 6.0, 3.0]]], float)
         out = composite(lin, acc)
         np.testing.assert_allclose(out[0, :, 0], [2.0, 2.0 * 0.75 + 0.5, 2.0])
+
+
+def test_the_scenes_shadow_takes_the_sun_off():
+    """A shadow map that occludes everything leaves the diffuse light alone; one
+    that occludes nothing leaves the sun's part too."""
+    from aquaspec.scene.shadowmap import shadow_map_spec
+    t = _tables(lambda mu: np.full_like(mu, 0.25))
+    to_sun = np.array([0.0, 0.6, 0.8])
+    sun = SimpleNamespace(beam0=np.array([10.0, 20.0]), c_sun=np.array([0.2, 0.4]),
+                          to_sun=to_sun, mu0=0.6)
+    cam = np.array([0.0, -4.0, 0.0])
+    spec = shadow_map_spec(np.array([[-5.0, -9.0, -5.0], [5.0, 0.0, 5.0]]), cam, to_sun,
+                           size=64)
+    p = np.array([[0.5, -4.5, -2.0], [-1.0, -3.0, -1.0]])
+    kw = dict(tables=t, e0=np.ones(2), a=0, b=0, response_weights=np.eye(2, 3), sun=sun)
+    open_water = ParticleLight.of(0.5, **kw).radiance(p, cam)
+    lit = ParticleLight.of(0.5, **kw, sun_shadow=(np.full((64, 64), -np.inf), spec))
+    dark = ParticleLight.of(0.5, **kw, sun_shadow=(np.full((64, 64), np.inf), spec))
+    no_sun = ParticleLight.of(0.5, **{**kw, "sun": None}).radiance(p, cam)
+    np.testing.assert_allclose(lit.radiance(p, cam), open_water, rtol=1e-12)
+    np.testing.assert_allclose(dark.radiance(p, cam), no_sun, rtol=1e-12)
+    assert np.all(open_water > 1.5 * no_sun)

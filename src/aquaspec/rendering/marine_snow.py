@@ -48,14 +48,15 @@ def snow_field(snow: MarineSnow) -> SnowField:
 
 
 def particle_light(setup: SpectralSetup, camera, snow: MarineSnow,
-                   visible=None) -> ParticleLight:
-    """What lights the particles under ``setup`` for ``camera`` (its lamps placed)."""
+                   visible=None, sun_shadow=None) -> ParticleLight:
+    """What lights the particles under ``setup`` for ``camera`` (its lamps placed;
+    ``sun_shadow``: the scene's shadow map of the sun, ``(height_map, spec)``, or None)."""
     bw = setup.water.on_bands(setup.bands)
     medium = setup.medium([])
     return ParticleLight.of(snow.albedo, tables=setup.lightfield_tables(), e0=medium["e0"],
                             a=bw.a, b=bw.b, response_weights=medium["response_weights"],
                             sun=setup.sun_inputs(), lamps=setup.lamp_inputs(camera),
-                            visible=visible)
+                            visible=visible, sun_shadow=sun_shadow)
 
 
 def frame_splats(snow: MarineSnow, light: ParticleLight, camera, time_s: float = 0.0,
@@ -92,7 +93,7 @@ def add_marine_snow(marine_snow, shaded, setup: SpectralSetup, view, optics, bac
         raise AquaspecError("marine snow is drawn in camera RGB, not per band; accepted: "
                             "return_radiance=False with marine_snow")
     camera = view.camera
-    light = particle_light(setup, camera, snow)
+    light = particle_light(setup, camera, snow, sun_shadow=_sun_shadow(shaded, backend))
     records = frame_splats(snow, light, camera, 0.0, _coc(optics))
     say(f"marine snow: {len(records)} particles drawn ({snow.count} in the cube)")
     if backend == "gpu" and shaded.renderer is not None:
@@ -114,6 +115,16 @@ def add_marine_snow(marine_snow, shaded, setup: SpectralSetup, view, optics, bac
             and optics.model.depth_of_field else f"fixed, {snow.blur_px:g} px at least",
             "drawn_on": "GPU" if backend == "gpu" else "NumPy"}
     return dataclasses.replace(shaded, linear=linear), {"marine_snow": info}
+
+
+def _sun_shadow(shaded, backend):
+    """The frame's shadow map of the sun ``(height_map, spec)``, or None."""
+    if backend != "gpu":
+        return shaded.sun_shadow
+    sun = None if shaded.renderer is None else shaded.renderer.sun
+    if sun is None or not sun.shadowed:
+        return None
+    return sun.read_shadow_map(), sun.spec
 
 
 class LiveSnow:

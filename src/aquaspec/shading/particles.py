@@ -28,8 +28,10 @@ camera), at depth ``d``:
   ``Phi(alpha) = (sin alpha + (pi - alpha) cos alpha) / pi`` and ``alpha``
   the angle between the directions to the light and to the camera
   (H. N. Russell, "On the albedo of the planets and their satellites",
-  ApJ 43, 173, 1916; ``2/3 rho`` is the sphere's geometric albedo). No
-  shadows of the scene or the sea's caustics on the particles.
+  ApJ 43, 173, 1916; ``2/3 rho`` is the sphere's geometric albedo). The
+  scene's shadow of the sun is read from its shadow map at the particle's
+  centre when one is given (:func:`aquaspec.scene.shadowmap.map_visibility`);
+  no lamp shadows, no sea's caustics on the particles.
 
 On the way to the camera the light is attenuated by ``exp(-c_view r)``
 (``c - f b``, as the surfaces' light, :meth:`LightfieldTables.ray_extinction`).
@@ -57,6 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.scene.shadowmap import map_visibility
 from aquaspec.transport.lightfield.tables import table_lookup
 
 #: Nearest particle drawn, m along the camera's axis (a port's glass is about there).
@@ -114,7 +117,9 @@ class ParticleLight:
     ``visible`` their :func:`visible_irradiance_table`; ``c_view`` (n,)
     1/m; ``response_weights`` (n, 3); ``sun`` a
     :class:`aquaspec.transport.sun_scattering.SunInputs` or None; ``lamps``
-    :class:`aquaspec.transport.lamp_scattering.LampInputs` (placed).
+    :class:`aquaspec.transport.lamp_scattering.LampInputs` (placed);
+    ``sun_shadow`` the scene's shadow map of the sun ``(height_map, spec)``
+    (:func:`aquaspec.scene.shadowmap.numpy_shadow_map`) or None (no shadows).
     """
 
     rho: float
@@ -125,10 +130,11 @@ class ParticleLight:
     response_weights: np.ndarray
     sun: object = None
     lamps: tuple = ()
+    sun_shadow: tuple | None = None
 
     @classmethod
     def of(cls, rho, *, tables, e0, a, b, response_weights, sun=None, lamps=(),
-           visible=None) -> "ParticleLight":
+           visible=None, sun_shadow=None) -> "ParticleLight":
         """From the light-field tables and the medium (``visible`` reused when given)."""
         if tables is None:
             raise AquaspecError("marine snow is lit by the light field: it needs "
@@ -136,7 +142,8 @@ class ParticleLight:
         return cls(float(rho), np.asarray(e0, float), tables,
                    visible_irradiance_table(tables) if visible is None else visible,
                    np.asarray(tables.ray_extinction(a, b), float),
-                   np.asarray(response_weights, float), sun, tuple(lamps))
+                   np.asarray(response_weights, float), sun, tuple(lamps),
+                   sun_shadow if sun is not None else None)
 
     def radiance(self, positions, camera_position) -> np.ndarray:
         """Band radiance (N, n) the camera receives from particles at
@@ -153,6 +160,8 @@ class ParticleLight:
             mu0 = max(float(self.sun.mu0), 1e-6)
             f = np.asarray(self.sun.beam0, float) * np.exp(
                 -np.asarray(self.sun.c_sun, float) * depth[:, None] / mu0)
+            if self.sun_shadow is not None:
+                f = f * map_visibility(*self.sun_shadow, p)[:, None]
             beam += f * lambert_phase(w @ np.asarray(self.sun.to_sun, float))[:, None]
         for inp in self.lamps:
             lamp = inp.lamp
