@@ -17,6 +17,10 @@ function and sample count) and reads them back on the next run.
 Usage::
 
     python tools/lamp_vs_mitsuba.py [--spp 8192] [--cases IB:isotropic,II:hg,...] [--cache DIR]
+        [--max-depth N]
+
+``--max-depth 2`` limits Mitsuba to light scattered once (against aquaspec's
+single scattering with ``c``: ``monzon2022`` without the glow).
 
 Needs the ``validation`` extra (Mitsuba 3). HG is g = 0.92, as aquaspec's default.
 """
@@ -55,10 +59,23 @@ def card_scene():
     cam = Camera.look_at(o, o + [0.0, 0.0, -1.0], width=16, height=8, fov_y_deg=40.0)
     lamp = Lamp(o + [0.2, 0.0, 0.0], direction=(0.0, 0.0, -1.0), cone_deg=40.0, power_w=10.0,
                 spectrum="uniform", frame="world")
-    dirs = cam.ray_directions()
+    return scene, cam, lamp, card_coverage(cam, o)
+
+
+def card_coverage(cam, o, sub: int = 8):
+    """The share of each pixel's footprint on the card (the camera's field cut
+    into ``sub`` x ``sub`` subpixels). Mitsuba's box filter averages a pixel
+    over its footprint, aquaspec samples its centre: the regions compared are
+    the pixels wholly on the card and wholly off it. (Pixels whose centre only
+    was on the card, counted as open water before 2026-11-28, made the open
+    water with HG 0.92 look 1.25-1.35x too bright: the card is 30-100x the
+    veil there.)"""
+    fine = Camera.look_at(o, o + [0.0, 0.0, -1.0], width=cam.width * sub,
+                          height=cam.height * sub, fov_y_deg=40.0)
+    dirs = fine.ray_directions()
     hits = o + dirs * (2.0 / -dirs[..., 2])[..., None]
-    on_card = (np.abs(hits[..., 0]) < 0.45) & (np.abs(hits[..., 1] + 10) < 0.45)
-    return scene, cam, lamp, on_card
+    on = (np.abs(hits[..., 0]) < 0.5) & (np.abs(hits[..., 1] + 10) < 0.5)
+    return on.reshape(cam.height, sub, cam.width, sub).mean(axis=(1, 3))
 
 
 def main(argv=None):
@@ -66,24 +83,32 @@ def main(argv=None):
     p.add_argument("--spp", type=int, default=8192)
     p.add_argument("--cases", default=CASES, help=f"WATER:PHASE,... (default {CASES})")
     p.add_argument("--cache", type=Path, help="keep Mitsuba's images in this directory")
+    p.add_argument("--max-depth", type=int, default=-1,
+                   help="Mitsuba's path length limit (-1: none; 2: light scattered once)")
     args = p.parse_args(argv)
     lamp_inputs = SpectralSetup.lamp_inputs
 
     def without_halo(self, camera):
         return [dataclasses.replace(i, halo=False) for i in lamp_inputs(self, camera)]
-    scene, cam, lamp, on_card = card_scene()
+    scene, cam, lamp, coverage = card_scene()
+    on_card, off_card = coverage >= 1.0, coverage <= 0.0
+    print(f"{int(on_card.sum())} pixels wholly on the card, {int(off_card.sum())} wholly off it "
+          f"(open water), {int((~on_card & ~off_card).sum())} on its edge left out")
     bands = Bands(5)
     for case in args.cases.split(","):
         water_name, phase = case.split(":")
         water = load_water(water_name)
         g = HenyeyGreenstein().g if phase == "hg" else 0.0
         t0 = time.time()
-        cached = None if args.cache is None else args.cache / f"{water_name}_{phase}_{args.spp}.npy"
+        depth = "" if args.max_depth < 0 else f"_depth{args.max_depth}"
+        cached = (None if args.cache is None
+                  else args.cache / f"{water_name}_{phase}_{args.spp}{depth}.npy")
         if cached is not None and cached.exists():
             ref = np.load(cached)
         else:
             ref = render_reference(scene, cam, water, surface_light("none"), spp=args.spp,
-                                   bands=bands, phase=phase, g=g, lamps=[lamp])["band_radiance"]
+                                   bands=bands, phase=phase, g=g, lamps=[lamp],
+                                   max_depth=args.max_depth)["band_radiance"]
             if cached is not None:
                 cached.parent.mkdir(parents=True, exist_ok=True)
                 np.save(cached, ref)
@@ -98,12 +123,13 @@ def main(argv=None):
                                  phase=phase).radiance
                 finally:
                     SpectralSetup.lamp_inputs = lamp_inputs
-                for region, mask in (("card", on_card), ("water", ~on_card)):
+                for region, mask in (("card", on_card), ("water", off_card)):
                     ratio = rad[mask].mean(0) / ref[mask].mean(0)
                     label = model + ("+halo" if halo else "")
                     print(f"{water_name:3s} {phase:9s} {label:15s} {region:5s} "
                           + " ".join(f"{x:5.2f}" for x in ratio), flush=True)
-        print(f"    (Mitsuba {args.spp} spp, {seconds:.0f} s)", flush=True)
+        print(f"    (Mitsuba {args.spp} spp, max_depth {args.max_depth}, {seconds:.0f} s)",
+              flush=True)
 
 
 if __name__ == "__main__":
