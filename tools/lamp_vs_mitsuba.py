@@ -17,7 +17,7 @@ function and sample count) and reads them back on the next run.
 Usage::
 
     python tools/lamp_vs_mitsuba.py [--spp 8192] [--cases IB:isotropic,II:hg,...] [--cache DIR]
-        [--max-depth N]
+        [--max-depth N] [--regions]
 
 ``--max-depth 2`` limits Mitsuba to light scattered once (against aquaspec's
 single scattering with ``c``: ``monzon2022`` without the glow).
@@ -83,6 +83,9 @@ def main(argv=None):
     p.add_argument("--spp", type=int, default=8192)
     p.add_argument("--cases", default=CASES, help=f"WATER:PHASE,... (default {CASES})")
     p.add_argument("--cache", type=Path, help="keep Mitsuba's images in this directory")
+    p.add_argument("--regions", action="store_true",
+                   help="also the open water in three parts: the lamp's side (columns 12-15), "
+                        "around the card (4-11: its shadow in the beam), the far side (0-3)")
     p.add_argument("--max-depth", type=int, default=-1,
                    help="Mitsuba's path length limit (-1: none; 2: light scattered once)")
     args = p.parse_args(argv)
@@ -123,10 +126,16 @@ def main(argv=None):
                                  phase=phase).radiance
                 finally:
                     SpectralSetup.lamp_inputs = lamp_inputs
-                for region, mask in (("card", on_card), ("water", off_card)):
+                cols = np.broadcast_to(np.arange(cam.width), off_card.shape)
+                parts = [("card", on_card), ("water", off_card)]
+                if args.regions:
+                    parts += [("lamp side", off_card & (cols >= 12)),
+                              ("around card", off_card & (cols >= 4) & (cols <= 11)),
+                              ("far side", off_card & (cols <= 3))]
+                for region, mask in parts:
                     ratio = rad[mask].mean(0) / ref[mask].mean(0)
                     label = model + ("+halo" if halo else "")
-                    print(f"{water_name:3s} {phase:9s} {label:15s} {region:5s} "
+                    print(f"{water_name:3s} {phase:9s} {label:15s} {region:11s} "
                           + " ".join(f"{x:5.2f}" for x in ratio), flush=True)
         print(f"    (Mitsuba {args.spp} spp, max_depth {args.max_depth}, {seconds:.0f} s)",
               flush=True)
