@@ -166,7 +166,7 @@ def detailed_scene(depth_m: float, *, seed: int = 0, width: int = 1280, height: 
     for i, (x, z, size) in enumerate(classic.ROCK_LAYOUT):
         x += rng.uniform(-0.3, 0.3)
         z += rng.uniform(-0.3, 0.3)
-        rock = crevice_rock(rng, *sphere, size, (x, ground(x, z) + 0.15 * size, z),
+        rock = crevice_rock(rng, *sphere, size, (x, ground(x, z) + 0.08 * size, z),
                             classic._rot_y(rng.uniform(0, 360)), RGB_ALBEDOS["rock"])
         for part in split_by_face(rock, rock_face_labels(rock, rng),
                                   [mats["rock"], mats["rock crevice"], mats["fouling"]],

@@ -108,8 +108,8 @@ def crevice_rock(rng, sphere_v, sphere_f, size_m, centre, rotation, rgb, *,
     ridged = _noise3(rng, 14, (0.15, 0.6))
     v = np.asarray(sphere_v, float)
     crease = np.abs(ridged(v))                    # 0 on the crease lines
-    crevice = np.exp(-crease / 0.08)              # 1 in a crevice
-    r = 1.0 + 0.18 * smooth(v) - 0.10 * crevice
+    crevice = np.exp(-crease / 0.12)              # 1 in a crevice
+    r = 1.0 + 0.18 * smooth(v) - 0.16 * crevice
     scale = size_m / 2 * np.array([rng.uniform(0.8, 1.2), rng.uniform(0.45, 0.7),
                                    rng.uniform(0.7, 1.0)])
     p = (v * r[:, None]) * scale
