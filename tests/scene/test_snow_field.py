@@ -93,3 +93,17 @@ class TestField:
         assert inside.sum() > 50
         np.testing.assert_allclose(step[inside], np.broadcast_to(np.multiply(v, 2.0),
                                                                  step[inside].shape), atol=1e-9)
+
+
+def test_the_cells_in_view_hold_every_particle_in_view():
+    """at(camera=) returns fewer particles, but every one a cull to the view keeps."""
+    from aquaspec.scene.camera import Camera
+    from aquaspec.shading.particles import in_view
+    cam = Camera.look_at([0.3, -5.0, 0.2], [1.0, -5.5, -1.0], width=320, height=180)
+    field = SnowField(MarineSnow(60.0, seed=2, range_m=3.3, current_m_s=(0.3, -0.1, 0.2)))
+    for t in (0.0, 7.3, 55.0):
+        every, _ = field.at(cam.position, t)
+        cells, _ = field.at(cam.position, t, camera=cam, margin_px=20.0)
+        assert len(cells) < 0.6 * len(every)
+        seen = {tuple(p) for p in np.round(every[in_view(every, cam, 20.0)], 9)}
+        assert seen and seen == {tuple(p) for p in np.round(cells[in_view(cells, cam, 20.0)], 9)}

@@ -63,7 +63,8 @@ def frame_splats(snow: MarineSnow, light: ParticleLight, camera, time_s: float =
                  coc_px=None) -> np.ndarray:
     """The splat records (:func:`aquaspec.shading.particles.splats`) of ``snow``'s
     particles for ``camera`` at ``time_s`` (s)."""
-    pos, diam = snow_field(snow).at(camera.position, time_s)
+    pos, diam = snow_field(snow).at(camera.position, time_s, camera=camera,
+                                    margin_px=MAX_RADIUS_PX + 1.0)
     seen = in_view(pos, camera, MAX_RADIUS_PX + 1.0)
     pos, diam = pos[seen], diam[seen]
     return splats(pos, diam, light.rgb(pos, camera.position), camera, blur_px=snow.blur_px,

@@ -44,6 +44,8 @@ from aquaspec.errors import AquaspecError
 
 #: The most particles a field holds (a million is ~40 MB of positions and sizes).
 MAX_PARTICLES = 2_000_000
+#: The side of the cells the particles are sorted by, about, m (:class:`SnowField`).
+CELL_M = 1.0
 #: Keys of the ``--marine-snow`` spec beyond ``DENSITY[,SEED]``, with their fields.
 SPEC_KEYS = {"albedo": "albedo", "range": "range_m", "slope": "slope",
              "dmin": "d_min_mm", "dmax": "d_max_mm", "blur": "blur_px",
@@ -194,23 +196,88 @@ def power_law_diameters(u, d_min, d_max, slope) -> np.ndarray:
 
 class SnowField:
     """The particles of a :class:`MarineSnow`: positions in the periodic cube
-    (drawn once) and diameters, and where they are at an instant."""
+    (drawn once) and diameters, and where they are at an instant.
+
+    The particles are kept sorted by cells of about :data:`CELL_M` of the cube,
+    so that :meth:`at` with a camera moves and returns only the particles of
+    the cells its view may see (the same particles :meth:`at` without a
+    camera gives and a cull to the view keeps, fewer computed)."""
 
     def __init__(self, snow: MarineSnow):
         self.snow = snow
         rng = np.random.default_rng(snow.seed)
         side = 2.0 * snow.range_m
-        self.origin = rng.uniform(0.0, side, (snow.count, 3))
-        self.diameter_m = 1e-3 * power_law_diameters(rng.random(snow.count), snow.d_min_mm,
-                                                     snow.d_max_mm, snow.slope)
+        origin = rng.uniform(0.0, side, (snow.count, 3))
+        diameter = 1e-3 * power_law_diameters(rng.random(snow.count), snow.d_min_mm,
+                                              snow.d_max_mm, snow.slope)
+        self.cells = max(1, int(round(side / CELL_M)))
+        self.cell_m = side / self.cells
+        ijk = np.clip((origin / self.cell_m).astype(np.int64), 0, self.cells - 1)
+        cell = (ijk[:, 0] * self.cells + ijk[:, 1]) * self.cells + ijk[:, 2]
+        order = np.argsort(cell, kind="stable")
+        self.origin, self.diameter_m = origin[order], diameter[order]
+        self._starts = np.searchsorted(cell[order], np.arange(self.cells ** 3 + 1))
 
-    def at(self, camera_position, time_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-        """``(positions (N, 3) m, diameters (N,) m)`` at ``time_s``: the water's
-        particles moved by the current, each at its image within ``range_m``
-        of ``camera_position`` along every axis, those below the surface only."""
+    def _moved(self, index, cam, time_s):
         side = 2.0 * self.snow.range_m
-        cam = np.asarray(camera_position, dtype=float)
-        moved = self.origin + np.asarray(self.snow.current_m_s) * float(time_s)
+        moved = self.origin[index] + np.asarray(self.snow.current_m_s) * float(time_s)
         pos = cam + np.mod(moved - cam + 0.5 * side, side) - 0.5 * side
         under = pos[:, 1] < 0.0
-        return pos[under], self.diameter_m[under]
+        return pos[under], self.diameter_m[index][under]
+
+    def at(self, camera_position, time_s: float = 0.0, *, camera=None,
+           margin_px: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """``(positions (N, 3) m, diameters (N,) m)`` at ``time_s``: the water's
+        particles moved by the current, each at its image within ``range_m``
+        of ``camera_position`` along every axis, those below the surface only.
+        With ``camera`` (a :class:`aquaspec.scene.camera.Camera` at that
+        position), only the cells whose bounding sphere reaches into its view,
+        widened by ``margin_px`` pixels, are returned (a superset of the
+        particles in view)."""
+        cam = np.asarray(camera_position, dtype=float)
+        if camera is None:
+            return self._moved(slice(None), cam, time_s)
+        keep = self._cells_in_view(cam, time_s, camera, margin_px)
+        lo, hi = self._starts[:-1][keep], self._starts[1:][keep]
+        sizes = hi - lo
+        index = (np.repeat(lo - np.cumsum(sizes) + sizes, sizes)
+                 + np.arange(int(sizes.sum())))
+        return self._moved(index, cam, time_s)
+
+    def _cells_in_view(self, cam, time_s, camera, margin_px) -> np.ndarray:
+        """Which cells (flat index) may hold particles ``camera`` sees."""
+        n, s = self.cells, self.cell_m
+        side = n * s
+        shift = np.mod(np.asarray(self.snow.current_m_s) * float(time_s) - cam + 0.5 * side,
+                       side)
+        k = np.arange(n)
+        # Per axis, each cell's centre in the window around the camera; a cell
+        # cut by the window's edge has its other part one side away.
+        low = np.mod(k[None, :] * s + shift[:, None], side)          # (3, n)
+        centre = cam[:, None] - 0.5 * side + low + 0.5 * s
+        other = np.where(low + s > side, centre - side, centre)
+        idx = [g.ravel() for g in np.meshgrid(k, k, k, indexing="ij")]
+        radius = 0.5 * np.sqrt(3.0) * s
+        seen = np.zeros(n ** 3, dtype=bool)
+        for mix in range(8):            # every combination of the parts along the axes
+            pts = np.stack([(other if (mix >> a) & 1 else centre)[a][idx[a]]
+                            for a in range(3)], axis=-1)
+            seen |= _sphere_in_view(pts, radius, camera, margin_px)
+        return seen
+
+
+def _sphere_in_view(centres, radius, camera, margin_px) -> np.ndarray:
+    """Whether spheres of ``radius`` at ``centres`` (N, 3) reach into the camera's
+    view (its four side planes widened by ``margin_px``, in front of it)."""
+    p = np.asarray(centres, dtype=float) - camera.position
+    x, y, z = p @ camera.right, -(p @ camera.true_up), p @ camera.forward
+    ok = z > -radius
+    for coord, lo, hi, f in ((x, -camera.cx - margin_px, camera.width - camera.cx + margin_px,
+                              camera.fx),
+                             (y, -camera.cy - margin_px, camera.height - camera.cy + margin_px,
+                              camera.fy)):
+        # Planes through the centre: coord f - t z = 0 with t the edge's offset in pixels.
+        for t, sign in ((lo, -1.0), (hi, 1.0)):
+            norm = np.hypot(f, t)
+            ok &= sign * (coord * f - t * z) / norm <= radius
+    return ok
