@@ -5,10 +5,12 @@ The model is :func:`aquaspec.shading.above_water.sea_from_above`: the flat
 surface mirrors the sky (Fresnel) and lets out the light field's radiance
 from just below it along the refracted rays, down to the light field's
 seabed (the scene's, e.g. the built-in scene's sand, or ``seabed=``) or into
-deep water. It needs the light-field model and the flat surface, which a
-camera above the water makes the default. What is not drawn yet, and said
-in the render's metadata (:func:`above_params`): meshes under the water,
-the sun's disc, glint and single scattering, waves and lamps.
+deep water; with a sun, also its beam scattered once in the water and its
+glint on the surface. It needs the light-field model and the flat surface,
+which a camera above the water makes the default. What is not drawn yet,
+and said in the render's metadata (:func:`above_params`): meshes under the
+water, waves (and with them the sun's glitter and caustics), the sky's
+radiance distribution (it is uniform) and lamps.
 """
 
 from __future__ import annotations
@@ -23,8 +25,9 @@ from aquaspec.shading.above_water import sea_from_above, sky_radiance_above
 
 #: What the view from above leaves out (in its metadata).
 NOT_DRAWN = ("meshes under the water (only the light field's seabed is seen)",
-             "the sun's disc, its glint on the surface and its single scattering in the water",
-             "waves", "lamps")
+             "waves (the sun's glitter, its caustics on the seabed)",
+             "the sky's radiance distribution (uniform, of the light's diffuse irradiance)",
+             "lamps")
 
 
 #: A camera within this of ``y = 0`` (m) is at the waterline.
@@ -88,6 +91,9 @@ def check_above(setup, view, backend: str, optics=None) -> None:
         raise AquaspecError("meshes under the water are not drawn from above yet (only the "
                             "light field's seabed is seen); accepted with a camera above the "
                             "sea: the built-in scene, whose sand is the seabed, and seabed=")
+    if setup.waves is not None:
+        raise AquaspecError("waves are not drawn from above yet (the surface is flat there); "
+                            "accepted with a camera above the sea: waves=None (no --wind)")
     if setup.lamps:
         raise AquaspecError("lamps light the water around a camera under water; a camera "
                             "above the sea takes none (accepted: lamps=())")
@@ -110,9 +116,10 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
     if where == "GPU":
         gpu = _above_pass(cam.width, cam.height)
         gpu.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
-                       response_weights=med["response_weights"])
+                       response_weights=med["response_weights"], sun=setup.sun_inputs())
         return gpu.render(cam).astype(np.float64), None
-    radiance = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"])
+    radiance = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
+                              sun=setup.sun_inputs())
     linear = radiance_to_rgb(radiance, med["response_weights"])
     return linear, (radiance if return_radiance else None)
 
@@ -140,5 +147,6 @@ def above_params(view) -> dict:
     return {"above_water": {
         "height_m": float(view.camera.position[1]),
         "model": "aquaspec.shading.above_water.sea_from_above: R(mu) L_sky + (1 - R(mu)) / "
-                 "n^2 L_w(0, t), the light field looking down from just below the flat surface",
+                 "n^2 L_w(0, t), the light field looking down from just below the flat surface"
+                 " (with a sun: plus its beam scattered once along t, and its glint)",
         "not_drawn": list(NOT_DRAWN)}}

@@ -146,7 +146,7 @@ def colour_of_setup(setup, *, depth_m: float, distance_m: float,
                             f"{depth:g} m would be above the water surface; accepted: a "
                             "shorter distance, a flatter view or a deeper camera")
     bw = setup.water.on_bands(setup.bands)
-    e0 = setup.light.on_bands(setup.bands)
+    e0 = setup.e0_on_bands()
     weights = setup.sensor.band_weights(setup.bands, outside=setup.outside)
     tables = setup.lightfield_tables()
     if tables is None:

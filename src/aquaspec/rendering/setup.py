@@ -73,6 +73,8 @@ class SetupCache:
     """
 
     lightfield_tables: LightfieldTables | None = None
+    #: ``E0`` per band that the tables were solved for (:meth:`SpectralSetup.e0_on_bands`).
+    e0: np.ndarray | None = None
     sun_inputs: SunInputs | None = None
     #: The lamps' per-band quantities that do not depend on the camera.
     lamp_bands: dict | None = None
@@ -179,17 +181,60 @@ class SpectralSetup:
             bed = ({} if self.seabed is None else
                    {"seabed_depth_m": float(self.seabed.depth_m),
                     "seabed_albedo": self.seabed.albedo_on(self.bands)})
-            if self.light.sun is not None:
-                e0 = self.light.on_bands(self.bands)
-                bed = {**bed, "sun_mu0": self.light.sun.mu0,
-                       "sun_fraction": np.clip(self.light.sun_horizontal_on(self.bands)
-                                               / np.where(e0 > 0, e0, 1.0), 0.0, 1.0)}
-            self.cache.lightfield_tables = lightfield_tables(
-                self.water.on_bands(self.bands), phase=self.phase,
-                forward_cone_deg=self.cone_deg, cone_spread=self.cone_spread,
-                spread_scattering=self.spread_scattering, ambient_shadow=self.ambient_shadow,
-                surface=SURFACE_MODELS[self.surface], **bed, **dict(self.phase_params))
+
+            def solve(e0):
+                extra = {}
+                if self.light.sun is not None:
+                    extra = {"sun_mu0": self.light.sun.mu0,
+                             "sun_fraction": np.clip(self.light.sun_horizontal_on(self.bands)
+                                                     / np.where(e0 > 0, e0, 1.0), 0.0, 1.0)}
+                return lightfield_tables(
+                    self.water.on_bands(self.bands), phase=self.phase,
+                    forward_cone_deg=self.cone_deg, cone_spread=self.cone_spread,
+                    spread_scattering=self.spread_scattering,
+                    ambient_shadow=self.ambient_shadow, surface=SURFACE_MODELS[self.surface],
+                    **bed, **extra, **dict(self.phase_params))
+
+            e0 = self.light.on_bands(self.bands)
+            tables = solve(e0)
+            if self.light.sun is not None and tables.surface == "fresnel":
+                # The light's E0 is what the sky and the sun send through the
+                # surface; under a mirroring surface E_d(0) also holds the
+                # water's light sent back down, the share m = 1 - sky_share -
+                # sun_fraction of it, so E0 (1 - m) = sky + sun. m is linear in
+                # the sun's share s = sun / E0 (the field is linear in its
+                # sources), m = alpha + beta s: two solves give alpha and beta,
+                # then E0 = (sky + sun (1 + beta)) / (1 - alpha) exactly, and a
+                # third solve is the field for it.
+                sun = self.light.sun_horizontal_on(self.bands)
+
+                def mirrored(t):
+                    return 1.0 - t.sky_share() - np.asarray(t.sun_fraction, dtype=float)
+
+                s0, m0 = np.asarray(tables.sun_fraction, dtype=float), mirrored(tables)
+                e1 = e0 / (1.0 - m0)
+                t1 = solve(e1)
+                s1, m1 = np.asarray(t1.sun_fraction, dtype=float), mirrored(t1)
+                ds = s1 - s0
+                beta = np.divide(m1 - m0, ds, out=np.zeros_like(ds), where=np.abs(ds) > 1e-9)
+                alpha = m0 - beta * s0
+                e0 = (e0 + beta * sun) / (1.0 - alpha)
+                tables = solve(e0)
+            self.cache.e0 = e0
+            self.cache.lightfield_tables = tables
         return self.cache.lightfield_tables
+
+    def e0_on_bands(self) -> np.ndarray:
+        """``E0`` per band, the downwelling irradiance just below the surface:
+        the light's (:meth:`aquaspec.light.sky.SurfaceLight.on_bands`), but for
+        a sun above the flat surface with the light-field model, where it also
+        holds the water's light the surface mirrors back down
+        (:meth:`lightfield_tables`)."""
+        if (self.light.sun is not None and self.ms_model == "lightfield"
+                and self.surface == "flat"):
+            self.lightfield_tables()
+            return np.asarray(self.cache.e0, dtype=float)
+        return self.light.on_bands(self.bands)
 
     def sun_inputs(self) -> SunInputs | None:
         """What the sun's terms need per band (:class:`aquaspec.transport.sun_scattering.SunInputs`),
@@ -268,7 +313,7 @@ class SpectralSetup:
         bw = self.water.on_bands(self.bands)
         mb = (np.stack([m.on_bands(self.bands) for m in materials]) if materials
               else np.zeros((0, self.bands.n)))
-        return dict(a=bw.a, b=bw.b, kd=bw.kd, e0=self.light.on_bands(self.bands),
+        return dict(a=bw.a, b=bw.b, kd=bw.kd, e0=self.e0_on_bands(),
                     response_weights=self.sensor.band_weights(self.bands, outside=self.outside),
                     material_bands=mb,
                     sigmoid_centers_t=normalised_wavelength(self.bands.centers_nm),

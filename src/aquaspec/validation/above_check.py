@@ -17,9 +17,17 @@ at 3 or 10 m, under an overcast sky. Both renderers get the same water
 
 Compared: the mean camera RGB over the image (ratio per channel, the
 relative error of the mean colour ``|rgb - rgb_ref| / |rgb_ref|``, and the
-hue difference) and per band. The sun is not in this check: a directional
-sun cannot reach the water through Mitsuba's smooth dielectric in
-``volpathmis`` (SPEC), and aquaspec's view from above has no sun yet.
+hue difference) and per band.
+
+With the sun (``sun_elevation_deg``; SPECTRL2's sun and sky, the sun at
+:data:`SUN_AZIMUTH_DEG`) the reference is
+:mod:`aquaspec.validation.slab_mc`'s Monte Carlo instead: a directional sun
+cannot reach the water through Mitsuba's smooth dielectric in
+``volpathmis`` (SPEC). That estimator agrees with Mitsuba wherever Mitsuba
+can render the same thing (tests/validation/test_slab_mc.py). The sun's
+glint is left out of both (a delta in the reference); aquaspec's
+``E0`` is the setup's own (:meth:`aquaspec.rendering.setup.SpectralSetup.e0_on_bands`),
+the reference's sky and sun are the light's in air.
 """
 
 from __future__ import annotations
@@ -39,10 +47,12 @@ from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera, camera_above
 from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.scene.seabed import Seabed
-from aquaspec.shading.above_water import e0_below, sea_from_above
+from aquaspec.light.sky import SKY_TRANSMITTANCE
+from aquaspec.shading.above_water import e0_below, sea_from_above, sun_in_air
 from aquaspec.validation import metrics
 from aquaspec.validation.reference import (REFERENCE_BANDS, bands_to_rgb, lightfield_phase,
-                                           require_mitsuba, scene_dict)
+                                           phase_function, require_mitsuba, scene_dict)
+from aquaspec.validation.slab_mc import sea_radiance_mc
 
 #: The camera's height above the sea (m), pitch below the horizon and field of view (degrees).
 HEIGHT_M = 5.0
@@ -53,6 +63,11 @@ SEABED_ALBEDO = 0.2
 #: Half-size of the seabed square in the reference (m): beyond the camera's view.
 SEABED_HALF_M = 200.0
 PHASES = ("isotropic", "petzold")
+#: The sun's azimuth in the checks with a sun (behind the camera's right shoulder).
+SUN_AZIMUTH_DEG = 150.0
+#: Paths of the Monte Carlo reference per band, and the forward angle it
+#: counts as unscattered (:class:`aquaspec.validation.slab_mc.PhaseSampler`).
+MC_PATHS, MC_TRUNCATE_DEG = 60_000, 3.0
 
 
 def above_camera(size: int = 48, height_m: float = HEIGHT_M,
@@ -105,27 +120,66 @@ def aquaspec_from_above(camera, water, sky, *, seabed_depth_m, phase,
     return sea_from_above(camera, tables, a=med["a"], b=med["b"], e0=e0), e0
 
 
+def sun_from_above(camera, water, light, *, seabed_depth_m, phase, bands: Bands = REFERENCE_BANDS,
+                   paths: int = MC_PATHS, seed: int = 0,
+                   truncate_deg: float = MC_TRUNCATE_DEG) -> dict:
+    """With the sun: aquaspec's band radiance (H, W, n) without the glint,
+    and the Monte Carlo reference's mean band radiance over the same rays
+    (n,) with its standard error, and the seconds it took."""
+    method, params = lightfield_phase(phase)
+    bed = None if seabed_depth_m is None else Seabed(float(seabed_depth_m), SEABED_ALBEDO)
+    setup = SpectralSetup(water, get_sensor("human"), light, bands, surface="flat",
+                          phase=method, phase_params=params, seabed=bed)
+    med, sun = setup.medium([]), setup.sun_inputs()
+    aq = sea_from_above(camera, setup.lightfield_tables(), a=med["a"], b=med["b"],
+                        e0=med["e0"], sun=sun, glint=False)
+    to_air, beam_air = sun_in_air(sun)
+    t0 = time.perf_counter()
+    ref = sea_radiance_mc(camera.ray_directions().reshape(-1, 3), a=med["a"], b=med["b"],
+                          phase=phase_function(phase),
+                          sky_radiance=light.sky_on(bands) / (SKY_TRANSMITTANCE * np.pi),
+                          sun_to_air=to_air, sun_beam_air=beam_air,
+                          seabed_depth_m=seabed_depth_m, seabed_albedo=SEABED_ALBEDO,
+                          paths=paths, seed=seed, truncate_deg=truncate_deg)
+    return {"aquaspec": aq, "e0": med["e0"], "reference_mean": ref["mean"],
+            "reference_standard_error": ref["standard_error"],
+            "seconds": time.perf_counter() - t0}
+
+
 def compare_above(water: str = "IB", *, seabed_depth_m=None, phase: str = "isotropic",
                   size: int = 48, spp: int = 256, sensors=("human",), seed: int = 0,
-                  bands: Bands = REFERENCE_BANDS) -> dict:
+                  bands: Bands = REFERENCE_BANDS, sun_elevation_deg=None,
+                  paths: int = MC_PATHS, truncate_deg: float = MC_TRUNCATE_DEG) -> dict:
     """aquaspec's sea from above against the path tracer (module docstring):
     per sensor the ratio of the image's mean camera RGB (aquaspec /
     reference), the relative error of that mean colour and its hue
-    difference; the band ratios; both band images."""
+    difference; the band ratios; the band images (with the sun: aquaspec's
+    image and the reference's mean, from ``paths`` Monte Carlo paths per
+    band)."""
     if phase not in PHASES:
         raise AquaspecError(f"phase {phase!r}; accepted: {', '.join(PHASES)}")
     w = load_water(water)
-    sky = surface_light("overcast")
     cam = above_camera(size)
-    ref = reference_from_above(cam, w, sky, seabed_depth_m=seabed_depth_m, phase=phase,
-                               spp=spp, seed=seed, bands=bands)
-    aq, e0 = aquaspec_from_above(cam, w, sky, seabed_depth_m=seabed_depth_m, phase=phase,
-                                 bands=bands)
-    ref_l = ref["band_radiance"]
-    out = {"water": water, "seabed_depth_m": seabed_depth_m, "phase": phase, "size": size,
-           "spp": spp, "reference_seconds": ref["seconds"], "e0": e0,
-           "aquaspec": aq, "reference": ref_l,
-           "band_ratio": aq.reshape(-1, bands.n).mean(0) / ref_l.reshape(-1, bands.n).mean(0)}
+    out = {"water": water, "seabed_depth_m": seabed_depth_m, "phase": phase, "size": size}
+    if sun_elevation_deg is None:
+        sky = surface_light("overcast")
+        ref = reference_from_above(cam, w, sky, seabed_depth_m=seabed_depth_m, phase=phase,
+                                   spp=spp, seed=seed, bands=bands)
+        aq, e0 = aquaspec_from_above(cam, w, sky, seabed_depth_m=seabed_depth_m, phase=phase,
+                                     bands=bands)
+        ref_l = ref["band_radiance"]
+        out.update(spp=spp, reference_seconds=ref["seconds"], reference="mitsuba")
+    else:
+        light = surface_light("sun-sky", sun_elevation_deg=float(sun_elevation_deg),
+                              sun_azimuth_deg=SUN_AZIMUTH_DEG)
+        r = sun_from_above(cam, w, light, seabed_depth_m=seabed_depth_m, phase=phase,
+                           bands=bands, paths=paths, seed=seed, truncate_deg=truncate_deg)
+        aq, e0, ref_l = r["aquaspec"], r["e0"], r["reference_mean"][None, None, :]
+        out.update(paths=paths, reference_seconds=r["seconds"], reference="slab Monte Carlo",
+                   sun_elevation_deg=float(sun_elevation_deg),
+                   reference_standard_error=r["reference_standard_error"])
+    out.update(e0=e0, aquaspec=aq, reference_image=ref_l,
+               band_ratio=aq.reshape(-1, bands.n).mean(0) / ref_l.reshape(-1, bands.n).mean(0))
     for s in sensors:
         sensor = get_sensor(s) if isinstance(s, str) else s
         rm = bands_to_rgb(ref_l, sensor, bands).reshape(-1, 3).mean(axis=0)

@@ -42,3 +42,42 @@ def test_above_pass_matches_numpy(device, water, bed, look_down, n):
     ref2 = radiance_to_rgb(sea_from_above(cam2, tables, a=med["a"], b=med["b"], e0=med["e0"]),
                            med["response_weights"])
     np.testing.assert_allclose(p.render(cam2), ref2, rtol=2e-4, atol=1e-6 * np.abs(ref2).max())
+
+
+@pytest.mark.parametrize("water,bed,elevation,azimuth", [
+    ("IB", None, 30.0, 0.0),          # the sun ahead: its glint in view
+    ("3C", Seabed(3.0, 0.2), 60.0, 150.0),
+])
+def test_above_pass_with_the_sun_matches_numpy(device, water, bed, elevation, azimuth):
+    """The beam's single scattering (bilinear table) and the glint on the GPU
+    against the NumPy reference's direct evaluation."""
+    from aquaspec.gpu.passes.above import AbovePass
+    light = surface_light("sun-sky", sun_elevation_deg=elevation, sun_azimuth_deg=azimuth)
+    setup = SpectralSetup(load_water(water), get_sensor("nikon-5100-npl"), light, Bands(6),
+                          surface="flat", seabed=bed)
+    med, sun = setup.medium([]), setup.sun_inputs()
+    tables = setup.lightfield_tables()
+    cam = camera_above(3.0, elevation, width=160, height=90, fov_y_deg=40.0)
+    p = AbovePass(device, cam.width, cam.height)
+    p.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
+                 response_weights=med["response_weights"], sun=sun)
+    gpu = p.render(cam)
+    ref = radiance_to_rgb(sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
+                                         sun=sun), med["response_weights"])
+    glint = ref.max(axis=-1) > 100 * np.median(ref.max(axis=-1))
+    assert glint.any() == (azimuth == 0.0)
+    # Away from the glint's rim (where a float32 ray may fall either side of the disc's edge).
+    rim = np.zeros_like(glint)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            rim |= np.roll(np.roll(glint, dy, 0), dx, 1)
+    keep = ~rim | glint
+    edge = rim & ~glint
+    # The table (1024 cosines) is within 0.3 % of the direct evaluation of the
+    # water term, under 0.3 % of the pixel.
+    np.testing.assert_allclose(gpu[~rim], ref[~rim], rtol=3e-3, atol=1e-6 * np.abs(ref).max())
+    if glint.any():
+        inner = glint & ~(edge | np.roll(edge, 1, 0) | np.roll(edge, -1, 0)
+                          | np.roll(edge, 1, 1) | np.roll(edge, -1, 1))
+        np.testing.assert_allclose(gpu[inner], ref[inner], rtol=1e-3)
+    assert keep.any()

@@ -8,7 +8,10 @@ surface, a lookup in the table of the water's light just below it over the
 refracted ray's ``t_y`` (:func:`aquaspec.shading.above_water.water_below_table`),
 which depends on the water, the light and the seabed but not on the camera:
 it is uploaded once per medium (:meth:`AbovePass.set_medium`), so a moving
-camera costs the dispatch alone.
+camera costs the dispatch alone. With a sun, a second table (the beam
+scattered once, over ``t_y`` and the scattering cosine,
+:func:`aquaspec.shading.above_water.sun_scattering_table`) is read
+bilinearly, and the sun's disc mirrored in the surface is added.
 """
 
 from __future__ import annotations
@@ -23,11 +26,16 @@ from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.medium.interface import N_WATER
-from aquaspec.shading.above_water import sky_radiance_above, water_below_table
+from aquaspec.shading.above_water import (glint_radius, sky_radiance_above, sun_in_air,
+                                          sun_scattering_table, water_below_table)
 
 PARAMS_LAYOUT = UniformLayout("AboveParams", CAMERA_FIELDS + [
     ("sky_rgb", "vec3<f32>"), ("n_water", "f32"),
+    ("to_sun", "vec3<f32>"), ("sun_cos_lo", "f32"),
+    ("sun_air", "vec3<f32>"), ("sun_cos_hi", "f32"),
+    ("glint_rgb", "vec3<f32>"), ("sun_cos_radius", "f32"),
     ("width", "u32"), ("height", "u32"), ("nodes", "u32"), ("edge_cos", "f32"),
+    ("sun_on", "u32"), ("sun_nodes_y", "u32"), ("sun_nodes_cos", "u32"),
 ])
 #: Compute workgroup size (x, y) of above.wgsl: one pixel per invocation.
 WORKGROUP = (8, 8)
@@ -42,38 +50,65 @@ class AbovePass:
         self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="above params")
         self.rgb_buffer = create_storage_buffer(device, self.width * self.height * 16,
                                                 label="above rgb")
-        self._layout = bind_group_layout(device, {0: "uniform", 1: "read", 2: "write"})
+        self._layout = bind_group_layout(device, {0: "uniform", 1: "read", 2: "write",
+                                                  3: "read"})
         code = load_wgsl("above.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
                          params_struct_name=PARAMS_LAYOUT.name)
         self._pipeline = compute_pipeline(device, self._layout, code, "above.wgsl")
-        self._water = self._bind_group = None
+        self._water = self._sun = self._bind_group = None
         self._medium = None
 
-    def set_medium(self, tables, *, a, b, e0, response_weights) -> None:
-        """Upload the water's table below the surface and the sky, in camera RGB."""
+    def _upload(self, name: str, table: np.ndarray):
+        buf = getattr(self, name)
+        if buf is None or buf.size != table.nbytes:
+            setattr(self, name, create_storage_buffer(self.device, table, label=f"above{name}"))
+            self._bind_group = None
+        else:
+            upload_buffer(self.device, buf, table)
+
+    def set_medium(self, tables, *, a, b, e0, response_weights, sun=None) -> None:
+        """Upload the water's table below the surface and the sky, in camera
+        RGB; with ``sun`` (:class:`aquaspec.transport.sun_scattering.SunInputs`)
+        its scattering table and glint too."""
         t_y, water = water_below_table(tables, a=a, b=b, e0=e0)
         w = np.asarray(response_weights, dtype=np.float64)
         table = np.zeros((t_y.size, 4), dtype=np.float32)
         table[:, :3] = water @ w
-        if self._water is None or self._water.size != table.nbytes:
-            self._water = create_storage_buffer(self.device, table, label="above water")
-            self._bind_group = None
-        else:
-            upload_buffer(self.device, self._water, table)
+        self._upload("_water", table)
         self._medium = {"sky_rgb": sky_radiance_above(tables, e0) @ w, "nodes": t_y.size,
-                        "edge_cos": float(-t_y[-1])}
+                        "edge_cos": float(-t_y[-1]), "sun_on": 0, "sun_nodes_y": 2, "sun_nodes_cos": 2,
+                        "to_sun": np.zeros(3), "sun_cos_lo": 0.0, "sun_cos_hi": 1.0,
+                        "sun_air": np.zeros(3), "glint_rgb": np.zeros(3), "sun_cos_radius": 2.0}
+        sun_table = np.zeros((4, 4), dtype=np.float32)
+        if sun is not None:
+            _, cos, ss = sun_scattering_table(tables, sun)
+            sun_table = np.zeros(ss.shape[:2] + (4,), dtype=np.float32)
+            sun_table[..., :3] = ss @ w
+            to_air, beam_air = sun_in_air(sun)
+            self._sun_radiance = beam_air @ w
+            self._medium.update(
+                sun_on=1, sun_nodes_y=ss.shape[0], sun_nodes_cos=ss.shape[1], to_sun=np.asarray(sun.to_sun, dtype=float),
+                sun_cos_lo=float(cos[0]), sun_cos_hi=float(cos[-1]), sun_air=to_air,
+                glint_rgb=np.zeros(3), sun_cos_radius=2.0)
+        self._upload("_sun", sun_table.reshape(-1, 4))
 
     def encode(self, encoder, camera, timestamp_writes=None) -> None:
         """Record the pass for ``camera`` (after :meth:`set_medium`)."""
         if self._medium is None:
             raise RuntimeError("AbovePass.set_medium first")
+        medium = dict(self._medium)
+        if medium["sun_on"]:
+            # The glint's disc for this camera (shading.above_water.glint_radius).
+            cos_r = float(np.cos(glint_radius(camera)))
+            medium.update(sun_cos_radius=cos_r,
+                          glint_rgb=self._sun_radiance / (2.0 * np.pi * (1.0 - cos_r)))
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
-            **camera_fields(camera), **self._medium, n_water=N_WATER, width=self.width,
+            **camera_fields(camera), **medium, n_water=N_WATER, width=self.width,
             height=self.height))
         if self._bind_group is None:
             self._bind_group = self.device.create_bind_group(
                 layout=self._layout, entries=bind_group_entries(
-                    {0: self._params, 1: self._water, 2: self.rgb_buffer}))
+                    {0: self._params, 1: self._water, 2: self.rgb_buffer, 3: self._sun}))
         groups = (-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]), 1)
         record_dispatch(encoder, self._pipeline, self._bind_group, groups, timestamp_writes)
 
