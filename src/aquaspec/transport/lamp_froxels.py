@@ -67,6 +67,8 @@ from aquaspec.transport.lamp_scattering import (LampInputs, cone_interval, equia
 LAMP_SLICES = 32
 #: Widest column at the image's centre, degrees.
 LAMP_COLUMN_DEG = 1.5
+
+
 def lamp_tile(camera) -> int:
     """The side of a lamp column in pixels: as many pixels as
     :data:`LAMP_COLUMN_DEG` spans at the image centre, at least 1, at most
