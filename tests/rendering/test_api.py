@@ -77,12 +77,13 @@ class TestPictures:
         ("lightfield", "index-matched", "reference_IB_5m_lightfield.png"),
         ("lightfield", None, "reference_IB_5m_flat.png")])
     def test_reference_image(self, tmp_path, ms_model, surface, name):
-        """Regression against tests/data/reference_IB_5m*.png (the seeds' model, the
+        """Regression against tests/data/reference_IB_5m*.png of the classic built-in
+        scene (the seeds' model, the
         light field with the cone spread under the index-matched surface, and the
         default: the same under the flat surface); writes a diff image on failure."""
         ref_path = DATA / name
         res = render(water="IB", depth_m=5.0, size=(160, 90), bands=8, exposure=-1.5,
-                     ms_model=ms_model, surface=surface)
+                     ms_model=ms_model, surface=surface, builtin="classic")
         got = res.display.astype(float)
         ref = np.asarray(Image.open(ref_path).convert("RGB"), dtype=float)
         diff = np.abs(got - ref)
