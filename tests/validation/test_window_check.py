@@ -124,7 +124,9 @@ def test_validate_surface_cli(tmp_path, monkeypatch):
     from aquaspec.validation import surface_study
 
     def fewer_bands(check):
-        return lambda *a, **kw: check(*a, **{**kw, "bands": Bands(6)})
+        return lambda *a, **kw: check(*a, **{**kw, "bands": Bands(6),
+                                             **({"paths": 2000} if kw.get("sun_elevation_deg")
+                                                else {})})
     for name in ("compare_window", "compare_above", "compare_level"):
         monkeypatch.setattr(surface_study, name, fewer_bands(getattr(surface_study, name)))
     out = tmp_path / "v"
@@ -134,6 +136,11 @@ def test_validate_surface_cli(tmp_path, monkeypatch):
     assert [r["seabed_depth_m"] for r in res["above"]] == [None, 3.0, 10.0]
     for row in res["above"]:
         assert np.all(np.isfinite(row["nikon-5100-npl"]["ratio_rgb"]))
+    assert [(r["seabed_depth_m"], r["sun_elevation_deg"]) for r in res["above_sun"]] == [
+        (None, 30.0), (None, 60.0), (3.0, 30.0), (3.0, 60.0), (10.0, 30.0), (10.0, 60.0)]
+    for row in res["above_sun"]:
+        assert np.all(np.isfinite(row["nikon-5100-npl"]["ratio_rgb"]))
     assert "Snell" in (out / "surface.md").read_text()
+    assert "in the sun" in (out / "surface.md").read_text()
     assert set(res["level"]) == {"top", "middle", "bottom"}
     assert main(["validate", "--surface", "--phase", "hg", "-o", str(out)]) == 2

@@ -120,7 +120,9 @@ def register(sub):
                    help="only compare the flat sea surface (Mitsuba's dielectric, overcast sky) "
                         "with the path tracer: Snell's window from below (IB, 5 m, looking up) "
                         "and the sea from 5 m above over --waters, deep and over grey seabeds "
-                        "at 3 and 10 m; with --phase isotropic or petzold, --spp, --sensors "
+                        "at 3 and 10 m, and the same in the sun at 30 and 60 degrees against a "
+                        "slab Monte Carlo (Mitsuba cannot bring a directional sun through its "
+                        "dielectric); with --phase isotropic or petzold, --spp, --sensors "
                         "(default nikon-5100-npl); writes surface.json and surface.md")
     p.add_argument("--cache", metavar="DIR", help="reference cache (default: reference/ in $AQUASPEC_CACHE, or "
                    "~/.cache/aquaspec/reference)")

@@ -10,7 +10,10 @@ Two checks of :mod:`aquaspec.validation.window_check` and
 - level: IB at 5 m looking level, the mean colour of the top, middle and
   bottom quarters of the rows;
 - from above: each water of ``waters`` over deep water and grey seabeds at 3
-  and 10 m, the image's mean colour (relative error and hue).
+  and 10 m, the image's mean colour (relative error and hue); under the
+  overcast sky against Mitsuba, and with the sun at each elevation of
+  ``suns`` against :mod:`aquaspec.validation.slab_mc` (Mitsuba's
+  ``volpathmis`` cannot bring a directional sun through its dielectric).
 
 :func:`format_surface_study` tabulates them (markdown).
 """
@@ -19,17 +22,20 @@ from __future__ import annotations
 
 from aquaspec.colour.bands import Bands
 from aquaspec.io.metadata import to_jsonable
-from aquaspec.validation.above_check import compare_above
+from aquaspec.validation.above_check import MC_PATHS, compare_above
 from aquaspec.validation.reference import REFERENCE_BANDS
 from aquaspec.validation.window_check import compare_level, compare_window
 
 #: The seabeds the view from above is checked over (None: deep water).
 SEABEDS = (None, 3.0, 10.0)
+#: The sun's elevations (degrees) of the checks from above with a sun.
+SUNS = (30.0, 60.0)
 
 
 def run_surface_study(*, waters=("I", "IB", "II", "3C"), phase: str = "isotropic",
                       size: int = 48, spp: int = 256, sensors=("nikon-5100-npl",),
-                      bands: Bands = REFERENCE_BANDS, progress=None) -> dict:
+                      bands: Bands = REFERENCE_BANDS, progress=None, suns=SUNS,
+                      paths: int = MC_PATHS) -> dict:
     """Both checks (module docstring); the images are left out of the result."""
     say = progress or (lambda m: None)
     say(f"Snell's window from below: IB, 5 m, {phase}, {size} px, {spp} spp")
@@ -48,8 +54,23 @@ def run_surface_study(*, waters=("I", "IB", "II", "3C"), phase: str = "isotropic
             above.append({"water": water, "seabed_depth_m": bed,
                           "reference_seconds": r["reference_seconds"],
                           **{s: r[s] for s in r if isinstance(r[s], dict)}})
+    sun = []
+    for water in waters:
+        for bed in SEABEDS:
+            for elevation in suns:
+                say(f"the sea from above in the sun at {elevation:g} deg: {water}, seabed "
+                    f"{bed or 'none (deep)'}, {phase}, {paths} Monte Carlo paths per band")
+                r = compare_above(water, seabed_depth_m=bed, phase=phase, size=size,
+                                  sensors=sensors, bands=bands, sun_elevation_deg=elevation,
+                                  paths=paths)
+                se = r["reference_standard_error"] / r["reference_image"].reshape(-1)
+                sun.append({"water": water, "seabed_depth_m": bed, "sun_elevation_deg": elevation,
+                            "reference_seconds": r["reference_seconds"],
+                            "reference_standard_error_max": float(se.max()),
+                            **{s: r[s] for s in r if isinstance(r[s], dict)}})
     return to_jsonable({"phase": phase, "size": size, "spp": spp, "bands": bands.describe(),
-                   "below": below, "level": level["rows"], "above": above}, "surface study")
+                        "paths": paths, "below": below, "level": level["rows"], "above": above,
+                        "above_sun": sun}, "surface study")
 
 
 def format_surface_study(res: dict) -> str:
@@ -81,4 +102,19 @@ def format_surface_study(res: dict) -> str:
                 ratio = " ".join(f"{x:.3f}" for x in m["ratio_rgb"])
                 lines.append(f"| {row['water']} | {bed} | {sensor} | {ratio} | "
                              f"{100 * m['rgb_error']:.1f} % | {m['hue_deg']:.2f} |")
+    if res.get("above_sun"):
+        lines += ["", "From above in the sun (SPECTRL2 sun and sky, the glint left out) against "
+                      f"the slab Monte Carlo ({res['paths']} paths per band): mean colour, "
+                      "relative error and hue", "",
+                  "| water | seabed | sun (deg) | sensor | RGB ratio | error | hue (deg) | MC s.e. |",
+                  "|---|---|---|---|---|---|---|---|"]
+        for row in res["above_sun"]:
+            bed = "deep" if row["seabed_depth_m"] is None else f"{row['seabed_depth_m']:g} m"
+            for sensor, m in row.items():
+                if isinstance(m, dict):
+                    ratio = " ".join(f"{x:.3f}" for x in m["ratio_rgb"])
+                    lines.append(f"| {row['water']} | {bed} | {row['sun_elevation_deg']:g} | "
+                                 f"{sensor} | {ratio} | {100 * m['rgb_error']:.1f} % | "
+                                 f"{m['hue_deg']:.2f} | "
+                                 f"{100 * row['reference_standard_error_max']:.1f} % |")
     return "\n".join(lines)
