@@ -395,3 +395,30 @@ def test_slice_interp_reads_the_slices_as_the_lookup():
     np.testing.assert_allclose(slice_interp(values, d, 10.0), cst.sample(cmap, pts),
                                rtol=1e-6)
     np.testing.assert_allclose(slice_interp(values, depths, 10.0), values, rtol=1e-12)
+
+
+def test_band_factor_scales_each_band_by_its_polynomial():
+    """Scales whose ln is a polynomial in sqrt(d / D) of degree <= 8 are held
+    exactly; band i reads 1 + s_i (C - 1); no scales: C itself."""
+    from aquaspec.light.caustic_sample import band_factor, scale_at, scale_polynomial
+
+    depths = cst.slice_depths(20.0, 32)
+    x = np.sqrt(depths / 20.0)
+    scale = np.stack([np.exp(0.5 * x - 0.2 * x ** 3), np.exp(-1.5 * x ** 2), np.ones(32)], 1)
+    coeffs = scale_polynomial(scale)
+    d = np.array([0.0, 0.37, 3.3, 19.9, 25.0, np.nan])
+    xd = np.sqrt(np.clip(np.nan_to_num(d), 0, 20.0) / 20.0)
+    want = np.stack([np.exp(0.5 * xd - 0.2 * xd ** 3), np.exp(-1.5 * xd ** 2), np.ones(6)], 1)
+    np.testing.assert_allclose(scale_at(coeffs, d, 20.0), want, rtol=1e-8)
+    level0 = np.ones((32, 16, 16), np.float32)
+    cmap = cst.CausticMap(waves=W.Waves(3.0, tile_m=2.0, grid=16), to_sun=np.array([0, 1.0, 0]),
+                          depths=depths, levels=cst.mip_levels(level0), mean_weight=1.0,
+                          band_scale=scale.astype(np.float32))
+    c = np.array([0.2, 1.0, 3.0, 1.7, 0.0, 2.0])
+    np.testing.assert_allclose(cst.band_factor(cmap, c, d), 1.0 + want * (c[:, None] - 1.0),
+                               rtol=1e-6)
+    plain = cst.CausticMap(waves=cmap.waves, to_sun=cmap.to_sun, depths=depths,
+                           levels=cmap.levels, mean_weight=1.0)
+    np.testing.assert_array_equal(cst.band_factor(plain, c, d), c[:, None])
+    with pytest.raises(AquaspecError, match="band scales"):
+        scale_polynomial(np.zeros((32, 2)))

@@ -69,16 +69,17 @@ def test_scattered_light_carries_the_flicker_deep(one_sea):
 
 @pytest.mark.slow
 def test_one_factor_for_all_bands_and_its_per_band_scale(one_sea):
-    """A default render's one factor (its bands' mean transfer) flickers too
-    little in blue and too much in red at depth; scaled per band and slice it
-    gives each wavelength's own CV within 2 %."""
+    """A default render's one factor (its bands' mean transfer) read as it is
+    flickers too little in blue and too much in red at depth; as each band
+    reads it (scaled) it gives each wavelength's own CV within 4 % (the band
+    is 18.75 nm wide, not 10, and its scale a polynomial)."""
     own = np.array(one_sea["ratio"])
     shared = np.array(one_sea["ratio_shared"])
     scaled = np.array(one_sea["ratio_scaled"])
     deep = np.array(one_sea["depth_m"]) > 6.0
     assert np.all(shared[deep, 0] < 0.8 * own[deep, 0])
     assert np.all(shared[deep, 2] > 1.4 * own[deep, 2])
-    np.testing.assert_allclose(scaled, own, rtol=0.02)
+    np.testing.assert_allclose(scaled, own, rtol=0.04)
     assert len(one_sea["shared_transfer"]["b_per_m"]) == fl.RENDER_BANDS
 
 
@@ -101,7 +102,7 @@ def test_cli_writes_the_table_the_json_and_the_plot(one_sea, tmp_path, monkeypat
     assert json.loads((tmp_path / "fluctuations.json").read_text()) == one_sea
     assert (tmp_path / "fluctuations.png").stat().st_size > 1000
     table = (tmp_path / "fluctuations.md").read_text()
-    assert "| measured, 532 nm |" in table and "bands, scaled / measured, 670 nm" in table
+    assert "| measured, 532 nm |" in table and "16-band render / measured, 670 nm" in table
 
 
 def test_pooled_cv_pools_the_variances():

@@ -312,7 +312,7 @@ def slice_gains(transfer: ScatterTransfer, depths: tuple, n: int, tile_m: float)
 
 
 #: Log-spaced wavenumber bins over which a slice's power is summed for
-#: :func:`band_scales` and :func:`contrast_scale` (``G`` at each bin's mean ``q``).
+#: :func:`band_scales` (``G`` at each bin's mean ``q``).
 SCALE_BINS = 512
 
 
@@ -374,19 +374,10 @@ def band_scales(level0, depths, tile_m: float, transfer: ScatterTransfer) -> np.
     return out
 
 
-def contrast_scale(level0, depths, tile_m: float, transfer: ScatterTransfer,
-                   reference: ScatterTransfer) -> np.ndarray:
-    """Per slice (K,), the standard deviation of ``level0`` (K, n, n; before
-    any transfer) carried by ``transfer`` over that carried by ``reference``
-    (both their bands' mean exponents; binned as :func:`band_scales`; the
-    same beam direction). 1 where ``reference`` leaves no fluctuation."""
-    depths = _check_depths(level0, depths)
-    q, power = _binned_power(level0, tile_m, reference)
-    out = np.ones(depths.size)
-    for k, d in enumerate(depths):
-        lg = [np.minimum(t.log_gain(-q * t.sun_xz[1], q * t.sun_xz[0], d), LOG_GAIN_LIMIT)
-              for t in (transfer, reference)]
-        ref = np.sum(power[k] * np.exp(2.0 * lg[1]))
-        if ref > 0:
-            out[k] = np.sqrt(np.sum(power[k] * np.exp(2.0 * lg[0])) / ref)
-    return out
+def texture_scales(level0, depths, tile_m: float, transfer: ScatterTransfer | None):
+    """:func:`band_scales` as float32 for a texture read by several bands
+    (None without a transfer or with one band: every band reads ``C``)."""
+    if transfer is None or len(transfer.b) < 2:
+        return None
+    return band_scales(np.asarray(level0, np.float32), depths, tile_m,
+                       transfer).astype(np.float32)

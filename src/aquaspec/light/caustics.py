@@ -106,8 +106,9 @@ import numpy as np
 
 from aquaspec.cache import cached_arrays, code_digest
 from aquaspec.errors import AquaspecError
-from aquaspec.light.caustic_sample import _bilinear_wrap, foot, lod_of, sample  # noqa: F401
-from aquaspec.light.caustic_scatter import ScatterTransfer, scatter_slices
+from aquaspec.light.caustic_sample import (_bilinear_wrap, band_factor, foot, lod_of,  # noqa: F401
+                                            sample)
+from aquaspec.light.caustic_scatter import ScatterTransfer, scatter_slices, texture_scales
 from aquaspec.light.sun import air_to_sun, check_azimuth, check_elevation, refracted_to_sun
 # (splat and disc_blur are this module's too: the photon map's pieces.)
 from aquaspec.light.photon_map import (disc_blur, half_wavenumbers, periodic_cell,  # noqa: F401
@@ -176,7 +177,9 @@ class CausticMap:
     ``levels[m]``: (K, n / 2^m, n / 2^m) float32, level 0 the photon map,
     each next level the 2 x 2 means of the one before; ``depths`` (K,) m;
     ``scatter``: the transfer into the scattered light applied (None: the
-    unscattered beam's pattern).
+    unscattered beam's pattern); ``band_scale`` (K, n_bands): each band reads
+    ``1 + s (C - 1)`` (:func:`aquaspec.light.caustic_scatter.band_scales`;
+    None: every band reads ``C``).
     """
 
     waves: Waves
@@ -186,6 +189,7 @@ class CausticMap:
     mean_weight: float
     info: dict = field(default_factory=dict)
     scatter: ScatterTransfer | None = None
+    band_scale: np.ndarray | None = None
 
     @property
     def max_depth(self) -> float:
@@ -396,11 +400,13 @@ def cached_caustic_map(waves: Waves, elevation_deg: float, azimuth_deg: float, *
     if hit is not None:
         return hit
     level0, mean_w = _stored_slices(waves, elevation_deg, azimuth_deg, kw)
+    scale = texture_scales(level0, slice_depths(kw["max_depth_m"], kw["slices"]),
+                           waves.tile_m, scatter)
     if scatter is not None:
         level0 = scatter_slices(level0, slice_depths(kw["max_depth_m"], kw["slices"]),
                                 waves.tile_m, scatter)
     hit = replace(_assemble(waves, elevation_deg, azimuth_deg, level0, mean_w, **kw),
-                  scatter=scatter)
+                  scatter=scatter, band_scale=scale)
     with _LOCK:
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.pop(next(iter(_CACHE)))
@@ -433,7 +439,8 @@ class CausticLoop:
     ``ready`` (F,) bool: the frames built so far (all of them unless the loop
     is being built in the background, :func:`caustic_loop`), read between
     the ready ones; ``scatter``: each frame's slices carried into the
-    scattered light when its levels are made (:meth:`frame_levels`).
+    scattered light when its levels are made (:meth:`frame_levels`);
+    ``band_scale``: as :class:`CausticMap`'s, frame 0's for every frame.
     """
 
     first: CausticMap
@@ -441,6 +448,7 @@ class CausticLoop:
     ready: np.ndarray | None = None
     _run: dict = field(default_factory=dict, repr=False)
     scatter: ScatterTransfer | None = None
+    band_scale: np.ndarray | None = None
 
     def __post_init__(self):
         if self.ready is None:
@@ -507,7 +515,7 @@ class CausticLoop:
                           to_sun=self.first.to_sun, depths=self.first.depths,
                           levels=self.levels_at(time_s), mean_weight=self.first.mean_weight,
                           info={**self.first.info, "loop_frames": self.frames},
-                          scatter=self.scatter)
+                          scatter=self.scatter, band_scale=self.band_scale)
 
     def wait(self) -> "CausticLoop":
         """Wait for a background build (:func:`caustic_loop`); raises what it raised."""
@@ -604,6 +612,7 @@ def caustic_loop(waves: Waves, elevation_deg: float, azimuth_deg: float, *,
     if scatter is None:
         return loop
     views = loop._run.setdefault("views", {})
-    if scatter not in views:
-        views[scatter] = replace(loop, scatter=scatter)
+    if scatter not in views:          # (frame 0's band scales: the sea's statistics)
+        views[scatter] = replace(loop, scatter=scatter, band_scale=texture_scales(
+            loop.level0[0], loop.first.depths, sea.tile_m, scatter))
     return views[scatter]

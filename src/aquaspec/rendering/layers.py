@@ -87,7 +87,7 @@ def surface_layers(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material
     :func:`aquaspec.shading.shade.shade_gbuffer`; ``lightfield``: its tables, for
     the light-field model's irradiance and beam; None: the seeds' model;
     ``sun``: :class:`aquaspec.transport.sun_scattering.SunInputs` with ``sun_visibility``
-    (H, W), the share of the beam each surface gets,
+    (H, W) or per band (H, W, n), the share of the beam each surface gets,
     :func:`aquaspec.shading.sun.surface_visibility`).
     See the module docstring for the definitions."""
     a, b, kd, e0, w, mb, t = check_medium(a, b, kd, e0, response_weights, material_bands,
@@ -120,10 +120,11 @@ def surface_layers(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material
         else:
             l_surf = lightfield.surface_radiance(rho, depth, n_y[p], e0)
         if sun is not None:
-            vis = 1.0 if sun_visibility is None else sun_visibility.reshape(-1)[p]
+            # (H, W) or, with each band's caustic factor, (H, W, n): (P, 1 or n)
+            vis = 1.0 if sun_visibility is None else sun_visibility.reshape(hgt * wid, -1)[p]
             normal = gbuffer.normal.reshape(-1, 3)[p].astype(float)
             l_surf = l_surf + model.lambertian_radiance(rho, surface_irradiance(
-                sun.beam0, sun.c_sun, depth, normal, sun.to_sun, vis))
+                sun.beam0, sun.c_sun, depth, normal, sun.to_sun) * vis)
         out["surface"][p] = radiance_to_rgb(l_surf, w)
         out["albedo"][p] = radiance_to_rgb(model.lambertian_radiance(rho, e0), w)
         # (|w|: a channel with negative lobes keeps t within the bands' T.)

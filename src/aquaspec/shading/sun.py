@@ -6,7 +6,8 @@ Each pixel gets the lit surface's light carried to the camera,
 along its ray (:mod:`aquaspec.transport.sun_scattering`, read from the froxels
 of :mod:`aquaspec.transport.froxels`). ``V`` is the shadow map's visibility
 (:mod:`aquaspec.scene.shadowmap`) times the caustic factor under waves
-(:mod:`aquaspec.light.caustics`), read over the pixel's footprint. The GPU
+(:mod:`aquaspec.light.caustics`), read over the pixel's footprint, each
+band's (:func:`aquaspec.light.caustics.band_factor`). The GPU
 twin is :mod:`aquaspec.gpu.passes.sun`.
 """
 
@@ -16,6 +17,7 @@ import numpy as np
 
 from aquaspec.errors import AquaspecError
 from aquaspec.light import caustics
+from aquaspec.light.caustic_sample import band_factor
 from aquaspec.light.sun import surface_irradiance
 from aquaspec.scene.camera import camera_depth
 from aquaspec.scene.shadowmap import NORMAL_OFFSET_TEXELS, ShadowMapSpec, map_visibility
@@ -62,10 +64,13 @@ def sun_radiance(gbuffer, sun: SunInputs, *, rho_of_hits, height_map=None,
             else np.ones(np.shape(points)[:-1])
 
     def march_light(points, t):
-        # The march's reference reads the caustics at each step's own pixel footprint.
+        # The march's reference reads the caustics at each step's own pixel
+        # footprint, each band's (a band axis when the map scales them).
         out = vis_points(points)
         if sun.caustics is not None:
-            out = out * caustics.sample(sun.caustics, points, np.abs(t) / cam.fx)
+            c = caustics.band_factor(sun.caustics, caustics.sample(
+                sun.caustics, points, np.abs(t) / cam.fx), -points[..., 1])
+            out = out[..., None] * c if c.shape[-1] > 1 else out * c[..., 0]
         return out
 
     if method == "froxel":
@@ -92,8 +97,10 @@ def sun_radiance(gbuffer, sun: SunInputs, *, rho_of_hits, height_map=None,
         if shadowed:
             vis = map_visibility(height_map, spec,
                                  pos + normal * (NORMAL_OFFSET_TEXELS * spec.texel))
-        vis = vis * surface_caustics(sun.caustics, cam, pos, s[hit])
         e = surface_irradiance(sun.beam0, sun.c_sun, -pos[:, 1], normal, sun.to_sun, vis)
+        if sun.caustics is not None:        # each band's factor (P, n or 1)
+            e = e * caustics.band_factor(sun.caustics, surface_caustics(
+                sun.caustics, cam, pos, s[hit]), -pos[:, 1])
         out[hit] += rho_of_hits(hit) / np.pi * e * np.exp(-sun.c_view * s[hit, None])
     return out
 
@@ -110,7 +117,8 @@ def surface_visibility(gbuffer, height_map=None, spec: ShadowMapSpec | None = No
                        caustics: caustics.CausticMap | None = None):
     """The share of the beam each visible surface gets, (H, W): the shadow
     map's visibility (1 without a map; looked up as :func:`sun_radiance` does,
-    off the surface along its normal) times the caustic factor."""
+    off the surface along its normal) times the caustic factor; (H, W, n),
+    each band's, when the map scales the bands (:func:`aquaspec.light.caustics.band_factor`)."""
     out = np.ones(gbuffer.distance.shape)
     hit = gbuffer.hit
     if (height_map is None or spec is None) and caustics is None:
@@ -119,6 +127,10 @@ def surface_visibility(gbuffer, height_map=None, spec: ShadowMapSpec | None = No
     if height_map is not None and spec is not None:
         out[hit] = map_visibility(height_map, spec, pos + gbuffer.normal[hit].astype(float)
                                   * (NORMAL_OFFSET_TEXELS * spec.texel))
-    out[hit] = out[hit] * surface_caustics(caustics, gbuffer.camera, pos,
-                                           gbuffer.distance[hit])
-    return out
+    if caustics is None:
+        return out
+    c = band_factor(caustics, surface_caustics(caustics, gbuffer.camera, pos,
+                                               gbuffer.distance[hit]), -pos[:, 1])
+    per_band = np.ones(out.shape + (c.shape[-1],))
+    per_band[hit] = out[hit][:, None] * c
+    return per_band if c.shape[-1] > 1 else per_band[..., 0]

@@ -14,8 +14,9 @@ phase function is divided by the bands' mean at the column's angle
 (:func:`aquaspec.transport.sun_scattering.band_mean_log_phase`) and each pixel
 multiplies it back at its own angle, so the forward peak follows the pixel.
 Under waves the caustic factor is the mean of :data:`CAUSTIC_SUBSAMPLES` reads
-along each slice (:func:`froxel_caustics`). The GPU twin is the froxel pass of
-:mod:`aquaspec.gpu.passes.sun`.
+along each slice (:func:`froxel_caustics`), each band's
+(:func:`aquaspec.light.caustics.band_factor`) at the slice's middle depth.
+The GPU twin is the froxel pass of :mod:`aquaspec.gpu.passes.sun`.
 """
 
 from __future__ import annotations
@@ -136,8 +137,11 @@ def froxel_grid(camera, sun: SunInputs, visibility=None, *, tile: int | None = N
         vis = np.ones(t_a.shape)
     else:
         vis = visibility(camera.position + dirs[..., None, :] * (0.5 * (t_a + t_b))[..., None])
-    if sun.caustics is not None:
-        vis = vis * froxel_caustics(camera, sun.caustics, dirs, t_a, t_b, tile=tile)
+    vis = vis[..., None]
+    if sun.caustics is not None:        # each band's at the slice's middle depth
+        fc = froxel_caustics(camera, sun.caustics, dirs, t_a, t_b, tile=tile)
+        mid = -(camera.position[1] + dirs[..., 1:2] * (0.5 * (t_a + t_b)))
+        vis = vis * caustics.band_factor(sun.caustics, fc, mid)
     k = np.asarray(sun.c_view) - np.asarray(sun.c_sun) * v_y[..., None] / mu0   # (ch, cw, n)
     kk = k[..., None, :]
     seg = np.exp(-kk * t_a[..., None]) * decay_integral(kk, dt[..., None])   # (ch, cw, K, n)
@@ -146,7 +150,7 @@ def froxel_grid(camera, sun: SunInputs, visibility=None, *, tile: int | None = N
     ref = band_mean_phase_at(sun.log_phase, cos)
     start = (np.asarray(sun.b) * np.asarray(sun.beam0) * np.exp(-np.asarray(sun.c_sun) * d_o / mu0)
              * p / ref[..., None])
-    inc = start[..., None, :] * vis[..., None] * seg
+    inc = start[..., None, :] * vis * seg
     cum = np.concatenate([np.zeros(inc.shape[:2] + (1, inc.shape[-1])),
                           np.cumsum(inc, axis=2)], axis=2)
     return FroxelGrid(length, cum)

@@ -115,7 +115,8 @@ def single_scattering_marched(*, b, phase_value, beam0, c_sun, c_view, depth_o, 
     """``L_SS`` with shadows, shape ``(..., n_bands)``.
 
     ``visibility(t_mid)`` gets the steps' middles ``(..., n_steps)`` (m along
-    each ray) and returns ``V`` there (same shape, 0 ... 1).
+    each ray) and returns ``V`` there (same shape, 0 ... 1; or with a band
+    axis, ``(..., n_steps, n_bands)``, a ``V`` per band).
     """
     d = np.asarray(depth_o, dtype=float)
     vy = np.asarray(v_y, dtype=float)
@@ -124,7 +125,8 @@ def single_scattering_marched(*, b, phase_value, beam0, c_sun, c_view, depth_o, 
     w = march_weights(k, length, n_steps)
     t_mid = (np.arange(n_steps) + 0.5) * (length[..., None] / n_steps)
     vis = np.asarray(visibility(t_mid), dtype=float)
-    integral = np.einsum("...j,...jb->...b", vis, w)
+    integral = (np.sum(vis * w, axis=-2) if vis.ndim == np.ndim(w)
+                else np.einsum("...j,...jb->...b", vis, w))
     start = np.exp(-np.asarray(c_sun) * d[..., None] / mu0)
     return np.asarray(b) * phase_value * np.asarray(beam0) * start * integral
 

@@ -35,12 +35,11 @@ What aquaspec renders there, with nothing fitted to these data:
       CV = std(E_beam C) / (E_beam mean(C) + E_diffuse).
 
 Each wavelength's factor is carried by its own band's transfer (``rendered``:
-what a one-band render, or a renderer with a factor per band, gives). A
-default render (:data:`RENDER_BANDS` bands) holds one factor for all its
-bands, carried by their mean transfer (``rendered_shared``); with each
-band's contrast scale per slice on it (``rendered_scaled``,
-:func:`aquaspec.light.caustic_scatter.contrast_scale`) it is as contrasted
-as the band's own.
+what a one-band render gives). A default render (:data:`RENDER_BANDS`
+bands) holds one factor for all its bands, carried by their mean transfer
+(``rendered_shared``: that factor read as it is); each band reads it scaled
+by its contrast scale (``rendered_scaled``: the band holding the
+wavelength, as the renderer reads it, :func:`aquaspec.light.caustics.band_factor`).
 
 Darecki's CV is of a time series at one point; this is the spread over the
 tile at one instant (the same statistics for a stationary, homogeneous sea),
@@ -62,8 +61,8 @@ from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.io.png import write_figure
 from aquaspec.light import caustics
-from aquaspec.light.caustic_sample import slice_interp
-from aquaspec.light.caustic_scatter import ScatterTransfer, contrast_scale
+from aquaspec.light.caustic_sample import scale_at, scale_polynomial
+from aquaspec.light.caustic_scatter import ScatterTransfer
 from aquaspec.light.sky import surface_light
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import Water, get_water
@@ -111,6 +110,38 @@ def _setup(water, light, wavelength_nm, waves):
     return SpectralSetup(water, get_sensor("human"), light,
                          Bands(1, wavelength_nm - half, wavelength_nm + half),
                          ms_model="lightfield", waves=waves)
+
+
+def darecki_light():
+    """The SPECTRL2 sun and sky at :data:`SUN_ZENITH_DEG` (azimuth 0)."""
+    return surface_light("sun-sky", sun_elevation_deg=90.0 - SUN_ZENITH_DEG,
+                         sun_azimuth_deg=0.0)
+
+
+def plate_terms(water, light, wavelength_nm: float, depths):
+    """``(beam, diffuse, transfer, band)`` of a one-band setup at
+    ``wavelength_nm``: the beam's and the diffuse irradiance on an upward
+    plate (D,) at ``depths`` (D,) m (per unit E0 above, the light field's
+    tables), the band's transfer into the scattered light and its
+    description (a dict: a, b, c, the beam's extinction)."""
+    setup = _setup(water, light, float(wavelength_nm), None)
+    tables = setup.lightfield_tables()
+    inputs = setup.sun_inputs()
+    bw = water.on_bands(setup.bands)
+    sun = light.sun
+    c_sun = float(inputs.c_sun[0])
+    depths = np.asarray(depths, dtype=float)
+    beam = float(tables.sun_fraction[0]) * np.exp(-c_sun * depths / sun.mu0)
+    diffuse = table_lookup(band_last_table(tables.irradiance_per_e0), depths,
+                           np.ones_like(depths), tables.max_depth_m, band_last=True)[:, 0]
+    scatter = ScatterTransfer.for_beam(b=bw.b, c=bw.c, c_sun=inputs.c_sun,
+                                       wavelength_nm=setup.bands.centers_nm,
+                                       to_sun=sun.to_sun, phase=setup.phase)
+    band = {"wavelength_nm": float(wavelength_nm), "a_per_m": float(bw.a[0]),
+            "b_per_m": float(bw.b[0]), "c_per_m": float(bw.c[0]),
+            "beam_extinction_per_m": c_sun,
+            "delta_m_forward_fraction": float((bw.c[0] - c_sun) / bw.b[0])}
+    return beam, diffuse, scatter, band
 
 
 def render_transfer(water, light, sea) -> ScatterTransfer:
@@ -167,8 +198,7 @@ def fluctuation_check(*, tile_m: float = 8.0, grid: int = 256, seeds=DEFAULT_SEE
     wls = np.asarray(data.wavelengths_nm, dtype=float)
     measured = np.asarray(data.cv, dtype=float)
     water = darecki_water()
-    light = surface_light("sun-sky", sun_elevation_deg=90.0 - SUN_ZENITH_DEG,
-                          sun_azimuth_deg=0.0)
+    light = darecki_light()
     sun = light.sun
     seas = [Waves(WIND_M_S, wind_azimuth_deg=sun.azimuth_deg, seed=int(k), tile_m=tile_m,
                   grid=grid) for k in seeds]
@@ -182,37 +212,30 @@ def fluctuation_check(*, tile_m: float = 8.0, grid: int = 256, seeds=DEFAULT_SEE
     points = 2 * int(map_kwargs.get("texels") or grid)
     plain = {}
     # What a default render puts on its one texture (the bands' mean transfer),
-    # read as it is and with each wavelength's contrast scale per slice.
+    # read as it is and as the band holding each wavelength reads it (its scale).
     shared = render_transfer(water, light, seas[0])
-    shared_stats = [factor_stats(caustics.cached_caustic_map(
-        sea, sun.elevation_deg, sun.azimuth_deg, n_water=sun.n_water, scatter=shared,
-        **map_kwargs), depths, points=points) for sea in seas]
+    shared_maps = [caustics.cached_caustic_map(sea, sun.elevation_deg, sun.azimuth_deg,
+                                               n_water=sun.n_water, scatter=shared,
+                                               **map_kwargs) for sea in seas]
+    shared_stats = [factor_stats(m, depths, points=points) for m in shared_maps]
+    edges = np.linspace(*RENDER_RANGE_NM, RENDER_BANDS + 1)
     for j, wl in enumerate(wls):
-        setup = _setup(water, light, float(wl), None)
-        tables = setup.lightfield_tables()
-        inputs = setup.sun_inputs()
-        bw = water.on_bands(setup.bands)
-        c_sun = float(inputs.c_sun[0])
-        beam = float(tables.sun_fraction[0]) * np.exp(-c_sun * depths / sun.mu0)
-        diffuse = table_lookup(band_last_table(tables.irradiance_per_e0), depths,
-                               np.ones_like(depths), tables.max_depth_m, band_last=True)[:, 0]
-        scatter = ScatterTransfer.for_beam(b=bw.b, c=bw.c, c_sun=inputs.c_sun,
-                                           wavelength_nm=setup.bands.centers_nm,
-                                           to_sun=sun.to_sun, phase=setup.phase)
+        beam, diffuse, scatter, band_info = plate_terms(water, light, float(wl), depths)
         stats, stats_plain, stats_scaled = [], [], []
         for i, sea in enumerate(seas):
             cmap = caustics.cached_caustic_map(sea, sun.elevation_deg, sun.azimuth_deg,
                                                n_water=sun.n_water, scatter=scatter,
                                                **map_kwargs)
-            raw = caustics.cached_caustic_map(sea, sun.elevation_deg, sun.azimuth_deg,
-                                              n_water=sun.n_water, **map_kwargs)
             if i not in plain:
-                plain[i] = factor_stats(raw, depths, points=points)
+                plain[i] = factor_stats(caustics.cached_caustic_map(
+                    sea, sun.elevation_deg, sun.azimuth_deg, n_water=sun.n_water,
+                    **map_kwargs), depths, points=points)
             stats.append(factor_stats(cmap, depths, points=points))
             stats_plain.append(plain[i])
             per_seed[i, :, j] = beam * stats[-1][1] / (beam * stats[-1][0] + diffuse)
-            scale = slice_interp(contrast_scale(raw.levels[0], raw.depths, sea.tile_m,
-                                                scatter, shared), depths, raw.max_depth)
+            sm = shared_maps[i]
+            band = min(int(np.searchsorted(edges, wl, side="right")) - 1, RENDER_BANDS - 1)
+            scale = scale_at(scale_polynomial(sm.band_scale), depths, sm.max_depth)[:, band]
             m, sd = shared_stats[i]
             stats_scaled.append((1.0 + scale * (m - 1.0), scale * sd))
         out["rendered"][:, j] = pooled_cv(beam, diffuse, *zip(*stats))
@@ -220,10 +243,7 @@ def fluctuation_check(*, tile_m: float = 8.0, grid: int = 256, seeds=DEFAULT_SEE
         out["rendered_shared"][:, j] = pooled_cv(beam, diffuse, *zip(*shared_stats))
         out["rendered_scaled"][:, j] = pooled_cv(beam, diffuse, *zip(*stats_scaled))
         out["beam_share"][:, j] = beam / (beam + diffuse)
-        bands.append({"wavelength_nm": float(wl), "a_per_m": float(bw.a[0]),
-                      "b_per_m": float(bw.b[0]), "c_per_m": float(bw.c[0]),
-                      "beam_extinction_per_m": c_sun,
-                      "delta_m_forward_fraction": float((bw.c[0] - c_sun) / bw.b[0])})
+        bands.append(band_info)
         if progress is not None:
             progress(f"{wl:g} nm: CV {np.round(out['rendered'][:, j], 3).tolist()}")
     out["rendered_seed_min"] = per_seed.min(axis=0)
@@ -255,8 +275,8 @@ def fluctuation_check(*, tile_m: float = 8.0, grid: int = 256, seeds=DEFAULT_SEE
 def format_fluctuations(res: dict) -> str:
     """The CV table: per wavelength the measured row, the rendered one with
     the transfer into the scattered light, and the unscattered beam's; the
-    ratios of a default render's one shared factor and of that factor
-    scaled per band (:func:`aquaspec.light.caustic_scatter.contrast_scale`)."""
+    ratios of a default render's one shared factor read as it is and as
+    each band reads it (scaled, :func:`aquaspec.light.caustics.band_factor`)."""
     d = res["depth_m"]
     lines = [f"CV of downwelling irradiance vs {res['source']}",
              f"wind {res['conditions']['wind_m_s']} m/s, sun zenith "
@@ -268,8 +288,8 @@ def format_fluctuations(res: dict) -> str:
     for j, wl in enumerate(res["wavelength_nm"]):
         for key, label in (("measured", "measured"), ("rendered", "aquaspec"),
                            ("unscattered", "beam only"), ("ratio", "aquaspec / measured"),
-                           ("ratio_shared", f"{RENDER_BANDS} bands, one factor / measured"),
-                           ("ratio_scaled", f"{RENDER_BANDS} bands, scaled / measured")):
+                           ("ratio_shared", f"{RENDER_BANDS} bands, unscaled / measured"),
+                           ("ratio_scaled", f"{RENDER_BANDS}-band render / measured")):
             if key not in res:
                 continue
             row = [r[j] for r in res[key]]

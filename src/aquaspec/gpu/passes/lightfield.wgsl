@@ -237,23 +237,25 @@ struct BandPixels {
     use_sigmoid: vec4<bool>,
 }
 
-// The sun's veil (camera RGB) and the share of the beam the four pixels'
-// surfaces get (0 where no hit).
+// The sun's veil (camera RGB), the share of the beam the four pixels'
+// surfaces get (0 where no hit) and their caustic factor (sunlight.wgsl's sun_lit).
 struct SunPixels {
     r: vec4<f32>,
     g: vec4<f32>,
     b: vec4<f32>,
     lit: vec4<f32>,
+    caustic: vec4<f32>,
 }
 
 fn no_sun_pixels(px: vec4<u32>, py: vec4<u32>, gb: GbufferPixels, hit: vec4<bool>) -> SunPixels {
-    return SunPixels(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+    return SunPixels(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0),
+                     vec4<f32>(1.0));
 }
 
-// One pixel's lit share along its ray v (0 where no hit).
-fn sun_pixel_lit(v: vec3<f32>, s: f32, hit: bool, oct: u32, n_y: f32) -> f32 {
+// One pixel's lit share along its ray v and its caustic factor (0, 1 where no hit).
+fn sun_pixel_lit(v: vec3<f32>, s: f32, hit: bool, oct: u32, n_y: f32) -> vec2<f32> {
     let n = decode_normal(oct, bitcast<u32>(n_y));
-    return select(0.0, sun_lit(v, select(0.0, s, hit), n), hit);
+    return select(vec2<f32>(0.0, 1.0), sun_lit(v, select(0.0, s, hit), n), hit);
 }
 
 // One pixel's veil: the froxels' single scattering along its ray v at its
@@ -277,12 +279,15 @@ fn sun_pixels(px: vec4<u32>, py: vec4<u32>, gb: GbufferPixels, hit: vec4<bool>) 
     // The shadow map and caustics only where a lane hits (a trip count, not a
     // branch: lavapipe leaves the loop when no SIMD lane has an iteration).
     var lit = vec4<f32>(0.0);
+    var caustic = vec4<f32>(1.0);
     let n_lit = select(0u, 1u, any(hit));
     for (var t = 0u; t < n_lit; t = t + 1u) {
-        lit = vec4<f32>(sun_pixel_lit(v0, gb.s.x, hit.x, gb.oct.x, gb.n_y.x),
-                        sun_pixel_lit(v1, gb.s.y, hit.y, gb.oct.y, gb.n_y.y),
-                        sun_pixel_lit(v2, gb.s.z, hit.z, gb.oct.z, gb.n_y.z),
-                        sun_pixel_lit(v3, gb.s.w, hit.w, gb.oct.w, gb.n_y.w));
+        let a = sun_pixel_lit(v0, gb.s.x, hit.x, gb.oct.x, gb.n_y.x);
+        let b = sun_pixel_lit(v1, gb.s.y, hit.y, gb.oct.y, gb.n_y.y);
+        let c = sun_pixel_lit(v2, gb.s.z, hit.z, gb.oct.z, gb.n_y.z);
+        let e = sun_pixel_lit(v3, gb.s.w, hit.w, gb.oct.w, gb.n_y.w);
+        lit = vec4<f32>(a.x, b.x, c.x, e.x);
+        caustic = vec4<f32>(a.y, b.y, c.y, e.y);
     }
     let s = select(vec4<f32>(f32_inf()), gb.s, hit);
     let l0 = sun_pixel_veil(px.x, py.x, v0, s.x);
@@ -290,25 +295,27 @@ fn sun_pixels(px: vec4<u32>, py: vec4<u32>, gb: GbufferPixels, hit: vec4<bool>) 
     let l2 = sun_pixel_veil(px.z, py.z, v2, s.z);
     let l3 = sun_pixel_veil(px.w, py.w, v3, s.w);
     return SunPixels(vec4<f32>(l0.x, l1.x, l2.x, l3.x), vec4<f32>(l0.y, l1.y, l2.y, l3.y),
-                     vec4<f32>(l0.z, l1.z, l2.z, l3.z), lit);
+                     vec4<f32>(l0.z, l1.z, l2.z, l3.z), lit, caustic);
 }
 
 fn no_sun_surface(m: PixelMaterials, run: bool, d: vec4<f32>, s: vec4<f32>,
-                  lit: vec4<f32>) -> Rgb4 {
+                  lit: vec4<f32>, caustic: vec4<f32>) -> Rgb4 {
     return Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
 }
 
 // The sun-lit surface's light in band i (sun.wgsl's main: rho beam0 / pi
-// exp(-c_sun d / mu0 - c S) times the share lit), added to acc.
+// exp(-c_sun d / mu0 - c S) times the share lit and the band's caustic
+// factor), added to acc.
 fn sun_surface_band(i: u32, rho_m: vec4<f32>, m: PixelMaterials, d: vec4<f32>, s: vec4<f32>,
-                    lit: vec4<f32>, acc: ptr<function, Rgb4>) {
+                    lit: vec4<f32>, caustic: vec4<f32>, at: vec4<f32>,
+                    acc: ptr<function, Rgb4>) {
     let q0 = sun_bands[2u * i];
     let q1 = sun_bands[2u * i + 1u];
     var rho = rho_m;
     if (PER_PIXEL_MATERIALS) {
         rho = select(rho, sigmoid_reflectance(m.c0, m.c1, m.c2, q1.w), m.use_sigmoid);
     }
-    let l = rho * q0.w * exp(-q0.y * d - q0.x * s) * lit;
+    let l = rho * q0.w * exp(-q0.y * d - q0.x * s) * lit * caustic_band4(i, caustic, at);
     (*acc).r = (*acc).r + l * q1.x;
     (*acc).g = (*acc).g + l * q1.y;
     (*acc).b = (*acc).b + l * q1.z;
@@ -319,26 +326,27 @@ fn sun_surface_band(i: u32, rho_m: vec4<f32>, m: PixelMaterials, d: vec4<f32>, s
 // a 1280x720 frame 45 ms of CPU slower on lavapipe), four band bodies per
 // material vec4 (a band index picking a vector component cost as much again).
 fn sun_surface(m: PixelMaterials, run: bool, d: vec4<f32>, s: vec4<f32>,
-               lit: vec4<f32>) -> Rgb4 {
+               lit: vec4<f32>, caustic: vec4<f32>) -> Rgb4 {
     var acc = Rgb4(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+    let at = caustic_x4(d);
     let n_groups = select(0u, FULL_GROUPS, run);
     for (var q = 0u; q < n_groups; q = q + 1u) {
         let g = material_group(m.mrow, q, m.use_material);
-        sun_surface_band(4u * q, group_band(g, 0u), m, d, s, lit, &acc);
-        sun_surface_band(4u * q + 1u, group_band(g, 1u), m, d, s, lit, &acc);
-        sun_surface_band(4u * q + 2u, group_band(g, 2u), m, d, s, lit, &acc);
-        sun_surface_band(4u * q + 3u, group_band(g, 3u), m, d, s, lit, &acc);
+        sun_surface_band(4u * q, group_band(g, 0u), m, d, s, lit, caustic, at, &acc);
+        sun_surface_band(4u * q + 1u, group_band(g, 1u), m, d, s, lit, caustic, at, &acc);
+        sun_surface_band(4u * q + 2u, group_band(g, 2u), m, d, s, lit, caustic, at, &acc);
+        sun_surface_band(4u * q + 3u, group_band(g, 3u), m, d, s, lit, caustic, at, &acc);
     }
     let n_rest = select(0u, select(0u, 1u, REST_BANDS > 0u), run);
     for (var t = 0u; t < n_rest; t = t + 1u) {
         let g = material_group(m.mrow, FULL_GROUPS, m.use_material);
         let i = 4u * FULL_GROUPS;
-        sun_surface_band(i, group_band(g, 0u), m, d, s, lit, &acc);
+        sun_surface_band(i, group_band(g, 0u), m, d, s, lit, caustic, at, &acc);
         if (REST_BANDS > 1u) {
-            sun_surface_band(i + 1u, group_band(g, 1u), m, d, s, lit, &acc);
+            sun_surface_band(i + 1u, group_band(g, 1u), m, d, s, lit, caustic, at, &acc);
         }
         if (REST_BANDS > 2u) {
-            sun_surface_band(i + 2u, group_band(g, 2u), m, d, s, lit, &acc);
+            sun_surface_band(i + 2u, group_band(g, 2u), m, d, s, lit, caustic, at, &acc);
         }
     }
     return acc;
@@ -622,7 +630,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
     }
     // The sun (after the targets' band loop, so that none of it is live there).
     let sun = {{ sun_pixels }}(px, py, gb, hit);
-    let lit = {{ sun_surface }}(mat, any_hit, d_s, s, sun.lit);
+    let lit = {{ sun_surface }}(mat, any_hit, d_s, s, sun.lit, sun.caustic);
     r = r + sun.r + lit.r;
     gr = gr + sun.g + lit.g;
     b = b + sun.b + lit.b;

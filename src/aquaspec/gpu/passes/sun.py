@@ -20,7 +20,8 @@ Three steps (maths in :mod:`aquaspec.transport.sun_scattering` and
 
 Bindings of sun.wgsl: 0 uniform :data:`PARAMS_LAYOUT`; 1, 2 the G-buffer's
 surface and sigmoid textures (:mod:`aquaspec.gpu.gbuffer`); 3 material band
-reflectances (M * n f32); 4 two vec4 per band; 5 ``ln p`` per band
+reflectances (M * n f32); 4 four vec4 per band (two constants, then the
+polynomial of the caustics' contrast scale: :func:`caustic_scale_rows`); 5 ``ln p`` per band
 (:func:`aquaspec.transport.sun_scattering.log_phase_table`); 6 the shadow map; 7 the image (vec4 per
 pixel, read and written); 8 the froxels (a 3-D texture, RGB per column and
 slice boundary, :func:`froxel_format`; written at 13 by build_froxels, read
@@ -42,6 +43,7 @@ import numpy as np
 import wgpu
 
 from aquaspec.errors import AquaspecError
+from aquaspec.light.caustic_sample import scale_polynomial
 from aquaspec.scene.shadowmap import (BIAS_TEXELS, DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE,
                                       NORMAL_OFFSET_TEXELS, ShadowMapSpec)
 from aquaspec.transport.froxels import CAUSTIC_SUBSAMPLES, FROXEL_SLICES, froxel_tile
@@ -62,7 +64,7 @@ PARAMS_LAYOUT = UniformLayout("SunParams", CAMERA_FIELDS + [
     ("texel", "f32"), ("h_min", "f32"), ("h_max", "f32"), ("bias", "f32"),
     ("normal_offset", "f32"), ("neg_log_tail", "f32"), ("cols_x", "u32"), ("cols_y", "u32"),
     ("caustic", "u32"), ("c_slices", "u32"), ("c_tile", "f32"), ("c_max_depth", "f32"),
-    ("c_texel", "f32"), ("c_levels", "f32"),
+    ("c_texel", "f32"), ("c_levels", "f32"), ("c_scaled", "u32"),
 ])
 CAUSTIC_FORMAT = "r16float"
 #: Bound in place of the caustics when there are none (two 1 x 1 slices of 1).
@@ -96,9 +98,16 @@ def sunlight_values(width: int, n_bands: int, bindings: dict = FUSED_BINDINGS,
     return {"sun_params_struct": PARAMS_LAYOUT.wgsl(),
             "sun_params_struct_name": PARAMS_LAYOUT.name, "tile": tile,
             "slices": FROXEL_SLICES, "phase_size": PHASE_TABLE_SIZE,
-            "sun_band_vec4": 2 * int(n_bands), "sun_n_bands": int(n_bands),
+            "sun_band_vec4": 4 * int(n_bands), "sun_n_bands": int(n_bands),
             "sun_bands_var": bands_var,
             **{f"sun_b_{k}": v for k, v in bindings.items()}}
+
+
+def caustic_scale_rows(scale) -> np.ndarray:
+    """The bands' contrast scales (K, n) as the GPU reads them: two vec4 per
+    band (n, 2, 4), the coefficients ``c_1 ... c_8`` of
+    :func:`aquaspec.light.caustic_sample.scale_polynomial`."""
+    return scale_polynomial(scale).astype(np.float32).reshape(-1, 2, 4)
 
 
 class SunPass:
@@ -142,9 +151,10 @@ class SunPass:
             mag_filter=wgpu.FilterMode.linear, min_filter=wgpu.FilterMode.linear)
         self._ref_phase = create_storage_buffer(device, 4 * self.phase_size,
                                                 label="sun mean phase")
+        self._caustic_scale = None
         self._params = create_uniform_buffer(device, PARAMS_LAYOUT, label="sun params")
         self._bands = device.create_buffer(
-            label="sun bands", size=32 * self.n_bands,
+            label="sun bands", size=64 * self.n_bands,
             usage=wgpu.BufferUsage.UNIFORM | wgpu.BufferUsage.COPY_DST)
         self._phase = create_storage_buffer(device, 4 * self.n_bands * self.phase_size,
                                             label="sun phase")
@@ -185,7 +195,7 @@ class SunPass:
                                          "pack2x16float(vec2<f32>(value.z, 0.0)))") if half
                             else "vec4<f32>(value, 0.0)",
                             n_bands=self.n_bands, caustic_sub=CAUSTIC_SUBSAMPLES,
-                            band_vec4=2 * self.n_bands, material_binding=binding,
+                            band_vec4=4 * self.n_bands, material_binding=binding,
                             material_read="material_bands[k / 4u][k % 4u]" if key
                             else "material_bands[k]")
             module = self.device.create_shader_module(label="sun.wgsl", code=src)
@@ -233,9 +243,25 @@ class SunPass:
         geo = self._caustic_geometry
         if geo is None:
             return dict(caustic=0, c_slices=2, c_tile=1.0, c_max_depth=1.0, c_texel=1.0,
-                        c_levels=1.0)
+                        c_levels=1.0, c_scaled=0)
         return dict(caustic=1, c_slices=geo.slices, c_tile=geo.tile_m,
-                    c_max_depth=geo.max_depth_m, c_texel=geo.texel_m, c_levels=float(geo.levels))
+                    c_max_depth=geo.max_depth_m, c_texel=geo.texel_m, c_levels=float(geo.levels),
+                    c_scaled=int(self._caustic_scale is not None))
+
+    def _use_caustic_scale(self, scale=None, geometry=None) -> None:
+        """Upload the caustics' band scales (``scale`` (K, n) of ``geometry``;
+        None: every band reads the factor) as their polynomials
+        (:func:`caustic_scale_rows`, after the bands' two vec4 each)."""
+        if scale is not None:
+            scale = np.asarray(scale, np.float32)
+            if geometry is None or scale.shape != (geometry.slices, self.n_bands):
+                raise AquaspecError(
+                    f"caustic band scales of shape {scale.shape}; accepted: (slices, bands) = "
+                    f"({None if geometry is None else geometry.slices}, {self.n_bands})")
+        self._caustic_scale = scale
+        rows = np.zeros((self.n_bands, 2, 4), np.float32) if scale is None \
+            else caustic_scale_rows(scale)
+        upload_buffer(self.device, self._bands, rows, offset=32 * self.n_bands)
 
     def _caustic_texture(self, levels):
         """An r16float 2-D array texture holding ``levels`` (K, n_m, n_m) as its mips."""
@@ -259,20 +285,26 @@ class SunPass:
         self._caustic_tex = self._caustic_texture(NO_CAUSTICS if cmap is None else cmap.levels)
         self._caustic_map = cmap
         self._caustic_geometry = None if cmap is None else cmap.geometry
+        self._use_caustic_scale(None if cmap is None else cmap.band_scale,
+                                self._caustic_geometry)
         self._bind_key = self._froxel_key = None
 
-    def use_caustic_texture(self, view, geometry) -> None:
+    def use_caustic_texture(self, view, geometry, band_scale=None) -> None:
         """Sample caustic slices made on the GPU (e.g. by
         :class:`aquaspec.gpu.passes.caustics.CausticLoopPass`): ``view``, an
         r16float 2-D array view with mips laid out as a
-        :class:`aquaspec.light.caustics.CausticMap`'s levels, and its
-        :class:`aquaspec.light.caustics.CausticGeometry`; until the next
+        :class:`aquaspec.light.caustics.CausticMap`'s levels, its
+        :class:`aquaspec.light.caustics.CausticGeometry` and the bands'
+        contrast scales (K, n) (:attr:`aquaspec.light.caustics.CausticMap.band_scale`;
+        None: every band reads the factor); until the next
         :meth:`set_inputs` with other caustics."""
-        if view is self.caustic_view and geometry == self._caustic_geometry:
+        if (view is self.caustic_view and geometry == self._caustic_geometry
+                and band_scale is self._caustic_scale):
             return
         self._caustic_tex = (None, view)
         self._caustic_map = None       # set_inputs() uploads its own map again
         self._caustic_geometry = geometry
+        self._use_caustic_scale(band_scale, geometry)
         self._bind_key = self._froxel_key = None
 
     # ---- per-band inputs --------------------------------------------------------
@@ -292,6 +324,7 @@ class SunPass:
         bands[:, 1, :3] = w
         bands[:, 1, 3] = sigmoid_centers_t
         upload_buffer(self.device, self._bands, bands)
+        self._use_caustic_scale(self._caustic_scale, self._caustic_geometry)
         upload_buffer(self.device, self._phase, np.asarray(sun.log_phase, np.float32))
         upload_buffer(self.device, self._ref_phase,
                       band_mean_log_phase(sun.log_phase).astype(np.float32))

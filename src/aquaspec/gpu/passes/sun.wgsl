@@ -15,13 +15,14 @@
 //   mean phase function at the pixel's own angle (froxel_lookup); added in
 //   camera RGB to the shading pass's linear image (rgb_out).
 //
-// Layout of `bands`, two vec4 per band i:
+// Layout of `bands`, two vec4 per band i, then two more per band:
 //   [2i]     c_view, c_sun / mu0, b * beam0, beam0 / pi
 //   [2i + 1] w_r, w_g, w_b, t (normalised band centre for sigmoid materials)
+//   [2 N_BANDS + 2i], [.. + 1] the caustics' contrast scale's polynomial (sunlight.wgsl)
 // `log_phase[i * PHASE_SIZE + k]`: ln p of band i at theta_k = pi (k / (PHASE_SIZE - 1))^2.
 // Under waves each froxel slice's caustic factor is the mean of CAUSTIC_SUB
-// reads along it (aquaspec.transport.froxels.froxel_caustics); surfaces read it
-// over their pixel's footprint s / fx.
+// reads along it (aquaspec.transport.froxels.froxel_caustics), each band's at
+// the slice's middle depth; surfaces read it over their pixel's footprint s / fx.
 // Band reflectance of material m, band i at flat index m * N_BANDS + i: in a
 // uniform array of vec4 when it fits in 64 KiB (MATERIALS_IN_UNIFORM; storage
 // reads per band were most of the pass's time on lavapipe), else in storage.
@@ -112,10 +113,13 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
         let ta = step * f32((k - 1u) * (k - 1u));
         let tb = step * f32(k * k);
         let dt = tb - ta;
-        var vis = visibility(sp.position + v * (0.5 * (ta + tb)));
+        let vis = visibility(sp.position + v * (0.5 * (ta + tb)));
+        var fc = 1.0;
         if (vis > 0.0 && sp.caustic != 0u) {
-            vis = vis * froxel_caustic(v, ta, tb, speed);
+            fc = froxel_caustic(v, ta, tb, speed);
         }
+        // Each band's factor at the slice's middle depth.
+        let c_at = caustic_x(-(sp.position.y + v.y * (0.5 * (ta + tb))));
         for (var i = 0u; i < N_BANDS; i = i + 1u) {
             let kk = rate[i];
             let y = kk * dt;
@@ -125,7 +129,8 @@ fn build_froxels(@builtin(global_invocation_id) gid: vec3<u32>) {
             let seg = decay[i] * select((1.0 - q) / kk, dt * (1.0 - y * (0.5 - y / 6.0)),
                                         abs(y) < 1e-2);
             decay[i] = decay[i] * q;
-            acc = acc + (vis * start[i] * seg) * bands[2u * i + 1u].xyz;
+            acc = acc + (vis * caustic_band(i, fc, c_at) * start[i] * seg)
+                * bands[2u * i + 1u].xyz;
         }
         store_froxel(cx, cy, k, acc);
     }
@@ -159,11 +164,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 sig = textureLoad(gb_sigmoid, vec2<i32>(i32(col), i32(row)), 0).xyz;
             }
             let depth_s = -pos.y;
+            let c_at = caustic_x(depth_s);
             for (var i = 0u; i < N_BANDS; i = i + 1u) {
                 let q0 = bands[2u * i];
                 let q1 = bands[2u * i + 1u];
                 let rho = reflectance(word.w, sig, i, q1.w);
-                let l = rho * q0.w * exp(-q0.y * depth_s - q0.x * s) * lit;
+                let l = rho * q0.w * exp(-q0.y * depth_s - q0.x * s)
+                    * lit.x * caustic_band(i, lit.y, c_at);
                 acc = acc + l * q1.xyz;
             }
         }

@@ -22,7 +22,11 @@
 // Caustics (aquaspec.light.caustics): the beam's factor per depth slice
 // (array layer) in foot coordinates, a mip pyramid read through a repeating
 // trilinear sampler; layers at d_k = D (k / (K - 1))^2, linear between them
-// in sqrt(d / D).
+// in sqrt(d / D). With several bands (sp.c_scaled = 1) band i reads
+// 1 + s_i(d) (C - 1), its contrast scale (aquaspec.light.caustic_scatter.
+// band_scales) as ln s_i = sum_p c_p x^p, x = sqrt(d / D), p = 1 ... 8, the
+// coefficients in the bands' constants after their first two vec4 (NumPy
+// twin aquaspec.light.caustic_sample.band_factor).
 
 #include "common.wgsl"
 #include "gbuffer_normal.wgsl"
@@ -90,6 +94,44 @@ fn caustic(p: vec3<f32>, footprint: f32) -> f32 {
     return mix(a, b, fk);
 }
 
+// Where depth d is for the bands' scales: x = sqrt(d / D), clamped to [0, 1]
+// (0 for a depth that is not a number).
+fn caustic_x(d: f32) -> f32 {
+    return sqrt(select(0.0, min(d, sp.c_max_depth), d > 0.0) / sp.c_max_depth);
+}
+
+// ln of band i's contrast scale at x: x (c1 + x (c2 + ... + x c8)), Horner.
+fn caustic_log_scale(i: u32, x: f32) -> f32 {
+    let a = {{ sun_bands_var }}[2u * SUN_N_BANDS + 2u * i];
+    let b = {{ sun_bands_var }}[2u * SUN_N_BANDS + 2u * i + 1u];
+    return x * (a.x + x * (a.y + x * (a.z + x * (a.w + x * (b.x + x * (b.y + x * (b.z
+        + x * b.w)))))));
+}
+
+// Band i's caustic factor from the shared one, c, at x (caustic_x).
+fn caustic_band(i: u32, c: f32, x: f32) -> f32 {
+    if (sp.c_scaled == 0u) {
+        return c;
+    }
+    return 1.0 + exp(caustic_log_scale(i, x)) * (c - 1.0);
+}
+
+// The same for four pixels.
+fn caustic_x4(d: vec4<f32>) -> vec4<f32> {
+    return vec4<f32>(caustic_x(d.x), caustic_x(d.y), caustic_x(d.z), caustic_x(d.w));
+}
+
+fn caustic_band4(i: u32, c: vec4<f32>, x: vec4<f32>) -> vec4<f32> {
+    if (sp.c_scaled == 0u) {
+        return c;
+    }
+    let a = {{ sun_bands_var }}[2u * SUN_N_BANDS + 2u * i];
+    let b = {{ sun_bands_var }}[2u * SUN_N_BANDS + 2u * i + 1u];
+    let p = x * (a.x + x * (a.y + x * (a.z + x * (a.w + x * (b.x + x * (b.y + x * (b.z
+        + x * b.w)))))));
+    return 1.0 + exp(p) * (c - 1.0);
+}
+
 // Camera.ray_directions through pixel coordinates (px, py).
 fn ray_through(px: f32, py: f32) -> vec3<f32> {
     let xc = (px - sp.cx) / sp.fx;
@@ -154,9 +196,10 @@ fn sun_veil(col: u32, row: u32, v: vec3<f32>, s: f32) -> vec3<f32> {
 
 // The share of the beam a surface at distance s along v with normal n gets:
 // max(0, n . to_sun) times the shadow map's visibility (read off the surface
-// along its normal) times the caustic factor over the pixel's footprint.
-fn sun_lit(v: vec3<f32>, s: f32, n: vec3<f32>) -> f32 {
+// along its normal), and the caustic factor over the pixel's footprint
+// (each band's: caustic_band at the surface's depth).
+fn sun_lit(v: vec3<f32>, s: f32, n: vec3<f32>) -> vec2<f32> {
     let pos = sp.position + v * s;
     let cos_n = max(dot(n, sp.to_sun), 0.0);
-    return cos_n * visibility(pos + n * sp.normal_offset) * caustic(pos, s / sp.fx);
+    return vec2<f32>(cos_n * visibility(pos + n * sp.normal_offset), caustic(pos, s / sp.fx));
 }
