@@ -59,10 +59,9 @@ from aquaspec.rendering.marine_snow import add_marine_snow, parse_marine_snow
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.result import RenderResult
 from aquaspec.rendering.setup import SpectralSetup, render_surface
-from aquaspec.scene.builtin import RENDER_DEFAULT_VARIANT, builtin_scene
+from aquaspec.scene.builtin import scene_for_render
 from aquaspec.scene.camera import Camera, parse_size
 from aquaspec.scene.gbuffer import GBuffer
-from aquaspec.scene.load import load_mesh, place_in_front
 from aquaspec.scene.rgbd import gbuffer_from_rgbd, load_rgbd
 from aquaspec.scene.seabed import plane_radius_m, with_seabed_plane
 from aquaspec.scene.shadowmap import DEFAULT_MAP_RADIUS_M, DEFAULT_MAP_SIZE, numpy_shadow_map
@@ -133,9 +132,8 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
     albedo : 3 floats, optional
         Linear RGB albedo replacing the mesh's colours.
     builtin : str, optional
-        Which built-in scene (:data:`aquaspec.scene.builtin.BUILTIN_VARIANTS`)
-        when neither ``scene``, ``mesh`` nor ``rgbd`` is given;
-        :data:`aquaspec.scene.builtin.RENDER_DEFAULT_VARIANT` when None.
+        The built-in scene shown without ``scene``, ``mesh`` or ``rgbd``
+        (:func:`aquaspec.scene.builtin.scene_for_render`).
     rgbd : (image, depth, intrinsics), optional
         An RGB image (path or array), a metric depth map (path or array, m)
         and pinhole intrinsics ``(fx, fy, cx, cy)``: a photograph becomes an
@@ -332,15 +330,6 @@ class _View:
     description: dict
 
 
-def _scene_for(mesh, depth_m, width, height, albedo, builtin=None):
-    if mesh is None:
-        return builtin_scene(depth_m, width=width, height=height,
-                             variant=RENDER_DEFAULT_VARIANT if builtin is None else builtin)
-    scene = load_mesh(mesh, albedo=albedo)
-    scene = place_in_front(scene, depth_m=depth_m, width=width, height=height)
-    return scene, scene.camera
-
-
 def _view(*, scene, camera, mesh, albedo, rgbd, depth_m, width, height, say,
           builtin=None) -> _View:
     """Step 2: the scene and camera of :func:`render`'s arguments, or the
@@ -361,7 +350,7 @@ def _view(*, scene, camera, mesh, albedo, rgbd, depth_m, width, height, say,
                       **source_desc})
     if scene is None:
         say("building the scene")
-        scene, default_cam = _scene_for(mesh, depth_m, width, height, albedo, builtin)
+        scene, default_cam = scene_for_render(mesh, depth_m, width, height, albedo, builtin)
         return _View(scene, camera or default_cam, None, False,
                      {"kind": "builtin" if mesh is None else "mesh",
                       **({"mesh": str(mesh)} if mesh is not None else {}),

@@ -26,11 +26,13 @@ from aquaspec.scene.classic import (BOARD_DISTANCE_M, CAMERA_HEIGHT_M, CAMERA_PI
                                     PATCH_PITCH_M, PATCH_SIZE_M, ROCK_SUBDIVISIONS,
                                     TERRAIN_GRID, check_depth, classic_scene, default_camera)
 from aquaspec.scene.detailed import detailed_scene
+from aquaspec.scene.load import load_mesh, place_in_front
 from aquaspec.scene.mesh import Scene
 
 __all__ = ["BOARD_DISTANCE_M", "BUILTIN_VARIANTS", "CAMERA_HEIGHT_M", "CAMERA_PITCH_DEG",
            "DEFAULT_VARIANT", "PATCH_PITCH_M", "PATCH_SIZE_M", "RENDER_DEFAULT_VARIANT",
-           "ROCK_SUBDIVISIONS", "TERRAIN_GRID", "builtin_scene", "default_camera"]
+           "ROCK_SUBDIVISIONS", "TERRAIN_GRID", "builtin_scene", "default_camera",
+           "scene_for_render"]
 
 #: The built-in scenes' names.
 BUILTIN_VARIANTS = ("classic", "detailed")
@@ -85,3 +87,18 @@ def builtin_scene(depth_m: float, *, seed: int = 0, width: int = 1280, height: i
     check_depth(depth_m)
     return _BUILDERS[variant](depth_m, seed=seed, width=width, height=height,
                               fov_y_deg=fov_y_deg)
+
+
+def scene_for_render(mesh, depth_m: float, width: int, height: int, albedo=None,
+                     variant: str | None = None) -> tuple[Scene, Camera]:
+    """The scene :func:`aquaspec.rendering.api.render` shows without a scene of
+    its own: the mesh file ``mesh`` (colours replaced by ``albedo`` when
+    given) placed 3 m in front of a camera at ``depth_m``
+    (:func:`aquaspec.scene.load.place_in_front`), or without a mesh the
+    built-in scene ``variant`` (:data:`RENDER_DEFAULT_VARIANT` when None)."""
+    if mesh is None:
+        return builtin_scene(depth_m, width=width, height=height,
+                             variant=RENDER_DEFAULT_VARIANT if variant is None else variant)
+    scene = place_in_front(load_mesh(mesh, albedo=albedo), depth_m=depth_m, width=width,
+                           height=height)
+    return scene, scene.camera

@@ -95,7 +95,7 @@ def _pipe(scene, rng, ground, mats):
     centre = np.array([x, ground(x, z) + radius - 0.06, z])
     _, normal, growth = fouling_maps(rng, RGB_ALBEDOS["rust"], RGB_ALBEDOS["fouling"],
                                      cover=0.5)
-    pipe = pipe_mesh(radius, length, centre, rot, segments=48, rings=60, uv_scale=(1.0, 6.0),
+    pipe = pipe_mesh(radius, length, centre, rot, segments=40, rings=30, uv_scale=(1.0, 6.0),
                      normal_map=normal, material=mats["rust"], name="pipe")
     for part in _fouled(pipe, growth, mats, "pipe"):
         scene.add(part)
@@ -117,7 +117,7 @@ def _pipe(scene, rng, ground, mats):
 def _hull_plate(scene, rng, ground, mats):
     """A leaning, partly buried plate of a wreck's hull (2.4 x 1.4 m) with fouling."""
     x, z = 4.2, -12.0
-    w, h, nx, ny = 2.4, 1.4, 48, 28
+    w, h, nx, ny = 2.4, 1.4, 24, 14
     gx, gy = np.meshgrid(np.linspace(0, 1, nx + 1), np.linspace(0, 1, ny + 1))
     local = np.stack([(gx - 0.5) * w, gy * h, np.zeros_like(gx)], -1).reshape(-1, 3)
     lean = np.radians(35.0)
