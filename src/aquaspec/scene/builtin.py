@@ -40,11 +40,11 @@ BUILTIN_VARIANTS = ("classic", "detailed")
 #: bench and the tests that pin images use it).
 DEFAULT_VARIANT = "classic"
 #: What ``render()`` and ``aquaspec render`` show when no scene is named. The
-#: detailed scene's frame is 1.1x the classic one's (docs/scenes.md), within
-#: the 1.3x of issue 32, but with it as the default nine tests that hold the
-#: GPU to the NumPy backend on the default scene fail (its normal maps' level
-#: of detail is the GPU's own; thin blades at 64x36): they are to name the
-#: classic scene first (the lead's decision, session 27).
+#: detailed scene's frame is 1.1-1.3x the classic one's (docs/scenes.md): at
+#: issue 32's 1.3x without margin; and with it as the default, nine tests
+#: that hold the GPU to the NumPy backend on the default scene fail (its
+#: normal maps' level of detail is the GPU's own; thin blades at 64x36).
+#: They are to name the classic scene first (the lead's decision).
 RENDER_DEFAULT_VARIANT = "classic"
 
 _BUILDERS = {"classic": classic_scene, "detailed": detailed_scene}
