@@ -218,3 +218,31 @@ def test_the_sea_from_above_under_the_sun_against_monte_carlo():
         m = r["nikon-5100-npl"]
         assert m["rgb_error"] < 0.03
         assert m["hue_deg"] < 0.5
+
+
+def test_waves_seen_from_above():
+    """A tile of upright facets is the flat sea, glint and all; a wind sea
+    tilts them: the mean brightness stays close to the flat sea's away from
+    the sun, and the sun's glint spreads into glitter over many pixels."""
+    from aquaspec.light.wave_facets import SurfaceFacets, surface_facets
+    from aquaspec.light.waves import Waves
+    from aquaspec.scene.camera import camera_above
+    setup, _ = _sun_setup("IB", elevation=35.0, azimuth=0.0)
+    med, sun, tables = setup.medium([]), setup.sun_inputs(), setup.lightfield_tables()
+    cam = camera_above(4.0, 30.0, width=80, height=45, fov_y_deg=60.0)
+
+    def shade(facets):
+        return sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"], sun=sun,
+                              facets=facets)
+    flat = shade(None)
+    upright = SurfaceFacets(np.zeros((16, 16, 2), np.float32), 8.0, 0.0)
+    # (The tables under a wavy surface reach closer to level: interpolation's 1e-6.)
+    np.testing.assert_allclose(shade(upright), flat, rtol=1e-5)
+    wavy = shade(surface_facets(Waves(6.0, grid=64)))
+    lit = flat[..., 2] > 100 * np.median(flat[..., 2])
+    assert 1 <= lit.sum() <= 4
+    assert (wavy[..., 2] > 3 * np.median(flat[..., 2])).sum() > 10 * lit.sum()
+    # Looking away from the sun (the image's left and right quarters, no glitter).
+    side = np.r_[0:20, 60:80]
+    np.testing.assert_allclose(wavy[:, side].mean(axis=(0, 1)), flat[:, side].mean(axis=(0, 1)),
+                               rtol=0.15)

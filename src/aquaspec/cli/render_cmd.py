@@ -106,8 +106,9 @@ def register(sub):
                    help="put the camera M metres above the sea: the flat surface mirrors the "
                         "sky (Fresnel) and shows the water's colour and the seabed (--seabed; "
                         "the built-in scene's sand by default) through it (light-field model; "
-                        "meshes under the water, the sun's glint and waves are not drawn from "
-                        "above yet); 0: the camera at the waterline, half in water (the "
+                        "with the sun its glint, with --wind the waves' facets and glitter; "
+                        "meshes under the water are not drawn from above yet); 0: the camera "
+                        "at the waterline, half in water (the "
                         "half-and-half view: the sky above the line, the built-in scene "
                         "below it)")
     p.add_argument("--look-down", type=finite_float, default=DEFAULT_LOOK_DOWN_DEG,

@@ -6,26 +6,32 @@ surface mirrors the sky (Fresnel) and lets out the light field's radiance
 from just below it along the refracted rays, down to the light field's
 seabed (the scene's, e.g. the built-in scene's sand, or ``seabed=``) or into
 deep water; with a sun, also its beam scattered once in the water and its
-glint on the surface. It needs the light-field model and the flat surface,
-which a camera above the water makes the default. What is not drawn yet,
-and said in the render's metadata (:func:`above_params`): meshes under the
-water, waves (and with them the sun's glitter and caustics), the sky's
-radiance distribution (it is uniform) and lamps.
+glint on the surface; with waves (``waves=``, ``--wind``), every ray mirrored
+and refracted by the wave tile's facet where it meets the sea and the sun's
+glitter over the slopes the tile does not resolve
+(:mod:`aquaspec.light.wave_facets`). It needs the light-field model and the
+flat surface's light field, which a camera above the water makes the
+default. What is not drawn yet, and said in the render's metadata
+(:func:`above_params`): meshes under the water, the sun's caustics on the
+seabed, the sky's radiance distribution (it is uniform) and lamps.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
 
 from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.errors import AquaspecError
+from aquaspec.light.wave_facets import surface_facets
 from aquaspec.shading.above_water import sea_from_above, sky_radiance_above
 
 #: What the view from above leaves out (in its metadata).
 NOT_DRAWN = ("meshes under the water (only the light field's seabed is seen)",
-             "waves (the sun's glitter, its caustics on the seabed)",
+             "the sun's caustics on the seabed (the waves' facets are drawn, the seabed "
+             "is lit evenly)",
              "the sky's radiance distribution (uniform, of the light's diffuse irradiance)",
              "lamps")
 
@@ -91,9 +97,6 @@ def check_above(setup, view, backend: str, optics=None) -> None:
         raise AquaspecError("meshes under the water are not drawn from above yet (only the "
                             "light field's seabed is seen); accepted with a camera above the "
                             "sea: the built-in scene, whose sand is the seabed, and seabed=")
-    if setup.waves is not None:
-        raise AquaspecError("waves are not drawn from above yet (the surface is flat there); "
-                            "accepted with a camera above the sea: waves=None (no --wind)")
     if setup.lamps:
         raise AquaspecError("lamps light the water around a camera under water; a camera "
                             "above the sea takes none (accepted: lamps=())")
@@ -113,15 +116,30 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
         f"pixels x {setup.bands.n} bands ({where})")
     med = setup.medium([])
     tables = setup.lightfield_tables()
+    facets = None if setup.waves is None else surface_facets(setup.waves)
     if where == "GPU":
         gpu = _above_pass(cam.width, cam.height)
         gpu.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
-                       response_weights=med["response_weights"], sun=setup.sun_inputs())
+                       response_weights=med["response_weights"], sun=_sun_inputs(setup),
+                       facets=facets)
         return gpu.render(cam).astype(np.float64), None
     radiance = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
-                              sun=setup.sun_inputs())
+                              sun=_sun_inputs(setup), facets=facets)
     linear = radiance_to_rgb(radiance, med["response_weights"])
     return linear, (radiance if return_radiance else None)
+
+
+def _sun_inputs(setup):
+    """The setup's sun inputs without the waves' caustic map (not drawn from
+    above; building it takes about a minute): the same setup with a flat
+    surface, handed the tables and E0 already solved (they do not depend on
+    the waves)."""
+    if setup.light.sun is None or setup.waves is None:
+        return setup.sun_inputs()
+    flat = dataclasses.replace(setup, waves=None)
+    flat.cache.lightfield_tables = setup.lightfield_tables()
+    flat.cache.e0 = setup.cache.e0
+    return flat.sun_inputs()
 
 
 @functools.lru_cache(maxsize=2)
@@ -148,5 +166,7 @@ def above_params(view) -> dict:
         "height_m": float(view.camera.position[1]),
         "model": "aquaspec.shading.above_water.sea_from_above: R(mu) L_sky + (1 - R(mu)) / "
                  "n^2 L_w(0, t), the light field looking down from just below the flat surface"
-                 " (with a sun: plus its beam scattered once along t, and its glint)",
+                 " (with a sun: plus its beam scattered once along t, and its glint; with "
+                 "waves: each ray through the wave tile's facet, the glint as Cox & Munk's "
+                 "glitter over the unresolved slopes)",
         "not_drawn": list(NOT_DRAWN)}}

@@ -59,6 +59,7 @@ from __future__ import annotations
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.light.wave_facets import glitter
 from aquaspec.medium.interface import (FLAT_NORMAL, N_WATER, diffuse_transmittance,
                                        fresnel_transmittance, refract)
 from aquaspec.transport.sun_scattering import (phase_from_log_table, scattering_cosine,
@@ -66,6 +67,11 @@ from aquaspec.transport.sun_scattering import (phase_from_log_table, scattering_
 
 #: Nodes of :func:`water_below_table` over the refracted rays' ``t_y``.
 TABLE_NODES = 1024
+#: Under a wavy surface the refracted rays' ``t_y`` is at most ``-WAVE_T_TOP``
+#: (tilted facets refract rays down to near level; the tables stop short of it).
+WAVE_T_TOP = 0.02
+#: A facet this close to edge-on to a ray (cosine) or facing away counts as flat.
+MIN_FACET_COS = 0.02
 #: The sun's mean angular radius seen from the Earth, degrees (its angular
 #: diameter 0.533 deg: 1.392e6 km at 1 au = 1.496e8 km).
 SUN_RADIUS_DEG = 0.2666
@@ -89,15 +95,20 @@ def sky_radiance_above(tables, e0) -> np.ndarray:
 
 
 def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
-                   exact: bool = False, sun=None, glint: bool = True) -> np.ndarray:
-    """Band radiance (H, W, n) reaching a camera above the flat sea (module
+                   exact: bool = False, sun=None, glint: bool = True,
+                   facets=None) -> np.ndarray:
+    """Band radiance (H, W, n) reaching a camera above the sea (module
     docstring). ``tables``: the flat surface's light-field tables (with the
     seabed, if any, as their lower boundary; with ``sun``, the sky's and the
     sun's); ``a``, ``b``, ``e0``: per band. The water's radiance is
     interpolated in :func:`water_below_table` (``exact``: evaluated per ray
     from the tables instead). ``sun``: the sun's
     :class:`~aquaspec.transport.sun_scattering.SunInputs` (None: no sun);
-    ``glint``: draw its disc mirrored in the surface."""
+    ``glint``: draw its disc (or glitter) mirrored in the surface.
+    ``facets``: a wind sea (:class:`aquaspec.light.wave_facets.SurfaceFacets`):
+    each ray is mirrored and refracted by the tile's facet where it meets the
+    mean plane, and the sun's glint becomes Cox & Munk's glitter over the
+    slopes the tile does not resolve; None: the flat surface."""
     if tables.surface != "fresnel":
         raise AquaspecError("the sea seen from above needs the flat surface's light field "
                             f"(surface 'flat'); these tables have surface {tables.surface!r}")
@@ -113,24 +124,48 @@ def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
     out = np.broadcast_to(sky, (v.shape[0], sky.size)).copy()
     if np.any(down):
         vd = v[down]
-        mu_i = -vd[:, 1]
-        t, _ = refract(vd, FLAT_NORMAL, n_water)
-        r = 1.0 - fresnel_transmittance(mu_i, n_water)
+        normal = facet_normals(camera, vd, facets)
+        cos_i = -np.sum(vd * normal, axis=1)
+        t, _ = refract(vd, normal, n_water)
+        t[:, 1] = np.minimum(t[:, 1], -WAVE_T_TOP if facets is not None else -1e-12)
+        r = 1.0 - fresnel_transmittance(cos_i, n_water)
         if exact:
             t_y = t[:, 1:2]
             water = tables.pixel_radiance(a=np.asarray(a, float), b=np.asarray(b, float),
                                           e0=np.asarray(e0, float), depth_o=np.zeros_like(t_y),
                                           v_y=t_y, s=np.full_like(t_y, np.inf))
         else:
-            nodes, table = water_below_table(tables, a=a, b=b, e0=e0, n_water=n_water)
+            nodes, table = water_below_table(tables, a=a, b=b, e0=e0, n_water=n_water,
+                                             t_top=None if facets is None else WAVE_T_TOP)
             water = np.stack([np.interp(t[:, 1], nodes, table[:, i])
                               for i in range(table.shape[1])], axis=-1)
         if sun is not None:
             water = water + sun_scattering_below(tables, sun, t)
         out[down] = r[:, None] * sky + ((1.0 - r) / n_water ** 2)[:, None] * water
         if sun is not None and glint:
-            out[down] += sun_glint(vd, sun, n_water, glint_radius(camera))
+            if facets is not None and facets.s2 > 0:
+                to_air, e_air = sun_in_air(sun, n_water)
+                out[down] += glitter(vd, normal, to_air, e_air, facets.s2, n_water)
+            else:
+                out[down] += sun_glint(vd, sun, n_water, glint_radius(camera), normal)
     return out.reshape(shape + (sky.size,))
+
+
+def facet_normals(camera, v, facets=None) -> np.ndarray:
+    """The surface's unit normals (R, 3) where rays ``v`` (R, 3) from
+    ``camera`` (above the sea) meet the mean plane: up for a flat sea, the
+    wave tile's facets (:class:`aquaspec.light.wave_facets.SurfaceFacets`)
+    otherwise, up again where a facet would face away from the ray (a
+    grazing ray behind a crest, which the mean-plane model cannot follow)."""
+    v = np.asarray(v, dtype=float)
+    up = np.broadcast_to(FLAT_NORMAL, v.shape)
+    if facets is None:
+        return up.copy()
+    o = np.asarray(camera.position, dtype=float)
+    s = o[1] / -v[:, 1]
+    n = facets.normals(o[0] + s * v[:, 0], o[2] + s * v[:, 2])
+    facing = -np.sum(v * n, axis=1) > MIN_FACET_COS
+    return np.where(facing[:, None], n, up)
 
 
 def sun_in_air(sun, n_water: float = N_WATER):
@@ -175,34 +210,38 @@ def glint_radius(camera, radius_deg: float = SUN_RADIUS_DEG) -> float:
     return max(float(np.radians(radius_deg)), pixel / np.sqrt(2.0))
 
 
-def sun_glint(v, sun, n_water: float = N_WATER, radius_rad=None) -> np.ndarray:
-    """The sun mirrored in the flat surface along rays ``v`` (R, 3) going down:
+def sun_glint(v, sun, n_water: float = N_WATER, radius_rad=None, normals=None) -> np.ndarray:
+    """The sun mirrored in the surface along rays ``v`` (R, 3) going down:
     ``R(mu_i) E_sun / Omega`` where the mirrored ray is within ``radius_rad``
     of the sun (default: the sun's own radius, :data:`SUN_RADIUS_DEG`), else
-    0; (R, n). ``Omega = 2 pi (1 - cos radius)``."""
+    0; (R, n). ``Omega = 2 pi (1 - cos radius)``. ``normals`` (R, 3): the
+    facets' (default: the flat surface's, up)."""
     v = np.asarray(v, dtype=float)
+    n = np.broadcast_to(FLAT_NORMAL, v.shape) if normals is None else np.asarray(normals, float)
     to_air, beam_air = sun_in_air(sun, n_water)
-    mirrored = v * np.array([1.0, -1.0, 1.0])
+    cos_i = -np.sum(v * n, axis=1)
+    mirrored = v + 2.0 * cos_i[:, None] * n
     radius = np.radians(SUN_RADIUS_DEG) if radius_rad is None else float(radius_rad)
     cos_r = np.cos(radius)
     inside = (mirrored @ to_air) >= cos_r
-    r = 1.0 - fresnel_transmittance(-v[:, 1], n_water)
+    r = 1.0 - fresnel_transmittance(cos_i, n_water)
     radiance = beam_air / (2.0 * np.pi * (1.0 - cos_r))
     return np.where(inside, r, 0.0)[:, None] * radiance
 
 
 def water_below_table(tables, *, a, b, e0, n_water: float = N_WATER,
-                      nodes: int = TABLE_NODES):
+                      nodes: int = TABLE_NODES, t_top=None):
     """``(t_y, L_w)``: the light field's radiance just below the surface
     looking down along ``t_y`` (ascending nodes over the refracted rays'
-    range ``[-1, -cos theta_c]``), (nodes,) and (nodes, n). It depends on the
-    ray only through ``t_y`` (the water is horizontally uniform), so a frame
-    needs it once: interpolated linearly in ``t_y`` it is within 1e-5 of the
-    direct evaluation at :data:`TABLE_NODES` nodes (tested), and the frame
-    costs a lookup per pixel instead of the tables' per-ray evaluation
-    (about 27 s at 1280x720 with 8 bands)."""
-    edge = np.sqrt(1.0 - 1.0 / n_water ** 2)
-    t_y = np.linspace(-1.0, -edge, nodes)[:, None]
+    range ``[-1, -cos theta_c]``, or ``[-1, -t_top]`` for a wavy surface,
+    whose tilted facets refract rays closer to level), (nodes,) and (nodes,
+    n). It depends on the ray only through ``t_y`` (the water is horizontally
+    uniform), so a frame needs it once: interpolated linearly in ``t_y`` it
+    is within 1e-5 of the direct evaluation at :data:`TABLE_NODES` nodes
+    (tested), and the frame costs a lookup per pixel instead of the tables'
+    per-ray evaluation (about 27 s at 1280x720 with 8 bands)."""
+    top = np.sqrt(1.0 - 1.0 / n_water ** 2) if t_top is None else float(t_top)
+    t_y = np.linspace(-1.0, -top, nodes)[:, None]
     water = tables.pixel_radiance(a=np.asarray(a, float), b=np.asarray(b, float),
                                   e0=np.asarray(e0, float), depth_o=np.zeros_like(t_y),
                                   v_y=t_y, s=np.full_like(t_y, np.inf))
@@ -210,7 +249,7 @@ def water_below_table(tables, *, a, b, e0, n_water: float = N_WATER,
 
 
 def sun_scattering_table(tables, sun, *, n_water: float = N_WATER, nodes_y: int = 64,
-                         nodes_cos: int = 1024):
+                         nodes_cos: int = 1024, t_top=None):
     """``(t_y, cos, table)``: :func:`sun_scattering_below` tabulated over the
     refracted rays' ``t_y`` (ascending nodes over ``[-1, -cos theta_c]``) and
     the scattering cosine ``cos = to_sun . t`` (ascending nodes over the
@@ -220,8 +259,8 @@ def sun_scattering_table(tables, sun, *, n_water: float = N_WATER, nodes_y: int 
     read from :func:`aquaspec.transport.sun_scattering.phase_from_log_table`
     (linear in ``ln p`` over ``sqrt(theta)``), has kinks, so the cosine gets
     more nodes: at 1024 the table is within 0.3 % of the direct evaluation
-    (tested; 0.5-0.7 % at 128 nodes)."""
-    edge = np.sqrt(1.0 - 1.0 / n_water ** 2)
+    (tested; 0.5-0.7 % at 128 nodes). ``t_top``: as :func:`water_below_table`'s."""
+    edge = np.sqrt(1.0 - 1.0 / n_water ** 2) if t_top is None else float(t_top)
     t_y = np.linspace(-1.0, -edge, nodes_y)
     to_sun = np.asarray(sun.to_sun, dtype=float)
     s_h = float(np.hypot(to_sun[0], to_sun[2]))

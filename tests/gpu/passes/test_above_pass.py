@@ -81,3 +81,28 @@ def test_above_pass_with_the_sun_matches_numpy(device, water, bed, elevation, az
                           | np.roll(edge, 1, 1) | np.roll(edge, -1, 1))
         np.testing.assert_allclose(gpu[inner], ref[inner], rtol=1e-3)
     assert keep.any()
+
+
+def test_above_pass_with_waves_matches_numpy(device):
+    """A wind sea of 6 m/s: each ray mirrored and refracted by its facet, the
+    sun's glitter over the unresolved slopes, against NumPy."""
+    from aquaspec.gpu.passes.above import AbovePass
+    from aquaspec.light.wave_facets import surface_facets
+    from aquaspec.light.waves import Waves
+    light = surface_light("sun-sky", sun_elevation_deg=40.0, sun_azimuth_deg=10.0)
+    setup = SpectralSetup(load_water("II"), get_sensor("nikon-5100-npl"), light, Bands(6),
+                          surface="flat", seabed=Seabed(4.0, 0.2))
+    med, sun = setup.medium([]), setup.sun_inputs()
+    tables = setup.lightfield_tables()
+    facets = surface_facets(Waves(6.0, grid=64))
+    cam = camera_above(4.0, 35.0, width=96, height=64, fov_y_deg=50.0)
+    p = AbovePass(device, cam.width, cam.height)
+    p.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
+                 response_weights=med["response_weights"], sun=sun, facets=facets)
+    gpu = p.render(cam)
+    ref = radiance_to_rgb(sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
+                                         sun=sun, facets=facets), med["response_weights"])
+    flat = radiance_to_rgb(sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
+                                          sun=sun), med["response_weights"])
+    assert np.abs(ref - flat).max() > 0.1 * np.abs(flat).max()     # the waves show
+    np.testing.assert_allclose(gpu, ref, rtol=5e-3, atol=1e-4 * np.abs(ref).max())

@@ -26,8 +26,9 @@ from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.medium.interface import N_WATER
-from aquaspec.shading.above_water import (glint_radius, sky_radiance_above, sun_in_air,
-                                          sun_scattering_table, water_below_table)
+from aquaspec.shading.above_water import (MIN_FACET_COS, WAVE_T_TOP, glint_radius,
+                                          sky_radiance_above, sun_in_air, sun_scattering_table,
+                                          water_below_table)
 
 PARAMS_LAYOUT = UniformLayout("AboveParams", CAMERA_FIELDS + [
     ("sky_rgb", "vec3<f32>"), ("n_water", "f32"),
@@ -35,7 +36,9 @@ PARAMS_LAYOUT = UniformLayout("AboveParams", CAMERA_FIELDS + [
     ("sun_air", "vec3<f32>"), ("sun_cos_hi", "f32"),
     ("glint_rgb", "vec3<f32>"), ("sun_cos_radius", "f32"),
     ("width", "u32"), ("height", "u32"), ("nodes", "u32"), ("edge_cos", "f32"),
+    ("sun_rgb", "vec3<f32>"), ("s2", "f32"),
     ("sun_on", "u32"), ("sun_nodes_y", "u32"), ("sun_nodes_cos", "u32"),
+    ("waves_on", "u32"), ("tile_grid", "u32"), ("tile_m", "f32"), ("min_facet_cos", "f32"),
 ])
 #: Compute workgroup size (x, y) of above.wgsl: one pixel per invocation.
 WORKGROUP = (8, 8)
@@ -51,11 +54,11 @@ class AbovePass:
         self.rgb_buffer = create_storage_buffer(device, self.width * self.height * 16,
                                                 label="above rgb")
         self._layout = bind_group_layout(device, {0: "uniform", 1: "read", 2: "write",
-                                                  3: "read"})
+                                                  3: "read", 4: "read"})
         code = load_wgsl("above.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
                          params_struct_name=PARAMS_LAYOUT.name)
         self._pipeline = compute_pipeline(device, self._layout, code, "above.wgsl")
-        self._water = self._sun = self._bind_group = None
+        self._water = self._sun = self._slopes = self._bind_group = None
         self._medium = None
 
     def _upload(self, name: str, table: np.ndarray):
@@ -66,11 +69,13 @@ class AbovePass:
         else:
             upload_buffer(self.device, buf, table)
 
-    def set_medium(self, tables, *, a, b, e0, response_weights, sun=None) -> None:
+    def set_medium(self, tables, *, a, b, e0, response_weights, sun=None, facets=None) -> None:
         """Upload the water's table below the surface and the sky, in camera
         RGB; with ``sun`` (:class:`aquaspec.transport.sun_scattering.SunInputs`)
-        its scattering table and glint too."""
-        t_y, water = water_below_table(tables, a=a, b=b, e0=e0)
+        its scattering table and glint too; with ``facets``
+        (:class:`aquaspec.light.wave_facets.SurfaceFacets`) the wave tile."""
+        top = None if facets is None else WAVE_T_TOP
+        t_y, water = water_below_table(tables, a=a, b=b, e0=e0, t_top=top)
         w = np.asarray(response_weights, dtype=np.float64)
         table = np.zeros((t_y.size, 4), dtype=np.float32)
         table[:, :3] = water @ w
@@ -78,10 +83,12 @@ class AbovePass:
         self._medium = {"sky_rgb": sky_radiance_above(tables, e0) @ w, "nodes": t_y.size,
                         "edge_cos": float(-t_y[-1]), "sun_on": 0, "sun_nodes_y": 2, "sun_nodes_cos": 2,
                         "to_sun": np.zeros(3), "sun_cos_lo": 0.0, "sun_cos_hi": 1.0,
-                        "sun_air": np.zeros(3), "glint_rgb": np.zeros(3), "sun_cos_radius": 2.0}
+                        "sun_air": np.zeros(3), "glint_rgb": np.zeros(3), "sun_cos_radius": 2.0,
+                        "sun_rgb": np.zeros(3), "s2": 0.0, "waves_on": 0, "tile_grid": 2,
+                        "tile_m": 1.0, "min_facet_cos": MIN_FACET_COS}
         sun_table = np.zeros((4, 4), dtype=np.float32)
         if sun is not None:
-            _, cos, ss = sun_scattering_table(tables, sun)
+            _, cos, ss = sun_scattering_table(tables, sun, t_top=top)
             sun_table = np.zeros(ss.shape[:2] + (4,), dtype=np.float32)
             sun_table[..., :3] = ss @ w
             to_air, beam_air = sun_in_air(sun)
@@ -89,8 +96,14 @@ class AbovePass:
             self._medium.update(
                 sun_on=1, sun_nodes_y=ss.shape[0], sun_nodes_cos=ss.shape[1], to_sun=np.asarray(sun.to_sun, dtype=float),
                 sun_cos_lo=float(cos[0]), sun_cos_hi=float(cos[-1]), sun_air=to_air,
-                glint_rgb=np.zeros(3), sun_cos_radius=2.0)
+                glint_rgb=np.zeros(3), sun_cos_radius=2.0, sun_rgb=beam_air @ w)
         self._upload("_sun", sun_table.reshape(-1, 4))
+        slopes = np.zeros((2, 2), dtype=np.float32)
+        if facets is not None:
+            slopes = np.ascontiguousarray(facets.slopes, dtype=np.float32).reshape(-1, 2)
+            self._medium.update(waves_on=1, tile_grid=facets.slopes.shape[0],
+                                tile_m=float(facets.tile_m), s2=float(facets.s2))
+        self._upload("_slopes", slopes)
 
     def encode(self, encoder, camera, timestamp_writes=None) -> None:
         """Record the pass for ``camera`` (after :meth:`set_medium`)."""
@@ -108,7 +121,8 @@ class AbovePass:
         if self._bind_group is None:
             self._bind_group = self.device.create_bind_group(
                 layout=self._layout, entries=bind_group_entries(
-                    {0: self._params, 1: self._water, 2: self.rgb_buffer, 3: self._sun}))
+                    {0: self._params, 1: self._water, 2: self.rgb_buffer, 3: self._sun,
+                     4: self._slopes}))
         groups = (-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]), 1)
         record_dispatch(encoder, self._pipeline, self._bind_group, groups, timestamp_writes)
 

@@ -12,6 +12,10 @@
 // along t, read bilinearly from a table over (t_y, cos theta = to_sun . t)
 // (above_water.sun_scattering_table), and the mirrored ray inside the sun's
 // disc (cos >= sun_cos_radius about sun_air) adds R(mu_i) glint_rgb.
+// With waves (waves_on = 1) every ray is mirrored and refracted by the wave
+// tile's facet where it meets the mean plane (facet_normal), and the sun's
+// glint is Cox & Munk's glitter over the unresolved slopes (glitter; s2 > 0).
+// edge_cos is the table's top: t_y runs over [-1, -edge_cos].
 
 #include "fresnel.wgsl"
 
@@ -21,6 +25,7 @@
 @group(0) @binding(1) var<storage, read> water: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rgb_out: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> sun_table: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> slopes: array<vec2<f32>>;
 
 // The sun's single scattering along t (camera RGB), bilinear in (t_y, cos).
 fn sun_scattering(t_y: f32, cos_s: f32) -> vec3<f32> {
@@ -39,6 +44,55 @@ fn sun_scattering(t_y: f32, cos_s: f32) -> vec3<f32> {
     return mix(a, b, fx).xyz;
 }
 
+// The wave tile's facet normal where the ray meets the mean plane
+// (light.wave_facets.SurfaceFacets.normals: slopes bilinear, periodic), or
+// up for a flat sea or a facet (nearly) facing away from the ray.
+fn facet_normal(v: vec3<f32>) -> vec3<f32> {
+    let up = vec3<f32>(0.0, 1.0, 0.0);
+    if (prm.waves_on == 0u) {
+        return up;
+    }
+    let s = prm.position.y / -v.y;
+    let m = f32(prm.tile_grid);
+    let u = prm.position.x + s * v.x;
+    let w = prm.position.z + s * v.z;
+    let fu = u / prm.tile_m * m;
+    let fw = w / prm.tile_m * m;
+    let u0 = floor(fu);
+    let w0 = floor(fw);
+    let au = fu - u0;
+    let aw = fw - w0;
+    let g = i32(prm.tile_grid);
+    let j0 = ((i32(u0) % g) + g) % g;
+    let i0 = ((i32(w0) % g) + g) % g;
+    let j1 = (j0 + 1) % g;
+    let i1 = (i0 + 1) % g;
+    let top = mix(slopes[i0 * g + j0], slopes[i0 * g + j1], au);
+    let bottom = mix(slopes[i1 * g + j0], slopes[i1 * g + j1], au);
+    let sl = mix(top, bottom, aw);
+    let n = normalize(vec3<f32>(-sl.x, 1.0, -sl.y));
+    if (-dot(v, n) > prm.min_facet_cos) {
+        return n;
+    }
+    return up;
+}
+
+// Cox & Munk's glitter over the unresolved slopes about the facet n
+// (light.wave_facets.glitter), per unit of the sun's irradiance.
+fn glitter(v: vec3<f32>, n: vec3<f32>) -> f32 {
+    let h = normalize(prm.sun_air - v);
+    let cos_w = -dot(v, h);
+    let cos_b = dot(h, n);
+    let mu_v = -dot(v, n);
+    if (cos_w <= 0.0 || cos_b <= 0.0 || mu_v <= 0.0) {
+        return 0.0;
+    }
+    let tan2 = (1.0 - cos_b * cos_b) / (cos_b * cos_b);
+    let p = exp(-tan2 / prm.s2) / (3.14159265358979 * prm.s2);
+    let r = 1.0 - fresnel_transmittance(cos_w, prm.n_water);
+    return r * p / (4.0 * mu_v * cos_b * cos_b * cos_b * cos_b);
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= prm.width || gid.y >= prm.height) {
@@ -50,23 +104,27 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var rgb = prm.sky_rgb;
     if (v.y < 0.0) {
         let n = prm.n_water;
-        let mu_i = -v.y;
-        let t = fresnel_transmittance(mu_i, n);
-        // Snell: the refracted ray's up component.
-        let t_y = -sqrt(max(1.0 - (1.0 - mu_i * mu_i) / (n * n), 0.0));
+        let nf = facet_normal(v);
+        let cos_i = -dot(v, nf);
+        let t = fresnel_transmittance(cos_i, n);
+        // Snell through the facet: t = v / n + (cos_i / n - cos_t) nf.
+        let cos_t = sqrt(max(1.0 - (1.0 - cos_i * cos_i) / (n * n), 0.0));
+        let tv = v / n + (cos_i / n - cos_t) * nf;
+        let t_y = min(tv.y, -prm.edge_cos);
         let last = prm.nodes - 1u;
         let x = clamp((t_y + 1.0) / (1.0 - prm.edge_cos) * f32(last), 0.0, f32(last));
         let k = min(u32(x), last - 1u);
         var w = mix(water[k], water[k + 1u], x - f32(k)).xyz;
         if (prm.sun_on == 1u) {
-            // The refracted ray: tangential part scaled by 1/n, then t_y.
-            let h = vec3<f32>(v.x, 0.0, v.z) / n;
-            let tv = vec3<f32>(h.x, t_y, h.z);
-            w = w + sun_scattering(t_y, dot(prm.to_sun, tv));
+            w = w + sun_scattering(t_y, dot(prm.to_sun, vec3<f32>(tv.x, t_y, tv.z)));
         }
         rgb = (1.0 - t) * prm.sky_rgb + t / (n * n) * w;
-        if (prm.sun_on == 1u && dot(vec3<f32>(v.x, -v.y, v.z), prm.sun_air) >= prm.sun_cos_radius) {
-            rgb = rgb + (1.0 - t) * prm.glint_rgb;
+        if (prm.sun_on == 1u) {
+            if (prm.waves_on == 1u && prm.s2 > 0.0) {
+                rgb = rgb + glitter(v, nf) * prm.sun_rgb;
+            } else if (dot(v + 2.0 * cos_i * nf, prm.sun_air) >= prm.sun_cos_radius) {
+                rgb = rgb + (1.0 - t) * prm.glint_rgb;
+            }
         }
     }
     rgb_out[gid.y * prm.width + gid.x] = vec4<f32>(rgb, 1.0);
