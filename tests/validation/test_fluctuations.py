@@ -73,7 +73,7 @@ def test_one_factor_for_all_bands_and_its_per_band_scale(one_sea):
     flickers too little in blue and too much in red at depth; as each band
     reads it (scaled) it gives each wavelength's own CV within 8 % (the band
     holding the wavelength is centred elsewhere, 540.6 nm for 532: measured
-    up to 7.2 % at 9.58 m; the scale itself is within 0.5 %,
+    up to 7.2 % at 9.58 m; the scale itself is within 1 %,
     test_caustic_scatter)."""
     own = np.array(one_sea["ratio"])
     shared = np.array(one_sea["ratio_shared"])
