@@ -400,7 +400,7 @@ def test_slice_interp_reads_the_slices_as_the_lookup():
 def test_band_factor_scales_each_band_by_its_polynomial():
     """Scales whose ln is a polynomial in sqrt(d / D) of degree <= 8 are held
     exactly; band i reads 1 + s_i (C - 1); no scales: C itself."""
-    from aquaspec.light.caustic_sample import band_factor, scale_at, scale_polynomial
+    from aquaspec.light.caustic_sample import scale_at, scale_polynomial
 
     depths = cst.slice_depths(20.0, 32)
     x = np.sqrt(depths / 20.0)
