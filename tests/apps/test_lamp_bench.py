@@ -26,11 +26,14 @@ def test_run_lamp_bench():
                          water="II", depth_m=40.0, light="none")
     for k in ("geometry_ms", "shading_ms", "shade_display_ms", "lamp_veil_ms",
               "lamp_pixels_ms", "display_ms", "lamp_shadow_maps_ms", "frame_wall_ms",
-              "lamp_frame_wall_ms"):
+              "lamp_frame_wall_ms", "lamp_cone_ms", "kept_frame_wall_ms"):
         assert row[k] > 0, k
     assert row["ratio"] == pytest.approx(row["lamp_frame_wall_ms"] / row["frame_wall_ms"])
+    assert row["cone_ratio"] == pytest.approx(row["lamp_frame_wall_ms"]
+                                              / row["kept_frame_wall_ms"])
     assert row["lamp_frame_ms"] == pytest.approx(
-        row["geometry_ms"] + row["shading_ms"] + row["lamp_veil_ms"] + row["lamp_pixels_ms"])
+        row["geometry_ms"] + row["shading_ms"] + row["lamp_veil_ms"] + row["lamp_cone_ms"]
+        + row["lamp_pixels_ms"])
     assert row["lamps"] == 2
 
 

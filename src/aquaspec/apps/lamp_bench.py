@@ -8,11 +8,15 @@ same G-buffer, the same setup but for the lamps, in the same run:
 
 - without lamps: geometry + the shading pass with the display transform
   fused in (the bench's frame);
-- with them: geometry + the shading pass writing linear RGB + the lamps'
-  veil (their single scattering and glow per column,
-  :mod:`aquaspec.transport.lamp_froxels`) + the lamps' per-pixel pass (their
+- with them: geometry + the lamps' veil (their single scattering and glow
+  per column, :mod:`aquaspec.transport.lamp_froxels`) + with the light
+  field's single-scattering cone spread their lit surfaces' cone share into
+  the spread's input (:meth:`aquaspec.gpu.passes.lamps.LampPass.encode_cone`)
+  + the shading pass writing linear RGB + the lamps' per-pixel pass (their
   lit surfaces and the veil read at each pixel's distance, added to the
-  linear image, with the display transform fused in). The
+  linear image, with the display transform fused in); and beside it the
+  same frame with the share kept on the lit pixels (no cone step: the frame
+  before 2026-11-28), ``cone_ratio`` the one over the other. The
   lamps' shadow maps are kept from the frame before, as the sun's are while
   nothing moves; drawing them again (a moving camera moves camera-fixed
   lamps) is timed beside.
@@ -122,11 +126,21 @@ def run_lamp_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8, n_
         raise AquaspecError("the bench's scene casts no shadows")
     dev.queue.submit([enc.finish()])
     gbt = r.deferred.gbuffer.textures
+    plan = None
+    if shading is r.lightfield and shading.spread and not shading.nodes:
+        # The spread the lamps' cone share goes to (as rendering.lamps.lamps_before_shading).
+        start, alpha, _ = shading._update_spread(camera)
+        plan = (shading._spread_pass, start, alpha)
+
+    def no_share():
+        if plan is not None:
+            plan[0].set_extra(False)
 
     def geometry(e, tw):
         r.raster.render_to(r.deferred.gbuffer, scene, camera, encoder=e, timestamp_writes=tw)
 
     def fused(e, tw):
+        no_share()
         if hasattr(shading, "set_sun"):
             shading.set_sun(None)
         shading.encode(e, tw, display=True)
@@ -137,6 +151,16 @@ def run_lamp_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8, n_
         shading.encode(e, tw)
 
     def veil(e, tw):
+        lp.set_cone_spread(*(plan or (None,)))
+        lp.encode_veil(e, camera, gbt, shading.rgb_buffer, tw)
+
+    def cone(e, tw):
+        if plan is not None:
+            lp.encode_cone(e, tw)
+
+    def kept_veil(e, tw):
+        no_share()
+        lp.set_cone_spread(None)
         lp.encode_veil(e, camera, gbt, shading.rgb_buffer, tw)
 
     def pixels(e, tw):
@@ -151,17 +175,19 @@ def run_lamp_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8, n_
 
     timing = "wall-clock" if adapter_info().get("adapter_type") == "CPU" else "auto"
     parts = {"geometry": geometry, "shade_display": fused, "shading": linear,
-             "lamp_veil": veil, "lamp_pixels": pixels, "display": display,
+             "lamp_veil": veil, "lamp_cone": cone, "lamp_pixels": pixels, "display": display,
              "lamp_shadow_maps": maps}
     # (display: the separate display pass, for comparison; the lamps' frame fuses it.)
     times = time_passes({k: _Step(f) for k, f in parts.items()}, method=timing, frames=frames,
                         warmup=warmup, device=dev)
     ms = times.ms
     plain = ms["geometry"] + ms["shade_display"]
-    lit = ms["geometry"] + ms["shading"] + ms["lamp_veil"] + ms["lamp_pixels"]
+    lit = (ms["geometry"] + ms["shading"] + ms["lamp_veil"] + ms["lamp_cone"]
+           + ms["lamp_pixels"])
     fence = dev.create_buffer(size=256, usage="COPY_SRC")
     whole = _frames_ms(dev, {"plain": [geometry, fused],
-                             "lamps": [geometry, linear, veil, pixels]},
+                             "lamps": [geometry, veil, cone, linear, pixels],
+                             "kept": [geometry, linear, kept_veil, pixels]},
                        frames, warmup, fence)
     tile = lamp_tile(camera)
     row = {"width": width, "height": height, "bands": n_bands, "lamps": len(lamps),
@@ -171,6 +197,7 @@ def run_lamp_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8, n_
            "frame_ms": plain, "lamp_frame_ms": lit, "passes_ratio": lit / plain,
            "frame_wall_ms": whole["plain"], "lamp_frame_wall_ms": whole["lamps"],
            "ratio": whole["lamps"] / whole["plain"],
+           "kept_frame_wall_ms": whole["kept"], "cone_ratio": whole["lamps"] / whole["kept"],
            "moving_ratio": (whole["lamps"] + ms["lamp_shadow_maps"]) / whole["plain"],
            "timing": times.method}
     say(format_lamp_row(row))
@@ -184,8 +211,11 @@ def format_lamp_row(row: dict) -> str:
             f"{row['frame_wall_ms']:.1f} ms without them, ratio {row['ratio']:.2f} "
             f"(whole frames, wall clock, alternated); per pass ({row['timing']}): geometry "
             f"{row['geometry_ms']:.1f}, shading {row['shading_ms']:.1f} (fused with the display "
-            f"{row['shade_display_ms']:.1f}), lamp veil {row['lamp_veil_ms']:.1f}, lamp pixels "
+            f"{row['shade_display_ms']:.1f}), lamp veil {row['lamp_veil_ms']:.1f}, lamp cone "
+            f"share {row['lamp_cone_ms']:.1f}, lamp pixels "
             f"with the display {row['lamp_pixels_ms']:.1f} ms (a display pass alone "
             f"{row['display_ms']:.1f}): "
             f"{row['passes_ratio']:.2f}x; shadow maps drawn again {row['lamp_shadow_maps_ms']:.1f}"
-            f" ms (a moving camera: {row['moving_ratio']:.2f}x)")
+            f" ms (a moving camera: {row['moving_ratio']:.2f}x); the frame with the cone share "
+            f"kept on the lit pixels {row['kept_frame_wall_ms']:.1f} ms (with it spread "
+            f"{row['cone_ratio']:.2f}x)")

@@ -19,6 +19,15 @@ with every surface black) and their lit surfaces of the direct signal; the
 ``surface``, ``albedo`` and ``transmission`` layers
 (:mod:`aquaspec.rendering.layers`) hold the daylight's terms only.
 
+With the light field's (single-scattering) cone spread, the forward cone's
+share of the lamps' lit surfaces is spread over the image with the
+daylight's kernel (:mod:`aquaspec.shading.lamp`): on the GPU the
+:class:`~aquaspec.rendering.renderer.Renderer` calls :func:`lamps_before_shading`
+between the geometry and the shading, which records the lamps' shadow maps,
+veil and that share into the cone spread's input
+(:meth:`aquaspec.gpu.passes.lamps.LampPass.encode_cone`); the lamps'
+per-pixel pass runs after the shading (:func:`gpu_lamp_light`).
+
 ``view`` below is what :func:`aquaspec.rendering.api.render` sees: its
 ``camera``, ``scene``, ``gbuffer`` (an RGB-D photograph's, else None) and
 ``from_rgbd``.
@@ -47,14 +56,57 @@ def gpu_lamp_pass(renderer, setup: SpectralSetup, view) -> LampPass:
     return lp
 
 
+def lamps_before_shading(renderer, encoder, setup: SpectralSetup, camera, materials,
+                         shadow_scene):
+    """Record into ``encoder``, before the shading of ``renderer``'s G-buffer,
+    the lamps' shadow maps of ``shadow_scene`` (None: nothing shadows), their
+    veil and, with the light field's single-scattering cone spread, their lit
+    surfaces' cone share into the spread's input. The pass is kept in
+    ``renderer.lamp_pass`` for :func:`gpu_lamp_light` (None without lamps, or
+    without the spread: then :func:`gpu_lamp_light` records it all after)."""
+    renderer.lamp_pass = None
+    lf = renderer.lightfield
+    if not setup.lamps or not (renderer._use_lightfield and lf.spread and not lf.nodes):
+        return
+    lp = LampPass(renderer.deferred.device, camera.width, camera.height, setup.bands.n)
+    medium = setup.medium(materials)
+    lp.set_inputs(setup.lamp_inputs(camera), response_weights=medium["response_weights"],
+                  material_bands=medium["material_bands"],
+                  sigmoid_centers_t=medium["sigmoid_centers_t"])
+    # The light field's spread plan for this camera (the pyramid pass it will run).
+    start, alpha, _ = lf._update_spread(camera)
+    lp.set_cone_spread(lf._spread_pass, start, alpha)
+    lp.encode_shadow_maps(encoder, renderer.raster, shadow_scene)
+    lp.encode_veil(encoder, camera, renderer.deferred.gbuffer.textures)
+    lp.encode_cone(encoder)
+    renderer.lamp_pass = lp
+
+
+def lamps_shaded(renderer) -> None:
+    """After the frame :func:`lamps_before_shading` fed is submitted: the cone
+    spread's lamp input off again (the next frames may have no lamps)."""
+    lp = getattr(renderer, "lamp_pass", None)
+    if lp is not None and lp.cone_spread is not None:
+        lp.cone_spread[0].set_extra(False)
+
+
 def gpu_lamp_light(renderer, lamp_pass: LampPass, view, *, surfaces: bool = True) -> np.ndarray:
     """The lamps' light (H, W, 3) float64 in camera RGB for the G-buffer
     ``renderer`` last shaded, shadowed by ``view``'s scene (not an RGB-D
-    image's); ``surfaces=False``: every surface black (the backscatter layer)."""
+    image's); ``surfaces=False``: every surface black (the backscatter layer).
+    When the renderer recorded the lamps before its shading
+    (:func:`lamps_before_shading`), their per-pixel pass alone, of that frame."""
     dev = renderer.deferred.device
     enc = dev.create_command_encoder()
-    lamp_pass.encode_shadow_maps(enc, renderer.raster, None if view.from_rgbd else view.scene)
-    lamp_pass.encode(enc, view.camera, renderer.deferred.gbuffer.textures, surfaces=surfaces)
+    if getattr(renderer, "lamp_pass", None) is not None:
+        lamp_pass = renderer.lamp_pass
+        lamp_pass.encode_pixels(enc)
+    else:
+        lamp_pass.set_cone_spread(None)
+        lamp_pass.encode_shadow_maps(enc, renderer.raster, None if view.from_rgbd
+                                     else view.scene)
+        lamp_pass.encode(enc, view.camera, renderer.deferred.gbuffer.textures,
+                         surfaces=surfaces)
     dev.queue.submit([enc.finish()])
     return lamp_pass.read_rgb().astype(np.float64)
 
@@ -68,7 +120,7 @@ def add_gpu_lamps(shaded, setup: SpectralSetup, view, say=None):
     if say is not None:
         say(f"{len(setup.lamps)} lamp(s): shadow maps, lit surfaces, single scattering and "
             "glow on the GPU")
-    shaded.lamps = gpu_lamp_pass(shaded.renderer, setup, view)
+    shaded.lamps = (shaded.renderer.lamp_pass or gpu_lamp_pass(shaded.renderer, setup, view))
     shaded.linear = shaded.linear + gpu_lamp_light(shaded.renderer, shaded.lamps, view)
     return shaded
 

@@ -28,6 +28,7 @@ from aquaspec.gpu.passes.shadow_rays import ShadowRays
 from aquaspec.gpu.passes.caustics import CausticLoopPass
 from aquaspec.gpu.passes.sun import SunPass
 from aquaspec.light.caustics import DEFAULT_LOOP_FRAMES, caustic_loop
+from aquaspec.rendering.lamps import lamps_before_shading, lamps_shaded
 from aquaspec.rendering.live_camera import LiveCamera
 from aquaspec.rendering.marine_snow import LiveSnow, parse_marine_snow
 from aquaspec.rendering.setup import SpectralSetup
@@ -108,6 +109,9 @@ class Renderer:
         #: Marine snow over the live frames (:meth:`set_marine_snow`), or None.
         self.snow = None
         self._snow_kept = None
+        #: The lamps' pass of the last render_scene / render_gbuffer, recorded
+        #: before its shading (aquaspec.rendering.lamps.lamps_before_shading), or None.
+        self.lamp_pass = None
 
     def set_spectral(self, setup: SpectralSetup, materials) -> None:
         """Upload ``setup``'s medium for a scene of ``materials`` to the shading
@@ -205,8 +209,10 @@ class Renderer:
         self._shown_gbuffer = None
         if sun is not None:
             self._advance_waves(enc, setup)
+        lamps_before_shading(self, enc, setup, camera, scene.materials, scene)
         self.encode_shading(enc, sun, camera, scene)
         self.deferred.device.queue.submit([enc.finish()])
+        lamps_shaded(self)
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
             gbuffer = self.raster.read_gbuffer(scene, camera, self.deferred.gbuffer.textures)
@@ -232,9 +238,11 @@ class Renderer:
         enc = self.deferred.device.create_command_encoder()
         if sun is not None:
             self._advance_waves(enc, setup)
+        lamps_before_shading(self, enc, setup, gbuffer.camera, gbuffer.materials, sun_scene)
         self.encode_shading(enc, sun, gbuffer.camera, sun_scene,
                             occluders=sun_scene if occluders is None else occluders)
         self.deferred.device.queue.submit([enc.finish()])
+        lamps_shaded(self)
         rgb = self._shading_pass().read_rgb()
         if setup.ambient_shadow:
             rgb = self.subtract_shadow(rgb, gbuffer, setup, progress)

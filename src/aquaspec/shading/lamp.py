@@ -13,6 +13,21 @@ the columns are measured against). Shadows come
 from the lamp's depth maps (:mod:`aquaspec.scene.lamp_shadow`) when they are
 given. Conventions: metres, y up, the water surface at y = 0; radiance in
 W m^-2 sr^-1 nm^-1 per band. The GPU twin is :mod:`aquaspec.gpu.passes.lamps`.
+
+**The forward cone's share** (``split_cone=True``, with the light field's cone
+spread): a lit surface's light reaches the camera with ``T' = exp(-(c - f b) S)``
+(``c_view``): the water's scattering within the forward cone is counted as
+kept in the beam. That share, ``(T' - T)`` with ``T = exp(-c S)``, is really
+spread over the pixels around; as for the daylight
+(:meth:`aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance`)
+it is the share of the surface's contrast against the background it hides,
+``(1 - exp(-f b S)) L_s - (1 - exp(-<f b> S)) (V(inf) - V(S))``: ``L_s`` the
+lit surface's light at the camera, ``V(S)`` the lamps' veil (single
+scattering and glow) up to ``S``, so ``V(inf) - V(S)`` the veil behind the
+surface that it blocks, taken with the bands' mean ``<f b>`` (the GPU holds
+the veil in camera RGB only).
+:func:`aquaspec.shading.shade.shade_gbuffer` takes it off the pixel and
+spreads it with the daylight's kernel.
 """
 
 from __future__ import annotations
@@ -30,7 +45,8 @@ from aquaspec.transport.lamp_scattering import (DEFAULT_SAMPLES, LampInputs, lam
 
 
 def lamp_radiance(gbuffer, lamps, *, rho_of_hits, shadows=None,
-                  n_samples: int = DEFAULT_SAMPLES, veil: str = "froxels") -> np.ndarray:
+                  n_samples: int = DEFAULT_SAMPLES, veil: str = "froxels",
+                  split_cone: bool = False):
     """The lamps' band radiance per pixel, (H, W, n).
 
     ``lamps``: :class:`aquaspec.transport.lamp_scattering.LampInputs`, one
@@ -39,7 +55,10 @@ def lamp_radiance(gbuffer, lamps, *, rho_of_hits, shadows=None,
     lamp ``(faces, maps)`` of :mod:`aquaspec.scene.lamp_shadow` or None (no
     shadow), or None for no shadows at all; ``veil``: ``"froxels"`` (the
     columns of :data:`aquaspec.transport.lamp_froxels.LAMP_SLICES` slices) or
-    ``"march"`` (``n_samples`` per pixel).
+    ``"march"`` (``n_samples`` per pixel). ``split_cone``: return
+    ``(radiance, cone)``, ``cone`` (H, W, n) the forward cone's share of the
+    lit surfaces' light against the veil they hide (module docstring; zero for
+    open water and where ``f b = 0``), part of ``radiance``.
     """
     if veil not in ("froxels", "march"):
         raise AquaspecError(f"veil {veil!r}; accepted: 'froxels', 'march'")
@@ -55,8 +74,9 @@ def lamp_radiance(gbuffer, lamps, *, rho_of_hits, shadows=None,
     lamps = list(lamps)
     n = np.asarray(lamps[0].b).size if lamps else 0
     out = np.zeros(s.shape + (n,))
+    cone = np.zeros(s.shape + (n,)) if split_cone else None
     if not lamps:
-        return out
+        return (out, cone) if split_cone else out
     rho = rho_of_hits(hit) if np.any(hit) else None
     pos = cam.position + dirs[hit] * s[hit, None]
     normal = gbuffer.normal[hit].astype(float)
@@ -69,17 +89,39 @@ def lamp_radiance(gbuffer, lamps, *, rho_of_hits, shadows=None,
         if veil == "froxels":
             grid = lamp_froxel_grid(inp, cam, visibility=vis_fn, slices=LAMP_SLICES,
                                     halo_tables=tables)
-            out += lamp_froxel_lookup(grid, cam, s)
+            v_s = lamp_froxel_lookup(grid, cam, s)
         else:
-            out += single_scattering(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
-                                     n_samples=n_samples, visibility=vis_fn).reshape(out.shape)
-            if inp.halo:
-                out += halo_veil(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
-                                 tables=tables).reshape(out.shape)
+            v_s = _marched_veil(inp, cam, dirs, s_ray, n_samples, vis_fn, tables)
+        out += v_s
         if rho is not None:
             vis = 1.0 if shadow is None else lamp_visibility(*shadow, pos, normals=normal)
             e = lamp_irradiance(inp, pos, normal, vis)
             if inp.halo:
                 e = e + halo_on_surfaces(inp, pos, normal, tables)
-            out[hit] += rho / np.pi * e * np.exp(-np.asarray(inp.c_view) * s[hit, None])
+            l_s = rho / np.pi * e * np.exp(-np.asarray(inp.c_view) * s[hit, None])
+            out[hit] += l_s
+            fb = inp.forward_share * np.asarray(inp.b, dtype=float)
+            if split_cone and np.any(fb > 0):
+                # The veil behind the surface, V(inf) - V(S), which it hides.
+                v_inf = (lamp_froxel_lookup(grid, cam, np.full(s.shape, np.inf))
+                         if veil == "froxels" else
+                         _marched_veil(inp, cam, dirs, model.ray_length(
+                             np.full(s.shape, np.inf), np.full(s.shape, d_o), v_y),
+                             n_samples, vis_fn, tables))
+                # (The veil's share with the bands' mean f b: the GPU's veil is
+                # in camera RGB.)
+                cone[hit] += (-np.expm1(-fb * s[hit, None]) * l_s
+                              + np.expm1(-fb.mean() * s[hit, None]) * (v_inf - v_s)[hit])
+    return (out, cone) if split_cone else out
+
+
+def _marched_veil(inp, cam, dirs, s_ray, n_samples, vis_fn, tables) -> np.ndarray:
+    """The lamp's veil (single scattering and glow) along each pixel's ray up
+    to ``s_ray`` (H, W), marched per pixel: (H, W, n)."""
+    shape = s_ray.shape + (np.asarray(inp.b).size,)
+    out = single_scattering(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
+                            n_samples=n_samples, visibility=vis_fn).reshape(shape)
+    if inp.halo:
+        out += halo_veil(inp, cam.position, dirs.reshape(-1, 3), s_ray.reshape(-1),
+                         tables=tables).reshape(shape)
     return out

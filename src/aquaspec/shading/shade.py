@@ -285,6 +285,25 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
         rgb[r0:r1] = radiance_to_rgb(lrad, w).reshape(r1 - r0, wid, 3)
         if radiance is not None:
             radiance[r0:r1] = lrad.reshape(r1 - r0, wid, n)
+    if lamps:
+        # Before the spread: the forward cone's share of the lamps' lit
+        # surfaces (against the veil they hide) moves from their pixels into
+        # the spread's input, as the daylight's does (aquaspec.shading.lamp).
+        if progress is not None:
+            progress(f"{len(lamps)} lamp(s): lit surfaces and single scattering")
+        # (The multiple-scattering spread's kernel depends on each band's
+        # lambda; the GPU's lamps feed the single-scattering one only.)
+        lamp_split = spread and not lightfield.cone.multiple
+        l_lamps = lamp_radiance(gbuffer, lamps, shadows=lamp_shadows, split_cone=lamp_split,
+                                rho_of_hits=lambda m: hit_reflectance(
+                                    gbuffer.material[m], gbuffer.sigmoid[m], mb, t))
+        if lamp_split:
+            l_lamps, lamp_cone = l_lamps
+            l_lamps = l_lamps - lamp_cone
+            cone_flat += lamp_cone.reshape(-1, n)
+        radiance += l_lamps
+        if not np.all(np.isfinite(radiance)):
+            raise AquaspecError("the lamps' light is not finite; check the lamps and the water")
     if spread and lightfield.cone.multiple:
         # Multiple scattering in the cone: each pixel's and band's kernel by
         # its lambda = f b S (aquaspec.transport.lightfield.conespread.spread_by_lambda).
@@ -312,14 +331,6 @@ def shade_gbuffer(gbuffer: GBuffer, *, a, b, kd, e0, response_weights, material_
             radiance += l_sun
         if not whole:
             rgb += radiance_to_rgb(l_sun.reshape(-1, n), w).reshape(hgt, wid, 3)
-    if lamps:
-        if progress is not None:
-            progress(f"{len(lamps)} lamp(s): lit surfaces and single scattering")
-        radiance += lamp_radiance(gbuffer, lamps, shadows=lamp_shadows,
-                                  rho_of_hits=lambda m: hit_reflectance(
-                                      gbuffer.material[m], gbuffer.sigmoid[m], mb, t))
-        if not np.all(np.isfinite(radiance)):
-            raise AquaspecError("the lamps' light is not finite; check the lamps and the water")
     if whole:
         rgb = radiance_to_rgb(radiance.reshape(-1, n), w).reshape(hgt, wid, 3)
     out = {"camera_rgb": rgb}

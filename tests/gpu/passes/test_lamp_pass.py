@@ -201,3 +201,59 @@ def test_shadow_maps_match_ray_casting(device):
     both = np.isfinite(gpu) & np.isfinite(ref)
     assert np.mean(np.isfinite(gpu) != np.isfinite(ref)) < 5e-3
     assert np.mean(np.abs(gpu[both] - ref[both]) < 1e-3 * ref[both]) > 0.99
+
+
+@pytest.mark.parametrize("start", [0, 2])
+def test_cone_share_into_the_spread_input(device, start):
+    """With the light field's cone spread the pass writes its lit surfaces'
+    forward-cone share (lamp_radiance(split_cone=True)) at the spread's start
+    level, the mean of each block's two diagonal pixels, into the spread's
+    extra input, and its pixels keep alpha of their share."""
+    from aquaspec.gpu.buffers import read_buffer
+    from aquaspec.gpu.passes.conespread import ConeSpreadPass
+    from aquaspec.gpu.passes.lamps import LampPass
+    from aquaspec.gpu.gbuffer import GBufferTextures
+    from aquaspec.gpu.passes.raster import RasterPass
+    from aquaspec.transport.lightfield.conespread import level_shapes
+    from aquaspec.transport.lightfield.spreadplan import coarse_sample_pixels
+    import dataclasses
+    scene, cam = scene_and_camera()
+    inputs, bands = lamp_inputs(cam)
+    # The spot lamp alone, with a strong forward cone: its lit wall is most of
+    # the image.
+    inputs = [dataclasses.replace(inputs[0], forward=np.full(N, 0.9))]
+    raster = RasterPass(device)
+    gbt = GBufferTextures(device, cam.width, cam.height)
+    lp = LampPass(device, cam.width, cam.height, N, map_size=256)
+    mb = np.stack([m.on_bands(bands) for m in scene.materials])
+    w = np.ones((N, 3)) * np.array([1.0, 2.0, 0.5])
+    t = (bands.centers_nm - 550.0) / 100.0
+    lp.set_inputs(inputs, response_weights=w, material_bands=mb, sigmoid_centers_t=t)
+    ch, cw = level_shapes(cam.height, cam.width, start)[-1]
+    sp = ConeSpreadPass(device, cw, ch, 1)
+    alpha = 0.25
+    lp.set_cone_spread(sp, start, alpha)
+    enc = device.create_command_encoder()
+    raster.render_to(gbt, scene, cam, encoder=enc)
+    lp.encode_shadow_maps(enc, raster, None)
+    lp.encode_veil(enc, cam, gbt.textures)
+    lp.encode_cone(enc)
+    lp.encode_pixels(enc)
+    device.queue.submit([enc.finish()])
+    assert sp.extra_on
+    extra = read_buffer(device, sp.extra, np.float32, (ch, cw, 4))[..., :3]
+    gpu = lp.read_rgb()
+    g = raster.read_gbuffer(scene, cam, gbt.textures)
+    full, cone = lamp_radiance(g, inputs, split_cone=True, rho_of_hits=lambda m: hit_reflectance(
+        g.material[m], g.sigmoid[m], mb, t))
+    to_rgb = lambda x: radiance_to_rgb(x.reshape(-1, N), w).reshape(gpu.shape)
+    full, cone = to_rgb(full), to_rgb(cone)
+    assert np.abs(cone).max() > 0.3 * full.max()
+    ys, xs = coarse_sample_pixels(cam.height, cam.width, start)
+    want = cone[ys, xs].mean(axis=2)
+    np.testing.assert_allclose(extra, want, atol=RTOL * np.abs(want).max())
+    pixels = full - (1.0 - alpha) * cone
+    np.testing.assert_allclose(gpu, pixels, rtol=RTOL, atol=1e-3 * pixels.max())
+    assert np.abs(full - pixels).max() > 0.2 * full.max()
+    sp.set_extra(False)
+    assert not sp.extra_on

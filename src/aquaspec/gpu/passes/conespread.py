@@ -42,7 +42,16 @@ Bindings of conespread.wgsl:
 2   storage ``array<vec4<f32>>``        levels 1 .. L, row-major, one after the
                                         other (:attr:`ConeSpreadPass.offsets`)
 3   storage texture ``rgba32float``     U_0 (:attr:`result`)
+4   storage ``array<vec4<f32>>``        added to level 0 when :meth:`set_extra`
+                                        is on (one slot only):
+                                        :attr:`extra`, the lamps' lit surfaces'
+                                        cone share
+                                        (:meth:`aquaspec.gpu.passes.lamps.LampPass.encode_cone`)
 ==  ==================================  ==========================================
+
+The lamps' share (:attr:`extra`) is written by their pass before the light
+field's and added where level 0 is read: the lamps' forward-scattered light
+spreads with the daylight's kernel (:mod:`aquaspec.shading.lamp`).
 """
 
 from __future__ import annotations
@@ -126,6 +135,11 @@ class ConeSpreadPass:
                                      label="cone spread")
         self._levels_buffer = create_storage_buffer(
             device, 16 * self.slots * max(1, sum(sizes[1:])), label="cone levels")
+        #: Level 0's extra input (vec4 per texel, row-major), added with
+        #: :meth:`set_extra` on: the lamps' cone share.
+        self.extra = create_storage_buffer(device, 16 * self.width * self.height,
+                                           label="cone level 0 extra")
+        self.extra_on = False
         self._weight_at, self._mask_at, nbytes = _uniform_layout(self.slots)
         self._uniform = create_uniform_buffer(device, nbytes, label="cone spread")
         table = np.zeros((1 + MAX_LEVELS + 1, 4), np.uint32)
@@ -134,10 +148,10 @@ class ConeSpreadPass:
             table[1 + k, :3] = (w, h, off)
         upload_buffer(device, self._uniform, table)
         self._layout = bind_group_layout(device, {0: "uniform", 1: "float", 2: "write",
-                                                  3: "storage_rgba32float"})
+                                                  3: "storage_rgba32float", 4: "read"})
         self._group = device.create_bind_group(layout=self._layout, entries=bind_group_entries(
             {0: self._uniform, 1: self.cone_texture, 2: self._levels_buffer,
-             3: self.result}))
+             3: self.result, 4: self.extra}))
         self._pipeline = None
         self._weights = None
 
@@ -148,6 +162,17 @@ class ConeSpreadPass:
                             max_levels=MAX_LEVELS, slots=self.slots)
             self._pipeline = compute_pipeline(self.device, self._layout, src, "conespread.wgsl")
         return self._pipeline
+
+    def set_extra(self, on: bool) -> None:
+        """Add :attr:`extra` to level 0 (from the next submission) or not; one
+        slot only (the single-scattering spread)."""
+        on = bool(on)
+        if on and self.slots != 1:
+            raise AquaspecError("the cone spread's extra input takes one image (the "
+                                f"single-scattering spread); this pass has {self.nodes} nodes")
+        if on != self.extra_on:
+            upload_buffer(self.device, self._uniform, np.array([int(on)], np.uint32), 4)
+            self.extra_on = on
 
     def set_weights(self, weights) -> None:
         """Level weights (levels + 1,), :func:`aquaspec.transport.lightfield.conespread.fit_weights`

@@ -49,7 +49,7 @@ const MAX_LEVELS: u32 = {{ max_levels }}u;
 const SLOTS: u32 = {{ slots }}u;
 
 struct Pyramid {
-    // x: the levels below level 0, L.
+    // x: the levels below level 0, L; y: 1 to add `extra` to level 0.
     count: vec4<u32>,
     // Level k: (width, height, first element in `pyr` (k >= 1), 0).
     level: array<vec4<u32>, MAX_LEVELS + 1>,
@@ -69,6 +69,9 @@ struct Pyramid {
 @group(0) @binding(2) var<storage, read_write> pyr: array<vec4<f32>>;
 // U_0.
 @group(0) @binding(3) var result: texture_storage_2d<rgba32float, write>;
+// Added to P_0 when count.y is 1 (one slot): the lamps' lit surfaces' cone
+// share at level 0's size, row-major (aquaspec.gpu.passes.lamps, cone_share).
+@group(0) @binding(4) var<storage, read> extra: array<vec4<f32>>;
 
 fn weight(k: u32) -> f32 {
     return prm.weight[k / 4u][k % 4u];
@@ -87,7 +90,11 @@ fn offset(k: u32) -> u32 {
 // side of the branch is left.
 fn fetch(tex: bool, off: u32, w: u32, x: u32, y: u32, m: u32) -> vec4<f32> {
     if (tex) {
-        return textureLoad(cone, vec2<u32>(x + m * w, y), 0);
+        let p = textureLoad(cone, vec2<u32>(x + m * w, y), 0);
+        if (SLOTS == 1u && prm.count.y != 0u) {
+            return p + extra[y * w + x];
+        }
+        return p;
     }
     return pyr[SLOTS * (off + y * w + x) + m];
 }

@@ -67,7 +67,8 @@ from aquaspec.transport.sun_scattering import PHASE_TABLE_SIZE
 PARAMS_LAYOUT = UniformLayout("LampParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("n_lamps", "u32"), ("shadowed", "u32"),
     ("surfaces", "u32"), ("tile", "u32"), ("cols_x", "u32"), ("cols_y", "u32"),
-    ("veil_row", "u32"),
+    ("veil_row", "u32"), ("split_cone", "u32"), ("coarse_w", "u32"), ("coarse_h", "u32"),
+    ("block", "u32"), ("alpha", "f32"), ("fb_mean", "f32"),
 ])
 #: One lamp as lamps.wgsl's ``LampGpu``.
 LAMP_DTYPE = np.dtype([("position", np.float32, 3), ("cos_cut", np.float32),
@@ -86,7 +87,7 @@ _BINDINGS = {0: "uniform", 1: "uint", 2: "float", 3: "read", 4: "uniform", 5: "r
              6: "uniform", 7: "uniform", 8: "uniform", 9: "uniform", 10: "depth_array",
              11: "comparison_sampler", 12: "write", 13: "write", 14: "filterable_3d",
              15: "sampler", 16: "uniform", 17: "filterable_array", 18: "uniform", 19: "write",
-             20: "write"}
+             20: "write", 21: "write"}
 #: Bindings held in uniform buffers (the phase table and the materials too when
 #: they fit): storage reads per band were most of the pass's time on lavapipe
 #: (577 -> 226 ms at 160x90, 8 bands, two lamps, for the per-band constants).
@@ -182,15 +183,19 @@ class LampPass:
         self._lamps = []
         self._faces = []
         self.shadowed = False
+        #: The light field's cone spread the lit surfaces' cone share goes to
+        #: (:meth:`set_cone_spread`): ``(ConeSpreadPass, start level, alpha)`` or None.
+        self.cone_spread = None
+        self._no_cone = create_storage_buffer(self.device, 16, label="no lamp cone share")
 
     def _use_pipelines(self, materials_in_uniform: bool) -> None:
         """Select (compiling once) the pipelines for where the materials are."""
         self._mat_key = bool(materials_in_uniform)
-        self._pipeline, self._build = self._pipelines_for(self._mat_key, None)
+        self._pipeline, self._build, self._cone = self._pipelines_for(self._mat_key, None)
         self._layout = self._layouts[self._mat_key]
 
     def _pipelines_for(self, key: bool, tonemap):
-        """``(main, build_veil)`` for materials in a uniform buffer (``key``) and the
+        """``(main, build_veil, cone_share)`` for materials in a uniform buffer (``key``) and the
         display transform with ``tonemap`` fused in main (None: linear RGB out)."""
         if (key, tonemap) not in self._pipelines:
             phase_vec4 = self._groups * PHASE_TABLE_SIZE
@@ -239,7 +244,7 @@ class LampPass:
                 self.device.create_compute_pipeline(
                     label=f"lamps {entry}", layout=layout,
                     compute={"module": module, "entry_point": entry})
-                for entry in ("main", "build_veil"))
+                for entry in ("main", "build_veil", "cone_share"))
         return self._pipelines[(key, tonemap)]
 
     # ---- inputs ---------------------------------------------------------------
@@ -261,6 +266,8 @@ class LampPass:
         per_band = np.zeros((4 * self._groups, 8), np.float32)
         per_band[:n, 0], per_band[:n, 1], per_band[:n, 2] = first.c_lamp, first.c_view, first.b
         per_band[:n, 3], per_band[:n, 4:7] = sigmoid_centers_t, w
+        per_band[:n, 7] = first.forward_share * np.asarray(first.b, dtype=float)
+        self._fb_mean = float(np.mean(per_band[:n, 7]))
         band = per_band.reshape(self._groups, 4, 8).transpose(0, 2, 1)
         intensity = np.zeros((MAX_LAMPS, 4 * self._groups), np.float32)
         for k, inp in enumerate(lamps):
@@ -412,7 +419,8 @@ class LampPass:
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
             **camera_fields(camera), width=self.width, height=self.height,
             n_lamps=len(self._lamps), shadowed=int(self.shadowed), surfaces=int(surfaces),
-            tile=tile, cols_x=cols[0], cols_y=cols[1], veil_row=row))
+            tile=tile, cols_x=cols[0], cols_y=cols[1], veil_row=row,
+            **self._cone_fields()))
         maps = self._maps if self.shadowed else self._no_maps
         self._group = self.device.create_bind_group(
             layout=self._layout, entries=bind_group_entries({
@@ -420,7 +428,8 @@ class LampPass:
                 2: gbuffer_textures["sigmoid"].create_view(), **self._buffers,
                 10: maps.view, 11: self._shadow_sampler, 12: rgb_buffer, 13: veil_buf,
                 14: veil_view, 15: self._veil_sampler, 17: self._spot, 18: self._display,
-                19: self.display_buffer, 20: self._status}))
+                19: self.display_buffer, 20: self._status,
+                21: self._no_cone if self.cone_spread is None else self.cone_spread[0].extra}))
         cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
         cp.set_pipeline(self._build)
         cp.set_bind_group(0, self._group)
@@ -431,6 +440,41 @@ class LampPass:
              "rows_per_image": cols[1]},
             {"texture": veil_tex, "mip_level": 0, "origin": (0, 0, 0)},
             (cols[0], cols[1], LAMP_DEPTHS + 1))
+
+    def set_cone_spread(self, spread_pass=None, start: int = 0, alpha: float = 0.0) -> None:
+        """Send the forward cone's share of the lit surfaces' light to the light
+        field's cone spread (:mod:`aquaspec.shading.lamp`): ``spread_pass`` its
+        :class:`aquaspec.gpu.passes.conespread.ConeSpreadPass` (one slot) for
+        the frame's camera, ``start`` the spread's start level, ``alpha`` the
+        share a pixel keeps (:func:`aquaspec.transport.lightfield.spreadplan.spread_plan`);
+        None: no spread, the share stays on the pixel. Set before
+        :meth:`encode_veil`; then :meth:`encode_cone` before the light field's
+        pass, :meth:`encode_pixels` after it."""
+        if spread_pass is not None and not 0.0 <= alpha <= 1.0:
+            raise AquaspecError(f"kept share alpha {alpha!r}; accepted: 0 ... 1")
+        self.cone_spread = None if spread_pass is None else (spread_pass, int(start),
+                                                             float(alpha))
+
+    def _cone_fields(self) -> dict:
+        if self.cone_spread is None:
+            return dict(split_cone=0, coarse_w=0, coarse_h=0, block=1, alpha=0.0, fb_mean=0.0)
+        sp, start, alpha = self.cone_spread
+        return dict(split_cone=1, coarse_w=sp.width, coarse_h=sp.height, block=2 ** start,
+                    alpha=alpha, fb_mean=self._fb_mean)
+
+    def encode_cone(self, encoder, timestamp_writes=None) -> None:
+        """Record the lit surfaces' cone share into the spread's extra input
+        (:meth:`set_cone_spread`; after :meth:`encode_veil`, before the light
+        field's pass) and switch that input on."""
+        if self._group is None or self.cone_spread is None:
+            raise AquaspecError("LampPass.set_cone_spread() and encode_veil() first")
+        sp = self.cone_spread[0]
+        sp.set_extra(True)
+        cp = encoder.begin_compute_pass(timestamp_writes=timestamp_writes)
+        cp.set_pipeline(self._cone)
+        cp.set_bind_group(0, self._group)
+        cp.dispatch_workgroups(-(-sp.width // 8), -(-sp.height // 8))
+        cp.end()
 
     def set_display(self, *, exposure_ev, white_balance_gains=(1.0, 1.0, 1.0), matrix=None,
                     tonemap="filmic") -> None:

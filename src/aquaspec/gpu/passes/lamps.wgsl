@@ -1,6 +1,6 @@
 // The lamps (aquaspec.gpu.passes.lamps; NumPy twin: aquaspec.shading.lamp.lamp_radiance,
 // maths in aquaspec.transport.lamp_scattering and lamp_froxels, shadows in
-// aquaspec.scene.lamp_shadow). Two entry points, dispatched in this order:
+// aquaspec.scene.lamp_shadow). Three entry points, dispatched in this order:
 // - build_veil, one invocation per column of TILE x TILE pixels: each
 //   lamp's light scattered once along the column's central ray, cut to the
 //   lamp's cone, over the equiangular variable theta (t = t* + D tan theta,
@@ -17,13 +17,17 @@
 //   and its glow's rho / pi E_glow exp(-c_view S) (unshadowed, lamp_halo),
 //   summed over the bands in camera RGB; added to rgb_out. The columns also hold
 //   the glow scattered towards the camera (halo_column).
+// - with the cone spread (lp.split_cone), cone_share before the light field's
+//   pass: the forward cone's share of the lit surfaces' light (pixel_light)
+//   at the spread's level 0, into the ConeSpreadPass's extra input; main
+//   then takes 1 - lp.alpha of that share off the pixel.
 //
 // Everything read per pixel or per sample is in uniform buffers or textures:
 // storage-buffer reads were most of the pass's time on lavapipe.
 // `bands`, eight vec4 per group of four bands 4q ... 4q + 3 (a band a component,
 // 0 past the last band): [8q] c_lamp, [8q + 1] c_view, [8q + 2] b, [8q + 3] t (the
 // normalised band centre for sigmoid materials), [8q + 4 ... 8q + 6] the camera
-// RGB weights w_r, w_g, w_b, [8q + 7] 0.
+// RGB weights w_r, w_g, w_b, [8q + 7] f b (the forward cone's share of b).
 // `intensity[k * BAND_GROUPS + i / 4][i % 4]`: lamp k's on-axis I0 in band i.
 // profile entry k * PROFILE_SIZE + j: f of lamp k at alpha_j = cone j / (PROFILE_SIZE - 1).
 // log_phase entry q * PHASE_SIZE + j: ln p of bands 4q ... 4q + 3 (a vec4, 0 past the
@@ -98,6 +102,9 @@ const TONEMAP: u32 = {{ tonemap_id }}u;
 @group(0) @binding(18) var<uniform> dparams: {{ display_struct_name }};
 @group(0) @binding(19) var<storage, read_write> rgba_out: array<u32>;
 @group(0) @binding(20) var<storage, read_write> status: array<atomic<u32>>;
+// The lamps' cone share at the cone spread's level 0 (cone_share; the
+// ConeSpreadPass's `extra`).
+@group(0) @binding(21) var<storage, read_write> cone_out: array<vec4<f32>>;
 #include "tonemap.wgsl"
 
 const MIN_HALO_RANGE: f32 = {{ min_halo_range }};
@@ -451,16 +458,16 @@ fn interleaved_row(wg_y: u32, lid_y: u32, nwg_y: u32) -> u32 {
     return block * 8u + lid_y;
 }
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>,
-        @builtin(workgroup_id) wg: vec3<u32>,
-        @builtin(local_invocation_id) lid: vec3<u32>,
-        @builtin(num_workgroups) nwg: vec3<u32>) {
-    let col = gid.x;
-    let row = interleaved_row(wg.y, lid.y, nwg.y);
-    if (col >= lp.width || row >= lp.height) {
-        return;
-    }
+// A pixel's lamps' light: `full` the veil and the lit surface's light,
+// `cone` the forward cone's share of the lit surface's light against the
+// veil it hides (shading.lamp: (1 - exp(-f b S)) L_s - (1 - exp(-<f b> S))
+// (V(inf) - V(S)), zero for open water or without lp.split_cone).
+struct PixelLight {
+    full: vec3<f32>,
+    cone: vec3<f32>,
+};
+
+fn pixel_light(col: u32, row: u32) -> PixelLight {
     let word = textureLoad(gb_surface, vec2<i32>(i32(col), i32(row)), 0);
     let s_raw = bitcast<f32>(word.x);
     let v = pixel_ray(f32(col) + 0.5, f32(row) + 0.5);
@@ -468,8 +475,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
     let hit = s_raw >= 0.0 && s_raw <= to_surface;
     let s = select(to_surface, s_raw, hit);
     let x = depth_coordinate(s);
-
-    var acc = veil_sample(col, row, x);
+    let veil = veil_sample(col, row, x);
+    var out = PixelLight(veil, vec3<f32>(0.0));
+    let split = hit && lp.split_cone != 0u;
+    if (split) {
+        // The veil behind the surface, which it hides.
+        out.cone = (veil - veil_sample(col, row, f32(N_DEPTHS))) * (1.0 - exp(-lp.fb_mean * s));
+    }
     if (hit && lp.surfaces != 0u) {
         let n = decode_normal(word.z, word.y);
         var sig = vec3<f32>(0.0);
@@ -525,10 +537,49 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>,
                     e = e + iso * max(h0 * sp + (h1 * sp) * cos_h, vec4<f32>(0.0));
                 }
                 let t = rho[q] * e * intensity[k * BAND_GROUPS + q];
-                acc = acc + band_rgb(q, t);
+                out.full = out.full + band_rgb(q, t);
+                if (split) {
+                    // 1 - exp(-f b S) per band ([8q + 7]: f b).
+                    out.cone = out.cone + band_rgb(q, t * (1.0 - exp(-band4(q, 7u) * s)));
+                }
             }
         }
     }
+    return out;
+}
+
+// One invocation per texel of the cone spread's level 0 (coarse_w x
+// coarse_h, blocks of `block` pixels): the mean cone share of the block's two
+// diagonal pixels (spreadplan.coarse_sample_pixels), into cone_out.
+@compute @workgroup_size(8, 8)
+fn cone_share(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= lp.coarse_w || gid.y >= lp.coarse_h) {
+        return;
+    }
+    let f = lp.block;
+    let o = vec2<u32>(f / 4u, (3u * f) / 4u);
+    let x0 = min(f * gid.x + o.x, lp.width - 1u);
+    let y0 = min(f * gid.y + o.x, lp.height - 1u);
+    let x1 = min(f * gid.x + o.y, lp.width - 1u);
+    let y1 = min(f * gid.y + o.y, lp.height - 1u);
+    let c = 0.5 * (pixel_light(x0, y0).cone + pixel_light(x1, y1).cone);
+    cone_out[gid.y * lp.coarse_w + gid.x] = vec4<f32>(c, 0.0);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>,
+        @builtin(workgroup_id) wg: vec3<u32>,
+        @builtin(local_invocation_id) lid: vec3<u32>,
+        @builtin(num_workgroups) nwg: vec3<u32>) {
+    let col = gid.x;
+    let row = interleaved_row(wg.y, lid.y, nwg.y);
+    if (col >= lp.width || row >= lp.height) {
+        return;
+    }
+    // The pixel keeps alpha of its cone share (the spread's finer levels);
+    // the rest went to the spread's input (cone_share).
+    let light = pixel_light(col, row);
+    let acc = light.full - (1.0 - lp.alpha) * light.cone;
     let idx = row * lp.width + col;
     let total = rgb_out[idx].xyz + acc;
     if (!DISPLAY) {
