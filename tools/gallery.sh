@@ -41,8 +41,21 @@ up = Camera.look_at(cam.position, cam.position + f, width=1280, height=720, fov_
 r = aquaspec.render(water="IB", scene=scene, camera=up, size=(1280, 720), bands=16)
 save_image(sys.argv[1], r.display, None, r.params)
 PYEOF
+"$PY" - "$TMP/surface_window_waves.png" <<'PYEOF'
+import sys
+import numpy as np
+import aquaspec
+from aquaspec.io.save import save_image
+from aquaspec.scene.camera import Camera
+p = np.array([0.0, -4.0, 0.0])   # 4 m down in open water, looking 60 degrees up
+a = np.radians(60)
+cam = Camera.look_at(p, p + [0.0, np.sin(a), -np.cos(a)], width=1280, height=720, fov_y_deg=90.0)
+r = aquaspec.render(water="IB", camera=cam, light="sun-sky", sun_elevation_deg=50,
+                    sun_azimuth_deg=0, waves=6.0, bands=16)
+save_image(sys.argv[1], r.display, None, r.params)
+PYEOF
 
 cp "$TMP/overcast.png" "$TMP/sun_caustics.png" "$TMP/turbid.png" "$TMP/lamps_deep.png" \
    "$TMP/rgbd_photo.png" "$TMP/rgbd_underwater.png" "$TMP/surface_above_ib.png" \
    "$TMP/surface_above_3c.png" "$TMP/surface_half.png" "$TMP/surface_window.png" \
-   "$TMP/surface_glitter.png" "$OUT/"
+   "$TMP/surface_glitter.png" "$TMP/surface_window_waves.png" "$OUT/"

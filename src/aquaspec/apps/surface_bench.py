@@ -16,7 +16,10 @@ clock: a software adapter's timestamps do not bracket a pass's work):
   :func:`aquaspec.rendering.above.waterline_sky`, not timed here);
 - ``above``: a camera 5 m above the sea looking 30 degrees down
   (:class:`aquaspec.gpu.passes.above.AbovePass`) + the display pass; the
-  light field's table below the surface is uploaded once, as the medium is.
+  light field's table below the surface is uploaded once, as the medium is;
+- ``above_sun_waves``: the same camera with the sun (SPECTRL2, 35 degrees,
+  ahead) over a 6 m/s wind sea: the beam's scattering table, each ray
+  through its wave facet, the glitter.
 
 Each is reported with its ratio to ``below``. The machine may be shared:
 compare ratios from one run.
@@ -35,6 +38,8 @@ from aquaspec.gpu.device import adapter_info
 from aquaspec.gpu.passes.above import AbovePass
 from aquaspec.gpu.passes.display import DisplayPass
 from aquaspec.light.sky import surface_light
+from aquaspec.light.wave_facets import surface_facets
+from aquaspec.light.waves import Waves
 from aquaspec.medium.water import get_water
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.setup import SpectralSetup
@@ -42,7 +47,7 @@ from aquaspec.scene.builtin import builtin_scene
 from aquaspec.scene.camera import Camera, camera_above
 
 #: The frames compared (module docstring), in the order they are run.
-FRAMES = ("below", "below_flat", "looking_up_flat", "waterline", "above")
+FRAMES = ("below", "below_flat", "looking_up_flat", "waterline", "above", "above_sun_waves")
 
 
 def _tilted_up(camera: Camera, degrees: float) -> Camera:
@@ -99,9 +104,30 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
         device.queue.submit([enc.finish()])
         below.wait()
 
+    sunny = SpectralSetup(w, sensor, surface_light("sun-sky", sun_elevation_deg=35.0,
+                                                   sun_azimuth_deg=0.0), bands, surface="flat")
+    glitter = AbovePass(device, width, height)
+    sm = sunny.medium([])
+    glitter.set_medium(sunny.lightfield_tables(), a=sm["a"], b=sm["b"], e0=sm["e0"],
+                       response_weights=sm["response_weights"], sun=sunny.sun_inputs(),
+                       facets=surface_facets(Waves(6.0)))
+    show_sun = DisplayPass(width, height, device=device)
+    s = display_settings(glitter.render(above_cam))
+    show_sun.set_settings(exposure_ev=s["exposure_ev"],
+                          white_balance_gains=s["white_balance_gains"], matrix=s["matrix"])
+    show_sun.use_input(glitter.rgb_buffer)
+
+    def draw_above_sun():
+        enc = device.create_command_encoder()
+        glitter.encode(enc, above_cam)
+        show_sun.encode(enc)
+        device.queue.submit([enc.finish()])
+        below.wait()
+
     run = {name: (lambda r=renderers[name], v=view, s=setups[surface]:
                   r.draw_frame(scene, v, s)) for name, (view, surface) in views.items()}
     run["above"] = draw_above
+    run["above_sun_waves"] = draw_above_sun
     times = {k: [] for k in FRAMES}
     for i in range(warmup + frames):
         for name in FRAMES:

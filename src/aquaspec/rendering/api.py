@@ -47,8 +47,7 @@ from aquaspec.light.lamp import parse_lamps
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, SurfaceLight, surface_light
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import DEFAULT_SOURCE, Water, get_water
-from aquaspec.rendering.above import (above_params, above_water, at_waterline, in_air_view,
-                                     shade_above, waterline_sky)
+from aquaspec.rendering.above import above_params, above_water, in_air_view, shade_above
 from aquaspec.rendering.appearance import (WHITE_CARD_DISTANCE_M, check_depth,  # noqa: F401
                                            colour_of_setup, white_card)
 from aquaspec.rendering.camera_model import camera_view, through_camera
@@ -59,6 +58,7 @@ from aquaspec.rendering.marine_snow import add_marine_snow, parse_marine_snow
 from aquaspec.rendering.renderer import Renderer
 from aquaspec.rendering.result import RenderResult
 from aquaspec.rendering.setup import SpectralSetup, render_surface
+from aquaspec.rendering.surface_view import surface_seen_from_water
 from aquaspec.scene.builtin import scene_for_render
 from aquaspec.scene.camera import Camera, parse_size
 from aquaspec.scene.gbuffer import GBuffer
@@ -271,9 +271,7 @@ def render(*, water="IB", source: str = DEFAULT_SOURCE, depth_m: float = 5.0,
         shaded = _shade_on_gpu(setup, view, map_size, return_radiance, say, renderer)
     else:
         shaded = _shade_in_numpy(setup, view, map_size, return_radiance, say)
-    if at_waterline(view.camera):
-        linear, radiance = waterline_sky(setup, view.camera, shaded.linear, shaded.radiance)
-        shaded = dataclasses.replace(shaded, linear=linear, radiance=radiance)
+    shaded = surface_seen_from_water(setup, view, shaded, backend)
     shaded, snow_params = add_marine_snow(snow, shaded, setup, view, optics, backend,
                                           say, above=above_water(view.camera))
     _check_finite_image(shaded.linear)
@@ -441,6 +439,7 @@ class _Shaded:
     renderer: Renderer | None = None
     sun_shadow: tuple | None = None
     lamps: object = None        # the lamps' GPU pass, or shade_gbuffer's lamp arguments
+    surface_change: np.ndarray | None = None    # the waves' change seen from below
 
 
 def _shade_on_gpu(setup: SpectralSetup, view: _View, map_size, return_radiance,
@@ -552,7 +551,8 @@ def _layers(setup: SpectralSetup, view: _View, shaded: _Shaded, backend, say) ->
                              lightfield=setup.lightfield_tables(), progress=say,
                              sun=setup.sun_inputs(),
                              sun_shadow=shaded.sun_shadow, **shaded.lamps)["camera_rgb"]
-    gbuffer = shaded.gbuffer
+    gbuffer, back = shaded.gbuffer, back + (0.0 if shaded.surface_change is None
+                                            else shaded.surface_change)
     return image_layers(shaded.linear, back, gbuffer, setup.medium(gbuffer.materials),
                         setup.lightfield_tables(), sun=setup.sun_inputs(),
                         sun_visibility=_sun_visibility(setup, shaded, backend))

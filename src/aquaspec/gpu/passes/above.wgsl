@@ -27,6 +27,8 @@
 @group(0) @binding(3) var<storage, read> sun_table: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read> slopes: array<vec2<f32>>;
 
+#include "wave_facets.wgsl"
+
 // The sun's single scattering along t (camera RGB), bilinear in (t_y, cos).
 fn sun_scattering(t_y: f32, cos_s: f32) -> vec3<f32> {
     let last_y = f32(prm.sun_nodes_y - 1u);
@@ -53,24 +55,7 @@ fn facet_normal(v: vec3<f32>) -> vec3<f32> {
         return up;
     }
     let s = prm.position.y / -v.y;
-    let m = f32(prm.tile_grid);
-    let u = prm.position.x + s * v.x;
-    let w = prm.position.z + s * v.z;
-    let fu = u / prm.tile_m * m;
-    let fw = w / prm.tile_m * m;
-    let u0 = floor(fu);
-    let w0 = floor(fw);
-    let au = fu - u0;
-    let aw = fw - w0;
-    let g = i32(prm.tile_grid);
-    let j0 = ((i32(u0) % g) + g) % g;
-    let i0 = ((i32(w0) % g) + g) % g;
-    let j1 = (j0 + 1) % g;
-    let i1 = (i0 + 1) % g;
-    let top = mix(slopes[i0 * g + j0], slopes[i0 * g + j1], au);
-    let bottom = mix(slopes[i1 * g + j0], slopes[i1 * g + j1], au);
-    let sl = mix(top, bottom, aw);
-    let n = normalize(vec3<f32>(-sl.x, 1.0, -sl.y));
+    let n = wave_facet(prm.position.x + s * v.x, prm.position.z + s * v.z);
     if (-dot(v, n) > prm.min_facet_cos) {
         return n;
     }

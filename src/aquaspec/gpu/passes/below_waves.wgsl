@@ -1,0 +1,81 @@
+// The wind sea seen from below: twin of
+// aquaspec.shading.below_waves.window_correction, in camera RGB. One
+// invocation per pixel: its ray v going up through open water (the
+// G-buffer's distance negative, or beyond the surface at S = d_o / v_y)
+// meets the wave tile's facet n at the mean plane, and the pixel gains
+//   sum_i w_i exp(-c_i S) (L_i(v, n) - L_i(v, up)),
+//   L_i(v, n) = T_out(v.n) n^2 sky_i + (1 - T_out(v.n)) water_i(r_y),
+// r the ray mirrored about the facet, water_i the table of the water's light
+// just below the surface over r_y in [-1, -t_top] (above_water.water_below_table).
+
+#include "fresnel.wgsl"
+
+{{ params_struct }}
+
+@group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
+@group(0) @binding(1) var gb_surface: texture_2d<u32>;
+// Per band two vec4: (c, sky, 0, 0), (w_r, w_g, w_b, 0).
+@group(0) @binding(2) var<storage, read> bands: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> water: array<f32>;
+@group(0) @binding(4) var<storage, read> slopes: array<vec2<f32>>;
+@group(0) @binding(5) var<storage, read_write> rgb_out: array<vec4<f32>>;
+
+#include "wave_facets.wgsl"
+
+// Fresnel out of the water at incidence cosine c (0 beyond the critical angle).
+fn transmittance_out(c: f32) -> f32 {
+    let n = prm.n_water;
+    let sin2_air = n * n * (1.0 - c * c);
+    if (sin2_air >= 1.0) {
+        return 0.0;
+    }
+    return fresnel_transmittance(sqrt(max(1.0 - sin2_air, 0.0)), n);
+}
+
+// Where r_y falls in the water table: (node, fraction).
+fn table_at(r_y: f32) -> vec2<f32> {
+    let last = f32(prm.nodes - 1u);
+    let x = clamp((min(r_y, -prm.t_top) + 1.0) / (1.0 - prm.t_top) * last, 0.0, last);
+    let k = min(floor(x), last - 1.0);
+    return vec2<f32>(k, x - k);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= prm.width || gid.y >= prm.height) {
+        return;
+    }
+    let xc = (f32(gid.x) + 0.5 - prm.cx) / prm.fx;
+    let yc = (f32(gid.y) + 0.5 - prm.cy) / prm.fy;
+    let v = normalize(prm.right * xc - prm.up * yc + prm.forward);
+    var rgb = vec3<f32>(0.0);
+    let s_hit = bitcast<f32>(textureLoad(gb_surface, vec2<i32>(gid.xy), 0).x);
+    if (v.y > 0.0) {
+        let s = -prm.position.y / v.y;
+        if (s_hit < 0.0 || s_hit > s) {
+            var n = wave_facet(prm.position.x + s * v.x, prm.position.z + s * v.z);
+            var cos_i = dot(v, n);
+            if (cos_i <= 0.0) {
+                n = vec3<f32>(0.0, 1.0, 0.0);
+                cos_i = v.y;
+            }
+            let tw = transmittance_out(cos_i);
+            let tf = transmittance_out(v.y);
+            let aw = table_at(v.y - 2.0 * cos_i * n.y);
+            let af = table_at(-v.y);
+            let kw = u32(aw.x);
+            let kf = u32(af.x);
+            let nn = prm.n_water * prm.n_water;
+            for (var i = 0u; i < prm.n_bands; i = i + 1u) {
+                let cs = bands[2u * i];
+                let w = bands[2u * i + 1u].xyz;
+                let ww = mix(water[kw * prm.n_bands + i], water[(kw + 1u) * prm.n_bands + i], aw.y);
+                let wf = mix(water[kf * prm.n_bands + i], water[(kf + 1u) * prm.n_bands + i], af.y);
+                let wavy = tw * nn * cs.y + (1.0 - tw) * ww;
+                let flat = tf * nn * cs.y + (1.0 - tf) * wf;
+                rgb = rgb + w * (exp(-cs.x * s) * (wavy - flat));
+            }
+        }
+    }
+    rgb_out[gid.y * prm.width + gid.x] = vec4<f32>(rgb, 0.0);
+}

@@ -1,0 +1,92 @@
+"""The wind sea seen from below: Snell's window broken by the waves (NumPy reference).
+
+Conventions: metres, y up, the mean surface the plane ``y = 0``, depth ``d =
+-y``; unit view directions ``v`` from the camera (at depth ``d_o``). A ray
+going up through open water meets the mean plane at ``S = d_o / v_y``; the
+flat surface's light field puts there its own top boundary
+(:meth:`aquaspec.transport.lightfield.tables.LightfieldTables.top_radiance`:
+the sky through Snell's window, the water mirrored outside it). A wind sea
+(:class:`aquaspec.light.wave_facets.SurfaceFacets`, the caustics' tile)
+tilts the facet the ray meets, so per band
+
+    L_surface(v, n) = T_out(v . n) n^2 L_sky + (1 - T_out(v . n)) L_w(r)
+
+with ``T_out`` the Fresnel transmittance out of the water (0 beyond the
+critical angle: total internal reflection), ``L_sky`` the uniform sky in air
+(:func:`aquaspec.shading.above_water.sky_radiance_above`), ``r`` the ray
+mirrored about the facet and ``L_w(r)`` the water's radiance just below the
+surface looking along it (:func:`aquaspec.shading.above_water.water_below_table`;
+``r_y`` kept at or below ``-WAVE_T_TOP``). The image gains, on those pixels,
+
+    Delta = exp(-c S) (L_surface(v, n) - L_surface(v, up))
+
+(the light field's line of sight reaches the surface attenuated by
+``exp(-c S)``, its two-point form), which is zero for a flat sea. The
+light field itself stays the flat surface's (the waves change where the
+window is, not, to first order, how much light goes in); the waves'
+heights are left out (the facet is taken where the ray meets the mean
+plane). Not drawn: the sun's disc and glitter seen from below, and the
+scene mirrored in the surface (the mirrored light is the open water's).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.medium.interface import FLAT_NORMAL, N_WATER, fresnel_transmittance
+from aquaspec.shading.above_water import WAVE_T_TOP, sky_radiance_above, water_below_table
+
+
+def transmittance_out(cos_i, n_water: float = N_WATER):
+    """Fresnel transmittance from water into air at incidence cosine ``cos_i``
+    (on the water side), 0 beyond the critical angle (reciprocity: the air
+    side's at its own angle)."""
+    cos_i = np.clip(np.asarray(cos_i, dtype=float), 0.0, 1.0)
+    sin2_air = n_water * n_water * (1.0 - cos_i * cos_i)
+    cos_air = np.sqrt(np.clip(1.0 - sin2_air, 0.0, 1.0))
+    return np.where(sin2_air < 1.0, fresnel_transmittance(cos_air, n_water), 0.0)
+
+
+def surface_from_below(v, normals, sky, water_nodes, water_table, n_water: float = N_WATER):
+    """``L_surface(v, n)`` (R, n) for rays ``v`` (R, 3) going up meeting
+    facets of unit ``normals`` (R, 3) (module docstring); ``sky`` (n,);
+    ``water_nodes`` (K,), ``water_table`` (K, n): :func:`water_below_table`."""
+    v = np.asarray(v, dtype=float)
+    n = np.asarray(normals, dtype=float)
+    cos_i = np.sum(v * n, axis=1)
+    facing = cos_i > 0
+    n = np.where(facing[:, None], n, FLAT_NORMAL)
+    cos_i = np.where(facing, cos_i, v[:, 1])
+    t_out = transmittance_out(cos_i, n_water)
+    r_y = np.minimum(v[:, 1] - 2.0 * cos_i * n[:, 1], -WAVE_T_TOP)
+    water = np.stack([np.interp(r_y, water_nodes, water_table[:, i])
+                      for i in range(water_table.shape[1])], axis=-1)
+    return (t_out * n_water ** 2)[:, None] * np.asarray(sky)[None, :] \
+        + (1.0 - t_out)[:, None] * water
+
+
+def window_correction(camera, open_up, tables, facets, *, a, b, e0,
+                      n_water: float = N_WATER) -> np.ndarray:
+    """``Delta`` (H, W, n) for ``camera`` under the sea (module docstring):
+    zero but where ``open_up`` (H, W) (rays going up that reach the surface,
+    no surface before it). ``tables``: the flat surface's light field;
+    ``facets``: :class:`aquaspec.light.wave_facets.SurfaceFacets`."""
+    v = camera.ray_directions()
+    h, w = v.shape[:2]
+    c = np.asarray(a, dtype=float) + np.asarray(b, dtype=float)
+    out = np.zeros((h, w, c.size))
+    mask = np.asarray(open_up, dtype=bool) & (v[..., 1] > 0)
+    if not mask.any():
+        return out
+    vv = v[mask]
+    o = np.asarray(camera.position, dtype=float)
+    s = -o[1] / vv[:, 1]
+    normals = facets.normals(o[0] + s * vv[:, 0], o[2] + s * vv[:, 2])
+    sky = sky_radiance_above(tables, e0)
+    nodes, table = water_below_table(tables, a=a, b=b, e0=e0, n_water=n_water,
+                                     t_top=WAVE_T_TOP)
+    wavy = surface_from_below(vv, normals, sky, nodes, table, n_water)
+    flat = surface_from_below(vv, np.broadcast_to(FLAT_NORMAL, vv.shape), sky, nodes, table,
+                              n_water)
+    out[mask] = np.exp(-c[None, :] * s[:, None]) * (wavy - flat)
+    return out

@@ -1,0 +1,57 @@
+"""The surface seen from under the sea in render(): the waves' change to Snell's window."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.colour.bands import Bands
+from aquaspec.colour.reflectance import Reflectance
+from aquaspec.colour.sensors import get_sensor, radiance_to_rgb
+from aquaspec.light.sky import surface_light
+from aquaspec.light.wave_facets import surface_facets
+from aquaspec.light.waves import Waves
+from aquaspec.medium.water import load_water
+from aquaspec.rendering.api import _Shaded, _View
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.rendering.surface_view import surface_seen_from_water
+from aquaspec.scene.camera import Camera
+from aquaspec.scene.gbuffer import GBuffer
+from aquaspec.shading.below_waves import window_correction
+
+
+def _case(waves):
+    light = surface_light("sun-sky", sun_elevation_deg=50.0)
+    setup = SpectralSetup(load_water("IB"), get_sensor("human"), light, Bands(4),
+                          surface="flat", ms_model="lightfield", waves=waves)
+    p = np.array([0.0, -3.0, 0.0])
+    cam = Camera.look_at(p, p + [0.0, 0.8, -0.6], width=40, height=24, fov_y_deg=80.0)
+    h, w = cam.height, cam.width
+    dist = np.full((h, w), np.inf, np.float32)
+    dist[:, :8] = 2.0                               # a surface in the way on the left
+    gb = GBuffer(cam, dist, np.tile(np.float32([0, 0, 1]), (h, w, 1)),
+                 np.zeros((h, w), np.uint32), np.zeros((h, w, 3), np.float32),
+                 materials=[Reflectance.constant(0.3)])
+    view = _View(None, cam, gb, False, {"kind": "test"})
+    shaded = _Shaded(np.ones((h, w, 3)), np.ones((h, w, 4)), gb)
+    return setup, view, shaded
+
+
+def test_waves_change_the_open_water_looking_up_and_nothing_else():
+    waves = Waves(6.0, grid=32)
+    setup, view, shaded = _case(waves)
+    out = surface_seen_from_water(setup, view, shaded, "numpy")
+    med = setup.medium([])
+    v = view.camera.ray_directions()
+    open_up = (v[..., 1] > 0) & ~np.isfinite(shaded.gbuffer.distance)
+    bands = window_correction(view.camera, open_up, setup.lightfield_tables(),
+                              surface_facets(waves), a=med["a"], b=med["b"], e0=med["e0"])
+    rgb = radiance_to_rgb(bands, med["response_weights"])
+    np.testing.assert_allclose(out.linear, 1.0 + rgb, rtol=1e-12)
+    np.testing.assert_allclose(out.radiance, 1.0 + bands, rtol=1e-12)
+    np.testing.assert_allclose(out.surface_change, rgb)
+    assert np.abs(rgb[:, 8:]).max() > 0 and np.all(rgb[:, :8] == 0)
+
+
+def test_a_flat_sea_is_left_alone():
+    setup, view, shaded = _case(None)
+    assert surface_seen_from_water(setup, view, shaded, "numpy") is shaded

@@ -1,0 +1,84 @@
+"""The wind sea seen from below (shading.below_waves): Snell's window broken by waves."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.colour.bands import Bands
+from aquaspec.colour.sensors import get_sensor
+from aquaspec.light.sky import surface_light
+from aquaspec.light.wave_facets import SurfaceFacets, surface_facets
+from aquaspec.light.waves import Waves
+from aquaspec.medium.interface import N_WATER, fresnel_transmittance
+from aquaspec.medium.water import load_water
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.camera import Camera
+from aquaspec.shading.above_water import WAVE_T_TOP, sky_radiance_above, water_below_table
+from aquaspec.shading.below_waves import surface_from_below, transmittance_out, window_correction
+
+BANDS = Bands(4)
+
+
+def _looking_up(depth=4.0, size=48, pitch_deg=70.0, fov=90.0):
+    p = np.array([0.0, -depth, 0.0])
+    t = np.radians(pitch_deg)
+    return Camera.look_at(p, p + [0.0, np.sin(t), -np.cos(t)], width=size, height=size,
+                          fov_y_deg=fov)
+
+
+def _setup(water="IB"):
+    return SpectralSetup(load_water(water), get_sensor("human"), surface_light("overcast"),
+                         BANDS, surface="flat")
+
+
+def test_transmittance_out_is_fresnel_by_reciprocity():
+    mu = np.array([1.0, 0.9, 0.75, 0.66, 0.5])
+    cos_air = np.sqrt(np.clip(1 - N_WATER ** 2 * (1 - mu ** 2), 0, 1))
+    inside = N_WATER ** 2 * (1 - mu ** 2) < 1
+    np.testing.assert_allclose(transmittance_out(mu)[inside],
+                               fresnel_transmittance(cos_air[inside]), rtol=1e-12)
+    assert np.all(transmittance_out(mu)[~inside] == 0)
+
+
+def test_the_flat_surface_from_below_is_the_light_field_s_top():
+    """With an upright facet the formula is the flat light field's own top
+    boundary (the sky through the window, the water mirrored outside it):
+    so the correction of a flat sea is zero, and the formula agrees with the
+    tables' top radiance within 1 %."""
+    setup = _setup()
+    tables, med = setup.lightfield_tables(), setup.medium([])
+    sky = sky_radiance_above(tables, med["e0"])
+    nodes, table = water_below_table(tables, a=med["a"], b=med["b"], e0=med["e0"],
+                                     t_top=WAVE_T_TOP)
+    vy = np.array([0.95, 0.8, 0.7, 0.6, 0.4, 0.2])
+    v = np.stack([np.sqrt(1 - vy ** 2), vy, np.zeros_like(vy)], axis=1)
+    mine = surface_from_below(v, np.tile([0.0, 1.0, 0.0], (len(v), 1)), sky, nodes, table)
+    np.testing.assert_allclose(mine, tables.top_radiance(vy, med["e0"]), rtol=0.01)
+    cam = _looking_up()
+    flat = SurfaceFacets(np.zeros((8, 8, 2), np.float32), 4.0, 0.0)
+    out = window_correction(cam, np.ones((48, 48), bool), tables, flat, a=med["a"], b=med["b"],
+                            e0=med["e0"])
+    assert np.all(out == 0)
+
+
+def test_waves_break_the_window():
+    """A 6 m/s sea: the window's edge is no longer a circle (rays outside the
+    flat window see the sky through tilted facets, rays inside see the water
+    mirrored); only open water looking up changes; the correction fades with
+    exp(-c S)."""
+    setup = _setup()
+    tables, med = setup.lightfield_tables(), setup.medium([])
+    facets = surface_facets(Waves(6.0, grid=64))
+    cam = _looking_up()
+    v = cam.ray_directions()
+    open_up = np.ones(v.shape[:2], bool)
+    open_up[:, :10] = False                      # a surface in the way on the left
+    d = window_correction(cam, open_up, tables, facets, a=med["a"], b=med["b"], e0=med["e0"])
+    assert np.all(d[:, :10] == 0) and np.all(d[v[..., 1] <= 0] == 0)
+    window = v[..., 1] > np.sqrt(1 - 1 / N_WATER ** 2)
+    outside = (v[..., 1] > 0) & ~window & open_up
+    assert (d[outside][:, 1] > 0).any() and (d[window & open_up][:, 1] < 0).any()
+    deep = window_correction(_looking_up(depth=40.0), open_up, tables, facets, a=med["a"],
+                             b=med["b"], e0=med["e0"])
+    assert np.abs(deep).max() < 0.2 * np.abs(d).max()
+    assert np.all(np.isfinite(d))
