@@ -60,6 +60,30 @@ def _tilted_up(camera: Camera, degrees: float) -> Camera:
                                                                    / camera.fy))))
 
 
+def _above_frame(below: Renderer, camera, setup, **extra):
+    """A whole displayed frame of the view from above (:class:`AbovePass` +
+    its display pass, settings from its first frame) on ``below``'s device, as
+    a function that draws one and waits."""
+    device = below.deferred.device
+    above = AbovePass(device, camera.width, camera.height)
+    med = setup.medium([])
+    above.set_medium(setup.lightfield_tables(), a=med["a"], b=med["b"], e0=med["e0"],
+                     response_weights=med["response_weights"], **extra)
+    show = DisplayPass(camera.width, camera.height, device=device)
+    s = display_settings(above.render(camera))
+    show.set_settings(exposure_ev=s["exposure_ev"], white_balance_gains=s["white_balance_gains"],
+                      matrix=s["matrix"])
+    show.use_input(above.rgb_buffer)
+
+    def draw():
+        enc = device.create_command_encoder()
+        above.encode(enc, camera)
+        show.encode(enc)
+        device.queue.submit([enc.finish()])
+        below.wait()
+    return draw
+
+
 def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
                       frames: int = 12, warmup: int = 3, water="IB", depth_m: float = 5.0,
                       progress=None) -> dict:
@@ -83,47 +107,12 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
         renderers[name] = Renderer(width, height, n_bands)
         renderers[name].auto_display(scene, view, setups[surface])
     below = renderers["below"]
-    device = below.deferred.device
     above_cam = camera_above(5.0, 30.0, width=width, height=height)
-    above = AbovePass(device, width, height)
-    tables = setups["flat"].lightfield_tables()
-    med = setups["flat"].medium([])
-    above.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
-                     response_weights=med["response_weights"])
-    show = DisplayPass(width, height, device=device)
-    rgb = above.render(above_cam)
-    s = display_settings(rgb)
-    show.set_settings(exposure_ev=s["exposure_ev"], white_balance_gains=s["white_balance_gains"],
-                      matrix=s["matrix"])
-    show.use_input(above.rgb_buffer)
-
-    def draw_above():
-        enc = device.create_command_encoder()
-        above.encode(enc, above_cam)
-        show.encode(enc)
-        device.queue.submit([enc.finish()])
-        below.wait()
-
     sunny = SpectralSetup(w, sensor, surface_light("sun-sky", sun_elevation_deg=35.0,
                                                    sun_azimuth_deg=0.0), bands, surface="flat")
-    glitter = AbovePass(device, width, height)
-    sm = sunny.medium([])
-    glitter.set_medium(sunny.lightfield_tables(), a=sm["a"], b=sm["b"], e0=sm["e0"],
-                       response_weights=sm["response_weights"], sun=sunny.sun_inputs(),
-                       facets=surface_facets(Waves(6.0)))
-    show_sun = DisplayPass(width, height, device=device)
-    s = display_settings(glitter.render(above_cam))
-    show_sun.set_settings(exposure_ev=s["exposure_ev"],
-                          white_balance_gains=s["white_balance_gains"], matrix=s["matrix"])
-    show_sun.use_input(glitter.rgb_buffer)
-
-    def draw_above_sun():
-        enc = device.create_command_encoder()
-        glitter.encode(enc, above_cam)
-        show_sun.encode(enc)
-        device.queue.submit([enc.finish()])
-        below.wait()
-
+    draw_above = _above_frame(below, above_cam, setups["flat"])
+    draw_above_sun = _above_frame(below, above_cam, sunny, sun=sunny.sun_inputs(),
+                                  facets=surface_facets(Waves(6.0)))
     run = {name: (lambda r=renderers[name], v=view, s=setups[surface]:
                   r.draw_frame(scene, v, s)) for name, (view, surface) in views.items()}
     run["above"] = draw_above

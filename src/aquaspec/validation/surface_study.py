@@ -95,26 +95,29 @@ def format_surface_study(res: dict) -> str:
               "From above (camera 5 m up, 60 degrees down): mean colour, relative error and hue",
               "", "| water | seabed | sensor | RGB ratio | error | hue (deg) |",
               "|---|---|---|---|---|---|"]
-    for row in res["above"]:
-        bed = "deep" if row["seabed_depth_m"] is None else f"{row['seabed_depth_m']:g} m"
-        for sensor, m in row.items():
-            if isinstance(m, dict):
-                ratio = " ".join(f"{x:.3f}" for x in m["ratio_rgb"])
-                lines.append(f"| {row['water']} | {bed} | {sensor} | {ratio} | "
-                             f"{100 * m['rgb_error']:.1f} % | {m['hue_deg']:.2f} |")
+    lines += _above_rows(res["above"])
     if res.get("above_sun"):
         lines += ["", "From above in the sun (SPECTRL2 sun and sky, the glint left out) against "
                       f"the slab Monte Carlo ({res['paths']} paths per band): mean colour, "
                       "relative error and hue", "",
                   "| water | seabed | sun (deg) | sensor | RGB ratio | error | hue (deg) | MC s.e. |",
                   "|---|---|---|---|---|---|---|---|"]
-        for row in res["above_sun"]:
-            bed = "deep" if row["seabed_depth_m"] is None else f"{row['seabed_depth_m']:g} m"
-            for sensor, m in row.items():
-                if isinstance(m, dict):
-                    ratio = " ".join(f"{x:.3f}" for x in m["ratio_rgb"])
-                    lines.append(f"| {row['water']} | {bed} | {row['sun_elevation_deg']:g} | "
-                                 f"{sensor} | {ratio} | {100 * m['rgb_error']:.1f} % | "
-                                 f"{m['hue_deg']:.2f} | "
-                                 f"{100 * row['reference_standard_error_max']:.1f} % |")
+        lines += _above_rows(res["above_sun"], sun=True)
     return "\n".join(lines)
+
+
+def _above_rows(rows, sun: bool = False) -> list:
+    """Table rows of the view from above: per case and sensor the RGB ratio,
+    error and hue (with ``sun``: the elevation and the reference's error too)."""
+    out = []
+    for row in rows:
+        bed = "deep" if row["seabed_depth_m"] is None else f"{row['seabed_depth_m']:g} m"
+        for sensor, m in row.items():
+            if isinstance(m, dict):
+                ratio = " ".join(f"{x:.3f}" for x in m["ratio_rgb"])
+                cells = [row["water"], bed] + ([f"{row['sun_elevation_deg']:g}"] if sun else [])
+                cells += [sensor, ratio, f"{100 * m['rgb_error']:.1f} %", f"{m['hue_deg']:.2f}"]
+                if sun:
+                    cells.append(f"{100 * row['reference_standard_error_max']:.1f} %")
+                out.append("| " + " | ".join(cells) + " |")
+    return out
