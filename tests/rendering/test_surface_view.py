@@ -19,8 +19,8 @@ from aquaspec.scene.gbuffer import GBuffer
 from aquaspec.shading.below_waves import window_correction
 
 
-def _case(waves):
-    light = surface_light("sun-sky", sun_elevation_deg=50.0)
+def _case(waves, light=None):
+    light = light or surface_light("sun-sky", sun_elevation_deg=50.0)
     setup = SpectralSetup(load_water("IB"), get_sensor("human"), light, Bands(4),
                           surface="flat", ms_model="lightfield", waves=waves)
     p = np.array([0.0, -3.0, 0.0])
@@ -37,8 +37,10 @@ def _case(waves):
 
 
 def test_waves_change_the_open_water_looking_up_and_nothing_else():
+    """(The sun at 10 degrees, behind the camera: its disc out of view.)"""
     waves = Waves(6.0, grid=32)
-    setup, view, shaded = _case(waves)
+    setup, view, shaded = _case(waves, surface_light("sun-sky", sun_elevation_deg=10.0,
+                                                     sun_azimuth_deg=180.0))
     out = surface_seen_from_water(setup, view, shaded, "numpy")
     med = setup.medium([])
     v = view.camera.ray_directions()
@@ -52,6 +54,18 @@ def test_waves_change_the_open_water_looking_up_and_nothing_else():
     assert np.abs(rgb[:, 8:]).max() > 0 and np.all(rgb[:, :8] == 0)
 
 
-def test_a_flat_sea_is_left_alone():
-    setup, view, shaded = _case(None)
+def test_a_flat_sea_under_an_overcast_sky_is_left_alone():
+    setup, view, shaded = _case(None, surface_light("overcast"))
     assert surface_seen_from_water(setup, view, shaded, "numpy") is shaded
+
+
+def test_the_sun_s_disc_seen_from_below():
+    """The sun ahead of a camera looking up through the flat surface: a few
+    pixels gain its disc, very bright; nothing else changes."""
+    light = surface_light("sun-sky", sun_elevation_deg=60.0, sun_azimuth_deg=0.0)
+    setup, view, shaded = _case(None, light)
+    out = surface_seen_from_water(setup, view, shaded, "numpy")
+    lit = np.any(out.surface_change != 0, axis=-1)
+    assert 1 <= lit.sum() <= 12
+    assert out.surface_change[lit].min() > 100.0
+    np.testing.assert_array_equal(out.linear[~lit], shaded.linear[~lit])

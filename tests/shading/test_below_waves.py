@@ -82,3 +82,26 @@ def test_waves_break_the_window():
                              b=med["b"], e0=med["e0"])
     assert np.abs(deep).max() < 0.2 * np.abs(d).max()
     assert np.all(np.isfinite(d))
+
+
+def test_the_sun_seen_through_the_flat_surface_keeps_its_energy():
+    """Looking straight up at a sun near the zenith: the disc summed over the
+    image (radiance times each pixel's solid angle, the attenuation taken
+    out) is the sun's irradiance through the surface, T E_sun (the n^2 of
+    the radiance and the 1/n^2 of the solid angle cancel); at least one
+    pixel is lit at a coarse size."""
+    from aquaspec.shading.below_waves import sun_disc_below
+    e_air, a, b = np.array([2.0]), np.array([0.05]), np.array([0.0])
+    to_sun = np.array([0.0, 1.0, 0.0])
+    for size, tol in ((33, 1.0), (801, 0.03)):
+        p = np.array([0.0, -2.0, 0.0])
+        cam = Camera.look_at(p, p + [0.0, 1.0, 0.0], width=size, height=size, fov_y_deg=4.0,
+                             up=(0.0, 0.0, -1.0))
+        v = cam.ray_directions().reshape(-1, 3)
+        disc = sun_disc_below(cam, np.ones((size, size), bool), None, to_sun, e_air,
+                              a=a, b=b).reshape(-1, 1)
+        s = 2.0 / v[:, 1]
+        solid = (v @ cam.forward) ** 3 / (cam.fx * cam.fy)
+        total = np.sum(disc[:, 0] * np.exp(0.05 * s) * solid)
+        assert (disc > 0).sum() >= 1
+        np.testing.assert_allclose(total, fresnel_transmittance(1.0) * e_air[0], rtol=tol)

@@ -13,6 +13,9 @@ touch in :func:`aquaspec.rendering.api.render`.
   layers' backscatter (the image with every surface black) gets it too, the
   sky and water seen through the waves being the water's light, not a
   surface's.
+- With a sun, its disc seen through the surface (flat, or the waves'
+  facets; :func:`aquaspec.shading.below_waves.sun_disc_below`), in the same
+  step and pass.
 """
 
 from __future__ import annotations
@@ -25,34 +28,44 @@ import numpy as np
 from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.light.wave_facets import surface_facets
 from aquaspec.rendering.above import at_waterline, waterline_sky
-from aquaspec.shading.below_waves import window_correction
+from aquaspec.shading.above_water import sun_in_air
+from aquaspec.shading.below_waves import sun_disc_below, window_correction
 
 
 def surface_seen_from_water(setup, view, shaded, backend: str):
-    """``shaded`` with the waterline's sky or the waves' change to the surface
-    seen from below (module docstring); as it was otherwise."""
+    """``shaded`` with the waterline's sky, or the waves' change to the surface
+    seen from below and the sun's disc through it (module docstring); as it
+    was otherwise."""
     if at_waterline(view.camera):
         linear, radiance = waterline_sky(setup, view.camera, shaded.linear, shaded.radiance)
         return dataclasses.replace(shaded, linear=linear, radiance=radiance)
-    if setup.waves is None or setup.surface != "flat" or setup.ms_model != "lightfield":
+    sun = setup.sun_inputs() if setup.light.sun is not None else None
+    if (setup.waves is None and sun is None) or setup.surface != "flat" \
+            or setup.ms_model != "lightfield":
         return shaded
     med = setup.medium([])
     tables, cam = setup.lightfield_tables(), view.camera
-    facets = surface_facets(setup.waves)
+    facets = None if setup.waves is None else surface_facets(setup.waves)
     radiance = shaded.radiance
     if backend == "gpu" and radiance is None:
         r = shaded.renderer
         gpu = _below_pass(r.deferred.device, cam.width, cam.height)
         gpu.set_medium(tables, facets, a=med["a"], b=med["b"], e0=med["e0"],
-                       response_weights=med["response_weights"])
+                       response_weights=med["response_weights"], sun=sun)
         change = gpu.render(cam, r.deferred.gbuffer.textures["surface"]).astype(np.float64)
     else:
         v = cam.ray_directions()
         s_top = -float(cam.position[1]) / np.where(v[..., 1] > 0, v[..., 1], 1.0)
         dist = shaded.gbuffer.distance
         open_up = (v[..., 1] > 0) & (~np.isfinite(dist) | (dist > s_top))
-        bands = window_correction(cam, open_up, tables, facets, a=med["a"], b=med["b"],
-                                  e0=med["e0"])
+        bands = 0.0
+        if facets is not None:
+            bands = window_correction(cam, open_up, tables, facets, a=med["a"], b=med["b"],
+                                      e0=med["e0"])
+        if sun is not None:
+            to_air, e_air = sun_in_air(sun)
+            bands = bands + sun_disc_below(cam, open_up, facets, to_air, e_air, a=med["a"],
+                                           b=med["b"])
         change = radiance_to_rgb(bands, med["response_weights"])
         if radiance is not None:
             radiance = radiance + bands

@@ -25,7 +25,17 @@ surface looking along it (:func:`aquaspec.shading.above_water.water_below_table`
 light field itself stays the flat surface's (the waves change where the
 window is, not, to first order, how much light goes in); the waves'
 heights are left out (the facet is taken where the ray meets the mean
-plane). Not drawn: the sun's disc and glitter seen from below, and the
+plane).
+
+The sun's disc seen through the surface (:func:`sun_through_surface`, with
+a sun, flat sea or waves): where the ray refracted out of the water by the
+facet falls inside the sun's disc in air, the pixel gains ``exp(-c S)
+T_out n^2 E_sun / Omega``, the sun's radiance in air gaining ``n^2`` on the
+way in. The disc is drawn at least three quarters of a pixel wide as the
+pixel's angle maps into the air (:func:`sun_radius_below`), its radiance
+lowered to match, as the glint from above is
+(:func:`aquaspec.shading.above_water.glint_radius`). Not drawn: the
+glitter of facets smaller than the tile resolves seen from below, and the
 scene mirrored in the surface (the mirrored light is the open water's).
 """
 
@@ -34,7 +44,8 @@ from __future__ import annotations
 import numpy as np
 
 from aquaspec.medium.interface import FLAT_NORMAL, N_WATER, fresnel_transmittance
-from aquaspec.shading.above_water import WAVE_T_TOP, sky_radiance_above, water_below_table
+from aquaspec.shading.above_water import (SUN_RADIUS_DEG, WAVE_T_TOP, sky_radiance_above,
+                                          water_below_table)
 
 
 def transmittance_out(cos_i, n_water: float = N_WATER):
@@ -89,4 +100,64 @@ def window_correction(camera, open_up, tables, facets, *, a, b, e0,
     flat = surface_from_below(vv, np.broadcast_to(FLAT_NORMAL, vv.shape), sky, nodes, table,
                               n_water)
     out[mask] = np.exp(-c[None, :] * s[:, None]) * (wavy - flat)
+    return out
+
+
+def sun_radius_below(camera, to_sun_air, n_water: float = N_WATER) -> float:
+    """The angular radius (radians, in air) the sun's disc is drawn with
+    seen from below in ``camera``'s image: the sun's, or three quarters of a
+    pixel magnified into the air, where that is larger (module docstring).
+    A ray's angle in the water maps onto ``n`` times it in the air
+    sideways and ``n cos(theta_w) / cos(theta_a)`` times it towards the
+    horizon; the larger is taken, so the disc always covers a pixel centre."""
+    pixel = 1.0 / max(float(camera.fx), float(camera.fy))
+    cos_a = max(float(np.asarray(to_sun_air, dtype=float)[1]), 0.05)
+    cos_w = np.sqrt(1.0 - (1.0 - cos_a ** 2) / n_water ** 2)
+    magnification = n_water * max(1.0, cos_w / cos_a)
+    return max(float(np.radians(SUN_RADIUS_DEG)), 0.75 * magnification * pixel)
+
+
+def sun_through_surface(v, normals, to_sun_air, sun_irradiance_air, radius_rad: float,
+                        n_water: float = N_WATER) -> np.ndarray:
+    """The sun's disc seen along rays ``v`` (R, 3) going up through facets of
+    unit ``normals`` (R, 3), at the surface (not yet attenuated): ``T_out n^2
+    E_sun / Omega`` where the ray refracted into the air is within
+    ``radius_rad`` of ``to_sun_air``, else 0 (and 0 beyond the critical
+    angle); (R, n) for the sun's normal irradiance in air (n,)."""
+    v = np.asarray(v, dtype=float)
+    n = np.asarray(normals, dtype=float)
+    cos_i = np.sum(v * n, axis=1)
+    n = np.where((cos_i > 0)[:, None], n, FLAT_NORMAL)
+    cos_i = np.where(cos_i > 0, cos_i, v[:, 1])
+    sin2_t = n_water ** 2 * (1.0 - cos_i ** 2)
+    cos_t = np.sqrt(np.clip(1.0 - sin2_t, 0.0, 1.0))
+    t = n_water * v + (cos_t - n_water * cos_i)[:, None] * n
+    cos_r = np.cos(radius_rad)
+    inside = (sin2_t < 1.0) & ((t @ np.asarray(to_sun_air, dtype=float)) >= cos_r)
+    omega = 2.0 * np.pi * (1.0 - cos_r)
+    gain = np.where(inside, transmittance_out(cos_i, n_water) * n_water ** 2 / omega, 0.0)
+    return gain[:, None] * np.asarray(sun_irradiance_air, dtype=float)[None, :]
+
+
+def sun_disc_below(camera, open_up, facets, to_sun_air, sun_irradiance_air, *, a, b,
+                   n_water: float = N_WATER) -> np.ndarray:
+    """The sun's disc through the surface (H, W, n) for ``camera`` under the
+    sea, attenuated by ``exp(-c S)``; zero but where ``open_up``. ``facets``:
+    the wave tile's (:class:`aquaspec.light.wave_facets.SurfaceFacets`) or
+    None for the flat surface."""
+    v = camera.ray_directions()
+    h, w = v.shape[:2]
+    c = np.asarray(a, dtype=float) + np.asarray(b, dtype=float)
+    out = np.zeros((h, w, c.size))
+    mask = np.asarray(open_up, dtype=bool) & (v[..., 1] > 0)
+    if not mask.any():
+        return out
+    vv = v[mask]
+    o = np.asarray(camera.position, dtype=float)
+    s = -o[1] / vv[:, 1]
+    normals = (np.broadcast_to(FLAT_NORMAL, vv.shape) if facets is None
+               else facets.normals(o[0] + s * vv[:, 0], o[2] + s * vv[:, 2]))
+    disc = sun_through_surface(vv, normals, to_sun_air, sun_irradiance_air,
+                               sun_radius_below(camera, to_sun_air, n_water), n_water)
+    out[mask] = np.exp(-c[None, :] * s[:, None]) * disc
     return out

@@ -50,3 +50,46 @@ def test_below_waves_pass_matches_numpy(device, n_bands):
                                             e0=med["e0"]), med["response_weights"])
     assert np.abs(ref).max() > 0
     np.testing.assert_allclose(gpu, ref, rtol=2e-3, atol=2e-4 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("waves", [None, 5.0])
+def test_the_sun_through_the_surface_matches_numpy(device, waves):
+    """The sun's disc seen from below through the flat surface and through
+    the waves' facets, on the GPU against NumPy (away from the disc's rim,
+    where a float32 ray may fall either side)."""
+    from aquaspec.gpu.gbuffer import GBufferTextures
+    from aquaspec.gpu.passes.below_waves import BelowWavesPass
+    from aquaspec.shading.above_water import sun_in_air
+    from aquaspec.shading.below_waves import sun_disc_below
+    light = surface_light("sun-sky", sun_elevation_deg=70.0, sun_azimuth_deg=0.0)
+    setup = SpectralSetup(load_water("IB"), get_sensor("nikon-5100-npl"), light, Bands(6),
+                          surface="flat")
+    med, tables, sun = setup.medium([]), setup.lightfield_tables(), setup.sun_inputs()
+    facets = None if waves is None else surface_facets(Waves(waves, grid=64))
+    p = np.array([0.0, -2.0, 0.0])
+    cam = Camera.look_at(p, p + sun.to_sun, width=96, height=64, fov_y_deg=30.0)
+    h, w = cam.height, cam.width
+    gb = GBuffer(cam, np.full((h, w), np.inf, np.float32),
+                 np.tile(np.float32([0, 0, 1]), (h, w, 1)), np.zeros((h, w), np.uint32),
+                 np.zeros((h, w, 3), np.float32), materials=[Reflectance.constant(0.3)])
+    tex = GBufferTextures(device, w, h)
+    tex.upload(gb)
+    gpu_pass = BelowWavesPass(device, w, h)
+    gpu_pass.set_medium(tables, facets, a=med["a"], b=med["b"], e0=med["e0"],
+                        response_weights=med["response_weights"], sun=sun)
+    gpu = gpu_pass.render(cam, tex.textures["surface"])
+    to_air, e_air = sun_in_air(sun)
+    open_up = np.ones((h, w), bool)
+    bands = sun_disc_below(cam, open_up, facets, to_air, e_air, a=med["a"], b=med["b"])
+    if facets is not None:
+        bands = bands + window_correction(cam, open_up, tables, facets, a=med["a"],
+                                          b=med["b"], e0=med["e0"])
+    ref = radiance_to_rgb(bands, med["response_weights"])
+    lit = sun_disc_below(cam, open_up, facets, to_air, e_air, a=med["a"], b=med["b"])[..., 0] > 0
+    assert lit.any()
+    rim = np.zeros_like(lit)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            rim |= np.roll(np.roll(lit, dy, 0), dx, 1) != lit
+    keep = ~rim
+    np.testing.assert_allclose(gpu[keep], ref[keep], rtol=3e-3, atol=2e-4 * np.abs(ref).max())

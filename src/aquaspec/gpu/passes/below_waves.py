@@ -1,6 +1,8 @@
-"""The wind sea seen from below on the GPU: Snell's window broken by the waves.
+"""The surface seen from below on the GPU: Snell's window broken by the waves,
+and the sun's disc through it.
 
-Twin of :func:`aquaspec.shading.below_waves.window_correction` (WGSL:
+Twin of :func:`aquaspec.shading.below_waves.window_correction` and
+:func:`aquaspec.shading.below_waves.sun_disc_below` (WGSL:
 ``below_waves.wgsl`` beside this module; ``tests/gpu/passes/test_below_waves_pass.py``
 holds it against the NumPy reference): per pixel looking up through open
 water (read from the G-buffer's surface texture), the camera-RGB change the
@@ -22,11 +24,15 @@ from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.medium.interface import N_WATER
-from aquaspec.shading.above_water import WAVE_T_TOP, sky_radiance_above, water_below_table
+from aquaspec.shading.above_water import (WAVE_T_TOP, sky_radiance_above, sun_in_air,
+                                          water_below_table)
+from aquaspec.shading.below_waves import sun_radius_below
 
 PARAMS_LAYOUT = UniformLayout("BelowWavesParams", CAMERA_FIELDS + [
     ("n_water", "f32"), ("t_top", "f32"), ("tile_m", "f32"), ("tile_grid", "u32"),
     ("width", "u32"), ("height", "u32"), ("nodes", "u32"), ("n_bands", "u32"),
+    ("sun_air", "vec3<f32>"), ("sun_cos_radius", "f32"),
+    ("omega", "f32"), ("sun_on", "u32"), ("waves_on", "u32"), ("pad", "u32"),
 ])
 WORKGROUP = (8, 8)
 
@@ -48,9 +54,11 @@ class BelowWavesPass:
         self._buffers = {}
         self._medium = None
 
-    def set_medium(self, tables, facets, *, a, b, e0, response_weights) -> None:
+    def set_medium(self, tables, facets, *, a, b, e0, response_weights, sun=None) -> None:
         """Upload the water's table, the sky and the bands' constants (camera
-        RGB weights) and the tile's slopes."""
+        RGB weights), the tile's slopes (``facets`` None: the flat surface)
+        and the sun (``sun``: :class:`aquaspec.transport.sun_scattering.SunInputs`
+        or None)."""
         nodes, table = water_below_table(tables, a=a, b=b, e0=e0, t_top=WAVE_T_TOP)
         n = table.shape[1]
         sky = sky_radiance_above(tables, e0)
@@ -58,24 +66,35 @@ class BelowWavesPass:
         bands[:, 0, 0] = np.asarray(a, dtype=float) + np.asarray(b, dtype=float)
         bands[:, 0, 1] = sky
         bands[:, 1, :3] = np.asarray(response_weights, dtype=float)
+        to_air = np.zeros(3)
+        if sun is not None:
+            to_air, e_air = sun_in_air(sun)
+            bands[:, 0, 2] = e_air
+        slopes = (np.zeros((2, 2), np.float32) if facets is None
+                  else np.ascontiguousarray(facets.slopes, dtype=np.float32).reshape(-1, 2))
         data = {"bands": bands.reshape(-1, 4), "water": table.astype(np.float32).ravel(),
-                "slopes": np.ascontiguousarray(facets.slopes, dtype=np.float32).reshape(-1, 2)}
+                "slopes": slopes}
         for name, arr in data.items():
             buf = self._buffers.get(name)
             if buf is None or buf.size != arr.nbytes:
                 self._buffers[name] = create_storage_buffer(self.device, arr, label=name)
             else:
                 upload_buffer(self.device, buf, arr)
-        self._medium = {"n_water": N_WATER, "t_top": WAVE_T_TOP, "tile_m": float(facets.tile_m),
-                        "tile_grid": int(facets.slopes.shape[0]), "nodes": int(nodes.size),
-                        "n_bands": int(n)}
+        self._medium = {"n_water": N_WATER, "t_top": WAVE_T_TOP,
+                        "tile_m": 1.0 if facets is None else float(facets.tile_m),
+                        "tile_grid": 2 if facets is None else int(facets.slopes.shape[0]),
+                        "nodes": int(nodes.size), "n_bands": int(n), "sun_air": to_air,
+                        "sun_on": int(sun is not None), "waves_on": int(facets is not None),
+                        "pad": 0}
 
     def encode(self, encoder, camera, surface_texture) -> None:
         """Record the pass for ``camera`` reading the G-buffer's ``surface_texture``."""
         if self._medium is None:
             raise RuntimeError("BelowWavesPass.set_medium first")
+        radius = sun_radius_below(camera, self._medium["sun_air"])
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
-            **camera_fields(camera), **self._medium, width=self.width, height=self.height))
+            **camera_fields(camera), **self._medium, width=self.width, height=self.height,
+            sun_cos_radius=float(np.cos(radius)), omega=2.0 * np.pi * (1.0 - np.cos(radius))))
         group = self.device.create_bind_group(layout=self._layout, entries=bind_group_entries(
             {0: self._params, 1: surface_texture, 2: self._buffers["bands"],
              3: self._buffers["water"], 4: self._buffers["slopes"], 5: self.rgb_buffer}))

@@ -6,7 +6,11 @@
 //   sum_i w_i exp(-c_i S) (L_i(v, n) - L_i(v, up)),
 //   L_i(v, n) = T_out(v.n) n^2 sky_i + (1 - T_out(v.n)) water_i(r_y),
 // r the ray mirrored about the facet, water_i the table of the water's light
-// just below the surface over r_y in [-1, -t_top] (above_water.water_below_table).
+// just below the surface over r_y in [-1, -t_top] (above_water.water_below_table)
+// (waves_on = 1; else the facet is up and that change is zero), and with a
+// sun (sun_on = 1) its disc seen through the facet: where the ray refracted
+// into the air is within the disc, sum_i w_i exp(-c_i S) T_out n^2 E_i / omega
+// (below_waves.sun_through_surface).
 
 #include "fresnel.wgsl"
 
@@ -14,7 +18,7 @@
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
-// Per band two vec4: (c, sky, 0, 0), (w_r, w_g, w_b, 0).
+// Per band two vec4: (c, sky, E_sun in air, 0), (w_r, w_g, w_b, 0).
 @group(0) @binding(2) var<storage, read> bands: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> water: array<f32>;
 @group(0) @binding(4) var<storage, read> slopes: array<vec2<f32>>;
@@ -53,27 +57,43 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (v.y > 0.0) {
         let s = -prm.position.y / v.y;
         if (s_hit < 0.0 || s_hit > s) {
-            var n = wave_facet(prm.position.x + s * v.x, prm.position.z + s * v.z);
+            var n = vec3<f32>(0.0, 1.0, 0.0);
+            if (prm.waves_on == 1u) {
+                n = wave_facet(prm.position.x + s * v.x, prm.position.z + s * v.z);
+            }
             var cos_i = dot(v, n);
             if (cos_i <= 0.0) {
                 n = vec3<f32>(0.0, 1.0, 0.0);
                 cos_i = v.y;
             }
             let tw = transmittance_out(cos_i);
-            let tf = transmittance_out(v.y);
-            let aw = table_at(v.y - 2.0 * cos_i * n.y);
-            let af = table_at(-v.y);
-            let kw = u32(aw.x);
-            let kf = u32(af.x);
             let nn = prm.n_water * prm.n_water;
-            for (var i = 0u; i < prm.n_bands; i = i + 1u) {
-                let cs = bands[2u * i];
-                let w = bands[2u * i + 1u].xyz;
-                let ww = mix(water[kw * prm.n_bands + i], water[(kw + 1u) * prm.n_bands + i], aw.y);
-                let wf = mix(water[kf * prm.n_bands + i], water[(kf + 1u) * prm.n_bands + i], af.y);
-                let wavy = tw * nn * cs.y + (1.0 - tw) * ww;
-                let flat = tf * nn * cs.y + (1.0 - tf) * wf;
-                rgb = rgb + w * (exp(-cs.x * s) * (wavy - flat));
+            if (prm.waves_on == 1u) {
+                let tf = transmittance_out(v.y);
+                let aw = table_at(v.y - 2.0 * cos_i * n.y);
+                let af = table_at(-v.y);
+                let kw = u32(aw.x);
+                let kf = u32(af.x);
+                for (var i = 0u; i < prm.n_bands; i = i + 1u) {
+                    let cs = bands[2u * i];
+                    let w = bands[2u * i + 1u].xyz;
+                    let ww = mix(water[kw * prm.n_bands + i], water[(kw + 1u) * prm.n_bands + i], aw.y);
+                    let wf = mix(water[kf * prm.n_bands + i], water[(kf + 1u) * prm.n_bands + i], af.y);
+                    let wavy = tw * nn * cs.y + (1.0 - tw) * ww;
+                    let flat = tf * nn * cs.y + (1.0 - tf) * wf;
+                    rgb = rgb + w * (exp(-cs.x * s) * (wavy - flat));
+                }
+            }
+            if (prm.sun_on == 1u) {
+                let sin2_t = nn * (1.0 - cos_i * cos_i);
+                let t = prm.n_water * v + (sqrt(max(1.0 - sin2_t, 0.0)) - prm.n_water * cos_i) * n;
+                if (sin2_t < 1.0 && dot(t, prm.sun_air) >= prm.sun_cos_radius) {
+                    let gain = tw * nn / prm.omega;
+                    for (var i = 0u; i < prm.n_bands; i = i + 1u) {
+                        let cs = bands[2u * i];
+                        rgb = rgb + bands[2u * i + 1u].xyz * (exp(-cs.x * s) * gain * cs.z);
+                    }
+                }
             }
         }
     }
