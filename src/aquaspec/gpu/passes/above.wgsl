@@ -8,11 +8,11 @@
 // component, and water(t_y) the light field's radiance just below the
 // surface looking along it, in camera RGB, interpolated linearly from a
 // table over t_y in [-1, -cos theta_c] (above_water.water_below_table).
-// With a sun (sun_on = 1) the water's light gains the beam scattered once
+// With a sun (SUN_ON) the water's light gains the beam scattered once
 // along t, read bilinearly from a table over (t_y, cos theta = to_sun . t)
 // (above_water.sun_scattering_table), and the mirrored ray inside the sun's
 // disc (cos >= sun_cos_radius about sun_air) adds R(mu_i) glint_rgb.
-// With waves (waves_on = 1) every ray is mirrored and refracted by the wave
+// With waves (WAVES_ON) every ray is mirrored and refracted by the wave
 // tile's facet where it meets the mean plane (facet_normal), and the sun's
 // glint is Cox & Munk's glitter over the unresolved slopes (glitter; s2 > 0).
 // edge_cos is the table's top: t_y runs over [-1, -edge_cos].
@@ -20,6 +20,11 @@
 #include "fresnel.wgsl"
 
 {{ params_struct }}
+
+// Which terms this pipeline draws, fixed when it is compiled (a branch not
+// taken still cost lavapipe a third of the frame when it was a uniform's).
+const SUN_ON: bool = {{ sun_on }};
+const WAVES_ON: bool = {{ waves_on }};
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 @group(0) @binding(1) var<storage, read> water: array<vec4<f32>>;
@@ -51,7 +56,7 @@ fn sun_scattering(t_y: f32, cos_s: f32) -> vec3<f32> {
 // up for a flat sea or a facet (nearly) facing away from the ray.
 fn facet_normal(v: vec3<f32>) -> vec3<f32> {
     let up = vec3<f32>(0.0, 1.0, 0.0);
-    if (prm.waves_on == 0u) {
+    if (!WAVES_ON) {
         return up;
     }
     let s = prm.position.y / -v.y;
@@ -100,12 +105,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let x = clamp((t_y + 1.0) / (1.0 - prm.edge_cos) * f32(last), 0.0, f32(last));
         let k = min(u32(x), last - 1u);
         var w = mix(water[k], water[k + 1u], x - f32(k)).xyz;
-        if (prm.sun_on == 1u) {
+        if (SUN_ON) {
             w = w + sun_scattering(t_y, dot(prm.to_sun, vec3<f32>(tv.x, t_y, tv.z)));
         }
         rgb = (1.0 - t) * prm.sky_rgb + t / (n * n) * w;
-        if (prm.sun_on == 1u) {
-            if (prm.waves_on == 1u && prm.s2 > 0.0) {
+        if (SUN_ON) {
+            if (WAVES_ON && prm.s2 > 0.0) {
                 rgb = rgb + glitter(v, nf) * prm.sun_rgb;
             } else if (dot(v + 2.0 * cos_i * nf, prm.sun_air) >= prm.sun_cos_radius) {
                 rgb = rgb + (1.0 - t) * prm.glint_rgb;
