@@ -76,23 +76,34 @@ def surface_from_below(v, normals, sky, water_nodes, water_table, n_water: float
         + (1.0 - t_out)[:, None] * water
 
 
+def _rays_to_surface(camera, open_up, facets, a, b):
+    """What both terms need: ``c`` (n,), a zero image (H, W, n), the mask of
+    ``open_up`` rays going up, those rays (R, 3) (None where there are
+    none), their distance ``S`` to the mean plane and the facets' normals
+    there (up for ``facets`` None)."""
+    v = camera.ray_directions()
+    c = np.asarray(a, dtype=float) + np.asarray(b, dtype=float)
+    out = np.zeros(v.shape[:2] + (c.size,))
+    mask = np.asarray(open_up, dtype=bool) & (v[..., 1] > 0)
+    if not mask.any():
+        return c, out, mask, None, None, None
+    vv = v[mask]
+    o = np.asarray(camera.position, dtype=float)
+    s = -o[1] / vv[:, 1]
+    normals = (np.broadcast_to(FLAT_NORMAL, vv.shape) if facets is None
+               else facets.normals(o[0] + s * vv[:, 0], o[2] + s * vv[:, 2]))
+    return c, out, mask, vv, s, normals
+
+
 def window_correction(camera, open_up, tables, facets, *, a, b, e0,
                       n_water: float = N_WATER) -> np.ndarray:
     """``Delta`` (H, W, n) for ``camera`` under the sea (module docstring):
     zero but where ``open_up`` (H, W) (rays going up that reach the surface,
     no surface before it). ``tables``: the flat surface's light field;
     ``facets``: :class:`aquaspec.light.wave_facets.SurfaceFacets`."""
-    v = camera.ray_directions()
-    h, w = v.shape[:2]
-    c = np.asarray(a, dtype=float) + np.asarray(b, dtype=float)
-    out = np.zeros((h, w, c.size))
-    mask = np.asarray(open_up, dtype=bool) & (v[..., 1] > 0)
-    if not mask.any():
+    c, out, mask, vv, s, normals = _rays_to_surface(camera, open_up, facets, a, b)
+    if vv is None:
         return out
-    vv = v[mask]
-    o = np.asarray(camera.position, dtype=float)
-    s = -o[1] / vv[:, 1]
-    normals = facets.normals(o[0] + s * vv[:, 0], o[2] + s * vv[:, 2])
     sky = sky_radiance_above(tables, e0)
     nodes, table = water_below_table(tables, a=a, b=b, e0=e0, n_water=n_water,
                                      t_top=WAVE_T_TOP)
@@ -145,18 +156,9 @@ def sun_disc_below(camera, open_up, facets, to_sun_air, sun_irradiance_air, *, a
     sea, attenuated by ``exp(-c S)``; zero but where ``open_up``. ``facets``:
     the wave tile's (:class:`aquaspec.light.wave_facets.SurfaceFacets`) or
     None for the flat surface."""
-    v = camera.ray_directions()
-    h, w = v.shape[:2]
-    c = np.asarray(a, dtype=float) + np.asarray(b, dtype=float)
-    out = np.zeros((h, w, c.size))
-    mask = np.asarray(open_up, dtype=bool) & (v[..., 1] > 0)
-    if not mask.any():
+    c, out, mask, vv, s, normals = _rays_to_surface(camera, open_up, facets, a, b)
+    if vv is None:
         return out
-    vv = v[mask]
-    o = np.asarray(camera.position, dtype=float)
-    s = -o[1] / vv[:, 1]
-    normals = (np.broadcast_to(FLAT_NORMAL, vv.shape) if facets is None
-               else facets.normals(o[0] + s * vv[:, 0], o[2] + s * vv[:, 2]))
     disc = sun_through_surface(vv, normals, to_sun_air, sun_irradiance_air,
                                sun_radius_below(camera, to_sun_air, n_water), n_water)
     out[mask] = np.exp(-c[None, :] * s[:, None]) * disc
