@@ -14,7 +14,8 @@ from aquaspec.medium.water import load_water
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera
 from aquaspec.shading.above_water import WAVE_T_TOP, sky_radiance_above, water_below_table
-from aquaspec.shading.below_waves import surface_from_below, transmittance_out, window_correction
+from aquaspec.medium.interface import fresnel_transmittance_out as transmittance_out
+from aquaspec.shading.below_waves import surface_from_below, window_correction
 
 BANDS = Bands(4)
 

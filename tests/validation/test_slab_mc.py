@@ -9,7 +9,8 @@ import pytest
 from aquaspec.medium.interface import N_WATER, fresnel_transmittance
 from aquaspec.medium.phase import get_phase
 from aquaspec.transport.sun_scattering import single_scattering_open
-from aquaspec.validation.slab_mc import PhaseSampler, _transmittance_out, sea_radiance_mc
+from aquaspec.medium.interface import fresnel_transmittance_out
+from aquaspec.validation.slab_mc import PhaseSampler, sea_radiance_mc
 
 DOWN = np.array([[0.0, -1.0, 0.0]])
 ISO = get_phase("isotropic")
@@ -37,7 +38,7 @@ def test_clear_water_over_a_seabed_is_the_closed_form():
     to_air = _sun()
     f0, mu0, _ = _beam_below(to_air, e_air)
     mu = np.linspace(0.0, 1.0, 200001)
-    r_i = 1.0 - np.trapezoid(2.0 * mu * _transmittance_out(mu, N_WATER), mu)
+    r_i = 1.0 - np.trapezoid(2.0 * mu * fresnel_transmittance_out(mu, N_WATER), mu)
     expect_bed = rho / np.pi * mu0 * f0 / (1.0 - rho * r_i)
     r = sea_radiance_mc(DOWN, a=[1e-9], b=[0.0], phase=ISO, sky_radiance=[0.0], sun_to_air=to_air,
                         sun_beam_air=[e_air], seabed_depth_m=2.0, seabed_albedo=rho,

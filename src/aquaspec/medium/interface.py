@@ -53,6 +53,17 @@ def fresnel_transmittance(cos_i, n: float = N_WATER):
     return 1.0 - 0.5 * (rs + rp)
 
 
+def fresnel_transmittance_out(cos_i, n_water: float = N_WATER):
+    """Unpolarised Fresnel transmittance from water into air at incidence
+    cosine ``cos_i`` on the water side: by reciprocity the air side's
+    :func:`fresnel_transmittance` at the refracted angle; 0 beyond the
+    critical angle (total internal reflection)."""
+    cos_i = np.clip(np.asarray(cos_i, dtype=float), 0.0, 1.0)
+    sin2_air = n_water * n_water * (1.0 - cos_i * cos_i)
+    cos_air = np.sqrt(np.clip(1.0 - sin2_air, 0.0, 1.0))
+    return np.where(sin2_air < 1.0, fresnel_transmittance(cos_air, n_water), 0.0)
+
+
 def snell_window_cos(n_water: float = N_WATER) -> float:
     """Cosine of the critical angle: up-rays with ``v_y`` above it see the sky."""
     return float(np.sqrt(1.0 - 1.0 / n_water ** 2))

@@ -18,7 +18,6 @@ seabed, the sky's radiance distribution (it is uniform) and lamps.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 
 import numpy as np
@@ -120,26 +119,13 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
     if where == "GPU":
         gpu = _above_pass(cam.width, cam.height)
         gpu.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
-                       response_weights=med["response_weights"], sun=_sun_inputs(setup),
-                       facets=facets)
+                       response_weights=med["response_weights"],
+                       sun=setup.sun_inputs(caustics=False), facets=facets)
         return gpu.render(cam).astype(np.float64), None
     radiance = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
-                              sun=_sun_inputs(setup), facets=facets)
+                              sun=setup.sun_inputs(caustics=False), facets=facets)
     linear = radiance_to_rgb(radiance, med["response_weights"])
     return linear, (radiance if return_radiance else None)
-
-
-def _sun_inputs(setup):
-    """The setup's sun inputs without the waves' caustic map (not drawn from
-    above; building it takes about a minute): the same setup with a flat
-    surface, handed the tables and E0 already solved (they do not depend on
-    the waves)."""
-    if setup.light.sun is None or setup.waves is None:
-        return setup.sun_inputs()
-    flat = dataclasses.replace(setup, waves=None)
-    flat.cache.lightfield_tables = setup.lightfield_tables()
-    flat.cache.e0 = setup.cache.e0
-    return flat.sun_inputs()
 
 
 @functools.lru_cache(maxsize=2)

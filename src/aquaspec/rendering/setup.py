@@ -12,6 +12,7 @@ seconds, so a setup computes them once and keeps them in its
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -236,7 +237,7 @@ class SpectralSetup:
             return np.asarray(self.cache.e0, dtype=float)
         return self.light.on_bands(self.bands)
 
-    def sun_inputs(self) -> SunInputs | None:
+    def sun_inputs(self, caustics: bool = True) -> SunInputs | None:
         """What the sun's terms need per band (:class:`aquaspec.transport.sun_scattering.SunInputs`),
         or None without a sun. Computed on the first call and kept in :attr:`cache`.
 
@@ -244,35 +245,46 @@ class SpectralSetup:
         field complements that beam) or ``c`` for the seeds' model; on the way
         to the camera the sun's light has the extinction the surfaces' light
         has (``c - f b`` with the light field's forward cone, else ``c``).
+        ``caustics=False``: without the waves' caustic map (None), which is
+        then not built if it was not yet (about a minute; the view from above
+        does not draw it).
         """
-        sun = self.light.sun
-        if sun is None:
+        if self.light.sun is None:
             return None
+        if self.cache.sun_inputs is None and (caustics or self.waves is None):
+            self.cache.sun_inputs = self._sun_inputs(with_map=True)
         if self.cache.sun_inputs is None:
-            bw = self.water.on_bands(self.bands)
-            a, b = np.asarray(bw.a, dtype=float), np.asarray(bw.b, dtype=float)
-            c = a + b
-            tables = self.lightfield_tables()
-            if tables is None:
-                c_sun = c_view = c
-            else:
-                c_sun = np.asarray(tables.beam_extinction, dtype=float)
-                c_view = tables.ray_extinction(a, b)
-            caustics = None
-            if self.waves is not None:
-                # The pattern carried on into the light scattered through small
-                # angles (aquaspec.light.caustic_scatter): one transfer for all bands.
-                scatter = ScatterTransfer.for_beam(
-                    b=b, c=c, c_sun=c_sun, wavelength_nm=self.bands.centers_nm,
-                    to_sun=sun.to_sun, phase=self.phase, phase_params=self.phase_params)
-                caustics = cached_caustic_map(self.waves, sun.elevation_deg, sun.azimuth_deg,
-                                              n_water=sun.n_water, scatter=scatter)
-            self.cache.sun_inputs = SunInputs(
-                beam0=sun.beam_on(self.bands), c_sun=c_sun, c_view=c_view, b=b,
-                log_phase=log_phase_table(self.phase, b=b, wavelength_nm=self.bands.centers_nm,
-                                          **dict(self.phase_params)),
-                to_sun=sun.to_sun, caustics=caustics)
-        return self.cache.sun_inputs
+            return self._sun_inputs(with_map=False)
+        if caustics:
+            return self.cache.sun_inputs
+        return dataclasses.replace(self.cache.sun_inputs, caustics=None)
+
+    def _sun_inputs(self, with_map: bool) -> SunInputs:
+        """:meth:`sun_inputs` computed, the caustic map only ``with_map``."""
+        sun = self.light.sun
+        bw = self.water.on_bands(self.bands)
+        a, b = np.asarray(bw.a, dtype=float), np.asarray(bw.b, dtype=float)
+        c = a + b
+        tables = self.lightfield_tables()
+        if tables is None:
+            c_sun = c_view = c
+        else:
+            c_sun = np.asarray(tables.beam_extinction, dtype=float)
+            c_view = tables.ray_extinction(a, b)
+        caustics = None
+        if self.waves is not None and with_map:
+            # The pattern carried on into the light scattered through small
+            # angles (aquaspec.light.caustic_scatter): one transfer for all bands.
+            scatter = ScatterTransfer.for_beam(
+                b=b, c=c, c_sun=c_sun, wavelength_nm=self.bands.centers_nm,
+                to_sun=sun.to_sun, phase=self.phase, phase_params=self.phase_params)
+            caustics = cached_caustic_map(self.waves, sun.elevation_deg, sun.azimuth_deg,
+                                          n_water=sun.n_water, scatter=scatter)
+        return SunInputs(
+            beam0=sun.beam_on(self.bands), c_sun=c_sun, c_view=c_view, b=b,
+            log_phase=log_phase_table(self.phase, b=b, wavelength_nm=self.bands.centers_nm,
+                                      **dict(self.phase_params)),
+            to_sun=sun.to_sun, caustics=caustics)
 
     def lamp_inputs(self, camera) -> list[LampInputs]:
         """The lamps placed for ``camera`` with what their terms need per band

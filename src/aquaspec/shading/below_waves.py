@@ -43,19 +43,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from aquaspec.medium.interface import FLAT_NORMAL, N_WATER, fresnel_transmittance
+from aquaspec.medium.interface import FLAT_NORMAL, N_WATER, fresnel_transmittance_out
 from aquaspec.shading.above_water import (SUN_RADIUS_DEG, WAVE_T_TOP, sky_radiance_above,
                                           water_below_table)
-
-
-def transmittance_out(cos_i, n_water: float = N_WATER):
-    """Fresnel transmittance from water into air at incidence cosine ``cos_i``
-    (on the water side), 0 beyond the critical angle (reciprocity: the air
-    side's at its own angle)."""
-    cos_i = np.clip(np.asarray(cos_i, dtype=float), 0.0, 1.0)
-    sin2_air = n_water * n_water * (1.0 - cos_i * cos_i)
-    cos_air = np.sqrt(np.clip(1.0 - sin2_air, 0.0, 1.0))
-    return np.where(sin2_air < 1.0, fresnel_transmittance(cos_air, n_water), 0.0)
 
 
 def surface_from_below(v, normals, sky, water_nodes, water_table, n_water: float = N_WATER):
@@ -68,7 +58,7 @@ def surface_from_below(v, normals, sky, water_nodes, water_table, n_water: float
     facing = cos_i > 0
     n = np.where(facing[:, None], n, FLAT_NORMAL)
     cos_i = np.where(facing, cos_i, v[:, 1])
-    t_out = transmittance_out(cos_i, n_water)
+    t_out = fresnel_transmittance_out(cos_i, n_water)
     r_y = np.minimum(v[:, 1] - 2.0 * cos_i * n[:, 1], -WAVE_T_TOP)
     water = np.stack([np.interp(r_y, water_nodes, water_table[:, i])
                       for i in range(water_table.shape[1])], axis=-1)
@@ -146,7 +136,7 @@ def sun_through_surface(v, normals, to_sun_air, sun_irradiance_air, radius_rad: 
     cos_r = np.cos(radius_rad)
     inside = (sin2_t < 1.0) & ((t @ np.asarray(to_sun_air, dtype=float)) >= cos_r)
     omega = 2.0 * np.pi * (1.0 - cos_r)
-    gain = np.where(inside, transmittance_out(cos_i, n_water) * n_water ** 2 / omega, 0.0)
+    gain = np.where(inside, fresnel_transmittance_out(cos_i, n_water) * n_water ** 2 / omega, 0.0)
     return gain[:, None] * np.asarray(sun_irradiance_air, dtype=float)[None, :]
 
 

@@ -46,7 +46,8 @@ from __future__ import annotations
 import numpy as np
 
 from aquaspec.errors import AquaspecError
-from aquaspec.medium.interface import N_WATER, fresnel_transmittance
+from aquaspec.medium.interface import (FLAT_NORMAL, N_WATER, fresnel_transmittance,
+                                       fresnel_transmittance_out, refract)
 
 #: Weight below which a path plays Russian roulette, and its survival chance.
 ROULETTE_WEIGHT, ROULETTE_SURVIVAL = 0.02, 0.25
@@ -128,14 +129,6 @@ def _turn(d, mu, rng):
             + (sin * np.sin(phi))[:, None] * w)
 
 
-def _transmittance_out(mu, n_water):
-    """Fresnel transmittance from water into air for a way up at cosine ``mu``
-    (0 beyond the critical angle), by reciprocity the air side's at its own angle."""
-    sin2_air = n_water * n_water * (1.0 - mu * mu)
-    cos_air = np.sqrt(np.clip(1.0 - sin2_air, 0.0, 1.0))
-    return np.where(sin2_air < 1.0, fresnel_transmittance(cos_air, n_water), 0.0)
-
-
 def water_radiance(t, *, c, b, sampler: PhaseSampler, sky_radiance: float,
                    sun_dir=None, sun_beam: float = 0.0, seabed_depth_m=None,
                    seabed_albedo: float = 0.0, n_water: float = N_WATER, rng) -> np.ndarray:
@@ -168,7 +161,7 @@ def water_radiance(t, *, c, b, sampler: PhaseSampler, sky_radiance: float,
         water = ~top & ~hit_bed
         # Surface from below: the sky through it, then mirrored.
         if np.any(top):
-            t_out = _transmittance_out(dy[top], n_water)
+            t_out = fresnel_transmittance_out(dy[top], n_water)
             out[alive[top]] += ww[top] * t_out * n_water * n_water * sky_radiance
             ww[top] *= 1.0 - t_out
             zz[top] = 0.0
@@ -230,11 +223,7 @@ def sea_radiance_mc(view, *, a, b, phase, sky_radiance, sun_to_air=None, sun_bea
         cos_z = float(to_air[1])
         if not 0.0 < cos_z <= 1.0:
             raise AquaspecError(f"the sun must be above the horizon (to_sun y = {cos_z:g})")
-        sin_w = np.sqrt(1.0 - cos_z * cos_z) / n_water
-        horiz = to_air * np.array([1.0, 0.0, 1.0])
-        norm = np.linalg.norm(horiz)
-        to_w = (horiz / norm * sin_w if norm > 0 else np.zeros(3)) \
-            + np.array([0.0, np.sqrt(1.0 - sin_w * sin_w), 0.0])
+        to_w = -refract(-to_air, FLAT_NORMAL, n_water)[0]
         sun_dir = -to_w
         beam = (np.asarray(sun_beam_air, dtype=float) * cos_z * fresnel_transmittance(cos_z, n_water)
                 / to_w[1])
@@ -242,9 +231,7 @@ def sea_radiance_mc(view, *, a, b, phase, sky_radiance, sun_to_air=None, sun_bea
     pick = view[rng.integers(0, view.shape[0], paths)]
     mu_i = -pick[:, 1]
     r = 1.0 - fresnel_transmittance(mu_i, n_water)
-    eta = 1.0 / n_water
-    cos_t = np.sqrt(1.0 - eta * eta * (1.0 - mu_i * mu_i))
-    t = eta * pick + (eta * mu_i - cos_t)[:, None] * np.array([0.0, 1.0, 0.0])
+    t, _ = refract(pick, FLAT_NORMAL, n_water)
     mean, se, refl = (np.zeros(a.size) for _ in range(3))
     for i in range(a.size):
         lw = water_radiance(t, c=a[i] + b[i], b=b[i], sampler=sampler,

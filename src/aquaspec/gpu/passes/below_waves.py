@@ -59,8 +59,12 @@ class BelowWavesPass:
         RGB weights), the tile's slopes (``facets`` None: the flat surface)
         and the sun (``sun``: :class:`aquaspec.transport.sun_scattering.SunInputs`
         or None)."""
-        nodes, table = water_below_table(tables, a=a, b=b, e0=e0, t_top=WAVE_T_TOP)
-        n = table.shape[1]
+        n = np.asarray(a).size
+        if facets is None:
+            # The flat surface: only the sun's disc; the water's table is not read.
+            nodes, table = np.zeros(2), np.zeros((2, n))
+        else:
+            nodes, table = water_below_table(tables, a=a, b=b, e0=e0, t_top=WAVE_T_TOP)
         sky = sky_radiance_above(tables, e0)
         bands = np.zeros((n, 2, 4), dtype=np.float32)
         bands[:, 0, 0] = np.asarray(a, dtype=float) + np.asarray(b, dtype=float)

@@ -26,16 +26,6 @@
 
 #include "wave_facets.wgsl"
 
-// Fresnel out of the water at incidence cosine c (0 beyond the critical angle).
-fn transmittance_out(c: f32) -> f32 {
-    let n = prm.n_water;
-    let sin2_air = n * n * (1.0 - c * c);
-    if (sin2_air >= 1.0) {
-        return 0.0;
-    }
-    return fresnel_transmittance(sqrt(max(1.0 - sin2_air, 0.0)), n);
-}
-
 // Where r_y falls in the water table: (node, fraction).
 fn table_at(r_y: f32) -> vec2<f32> {
     let last = f32(prm.nodes - 1u);
@@ -66,10 +56,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 n = vec3<f32>(0.0, 1.0, 0.0);
                 cos_i = v.y;
             }
-            let tw = transmittance_out(cos_i);
+            let tw = fresnel_transmittance_out(cos_i, prm.n_water);
             let nn = prm.n_water * prm.n_water;
             if (prm.waves_on == 1u) {
-                let tf = transmittance_out(v.y);
+                let tf = fresnel_transmittance_out(v.y, prm.n_water);
                 let aw = table_at(v.y - 2.0 * cos_i * n.y);
                 let af = table_at(-v.y);
                 let kw = u32(aw.x);
