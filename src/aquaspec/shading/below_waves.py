@@ -34,9 +34,22 @@ T_out n^2 E_sun / Omega``, the sun's radiance in air gaining ``n^2`` on the
 way in. The disc is drawn at least three quarters of a pixel wide as the
 pixel's angle maps into the air (:func:`sun_radius_below`), its radiance
 lowered to match, as the glint from above is
-(:func:`aquaspec.shading.above_water.glint_radius`). Not drawn: the
-glitter of facets smaller than the tile resolves seen from below, and the
-scene mirrored in the surface (the mirrored light is the open water's).
+(:func:`aquaspec.shading.above_water.glint_radius`).
+
+Under a wind sea whose tile leaves slopes unresolved (``facets.s2 > 0``),
+the disc becomes the sun's *transmitted glitter* (:func:`glitter_below`),
+the refraction analogue of Cox & Munk's: the many small facets a pixel
+sees, tilted about the tile's facet with the isotropic Gaussian slope law,
+refract the sun's beam into the view ray where their normal is ``h`` along
+``n v - t`` (``t`` towards the sun in air), and (Walter et al. 2007's
+microfacet transmission with ``D(h) = p(zeta) / cos^4 beta``, no shadowing)
+
+    L_g = E_sun T_out(v.h) n^2 (t.h)(v.h) p(zeta) / (mu_v |n v - t|^2 cos^4 beta)
+
+with ``mu_v`` the ray's cosine to the tile's facet and ``beta`` ``h``'s tilt
+from it (docs/model.md derives it; its integral over the view directions is
+the transmitted beam's irradiance, tested). The scene mirrored in the
+surface is :mod:`aquaspec.shading.below_mirror`'s.
 """
 
 from __future__ import annotations
@@ -140,16 +153,62 @@ def sun_through_surface(v, normals, to_sun_air, sun_irradiance_air, radius_rad: 
     return gain[:, None] * np.asarray(sun_irradiance_air, dtype=float)[None, :]
 
 
+def glitter_below(v, normals, to_sun_air, sun_irradiance_air, s2: float,
+                  n_water: float = N_WATER) -> np.ndarray:
+    """The sun's transmitted glitter (module docstring) along rays ``v`` (R,
+    3) going up, meeting the tile's facets of unit ``normals`` (R, 3), at the
+    surface (not yet attenuated): (R, n) for the sun's normal irradiance
+    ``sun_irradiance_air`` (n,) in air towards ``to_sun_air``. Zero where the
+    refracting facet would face away from the ray, the sun or the tile's
+    facet (then no small facet refracts the sun into the ray); a tile facet
+    facing away from the ray is taken upright, as :func:`sun_through_surface`
+    takes it."""
+    v = np.asarray(v, dtype=float)
+    nr = np.asarray(normals, dtype=float)
+    nr = np.where((np.sum(v * nr, axis=1) > 0)[:, None], nr, FLAT_NORMAL)
+    t = np.asarray(to_sun_air, dtype=float)
+    hv = n_water * v - t[None, :]
+    length2 = np.sum(hv * hv, axis=1)
+    h = hv / np.sqrt(length2)[:, None]
+    cos_v = np.sum(v * h, axis=1)                   # the ray's incidence on h (water side)
+    cos_t = h @ t                                   # the sun's (air side)
+    cos_b = np.sum(h * nr, axis=1)                  # h's tilt from the tile's facet
+    mu_v = np.sum(v * nr, axis=1)
+    ok = (cos_v > 0) & (cos_t > 0) & (cos_b > 0) & (mu_v > 0)
+    cb = np.where(ok, cos_b, 1.0)
+    p = np.exp(-(1.0 - cb * cb) / (cb * cb) / s2) / (np.pi * s2)
+    tr = fresnel_transmittance_out(np.where(ok, cos_v, 1.0), n_water)
+    g = np.where(ok, tr * n_water ** 2 * cos_t * cos_v * p
+                 / (np.where(ok, mu_v, 1.0) * length2 * cb ** 4), 0.0)
+    return g[:, None] * np.asarray(sun_irradiance_air, dtype=float)[None, :]
+
+
+def glitter_variance_below(camera, s2: float, n_water: float = N_WATER) -> float:
+    """The slope variance the glitter is drawn with seen from below in
+    ``camera``'s image: ``s2``, or what spreads it over about 1.5 pixels where
+    that is larger (a facet tilt ``delta`` moves the ray that sees the sun by
+    about ``delta (n - 1) / n``, so a narrow glitter would fall between pixel
+    centres; the law stays normalised, so its energy is kept)."""
+    pixel = 1.0 / min(float(camera.fx), float(camera.fy))
+    spread = 1.5 * pixel * n_water / (n_water - 1.0)
+    return max(float(s2), 2.0 * spread ** 2)
+
+
 def sun_disc_below(camera, open_up, facets, to_sun_air, sun_irradiance_air, *, a, b,
                    n_water: float = N_WATER) -> np.ndarray:
     """The sun's disc through the surface (H, W, n) for ``camera`` under the
     sea, attenuated by ``exp(-c S)``; zero but where ``open_up``. ``facets``:
     the wave tile's (:class:`aquaspec.light.wave_facets.SurfaceFacets`) or
-    None for the flat surface."""
+    None for the flat surface; with unresolved slopes (``facets.s2 > 0``)
+    the sun's glitter (:func:`glitter_below`) in place of the disc."""
     c, out, mask, vv, s, normals = _rays_to_surface(camera, open_up, facets, a, b)
     if vv is None:
         return out
-    disc = sun_through_surface(vv, normals, to_sun_air, sun_irradiance_air,
-                               sun_radius_below(camera, to_sun_air, n_water), n_water)
+    if facets is not None and facets.s2 > 0:
+        disc = glitter_below(vv, normals, to_sun_air, sun_irradiance_air,
+                             glitter_variance_below(camera, facets.s2, n_water), n_water)
+    else:
+        disc = sun_through_surface(vv, normals, to_sun_air, sun_irradiance_air,
+                                   sun_radius_below(camera, to_sun_air, n_water), n_water)
     out[mask] = np.exp(-c[None, :] * s[:, None]) * disc
     return out

@@ -1,5 +1,5 @@
 """The surface seen from below on the GPU: Snell's window broken by the waves,
-and the sun's disc through it.
+and the sun's disc (or, under waves, its glitter) through it.
 
 Twin of :func:`aquaspec.shading.below_waves.window_correction` and
 :func:`aquaspec.shading.below_waves.sun_disc_below` (WGSL:
@@ -26,13 +26,13 @@ from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.medium.interface import N_WATER
 from aquaspec.shading.above_water import (WAVE_T_TOP, sky_radiance_above, sun_in_air,
                                           water_below_table)
-from aquaspec.shading.below_waves import sun_radius_below
+from aquaspec.shading.below_waves import glitter_variance_below, sun_radius_below
 
 PARAMS_LAYOUT = UniformLayout("BelowWavesParams", CAMERA_FIELDS + [
     ("n_water", "f32"), ("t_top", "f32"), ("tile_m", "f32"), ("tile_grid", "u32"),
     ("width", "u32"), ("height", "u32"), ("nodes", "u32"), ("n_bands", "u32"),
     ("sun_air", "vec3<f32>"), ("sun_cos_radius", "f32"),
-    ("omega", "f32"), ("sun_on", "u32"), ("waves_on", "u32"), ("pad", "u32"),
+    ("omega", "f32"), ("sun_on", "u32"), ("waves_on", "u32"), ("s2", "f32"),
 ])
 WORKGROUP = (8, 8)
 
@@ -89,15 +89,18 @@ class BelowWavesPass:
                         "tile_grid": 2 if facets is None else int(facets.slopes.shape[0]),
                         "nodes": int(nodes.size), "n_bands": int(n), "sun_air": to_air,
                         "sun_on": int(sun is not None), "waves_on": int(facets is not None),
-                        "pad": 0}
+                        "s2": 0.0 if facets is None else float(facets.s2)}
 
     def encode(self, encoder, camera, surface_texture) -> None:
         """Record the pass for ``camera`` reading the G-buffer's ``surface_texture``."""
         if self._medium is None:
             raise RuntimeError("BelowWavesPass.set_medium first")
         radius = sun_radius_below(camera, self._medium["sun_air"])
+        medium = dict(self._medium)
+        if medium["s2"] > 0:
+            medium["s2"] = glitter_variance_below(camera, medium["s2"])
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
-            **camera_fields(camera), **self._medium, width=self.width, height=self.height,
+            **camera_fields(camera), **medium, width=self.width, height=self.height,
             sun_cos_radius=float(np.cos(radius)), omega=2.0 * np.pi * (1.0 - np.cos(radius))))
         group = self.device.create_bind_group(layout=self._layout, entries=bind_group_entries(
             {0: self._params, 1: surface_texture, 2: self._buffers["bands"],

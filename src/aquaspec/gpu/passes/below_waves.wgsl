@@ -10,7 +10,8 @@
 // (waves_on = 1; else the facet is up and that change is zero), and with a
 // sun (sun_on = 1) its disc seen through the facet: where the ray refracted
 // into the air is within the disc, sum_i w_i exp(-c_i S) T_out n^2 E_i / omega
-// (below_waves.sun_through_surface).
+// (below_waves.sun_through_surface); under waves with unresolved slopes
+// (s2 > 0) the sun's glitter instead (below_waves.glitter_below).
 
 #include "fresnel.wgsl"
 
@@ -74,7 +75,25 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     rgb = rgb + w * (exp(-cs.x * s) * (wavy - flat));
                 }
             }
-            if (prm.sun_on == 1u) {
+            if (prm.sun_on == 1u && prm.s2 > 0.0) {
+                // The sun's glitter over the unresolved slopes (below_waves.glitter_below).
+                let hv = prm.n_water * v - prm.sun_air;
+                let len2 = dot(hv, hv);
+                let h = hv / sqrt(len2);
+                let cos_v = dot(v, h);
+                let cos_t = dot(h, prm.sun_air);
+                let cos_b = dot(h, n);
+                if (cos_v > 0.0 && cos_t > 0.0 && cos_b > 0.0 && cos_i > 0.0) {
+                    let cb2 = cos_b * cos_b;
+                    let p = exp(-(1.0 - cb2) / cb2 / prm.s2) / (3.14159265 * prm.s2);
+                    let gain = fresnel_transmittance_out(cos_v, prm.n_water) * nn * cos_t * cos_v
+                        * p / (cos_i * len2 * cb2 * cb2);
+                    for (var i = 0u; i < prm.n_bands; i = i + 1u) {
+                        let cs = bands[2u * i];
+                        rgb = rgb + bands[2u * i + 1u].xyz * (exp(-cs.x * s) * gain * cs.z);
+                    }
+                }
+            } else if (prm.sun_on == 1u) {
                 let sin2_t = nn * (1.0 - cos_i * cos_i);
                 let t = prm.n_water * v + (sqrt(max(1.0 - sin2_t, 0.0)) - prm.n_water * cos_i) * n;
                 if (sin2_t < 1.0 && dot(t, prm.sun_air) >= prm.sun_cos_radius) {
