@@ -30,6 +30,7 @@ from aquaspec.gpu.passes.sun import SunPass
 from aquaspec.light.caustics import DEFAULT_LOOP_FRAMES, caustic_loop
 from aquaspec.rendering.lamps import lamps_before_shading, lamps_shaded
 from aquaspec.rendering.live_camera import LiveCamera
+from aquaspec.rendering.live_surface import LiveSurface, surface_drawn
 from aquaspec.rendering.marine_snow import LiveSnow, parse_marine_snow
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera, check_size
@@ -95,6 +96,7 @@ class Renderer:
         self.sun_map_size = None
         self._display = None        # DisplayPass of frames with the sun (set_display)
         self._last_display = None
+        self._surface = None        # LiveSurface, made when a frame first sees the surface
         #: The waves' time of the next frames' caustics, s (:meth:`set_wave_time`).
         self.wave_time_s = None
         self._wave_loop = None      # CausticLoopPass of the moving sea
@@ -451,8 +453,12 @@ class Renderer:
         added and the display fused in it), with the seeds' model ``"shading"``,
         ``"sun shadow"``, ``"sun"``, ``"display"``; with :meth:`set_camera_model`
         the shading unfused, then ``"camera+display"``; with :meth:`set_marine_snow`
-        the shading unfused, then ``"particles+display"``, or with a camera model
-        ``"particles"`` before ``"camera+display"``) and returns
+        and the light field ``"particles"`` (the splat) before the shading, which
+        composes them in its fused display; with a camera model the shading
+        unfused, then ``"particles"`` and ``"camera+display"``; where a still render adds the
+        surface seen from below (:mod:`aquaspec.rendering.live_surface`: the
+        waves' window and the sun's disc) the shading unfused, then ``"surface"``
+        (added to the linear image), then ``"display"`` or the passes above) and returns
         the encoder for the next one: a benchmark submits and times each pass
         with it. Returns the encoder last returned by ``split`` (``encoder``
         itself without it).
@@ -483,8 +489,24 @@ class Renderer:
             encoder = split("geometry", encoder)
         if sun is not None and self._advance_waves(encoder, setup):
             encoder = split("waves", encoder)
-        if live is not None or self.snow is not None:
+        surface = self._surface_pass(setup, camera)
+        fused_snow = (self.snow is not None and live is None and surface is None
+                      and self._use_lightfield)
+        if self.lightfield is not None:
+            self.lightfield.set_snow(self.snow.gpu if fused_snow else None)
+        if fused_snow:
+            # Splatted now, composed in the light field's fused display (one pass less).
+            self.snow.encode_splat(encoder, self.deferred.gbuffer.textures["surface"], camera,
+                                   setup)
+            encoder = split("particles", encoder)
+        if live is not None or (self.snow is not None and not fused_snow) or surface is not None:
             encoder = self.encode_shading(encoder, sun, camera, scene, split=split)
+            if surface is not None:
+                surface.encode(encoder, setup, camera, self.deferred.gbuffer.textures["surface"],
+                               shading.rgb_buffer, self.wave_time_s)
+                encoder = split("surface", encoder)
+            if live is None and self.snow is None:
+                return self._encode_display(encoder, shading.rgb_buffer, split)
             if self.snow is not None:
                 # Without a camera model the composition rides on the display's pass.
                 self.snow.encode(encoder, shading.rgb_buffer,
@@ -504,10 +526,24 @@ class Renderer:
             self._last_display = shading
             return encoder
         encoder = self.encode_shading(encoder, sun, camera, scene, split=split)
-        self._display.use_input(shading.rgb_buffer)
+        return self._encode_display(encoder, shading.rgb_buffer, split)
+
+    def _encode_display(self, encoder, rgb_buffer, split):
+        """Record the display pass of linear ``rgb_buffer``; ``split``'s encoder."""
+        self._display.use_input(rgb_buffer)
         self._display.encode(encoder)
         self._last_display = self._display
         return split("display", encoder)
+
+    def _surface_pass(self, setup: SpectralSetup, camera: Camera):
+        """The surface seen from below for this frame (:class:`LiveSurface`,
+        made when first needed), or None where it is not drawn
+        (:func:`aquaspec.rendering.live_surface.surface_drawn`)."""
+        if not surface_drawn(setup, camera):
+            return None
+        if self._surface is None:
+            self._surface = LiveSurface(self.deferred.device, self.width, self.height)
+        return self._surface
 
     def _show_gbuffer(self, gbuffer: GBuffer, camera: Camera) -> None:
         """Have the shading read ``gbuffer`` seen from ``camera`` (uploaded only

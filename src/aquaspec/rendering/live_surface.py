@@ -1,0 +1,99 @@
+"""The surface seen from below in live frames: Snell's window moved by the
+waves, and the sun's disc through it (issue 30).
+
+A still render adds them after its shading
+(:func:`aquaspec.rendering.surface_view.surface_seen_from_water`);
+:meth:`aquaspec.rendering.renderer.Renderer.encode_frame` records the same
+GPU pass (:class:`aquaspec.gpu.passes.below_waves.BelowWavesPass`, reading the
+frame's G-buffer) between the shading and the display transform, and adds
+its camera-RGB change to the shading's linear image on the GPU
+(:class:`aquaspec.gpu.passes.add_rgb.AddRgbPass`): :class:`LiveSurface`.
+It is drawn where the still render draws it (:func:`surface_drawn`): a
+camera under the water (not at the waterline), the light-field model with
+the flat surface's light field, and a wind sea or a sun.
+
+The sea is the one whose caustics the frame shows: with the renderer's wave
+time (:meth:`~aquaspec.rendering.renderer.Renderer.set_wave_time`) the
+looping sea (:func:`aquaspec.light.waves.looping`) of the caustics' loop at
+that time, its slopes exact at the time (:func:`facets_at`; the caustics
+are mixed between the loop's frames, exact at each frame's time); without
+one, the setup's sea at its own instant, as a still render has it.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import replace
+
+import numpy as np
+import scipy.fft as sfft
+
+from aquaspec.gpu.passes.add_rgb import AddRgbPass
+from aquaspec.gpu.passes.below_waves import BelowWavesPass
+from aquaspec.light.wave_facets import SurfaceFacets, surface_facets, unresolved_variance
+from aquaspec.light.waves import Waves, _amplitudes, angular_frequency, looping, wavenumbers
+from aquaspec.parallel import workers
+from aquaspec.rendering.above import above_water, at_waterline
+from aquaspec.rendering.setup import SpectralSetup
+
+
+def surface_drawn(setup: SpectralSetup, camera) -> bool:
+    """Whether a frame of ``camera`` under ``setup`` gets the surface's pass:
+    the camera under the water, the light-field model under the flat
+    surface, and waves or a sun (as :func:`aquaspec.rendering.surface_view.surface_seen_from_water`)."""
+    return (not above_water(camera) and not at_waterline(camera)
+            and setup.ms_model == "lightfield" and setup.surface == "flat"
+            and (setup.waves is not None or setup.light.sun is not None))
+
+
+@functools.lru_cache(maxsize=2)
+def _sea_at_rest(sea: Waves):
+    """The looping sea's complex amplitudes at ``t = 0``, its frequencies
+    (rad/s) and wavenumbers (rad/m) on the tile's grid, and ``s2``."""
+    kx, kz = wavenumbers(sea.grid, sea.tile_m)
+    return (_amplitudes(sea), angular_frequency(np.hypot(kx, kz), sea.period_s), kx, kz,
+            float(unresolved_variance(sea)))
+
+
+def facets_at(waves: Waves, time_s: float) -> SurfaceFacets:
+    """The facets of the looping sea of ``waves`` at ``time_s`` seconds: what
+    :func:`aquaspec.light.wave_facets.surface_facets` gives for
+    ``replace(looping(waves), time_s=time_s)``, with the sea's amplitudes at
+    rest kept (:func:`aquaspec.light.waves.surface`'s sum moved in time,
+    ``A(k) exp(-i omega t)``, two inverse FFTs a frame)."""
+    sea = replace(looping(waves), time_s=0.0)
+    amp0, omega, kx, kz, s2 = _sea_at_rest(sea)
+    amp = amp0 * np.exp(-1j * omega * float(time_s))
+    scale = float(sea.grid) ** 2
+    hx, hz = (sfft.ifft2(1j * k * amp, workers=workers()).real * scale for k in (kx, kz))
+    return SurfaceFacets(np.stack([hx, hz], axis=-1).astype(np.float32), float(sea.tile_m), s2)
+
+
+class LiveSurface:
+    """The surface seen from below for frames of ``width`` x ``height`` on
+    ``device`` (module docstring)."""
+
+    def __init__(self, device, width: int, height: int):
+        self.below = BelowWavesPass(device, width, height)
+        self.add = AddRgbPass(device, width, height)
+        self._key = None
+
+    def encode(self, encoder, setup: SpectralSetup, camera, surface_texture, rgb_buffer,
+               wave_time_s: float | None) -> None:
+        """Record the pass for ``camera`` reading the G-buffer's
+        ``surface_texture``, and add its change into ``rgb_buffer`` (the
+        shading's linear camera RGB); the sea at ``wave_time_s`` (None: the
+        setup's instant). The medium and the sea are uploaded when either changed."""
+        sea = setup.waves
+        key = (setup, None if sea is None else (sea if wave_time_s is None else wave_time_s))
+        if self._key is None or self._key[0] is not setup or self._key[1] != key[1]:
+            facets = None if sea is None else (surface_facets(sea) if wave_time_s is None
+                                               else facets_at(sea, wave_time_s))
+            med = setup.medium([])
+            self.below.set_medium(setup.lightfield_tables(), facets, a=med["a"], b=med["b"],
+                                  e0=med["e0"], response_weights=med["response_weights"],
+                                  sun=setup.sun_inputs() if setup.light.sun is not None
+                                  else None)
+            self._key = key
+        self.below.encode(encoder, camera, surface_texture)
+        self.add.encode(encoder, self.below.rgb_buffer, rgb_buffer)
