@@ -159,7 +159,17 @@ class LiveSnow:
         """Record the particles for ``camera`` over ``rgb_buffer`` (in place), or
         with ``display`` composed and shown into ``self.gpu.output`` (the
         display settings given to ``self.gpu.set_display``)."""
+        self._upload(camera, setup)
+        self.gpu.encode(encoder, surface_texture, rgb_buffer, display=display)
+
+    def encode_splat(self, encoder, surface_texture, camera, setup: SpectralSetup):
+        """Record the splat alone (into ``self.gpu.accum``), for a shading pass
+        that composes it itself
+        (:meth:`aquaspec.gpu.passes.lightfield.LightfieldPass.set_snow`)."""
+        self._upload(camera, setup)
+        self.gpu.encode_splat(encoder, surface_texture)
+
+    def _upload(self, camera, setup: SpectralSetup) -> None:
         records = frame_splats(self.snow, self.light(setup, camera), camera, self.time_s)
         self.drawn = len(records)
         self.gpu.set_splats(records)
-        self.gpu.encode(encoder, surface_texture, rgb_buffer, display=display)

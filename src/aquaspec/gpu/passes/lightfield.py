@@ -44,7 +44,17 @@ One invocation shades four horizontally adjacent pixels. Bindings:
 25  full-resolution pass only)
 26  2-D array texture                   the occlusion factors' grid
                                         (:meth:`set_occlusion`), both passes
+27  texture ``rgba16float``             marine snow's accumulated discs
+                                        (:meth:`set_snow`; fused display only)
+28  uniform                             their scale (the particle pass's params)
 ==  ==================================  ==========================================
+
+With marine snow (:meth:`set_snow`: a
+:class:`aquaspec.gpu.passes.particles.ParticlePass` whose splat is recorded
+before this pass) a frame with the display fused composes the particles over
+each pixel before its display transform (one texel load per pixel,
+:func:`aquaspec.shading.particles.composite`), instead of a pass of its own
+that reads the linear image back.
 
 With a sun (:meth:`set_sun`) the full-resolution pass adds the sun's light
 in its own band loop (the froxels are built before it,
@@ -83,6 +93,7 @@ from aquaspec.gpu.gbuffer import B_SIGMOID, B_SURFACE, GBufferTextures
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.materials import MaterialTable
 from aquaspec.gpu.passes.conespread import ConeSpreadPass
+from aquaspec.gpu.passes.particles import PARAMS as SNOW_PARAMS
 from aquaspec.gpu.passes.sun import SunPass, sunlight_values
 from aquaspec.gpu.passes.watertable import MAX_NODES, WaterTablePass, alpha_vec4s
 from aquaspec.gpu.shaders import load_wgsl
@@ -105,6 +116,8 @@ B_PARAMS, B_BANDS, B_WATER, B_BASIS = 0, 4, 11, 12
 B_SAMPLER, B_CONE, B_SPREAD = 14, 15, 16
 #: The occlusion factors' grid (after the sun's 17-25).
 B_OCCLUSION = 26
+#: Marine snow's accumulation texture and its uniform (:meth:`LightfieldPass.set_snow`).
+B_SNOW, B_SNOW_PARAMS = 27, 28
 
 
 def band_group_texture(table) -> np.ndarray:
@@ -187,6 +200,8 @@ class LightfieldPass(ShadingPass):
         self.sun = None
         #: The occlusion factors applied to surfaces (:meth:`set_occlusion`), or None.
         self.occlusion = None
+        #: Marine snow composed in the fused display (:meth:`set_snow`), or None.
+        self.snow = None
         self._layouts = {}
         mode = "linear" if self.filtering else "nearest"
         self._sampler = dev.create_sampler(label="lightfield tables", mag_filter=mode,
@@ -348,33 +363,53 @@ class LightfieldPass(ShadingPass):
                                    " (set_medium() first)"))
         self.occlusion = occlusion
 
-    def _layout_for(self, sun: bool):
-        """The bind-group layout with or without the sun's and the occlusion's bindings."""
+    def set_snow(self, particles) -> None:
+        """Compose the accumulated discs of ``particles`` (a
+        :class:`aquaspec.gpu.passes.particles.ParticlePass` of this size, its
+        splat recorded before each frame) over the image in frames encoded with
+        ``display=True``, before the display transform; None: no snow. Frames
+        of linear RGB ignore it."""
+        if particles is not None and (particles.width, particles.height) != (self.width,
+                                                                             self.height):
+            raise AquaspecError(f"the particle pass is {particles.width}x{particles.height}; "
+                                f"the shading pass {self.width}x{self.height}")
+        self.snow = particles
+
+    def _layout_for(self, sun: bool, snow: bool = False):
+        """The bind-group layout with or without the sun's, the occlusion's and the snow's
+        bindings."""
         occ = self.occlusion is not None
-        if not sun and not occ:
+        if not sun and not occ and not snow:
             return self._layout
-        key = (sun, occ)
+        key = (sun, occ, snow)
         if key not in self._layouts:
             kinds = dict(self._kinds)
             if sun:
                 kinds.update(SunPass.fused_layout())
             if occ:
                 kinds[B_OCCLUSION] = "filterable_array" if self.filtering else "float_array"
+            if snow:
+                kinds.update({B_SNOW: "float", B_SNOW_PARAMS: "uniform"})
             self._layouts[key] = bind_group_layout(self.device, kinds)
         return self._layouts[key]
 
     # ------------------------------------------------------------- dispatch
+    def _snow_on(self, tonemap, coarse=False) -> bool:
+        """Whether this pipeline composes marine snow (the fused display's full-resolution pass)."""
+        return self.snow is not None and tonemap is not None and not coarse
+
     def pipeline(self, per_pixel, tonemap, coarse=False, projected=False):
         """The compute pipeline for these compile-time constants (made when first used)."""
         sh = self._shape
         split = lfc.direction_split(sh["window_cos"])
         group = bool(self.spread and 2 ** self.spread_plan[0] >= 4)
         sun = self.sun is not None and not coarse
+        snow = self._snow_on(tonemap, coarse)
         key = (sh["n_bands"], sh["n_depth"], sh["n_mu"], sh["rank"], split, per_pixel, tonemap,
                self.filtering, self.spread, coarse, group, projected,
                self.materials.in_uniform, self.nodes, sun,
                None if self.occlusion is None else (self.occlusion.scale,
-                                                    self.occlusion.layers_out))
+                                                    self.occlusion.layers_out), snow)
         if key not in self._pipelines:
             band_vec4 = 2 + -(-sh["rank"] // 4)
             src = load_wgsl("lightfield.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
@@ -397,9 +432,13 @@ class LightfieldPass(ShadingPass):
                             sun_pixels="sun_pixels" if sun else "no_sun_pixels",
                             sun_surface="sun_surface" if sun else "no_sun_surface",
                             **self._occlusion_values(),
+                            snow_block=load_wgsl("snow_compose.wgsl",
+                                                 snow_struct=SNOW_PARAMS.wgsl(),
+                                                 snow_params=SNOW_PARAMS.name) if snow else "",
+                            snow_compose="snow_compose" if snow else "no_snow_compose",
                             workgroup_x=WORKGROUP[0], workgroup_y=WORKGROUP[1])
-            self._pipelines[key] = compute_pipeline(self.device, self._layout_for(sun), src,
-                                                    "lightfield.wgsl")
+            self._pipelines[key] = compute_pipeline(self.device, self._layout_for(sun, snow),
+                                                    src, "lightfield.wgsl")
         return self._pipelines[key]
 
     def reference_compiled(self) -> "lfc.Compiled":
@@ -424,25 +463,30 @@ class LightfieldPass(ShadingPass):
                     occlusion_block=load_wgsl("occlusion_sample.wgsl"),
                     occlusion_fill="fill_occlusion", occlusion_coords="occlusion_coords")
 
-    def bind_group(self, coarse=False):
-        """The bind group of the full-resolution pass, or of the COARSE one."""
+    def bind_group(self, coarse=False, snow=False):
+        """The bind group of the full-resolution pass (``snow``: with the
+        snow's bindings), or of the COARSE one."""
         sp = self._spread_pass
         cone = sp.cone_texture if (coarse and sp) else self._unused["storage"]
         spread_in = sp.result if (sp and not coarse) else self._unused["sampled"]
         sun = None if coarse or self.sun is None else self.sun.fused_resources()
         occ = None if self.occlusion is None else self.occlusion.view
+        snow_res = ({B_SNOW: self.snow.accum, B_SNOW_PARAMS: self.snow.params}
+                  if snow and not coarse else {})
         key = (self.gbuffer.bindings_version, self.water.texture_version, id(cone),
                id(spread_in), None if sun is None else tuple(id(x) for x in sun.values()),
-               id(occ))
+               id(occ), tuple(id(x) for x in snow_res.values()))
         cache = self._groups
         if key not in cache:
             tex = self.gbuffer.textures
             resources = {B_PARAMS: self._uniform, B_SURFACE: tex["surface"],
                          B_SIGMOID: tex["sigmoid"], **self._buffers, **self.output.resources(),
                          B_WATER: self.water.texture, B_CONE: cone, B_SPREAD: spread_in,
-                         **(sun or {}), **({} if occ is None else {B_OCCLUSION: occ})}
+                         **(sun or {}), **({} if occ is None else {B_OCCLUSION: occ}),
+                         **snow_res}
             cache[key] = self.device.create_bind_group(
-                layout=self._layout_for(sun is not None), entries=bind_group_entries(resources))
+                layout=self._layout_for(sun is not None, bool(snow_res)),
+                entries=bind_group_entries(resources))
         return cache[key]
 
     def _update_spread(self, cam):
@@ -523,6 +567,6 @@ class LightfieldPass(ShadingPass):
                           self.bind_group(coarse=True), groups))
             steps.extend(self._spread_pass.dispatches())
         steps.append((self.pipeline(per_pixel, tonemap, projected=proj is not None),
-                      self.bind_group(), self.workgroups()))
+                      self.bind_group(snow=self._snow_on(tonemap)), self.workgroups()))
         # One compute pass (the timestamps, if any, bracket all of it).
         record_dispatches(encoder, steps, timestamp_writes)
