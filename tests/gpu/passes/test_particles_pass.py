@@ -10,9 +10,10 @@ from aquaspec.shading.particles import composite, splat_image
 pytestmark = pytest.mark.gpu
 
 W, H = 160, 90
-#: The accumulation target is rgba16float: an 11-bit mantissa, summed over
-#: the discs that overlap a pixel; as a fraction of the image's largest value.
-ATOL_FRACTION = 5e-3
+#: The accumulation is fixed point (a 2^-24 step of the brightest particle's
+#: light, or coarser where the discs could overflow) and the weights f32; as a
+#: fraction of the image's largest value (measured: 4e-7).
+ATOL_FRACTION = 1e-5
 
 
 def _surface(device, dist):
@@ -59,6 +60,25 @@ class TestParticlePass:
             np.testing.assert_allclose(acc_gpu[..., k], acc[..., k],
                                        atol=ATOL_FRACTION * np.abs(acc[..., k]).max())
         np.testing.assert_allclose(out_gpu, out, atol=ATOL_FRACTION * out.max())
+
+    def test_a_pile_of_discs_does_not_overflow(self, device):
+        """5000 opaque discs on one spot: a coverage of about 5000 on its pixels,
+        past 2^32 at the fixed point's finest step; the pass takes a coarser one."""
+        from aquaspec.gpu.passes.particles import FIXED_MAX, ParticlePass
+        dist = np.full((H, W), np.inf, np.float32)
+        rec = np.zeros((5000, 8), np.float32)
+        rec[:, 0], rec[:, 1], rec[:, 2], rec[:, 3] = 80.3, 45.6, 3.0, 1.0
+        rec[:, 4:7] = np.linspace(0.1, 1.0, 5000)[:, None] * [1.0, 0.5, 0.25]
+        rec[:, 7] = np.pi * 9.0
+        p = ParticlePass(device, W, H)
+        p.set_splats(rec)
+        enc = device.create_command_encoder()
+        p.encode_splat(enc, _surface(device, dist))
+        device.queue.submit([enc.finish()])
+        acc = splat_image(rec, dist)
+        assert acc[..., 3].max() > 4000 and acc[..., 3].max() * FIXED_MAX > 2 ** 32
+        np.testing.assert_allclose(p.read_accumulated(), acc,
+                                   atol=ATOL_FRACTION * np.abs(acc).max())
 
     def test_no_particles_leaves_the_image(self, device):
         from aquaspec.gpu.buffers import create_storage_buffer, read_buffer

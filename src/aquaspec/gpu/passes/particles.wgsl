@@ -1,78 +1,85 @@
-// Marine snow: each particle a disc splatted additively into an accumulation
-// target (the NumPy reference: aquaspec.shading.particles.splat_image), then
-// composed over the shaded image (aquaspec.shading.particles.composite).
+// Marine snow: each particle's disc added into an accumulation buffer (the
+// NumPy reference: aquaspec.shading.particles.splat_image), then composed
+// over the shaded image (aquaspec.shading.particles.composite).
 //
-// Splat: one instance per particle, a quad of six vertices covering its
-// disc; the fragment weights the pixel centre by the anti-aliased disc
-// clamp(R + 0.5 - rho, 0, 1) / (pi (R^2 + 1/12)) and drops it where the
-// G-buffer's surface is nearer. Outputs (a w L scale, a w): camera RGB is
-// pre-multiplied by `scale` on the host so that rgba16float keeps it in range.
+// Splat (cs_splat): one invocation per particle, looping over the pixels its
+// anti-aliased disc reaches: the pixel centre's weight
+// clamp(R + 0.5 - rho, 0, 1) / (pi (R^2 + 1/12)), dropped where the
+// G-buffer's surface is nearer; adds (a w L scale, a w) in fixed point
+// (round(x FIXED)) with atomicAdd into four u32 per pixel. Camera RGB is
+// multiplied on the host by scale = 1 / max(RGB) of the frame's particles,
+// and FIXED chosen there so that no pixel's sum can reach 2^31
+// (aquaspec.gpu.passes.particles.ParticlePass.set_splats). On lavapipe a
+// render pass of instanced quads cost about 3 us per particle (triangle
+// set-up); this costs a few pixels' work per particle.
 
 {{ params_struct }}
 
-@group(0) @binding(0) var surface_tex: texture_2d<u32>;
-@group(0) @binding(1) var<uniform> params: {{ params_name }};
-
-struct Instance {
-    @location(0) disc: vec4<f32>,     // col, row, radius (px), distance (m)
-    @location(1) light: vec4<f32>,    // camera RGB x scale, coverage (pixel areas)
-};
-
-struct Varyings {
-    @builtin(position) position: vec4<f32>,
-    @location(0) @interpolate(flat) disc: vec4<f32>,
-    @location(1) @interpolate(flat) light: vec4<f32>,
-};
-
 const PI: f32 = 3.14159265358979;
 
-@vertex
-fn vs_splat(@builtin(vertex_index) vi: u32, inst: Instance) -> Varyings {
-    // Two triangles: corners (0,0) (1,0) (0,1) / (0,1) (1,0) (1,1).
-    var corner = array<vec2<f32>, 6>(vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0),
-                                     vec2<f32>(-1.0, 1.0), vec2<f32>(-1.0, 1.0),
-                                     vec2<f32>(1.0, -1.0), vec2<f32>(1.0, 1.0));
-    let reach = inst.disc.z + 1.0;
-    let px = inst.disc.xy + corner[vi] * reach;
-    var out: Varyings;
-    out.position = vec4<f32>(2.0 * px.x / params.width - 1.0, 1.0 - 2.0 * px.y / params.height,
-                             0.5, 1.0);
-    out.disc = inst.disc;
-    out.light = inst.light;
-    return out;
+@group(0) @binding(0) var surface_tex: texture_2d<u32>;
+@group(0) @binding(1) var<uniform> params: {{ params_name }};
+// Two vec4 per particle: (col, row, radius px, distance m), (camera RGB x scale, coverage).
+@group(0) @binding(2) var<storage, read> records: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
+
+fn add_fixed(i: u32, x: f32) {
+    let q = u32(x * params.fixed + 0.5);
+    if (q > 0u) {
+        atomicAdd(&accum[i], q);
+    }
 }
 
-@fragment
-fn fs_splat(v: Varyings) -> @location(0) vec4<f32> {
-    let rho = distance(v.position.xy, v.disc.xy);
-    let r = v.disc.z;
-    let weight = clamp(r + 0.5 - rho, 0.0, 1.0) / (PI * (r * r + 1.0 / 12.0));
-    if (weight <= 0.0) {
-        discard;
+@compute @workgroup_size(64)
+fn cs_splat(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let n = gid.x;
+    if (n >= u32(params.count)) {
+        return;
     }
-    let s = bitcast<f32>(textureLoad(surface_tex, vec2<i32>(v.position.xy), 0).x);
-    if (s >= 0.0 && v.disc.w >= s) {
-        discard;
+    let disc = records[2u * n];
+    let light = records[2u * n + 1u];
+    let r = disc.z;
+    let reach = r + 0.5;
+    let norm = 1.0 / (PI * (r * r + 1.0 / 12.0));
+    let w = i32(params.width);
+    let h = i32(params.height);
+    let j0 = max(i32(floor(disc.x - reach)), 0);
+    let j1 = min(i32(floor(disc.x + reach)), w - 1);
+    let i0 = max(i32(floor(disc.y - reach)), 0);
+    let i1 = min(i32(floor(disc.y + reach)), h - 1);
+    for (var i = i0; i <= i1; i++) {
+        for (var j = j0; j <= j1; j++) {
+            let rho = distance(vec2<f32>(f32(j) + 0.5, f32(i) + 0.5), disc.xy);
+            let weight = clamp(reach - rho, 0.0, 1.0) * norm;
+            let s = bitcast<f32>(textureLoad(surface_tex, vec2<i32>(j, i), 0).x);
+            if (weight > 0.0 && (s < 0.0 || disc.w < s)) {
+                let alpha = weight * light.w;
+                let p = 4u * u32(i * w + j);
+                add_fixed(p, alpha * light.x);
+                add_fixed(p + 1u, alpha * light.y);
+                add_fixed(p + 2u, alpha * light.z);
+                add_fixed(p + 3u, alpha);
+            }
+        }
     }
-    let alpha = weight * v.light.w;
-    return vec4<f32>(alpha * v.light.xyz, alpha);
 }
 
 // Compose: rgb = L max(1 - alpha, 0) + S / max(alpha, 1), in place.
-@group(0) @binding(2) var accum_tex: texture_2d<f32>;
-@group(0) @binding(3) var<storage, read_write> rgb: array<vec4<f32>>;
-@group(0) @binding(4) var<uniform> cparams: {{ params_name }};
+@group(0) @binding(4) var<storage, read> snow_in: array<u32>;
+@group(0) @binding(5) var<storage, read_write> rgb: array<vec4<f32>>;
+@group(0) @binding(6) var<uniform> snow_prm: {{ params_name }};
+
+#include "snow_accum.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn cs_compose(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let w = u32(cparams.width);
-    let h = u32(cparams.height);
+    let w = u32(snow_prm.width);
+    let h = u32(snow_prm.height);
     if (gid.x >= w || gid.y >= h) {
         return;
     }
-    let acc = textureLoad(accum_tex, vec2<i32>(gid.xy), 0);
     let i = gid.y * w + gid.x;
+    let acc = snow_accumulated(i);
     let old = rgb[i];
-    let s = acc.xyz * cparams.inv_scale;
-    rgb[i] = vec4<f32>(old.xyz * max(1.0 - acc.w, 0.0) + s / max(acc.w, 1.0), old.w);
+    rgb[i] = vec4<f32>(old.xyz * max(1.0 - acc.w, 0.0) + acc.xyz / max(acc.w, 1.0), old.w);
 }

@@ -1,7 +1,7 @@
 """Marine snow composed over the shaded image and shown, in one pass.
 
 :class:`SnowDisplayPass` reads the shading pass's linear camera RGB
-(``vec4<f32>`` per pixel) and the particles' accumulation texture of
+(``vec4<f32>`` per pixel) and the particles' accumulation buffer of
 :class:`aquaspec.gpu.passes.particles.ParticlePass`, composes them
 (:func:`aquaspec.shading.particles.composite`) and applies the display
 transform of :mod:`aquaspec.gpu.passes.display` (the folded matrix, the tone
@@ -30,7 +30,7 @@ WORKGROUP = (8, 8)
 
 class SnowDisplayPass:
     """Compose and show ``width`` x ``height`` pixels: the particles of
-    ``accum`` (an ``rgba16float`` texture) with the scale of ``params`` (the
+    ``accum`` (its accumulation buffer) with the scales of ``params`` (the
     particle pass's uniform buffer, of :class:`aquaspec.gpu.layout.UniformLayout`
     ``params_layout``) over a linear image."""
 
@@ -42,7 +42,7 @@ class SnowDisplayPass:
         self._first = create_storage_buffer(device, np.array([0xFFFFFFFF], np.uint32),
                                             label="snow display first pixel")
         self._layout = bind_group_layout(device, {0: "uniform", 1: "read", 2: "write",
-                                                  3: "write", 4: "float", 5: "uniform"})
+                                                  3: "write", 4: "read", 5: "uniform"})
         #: ``display_buffer``: the image as packed RGBA8 (the display pass's layout).
         self.output = SimpleNamespace(display_buffer=create_storage_buffer(
             device, self.width * self.height * 4, label="snow display rgba8"))
@@ -76,7 +76,7 @@ class SnowDisplayPass:
             self._group = self.device.create_bind_group(layout=self._layout, entries=(
                 bind_group_entries({0: self._uniform, 1: rgb_buffer,
                                     2: self.output.display_buffer, 3: self._status,
-                                    4: self._accum.create_view(), 5: self._params})))
+                                    4: self._accum, 5: self._params})))
             self._input = rgb_buffer
         encoder.clear_buffer(self._status)
         encoder.copy_buffer_to_buffer(self._first, 0, self._status, 4, 4)

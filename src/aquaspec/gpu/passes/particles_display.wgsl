@@ -13,10 +13,11 @@ const TONEMAP: u32 = {{ tonemap_id }}u;
 @group(0) @binding(1) var<storage, read> rgb_in: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rgba_out: array<u32>;
 @group(0) @binding(3) var<storage, read_write> status: array<atomic<u32>>;
-@group(0) @binding(4) var accum_tex: texture_2d<f32>;
-@group(0) @binding(5) var<uniform> params: {{ params_name }};
+@group(0) @binding(4) var<storage, read> snow_in: array<u32>;
+@group(0) @binding(5) var<uniform> snow_prm: {{ params_name }};
 
 #include "tonemap.wgsl"
+#include "snow_accum.wgsl"
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -24,8 +25,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let p = gid.y * display.width + gid.x;
-    let acc = textureLoad(accum_tex, vec2<i32>(gid.xy), 0);
-    let lin = rgb_in[p].xyz * max(1.0 - acc.w, 0.0) + acc.xyz * params.inv_scale / max(acc.w, 1.0);
+    let acc = snow_accumulated(p);
+    let lin = rgb_in[p].xyz * max(1.0 - acc.w, 0.0) + acc.xyz / max(acc.w, 1.0);
     let c = max(lin, vec3<f32>(0.0));
     let x = vec3<f32>(dot(display.m0, c), dot(display.m1, c), dot(display.m2, c));
     if (any_non_finite(lin) || any_non_finite(x)) {

@@ -1,29 +1,32 @@
 // Marine snow composed over an invocation's four pixels of a row before the
 // fused display transform (lightfield.wgsl with
 // aquaspec.gpu.passes.lightfield.LightfieldPass.set_snow): the particle
-// pass's accumulated discs (aquaspec.gpu.passes.particles: rgba16float,
-// camera RGB times the frame's scale, and the coverage alpha) over the
-// linear image, L' = L max(1 - alpha, 0) + S / max(alpha, 1)
-// (aquaspec.shading.particles.composite). One texel load per pixel.
+// pass's accumulated discs (aquaspec.gpu.passes.particles, snow_accum.wgsl:
+// camera RGB S and coverage alpha) over the linear image,
+// L' = L max(1 - alpha, 0) + S / max(alpha, 1)
+// (aquaspec.shading.particles.composite).
 
 {{ snow_struct }}
 
-@group(0) @binding(27) var snow_accum: texture_2d<f32>;
-@group(0) @binding(28) var<uniform> snow_params: {{ snow_params }};
+@group(0) @binding(27) var<storage, read> snow_in: array<u32>;
+@group(0) @binding(28) var<uniform> snow_prm: {{ snow_params }};
+
+#include "snow_accum.wgsl"
 
 fn snow_compose(px: vec4<u32>, row: u32, c: Rgb4) -> Rgb4 {
     var a: vec4<f32>;
     var sr: vec4<f32>;
     var sg: vec4<f32>;
     var sb: vec4<f32>;
+    let row_start = row * u32(snow_prm.width);
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let t = textureLoad(snow_accum, vec2<u32>(px[k], row), 0);
+        let t = snow_accumulated(row_start + px[k]);
         sr[k] = t.x;
         sg[k] = t.y;
         sb[k] = t.z;
         a[k] = t.w;
     }
     let keep = max(1.0 - a, vec4<f32>(0.0));
-    let f = snow_params.inv_scale / max(a, vec4<f32>(1.0));
+    let f = 1.0 / max(a, vec4<f32>(1.0));
     return Rgb4(c.r * keep + sr * f, c.g * keep + sg * f, c.b * keep + sb * f);
 }
