@@ -15,7 +15,15 @@ touch in :func:`aquaspec.rendering.api.render`.
   surface's.
 - With a sun, its disc seen through the surface (flat, or the waves'
   facets; :func:`aquaspec.shading.below_waves.sun_disc_below`), in the same
-  step and pass.
+  step and pass; under waves its glitter over the unresolved slopes.
+- With a scene (meshes), the scene mirrored in the surface (total internal
+  reflection outside Snell's window, Fresnel inside it) in place of the open
+  water's mirror where a mirrored ray meets it
+  (:mod:`aquaspec.shading.below_mirror`: a G-buffer from the camera
+  mirrored in ``y = 0``, ray cast in NumPy, rasterised on the GPU by the
+  frame's raster pass into its own targets, shaded by
+  :class:`aquaspec.gpu.passes.below_mirror.BelowMirrorPass`); under waves
+  the flat surface's mirror is kept for the scene.
 """
 
 from __future__ import annotations
@@ -27,37 +35,48 @@ import numpy as np
 
 from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.light.wave_facets import surface_facets
-from aquaspec.rendering.above import at_waterline, waterline_sky
+from aquaspec.rendering.above import above_water, at_waterline, waterline_sky
+from aquaspec.scene.raycast import raycast_gbuffer
 from aquaspec.shading.above_water import sun_in_air
+from aquaspec.shading.below_mirror import mirrored_camera, scene_in_mirror
 from aquaspec.shading.below_waves import sun_disc_below, window_correction
 
 
 def surface_seen_from_water(setup, view, shaded, backend: str):
-    """``shaded`` with the waterline's sky, or the waves' change to the surface
-    seen from below and the sun's disc through it (module docstring); as it
-    was otherwise."""
+    """``shaded`` with the waterline's sky, or the surface seen from below:
+    the waves' change, the sun's disc or glitter through it and the scene
+    mirrored in it (module docstring); as it was otherwise."""
     if at_waterline(view.camera):
         linear, radiance = waterline_sky(setup, view.camera, shaded.linear, shaded.radiance)
         return dataclasses.replace(shaded, linear=linear, radiance=radiance)
-    sun = setup.sun_inputs() if setup.light.sun is not None else None
-    if (setup.waves is None and sun is None) or setup.surface != "flat" \
-            or setup.ms_model != "lightfield":
+    if setup.surface != "flat" or setup.ms_model != "lightfield" or above_water(view.camera):
         return shaded
-    med = setup.medium([])
-    tables, cam = setup.lightfield_tables(), view.camera
+    sun = setup.sun_inputs() if setup.light.sun is not None else None
+    cam = view.camera
+    v = cam.ray_directions()
+    s_top = -float(cam.position[1]) / np.where(v[..., 1] > 0, v[..., 1], 1.0)
+    # (The GPU's frame keeps its G-buffer on the device: its pass finds the open water.)
+    mirror = view.scene is not None and bool(np.any(
+        v[..., 1] > 0 if shaded.gbuffer is None else _open_up(v, s_top, shaded.gbuffer.distance)))
+    if setup.waves is None and sun is None and not mirror:
+        return shaded
+    med = setup.medium(view.scene.materials if mirror else [])
+    tables = setup.lightfield_tables()
     facets = None if setup.waves is None else surface_facets(setup.waves)
     radiance = shaded.radiance
     if backend == "gpu" and radiance is None:
         r = shaded.renderer
-        gpu = _below_pass(r.deferred.device, cam.width, cam.height)
-        gpu.set_medium(tables, facets, a=med["a"], b=med["b"], e0=med["e0"],
-                       response_weights=med["response_weights"], sun=sun)
-        change = gpu.render(cam, r.deferred.gbuffer.textures["surface"]).astype(np.float64)
+        surface = r.deferred.gbuffer.textures["surface"]
+        change = 0.0
+        if setup.waves is not None or sun is not None:
+            gpu = _below_pass(r.deferred.device, cam.width, cam.height)
+            gpu.set_medium(tables, facets, a=med["a"], b=med["b"], e0=med["e0"],
+                           response_weights=med["response_weights"], sun=sun)
+            change = gpu.render(cam, surface).astype(np.float64)
+        if mirror:
+            change = change + _mirror_on_gpu(r, view, setup, med, tables, sun, surface)
     else:
-        v = cam.ray_directions()
-        s_top = -float(cam.position[1]) / np.where(v[..., 1] > 0, v[..., 1], 1.0)
-        dist = shaded.gbuffer.distance
-        open_up = (v[..., 1] > 0) & (~np.isfinite(dist) | (dist > s_top))
+        open_up = _open_up(v, s_top, shaded.gbuffer.distance)
         bands = 0.0
         if facets is not None:
             bands = window_correction(cam, open_up, tables, facets, a=med["a"], b=med["b"],
@@ -66,11 +85,46 @@ def surface_seen_from_water(setup, view, shaded, backend: str):
             to_air, e_air = sun_in_air(sun)
             bands = bands + sun_disc_below(cam, open_up, facets, to_air, e_air, a=med["a"],
                                            b=med["b"])
+        if mirror:
+            bands = bands + scene_in_mirror(
+                cam, open_up, raycast_gbuffer(view.scene, mirrored_camera(cam)), tables,
+                **{k: med[k] for k in MIRROR_KEYS}, sun=sun)
         change = radiance_to_rgb(bands, med["response_weights"])
         if radiance is not None:
             radiance = radiance + bands
     return dataclasses.replace(shaded, linear=shaded.linear + change, radiance=radiance,
                                surface_change=change)
+
+
+#: The medium's arguments :func:`aquaspec.shading.below_mirror.scene_in_mirror` takes.
+MIRROR_KEYS = ("a", "b", "e0", "material_bands", "sigmoid_centers_t")
+
+
+def _open_up(v, s_top, distance):
+    """Rays going up that reach the surface: no hit, or a hit beyond it."""
+    return (v[..., 1] > 0) & (~np.isfinite(distance) | (distance > s_top))
+
+
+def _mirror_on_gpu(r, view, setup, med, tables, sun, surface):
+    """The scene mirrored in the surface on the GPU (camera RGB, float64):
+    the mirrored camera's G-buffer drawn by the frame's raster pass into its
+    own targets, then :class:`~aquaspec.gpu.passes.below_mirror.BelowMirrorPass`."""
+    cam = view.camera
+    gpu = _mirror_pass(r.deferred.device, cam.width, cam.height)
+    gpu.set_medium(tables, **{k: med[k] for k in MIRROR_KEYS if k not in ("a", "b", "e0")},
+                   a=med["a"], b=med["b"], e0=med["e0"],
+                   response_weights=med["response_weights"], sun=sun)
+    encoder = r.deferred.device.create_command_encoder()
+    targets = gpu.mirror_gbuffer(encoder, r.raster, view.scene, cam)
+    r.deferred.device.queue.submit([encoder.finish()])
+    return gpu.render(cam, surface, targets).astype(np.float64)
+
+
+@functools.lru_cache(maxsize=2)
+def _mirror_pass(device, width: int, height: int):
+    """The mirrored-scene pass at one size, compiled once per device."""
+    from aquaspec.gpu.passes.below_mirror import BelowMirrorPass   # deferred: wgpu on the GPU path
+    return BelowMirrorPass(device, width, height)
 
 
 @functools.lru_cache(maxsize=2)

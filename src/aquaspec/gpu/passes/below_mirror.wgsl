@@ -1,0 +1,119 @@
+// The scene mirrored in the sea surface seen from below: twin of
+// aquaspec.shading.below_mirror.scene_in_mirror, in camera RGB. One
+// invocation per pixel: its ray v going up through open water (the frame's
+// G-buffer distance negative, or beyond the surface at S = d_o / v_y) is
+// mirrored at the flat surface; the mirrored camera's G-buffer (its image
+// flipped left to right) gives the hit at S + S2 along the mirrored ray, and
+// the pixel gains
+//   sum_i w_i exp(-c_i S) R(v_y) exp(-c'_i S2) (L_hit,i - L_bg,i(d_2, r_y)),
+// L_hit = rho (E(d_2, n_y) + [sun] E_b(d_2) max(0, n . to_sun)) / pi, the
+// irradiance and background tables read bilinearly as the NumPy reference's
+// (transport.lightfield.tables.table_lookup; below_mirror.mirror_background_table).
+
+#include "fresnel.wgsl"
+#include "gbuffer_normal.wgsl"
+
+{{ params_struct }}
+
+const PI: f32 = 3.14159265358979;
+const PER_PIXEL: u32 = 0xffffffffu;
+const SIGMOID_X_MAX: f32 = 1.0e6;
+
+@group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
+@group(0) @binding(1) var gb_surface: texture_2d<u32>;
+@group(0) @binding(2) var mirror_surface: texture_2d<u32>;
+@group(0) @binding(3) var mirror_sigmoid: texture_2d<f32>;
+// Per band three vec4: (c, c - f b, t, e0), (w_r, w_g, w_b, 0), (beam0, c_sun, 0, 0).
+@group(0) @binding(4) var<storage, read> bands: array<vec4<f32>>;
+// Material m's band i at [m * n_bands + i].
+@group(0) @binding(5) var<storage, read> materials: array<f32>;
+// L_bg at [(k * bg_mu + j) * n_bands + i]; E / e0 at [(k * e_mu + j) * n_bands + i].
+@group(0) @binding(6) var<storage, read> background: array<f32>;
+@group(0) @binding(7) var<storage, read> irradiance: array<f32>;
+@group(0) @binding(8) var<storage, read_write> rgb_out: array<vec4<f32>>;
+
+// (lower node, weight) on a table's depth axis: sqrt(d / D) (nodes - 1).
+fn depth_axis(d: f32, nodes: u32) -> vec2<f32> {
+    let x = sqrt(clamp(d, 0.0, prm.max_depth) / prm.max_depth) * f32(nodes - 1u);
+    let k = min(floor(x), f32(nodes - 2u));
+    return vec2<f32>(k, x - k);
+}
+
+// (lower node, weight) for a table coordinate x in [0, nodes - 1].
+fn node_axis(x: f32, nodes: u32) -> vec2<f32> {
+    let k = min(floor(x), f32(nodes - 2u));
+    return vec2<f32>(k, x - k);
+}
+
+fn background_at(d: vec2<f32>, m: vec2<f32>, i: u32) -> f32 {
+    let n = prm.n_bands;
+    let k = u32(d.x);
+    let j = u32(m.x);
+    let a = mix(background[(k * prm.bg_mu + j) * n + i], background[(k * prm.bg_mu + j + 1u) * n + i], m.y);
+    let b = mix(background[((k + 1u) * prm.bg_mu + j) * n + i],
+                background[((k + 1u) * prm.bg_mu + j + 1u) * n + i], m.y);
+    return mix(a, b, d.y);
+}
+
+fn irradiance_at(d: vec2<f32>, m: vec2<f32>, i: u32) -> f32 {
+    let n = prm.n_bands;
+    let k = u32(d.x);
+    let j = u32(m.x);
+    let a = mix(irradiance[(k * prm.e_mu + j) * n + i], irradiance[(k * prm.e_mu + j + 1u) * n + i], m.y);
+    let b = mix(irradiance[((k + 1u) * prm.e_mu + j) * n + i],
+                irradiance[((k + 1u) * prm.e_mu + j + 1u) * n + i], m.y);
+    return mix(a, b, d.y);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= prm.width || gid.y >= prm.height) {
+        return;
+    }
+    let xc = (f32(gid.x) + 0.5 - prm.cx) / prm.fx;
+    let yc = (f32(gid.y) + 0.5 - prm.cy) / prm.fy;
+    let v = normalize(prm.right * xc - prm.up * yc + prm.forward);
+    var rgb = vec3<f32>(0.0);
+    let s_hit = bitcast<f32>(textureLoad(gb_surface, vec2<i32>(gid.xy), 0).x);
+    let mp = vec2<i32>(i32(prm.width - 1u - gid.x), i32(gid.y));
+    let m = textureLoad(mirror_surface, mp, 0);
+    let dist = bitcast<f32>(m.x);
+    if (v.y > 0.0) {
+        let s = -prm.position.y / v.y;
+        if ((s_hit < 0.0 || s_hit > s) && dist > s) {
+            let s2 = dist - s;
+            let r = vec3<f32>(v.x, -v.y, v.z);
+            let depth = max(-(prm.position.y + v.y * s + r.y * s2), 0.0);
+            let normal = decode_normal(m.z, m.y);
+            let gain = 1.0 - fresnel_transmittance_out(v.y, prm.n_water);
+            let da = depth_axis(depth, prm.e_depth);
+            let ea = node_axis((1.0 - acos(clamp(normal.y, -1.0, 1.0)) / PI) * f32(prm.e_mu - 1u),
+                               prm.e_mu);
+            let db = depth_axis(depth, prm.bg_depth);
+            let ba = node_axis(acos(clamp(v.y, 0.0, 1.0)) * 2.0 / PI * f32(prm.bg_mu - 1u),
+                               prm.bg_mu);
+            let sun_cos = max(dot(normal, prm.to_sun), 0.0);
+            let coeffs = textureLoad(mirror_sigmoid, mp, 0).xyz;
+            for (var i = 0u; i < prm.n_bands; i = i + 1u) {
+                let cb = bands[3u * i];
+                var rho: f32;
+                if (m.w == PER_PIXEL) {
+                    let x = clamp((coeffs.x * cb.z + coeffs.y) * cb.z + coeffs.z,
+                                  -SIGMOID_X_MAX, SIGMOID_X_MAX);
+                    rho = 0.5 + 0.5 * x * inverseSqrt(1.0 + x * x);
+                } else {
+                    rho = materials[m.w * prm.n_bands + i];
+                }
+                var e = irradiance_at(da, ea, i) * cb.w;
+                if (prm.sun_on == 1u) {
+                    let sb = bands[3u * i + 2u];
+                    e = e + sb.x * exp(-sb.y * depth / prm.mu0) * sun_cos;
+                }
+                let delta = exp(-cb.x * s - cb.y * s2) * gain
+                    * (rho * e / PI - background_at(db, ba, i));
+                rgb = rgb + bands[3u * i + 1u].xyz * delta;
+            }
+        }
+    }
+    rgb_out[gid.y * prm.width + gid.x] = vec4<f32>(rgb, 0.0);
+}

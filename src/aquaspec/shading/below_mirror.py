@@ -1,0 +1,151 @@
+"""The scene mirrored in the sea surface seen from below (NumPy reference).
+
+Conventions: metres, y up, the mean surface the plane ``y = 0``, depth ``d =
+-y``; a camera at depth ``d_o`` under the sea, unit view directions ``v``
+from it. A ray going up through open water meets the flat surface at ``S =
+d_o / v_y`` and is mirrored there into ``r = (v_x, -v_y, v_z)`` with the
+surface's reflectance ``R(v_y) = 1 - T_out(v_y)`` (1 outside Snell's window:
+total internal reflection; :func:`aquaspec.medium.interface.fresnel_transmittance_out`).
+The flat surface's light field (its ``mirrored_top`` table) puts there the
+*open water* seen along ``r``; where ``r`` meets the scene (rocks, the seabed
+mesh, a chart) at ``S2`` beyond the surface, the light field's radiance
+along ``r`` from depth 0
+(:meth:`aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance`
+with ``depth_o = 0``, ``v_y = r_y``, ``s = S2``, the hit's reflectance, depth
+and normal) replaces the open water's, so the image gains
+
+    Delta = exp(-c S) R(v_y) (L(0, r; S2, hit) - L(0, r; open water))
+          = exp(-c S) R(v_y) T'(S2) (L_hit - L_bg(d_2, r))
+
+(the second line is the light field's two-point form: ``T'`` the beam's
+transmittance ``exp(-(c - f b) S2)``, ``L_hit`` the hit's Lambertian
+radiance, ``L_bg(d_2, r)`` the open water's radiance at the hit's depth
+``d_2`` looking along ``r``; :func:`mirror_background_table` tabulates it for
+the GPU). With a sun, ``L_hit`` gains the refracted beam on the hit,
+``rho E_b(d_2) max(0, n . to_sun) / pi``, unshadowed and without caustics.
+
+The mirrored rays are those of the *mirrored camera*
+(:func:`mirrored_camera`: the camera reflected in ``y = 0``, its image flipped
+left to right), so the hits are one G-buffer of the scene seen from it
+(:func:`aquaspec.scene.raycast.raycast_gbuffer` here, the raster pass on
+the GPU), its distance ``S + S2``. A first hit closer than ``S`` is above the
+water (a rock sticking out): the scene below it is not seen there and the
+open water's mirror stays. Under a wind sea the same flat-surface mirror is
+kept for the hits (an approximation: the waves' facets tilt the mirrored
+rays, :mod:`aquaspec.shading.below_waves` tilts the open water's mirror
+but not the scene's).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from aquaspec.light.sun import surface_irradiance
+from aquaspec.medium.interface import N_WATER, fresnel_transmittance_out
+from aquaspec.scene.camera import Camera
+from aquaspec.scene.gbuffer import hit_reflectance
+
+#: Nodes of :func:`mirror_background_table` over depth (on ``sqrt(d / D)``) and
+#: over the mirrored ray's ``r_y`` (on its angle, as the light field's tables).
+BACKGROUND_DEPTH_NODES = 96
+BACKGROUND_COS_NODES = 48
+
+_MIRROR = np.array([1.0, -1.0, 1.0])
+
+
+def mirrored_camera(camera: Camera) -> Camera:
+    """``camera`` reflected in the surface ``y = 0``: its pixel ``(i, W - 1 -
+    j)`` looks along the mirror image of ``camera``'s pixel ``(i, j)`` ray (a
+    mirror turns a right-handed camera left-handed; the image's columns are
+    flipped and ``cx`` with them to stay right-handed)."""
+    return Camera(camera.position * _MIRROR, camera.forward * _MIRROR,
+                  camera.true_up * _MIRROR, camera.width, camera.height, camera.fx,
+                  camera.fy, camera.width - camera.cx, camera.cy, camera.near, camera.far)
+
+
+@dataclass(frozen=True)
+class MirrorHits:
+    """The pixels whose mirrored ray meets the scene below the surface:
+    ``mask`` (H, W), and per such pixel (P,) ``v_y``, the distance ``s_top``
+    to the surface, ``s2`` beyond it, the hit's depth ``depth`` and unit
+    normal ``normal`` (P, 3), its ``material`` and ``sigmoid`` (P, 3)."""
+
+    mask: np.ndarray
+    v_y: np.ndarray
+    s_top: np.ndarray
+    s2: np.ndarray
+    depth: np.ndarray
+    normal: np.ndarray
+    material: np.ndarray
+    sigmoid: np.ndarray
+
+
+def mirror_hits(camera: Camera, open_up, mirror_gbuffer) -> MirrorHits:
+    """The hits of ``mirror_gbuffer`` (a G-buffer of the scene from
+    :func:`mirrored_camera` of ``camera``) that the rays of ``camera`` going
+    up through open water (``open_up`` (H, W)) see in the surface."""
+    v = camera.ray_directions()
+    dist = mirror_gbuffer.distance[:, ::-1].astype(float)
+    d_o = -float(camera.position[1])
+    up = v[..., 1] > 0
+    s_top = np.where(up, d_o / np.where(up, v[..., 1], 1.0), np.inf)
+    mask = np.asarray(open_up, dtype=bool) & up & np.isfinite(dist) & (dist > s_top)
+    s2 = dist[mask] - s_top[mask]
+    vv = v[mask]
+    hit = camera.position + vv * s_top[mask, None] + (vv * _MIRROR) * s2[:, None]
+    return MirrorHits(mask, vv[:, 1], s_top[mask], s2, np.maximum(-hit[:, 1], 0.0),
+                      mirror_gbuffer.normal[:, ::-1][mask].astype(float),
+                      mirror_gbuffer.material[:, ::-1][mask],
+                      mirror_gbuffer.sigmoid[:, ::-1][mask].astype(float))
+
+
+def scene_in_mirror(camera: Camera, open_up, mirror_gbuffer, tables, *, a, b, e0,
+                    material_bands, sigmoid_centers_t, sun=None,
+                    n_water: float = N_WATER) -> np.ndarray:
+    """``Delta`` (H, W, n) of the module docstring for ``camera`` under the
+    sea: zero but where a ray going up through open water (``open_up``) is
+    mirrored into the scene. ``mirror_gbuffer``: the scene from
+    :func:`mirrored_camera`; ``tables``: the flat surface's light field;
+    ``material_bands`` (M, n) and ``sigmoid_centers_t`` (n,): the
+    reflectances as :func:`aquaspec.shading.shade.shade_gbuffer` takes them;
+    ``sun``: :class:`~aquaspec.transport.sun_scattering.SunInputs` or None."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    hits = mirror_hits(camera, open_up, mirror_gbuffer)
+    out = np.zeros(hits.mask.shape + (a.size,))
+    if not hits.mask.any():
+        return out
+    rho = hit_reflectance(hits.material, hits.sigmoid, np.asarray(material_bands, dtype=float),
+                          np.asarray(sigmoid_centers_t, dtype=float))
+    col = (lambda x: np.asarray(x, dtype=float)[:, None])
+    kw = dict(a=a, b=b, e0=np.asarray(e0, dtype=float), depth_o=col(np.zeros_like(hits.s2)),
+              v_y=col(-hits.v_y))
+    seen = tables.pixel_radiance(**kw, s=col(hits.s2), rho=rho, surface_depth=col(hits.depth),
+                                 n_y=col(hits.normal[:, 1]))
+    open_water = tables.pixel_radiance(**kw, s=col(np.full_like(hits.s2, np.inf)))
+    if sun is not None:
+        lit = rho / np.pi * surface_irradiance(sun.beam0, sun.c_sun, hits.depth, hits.normal,
+                                               sun.to_sun)
+        seen = seen + np.exp(-tables.ray_extinction(a, b) * col(hits.s2)) * lit
+    reflectance = 1.0 - fresnel_transmittance_out(hits.v_y, n_water)
+    out[hits.mask] = (np.exp(-(a + b) * col(hits.s_top)) * col(reflectance)
+                      * (seen - open_water))
+    return out
+
+
+def mirror_background_table(tables, *, a, b, e0, n_depth: int = BACKGROUND_DEPTH_NODES,
+                            n_mu: int = BACKGROUND_COS_NODES) -> np.ndarray:
+    """``L_bg(d, r_y)`` (n_depth, n_mu, n): the open water's radiance at depth
+    ``d`` looking down along ``r_y``, on nodes ``d = D (i / (n_depth - 1))^2``
+    (``D`` the tables' ``max_depth_m``) and ``r_y = -cos(pi j / (2 (n_mu - 1)))``
+    (``r_y`` from -1 to 0), for the GPU to read bilinearly (in ``sqrt(d / D)``
+    and the angle)."""
+    d = float(tables.max_depth_m) * (np.arange(n_depth) / (n_depth - 1.0)) ** 2
+    r_y = -np.cos(0.5 * np.pi * np.arange(n_mu) / (n_mu - 1.0))
+    dd, rr = np.meshgrid(d, np.minimum(r_y, -1e-4), indexing="ij")
+    out = tables.pixel_radiance(a=np.asarray(a, float), b=np.asarray(b, float),
+                                e0=np.asarray(e0, float), depth_o=dd.reshape(-1, 1),
+                                v_y=rr.reshape(-1, 1), s=np.full((dd.size, 1), np.inf))
+    return np.asarray(out, dtype=float).reshape(n_depth, n_mu, -1)
