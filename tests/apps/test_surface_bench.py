@@ -19,10 +19,13 @@ def test_surface_bench_times_every_frame(tmp_path, capsys):
     text = capsys.readouterr().out
     res = json.loads(out.read_text())
     assert res["size"] == [64, 36] and res["bands"] == 4
-    for name in ("below", "below_flat", "looking_up_flat", "waterline", "above", "above_sun_waves"):
+    for name in ("below", "below_flat", "looking_up_flat", "waterline", "above", "above_sun_waves",
+                 "below_sun_waves", "below_sun_waves_plain"):
         assert name in text
         assert np.isfinite(res["frame_wall_ms"][name]) and res["frame_wall_ms"][name] > 0
     assert res["ratio_to_below"]["below"] == 1.0
+    ms = res["frame_wall_ms"]
+    assert res["surface_from_below_ratio"] == ms["below_sun_waves"] / ms["below_sun_waves_plain"]
 
 
 def test_surface_bench_refuses_what_it_does_not_time(capsys):

@@ -19,7 +19,18 @@ clock: a software adapter's timestamps do not bracket a pass's work):
   light field's table below the surface is uploaded once, as the medium is;
 - ``above_sun_waves``: the same camera with the sun (SPECTRL2, 35 degrees,
   ahead) over a 6 m/s wind sea: the beam's scattering table, each ray
-  through its wave facet, the glitter.
+  through its wave facet, the glitter;
+- ``below_sun_waves``: the ``looking_up_flat`` view under that sun and sea
+  as a live view draws it (:meth:`~aquaspec.rendering.renderer.Renderer.encode_frame`),
+  the waves moving 1/30 s a frame: the caustics mixed from their loop (of
+  :data:`LOOP_FRAMES` frames: the mix costs what the view's 48-frame loop's
+  does, and the loop is built in seconds), the shading, the surface seen
+  from below (:mod:`aquaspec.rendering.live_surface`: Snell's window through
+  the moving facets, the sun's disc; the facets made for each frame's time
+  and uploaded), the display transform after it;
+- ``below_sun_waves_plain``: the same frames without the surface seen from
+  below (``Renderer.surface_from_below = False``: the flat surface's light
+  field only, the display fused into the shading, as live frames were before).
 
 Each is reported with its ratio to ``below``. The machine may be shared:
 compare ratios from one run.
@@ -27,6 +38,7 @@ compare ratios from one run.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -47,7 +59,12 @@ from aquaspec.scene.builtin import builtin_scene
 from aquaspec.scene.camera import Camera, camera_above
 
 #: The frames compared (module docstring), in the order they are run.
-FRAMES = ("below", "below_flat", "looking_up_flat", "waterline", "above", "above_sun_waves")
+FRAMES = ("below", "below_flat", "looking_up_flat", "waterline", "above", "above_sun_waves",
+          "below_sun_waves", "below_sun_waves_plain")
+#: Frames of the caustics' loop under the live frames with waves.
+LOOP_FRAMES = 2
+#: Wave seconds per frame of the live frames with waves.
+WAVE_STEP_S = 1.0 / 30.0
 
 
 def _tilted_up(camera: Camera, degrees: float) -> Camera:
@@ -84,6 +101,23 @@ def _above_frame(below: Renderer, camera, setup, **extra):
     return draw
 
 
+def _live_waves_frame(scene, camera, setup, *, plain: bool):
+    """A live frame of ``camera`` under ``setup``'s sun and moving sea
+    (``plain``: without the surface seen from below), as a function that
+    draws the next one (the waves :data:`WAVE_STEP_S` on) and waits."""
+    r = Renderer(camera.width, camera.height, setup.bands.n)
+    r.surface_from_below = not plain
+    clock = {"t": 0.0}
+    r.set_wave_time(0.0, frames=LOOP_FRAMES)
+    r.auto_display(scene, camera, setup)
+
+    def draw():
+        clock["t"] += WAVE_STEP_S
+        r.set_wave_time(clock["t"], frames=LOOP_FRAMES)
+        r.draw_frame(scene, camera, setup)
+    return draw
+
+
 def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
                       frames: int = 12, warmup: int = 3, water="IB", depth_m: float = 5.0,
                       progress=None) -> dict:
@@ -117,6 +151,10 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
                   r.draw_frame(scene, v, s)) for name, (view, surface) in views.items()}
     run["above"] = draw_above
     run["above_sun_waves"] = draw_above_sun
+    sea = dataclasses.replace(sunny, waves=Waves(6.0))
+    say("the caustic loop of a 6 m/s sea under the sun (seconds the first time, then cached)")
+    for name in ("below_sun_waves", "below_sun_waves_plain"):
+        run[name] = _live_waves_frame(scene, up, sea, plain=name.endswith("plain"))
     times = {k: [] for k in FRAMES}
     for i in range(warmup + frames):
         for name in FRAMES:
@@ -128,6 +166,7 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
     return {"size": [width, height], "bands": n_bands, "water": w.name, "depth_m": depth_m,
             "frames": frames, "frame_wall_ms": ms,
             "ratio_to_below": {k: ms[k] / ms["below"] for k in FRAMES},
+            "surface_from_below_ratio": ms["below_sun_waves"] / ms["below_sun_waves_plain"],
             "adapter": adapter_info()}
 
 
@@ -137,6 +176,8 @@ def format_surface(result: dict) -> str:
     lines = [f"surface frames at {w}x{h}, {result['bands']} bands, Jerlov {result['water']} "
              f"(median wall ms over {result['frames']} frames; ratio to 'below'):"]
     for k in FRAMES:
-        lines.append(f"  {k:16s} {result['frame_wall_ms'][k]:8.1f} ms   "
+        lines.append(f"  {k:21s} {result['frame_wall_ms'][k]:8.1f} ms   "
                      f"{result['ratio_to_below'][k]:.2f}")
+    lines.append("  the surface seen from below in the live frame (below_sun_waves / "
+                 f"below_sun_waves_plain): {result['surface_from_below_ratio']:.2f}")
     return "\n".join(lines)

@@ -28,6 +28,7 @@ from dataclasses import replace
 import numpy as np
 import scipy.fft as sfft
 
+from aquaspec.gpu.buffers import upload_buffer
 from aquaspec.gpu.passes.add_rgb import AddRgbPass
 from aquaspec.gpu.passes.below_waves import BelowWavesPass
 from aquaspec.light.wave_facets import SurfaceFacets, surface_facets, unresolved_variance
@@ -76,24 +77,32 @@ class LiveSurface:
     def __init__(self, device, width: int, height: int):
         self.below = BelowWavesPass(device, width, height)
         self.add = AddRgbPass(device, width, height)
-        self._key = None
+        self._setup = self._moving = self._time = None
 
     def encode(self, encoder, setup: SpectralSetup, camera, surface_texture, rgb_buffer,
                wave_time_s: float | None) -> None:
         """Record the pass for ``camera`` reading the G-buffer's
         ``surface_texture``, and add its change into ``rgb_buffer`` (the
         shading's linear camera RGB); the sea at ``wave_time_s`` (None: the
-        setup's instant). The medium and the sea are uploaded when either changed."""
+        setup's instant). The medium is uploaded when the setup changed, the
+        tile's slopes when the sea or its time did."""
         sea = setup.waves
-        key = (setup, None if sea is None else (sea if wave_time_s is None else wave_time_s))
-        if self._key is None or self._key[0] is not setup or self._key[1] != key[1]:
-            facets = None if sea is None else (surface_facets(sea) if wave_time_s is None
-                                               else facets_at(sea, wave_time_s))
+        moving = sea is not None and wave_time_s is not None
+        if self._setup is not setup or self._moving != moving:
+            facets = None if sea is None else (facets_at(sea, wave_time_s) if moving
+                                               else surface_facets(sea))
             med = setup.medium([])
             self.below.set_medium(setup.lightfield_tables(), facets, a=med["a"], b=med["b"],
                                   e0=med["e0"], response_weights=med["response_weights"],
                                   sun=setup.sun_inputs() if setup.light.sun is not None
                                   else None)
-            self._key = key
+            self._setup, self._moving, self._time = setup, moving, wave_time_s
+        elif moving and wave_time_s != self._time:
+            # Only the slopes move: set_medium would make the sky's and the
+            # water's tables again (60 ms a frame on a loaded lavapipe host).
+            # The tile's size, grid and s2 are the sea's, uploaded with them.
+            upload_buffer(self.below.device, self.below._buffers["slopes"],
+                          facets_at(sea, wave_time_s).slopes.reshape(-1, 2))
+            self._time = wave_time_s
         self.below.encode(encoder, camera, surface_texture)
         self.add.encode(encoder, self.below.rgb_buffer, rgb_buffer)

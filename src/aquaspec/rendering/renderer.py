@@ -97,6 +97,9 @@ class Renderer:
         self._display = None        # DisplayPass of frames with the sun (set_display)
         self._last_display = None
         self._surface = None        # LiveSurface, made when a frame first sees the surface
+        #: Live frames draw the surface seen from below where render() does
+        #: (:mod:`aquaspec.rendering.live_surface`); False leaves it out.
+        self.surface_from_below = True
         #: The waves' time of the next frames' caustics, s (:meth:`set_wave_time`).
         self.wave_time_s = None
         self._wave_loop = None      # CausticLoopPass of the moving sea
@@ -539,7 +542,7 @@ class Renderer:
         """The surface seen from below for this frame (:class:`LiveSurface`,
         made when first needed), or None where it is not drawn
         (:func:`aquaspec.rendering.live_surface.surface_drawn`)."""
-        if not surface_drawn(setup, camera):
+        if not (self.surface_from_below and surface_drawn(setup, camera)):
             return None
         if self._surface is None:
             self._surface = LiveSurface(self.deferred.device, self.width, self.height)
