@@ -44,7 +44,7 @@ One invocation shades four horizontally adjacent pixels. Bindings:
 25  full-resolution pass only)
 26  2-D array texture                   the occlusion factors' grid
                                         (:meth:`set_occlusion`), both passes
-27  storage ``array<u32>``              marine snow's accumulated discs
+27  texture ``rgba32uint``              marine snow's accumulated discs
                                         (:meth:`set_snow`; fused display only)
 28  uniform                             their scale (the particle pass's params)
 ==  ==================================  ==========================================
@@ -52,7 +52,7 @@ One invocation shades four horizontally adjacent pixels. Bindings:
 With marine snow (:meth:`set_snow`: a
 :class:`aquaspec.gpu.passes.particles.ParticlePass` whose splat is recorded
 before this pass) a frame with the display fused composes the particles over
-each pixel before its display transform (four u32 loads per pixel,
+each pixel before its display transform (one texel load per pixel,
 :func:`aquaspec.shading.particles.composite`), instead of a pass of its own
 that reads the linear image back.
 
@@ -389,7 +389,7 @@ class LightfieldPass(ShadingPass):
             if occ:
                 kinds[B_OCCLUSION] = "filterable_array" if self.filtering else "float_array"
             if snow:
-                kinds.update({B_SNOW: "read", B_SNOW_PARAMS: "uniform"})
+                kinds.update({B_SNOW: "uint", B_SNOW_PARAMS: "uniform"})
             self._layouts[key] = bind_group_layout(self.device, kinds)
         return self._layouts[key]
 

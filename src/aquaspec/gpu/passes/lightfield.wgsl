@@ -456,7 +456,7 @@ fn band_group_start(q: u32) {
 {{ occlusion_block }}
 
 // Without marine snow.
-fn no_snow_compose(px: vec4<u32>, row: u32, c: Rgb4) -> Rgb4 {
+fn no_snow_compose(j0: u32, row: u32, c: Rgb4) -> Rgb4 {
     return c;
 }
 
@@ -697,7 +697,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid:
         }
     }
     // Marine snow over the pixels (snow_compose.wgsl; with it only in the fused display).
-    let out = {{ snow_compose }}(px, row, Rgb4(r, gr, b));
+    let out = {{ snow_compose }}(j0, row, Rgb4(r, gr, b));
     // (display.wgsl's main with DISPLAY.)
     write_pixels(row, j0, prm.width, out.r, out.g, out.b);
 }

@@ -7,9 +7,11 @@ this pass draws their discs. WGSL: ``particles.wgsl`` beside this module.
 
 1. Splat (a compute pass, one invocation per particle): each disc's pixels,
    weighted by the anti-aliased disc and dropped behind the G-buffer's
-   surface, added into an accumulation buffer (:attr:`ParticlePass.accum`:
-   four ``u32`` per pixel, fixed point, ``atomicAdd``), as
-   :func:`aquaspec.shading.particles.splat_image`. Camera RGB is multiplied
+   surface, added into a buffer (four ``u32`` per pixel, fixed point,
+   ``atomicAdd``) copied into the ``rgba32uint`` texture
+   :attr:`ParticlePass.accum`, as :func:`aquaspec.shading.particles.splat_image`
+   (a texel load cost a fifth of a storage buffer's on lavapipe, for the
+   shaders that compose). Camera RGB is multiplied
    on the host by ``scale = 1 / max(RGB)`` of the frame's particles, and the
    fixed-point factor (:data:`FIXED_MAX`, less when the frame's discs could
    sum past ``2^31`` on a pixel) keeps every pixel's sum in range; a
@@ -30,11 +32,12 @@ this pass draws their discs. WGSL: ``particles.wgsl`` beside this module.
 from __future__ import annotations
 
 import numpy as np
+import wgpu
 
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
-from aquaspec.gpu.buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
-                                  upload_buffer)
+from aquaspec.gpu.buffers import (create_storage_buffer, create_texture, create_uniform_buffer,
+                                  read_texture, upload_buffer)
 from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.passes.particles_display import SnowDisplayPass
@@ -59,10 +62,17 @@ class ParticlePass:
 
     def __init__(self, device, width: int, height: int):
         self.device, self.width, self.height = device, int(width), int(height)
-        #: The accumulation buffer: four u32 per pixel (camera RGB x scale, coverage;
-        #: fixed point), row by row.
-        self.accum = create_storage_buffer(device, self.width * self.height * 16,
-                                           label="snow accum")
+        # The splat's buffer: four u32 per pixel (camera RGB x scale, coverage;
+        # fixed point), rows of the width rounded up to 16 pixels (256 bytes,
+        # as a copy into a texture needs; gpu/wgsl/snow_accum.wgsl).
+        self._row = 16 * -(-self.width // 16)
+        self._sums = create_storage_buffer(device, self.height * self._row * 16,
+                                           label="snow sums")
+        #: The accumulation, copied from the splat's buffer: ``rgba32uint``, one texel per pixel.
+        self.accum = create_texture(device, self.width, self.height, "rgba32uint",
+                                    label="snow accum",
+                                    usage=wgpu.TextureUsage.TEXTURE_BINDING
+                                    | wgpu.TextureUsage.COPY_DST | wgpu.TextureUsage.COPY_SRC)
         self.params = create_uniform_buffer(device, PARAMS, label="snow params")
         code = load_wgsl("particles.wgsl", params_struct=PARAMS.wgsl(),
                          params_name=PARAMS.name)
@@ -70,7 +80,7 @@ class ParticlePass:
                                                         3: "write"})
         self._splat = compute_pipeline(device, self._splat_layout, code, "particles.wgsl",
                                        entry_point="cs_splat")
-        self._compose_layout = bind_group_layout(device, {4: "read", 5: "write", 6: "uniform"})
+        self._compose_layout = bind_group_layout(device, {1: "uniform", 4: "uint", 5: "write"})
         self._compose = compute_pipeline(device, self._compose_layout, code, "particles.wgsl",
                                          entry_point="cs_compose")
         self._instances = None
@@ -120,22 +130,27 @@ class ParticlePass:
         upload_buffer(self.device, self.params, u)
 
     def encode_splat(self, encoder, surface_texture) -> None:
-        """Record the splat against the G-buffer's ``surface`` texture (the
-        accumulation is cleared first, also with no particles)."""
-        encoder.clear_buffer(self.accum, 0, self.accum.size)
-        if not self._count:
-            return
-        if self._splat_group is None or self._splat_key is not surface_texture:
-            self._splat_group = self.device.create_bind_group(
-                layout=self._splat_layout, entries=bind_group_entries(
-                    {0: surface_texture, 1: self.params, 2: self._instances, 3: self.accum}))
-            self._splat_key = surface_texture
-        groups = -(-self._count // SPLAT_WORKGROUP)
-        limit = self.device.limits.get("max-compute-workgroups-per-dimension", 65535)
-        if groups > limit:
-            raise AquaspecError(f"{self._count} particles in one frame; this device splats "
-                                f"at most {limit * SPLAT_WORKGROUP}")
-        record_dispatch(encoder, self._splat, self._splat_group, (groups, 1, 1))
+        """Record the splat against the G-buffer's ``surface`` texture into
+        :attr:`accum` (cleared first, also with no particles)."""
+        encoder.clear_buffer(self._sums, 0, self._sums.size)
+        if self._count:
+            if self._splat_group is None or self._splat_key is not surface_texture:
+                self._splat_group = self.device.create_bind_group(
+                    layout=self._splat_layout, entries=bind_group_entries(
+                        {0: surface_texture, 1: self.params, 2: self._instances,
+                         3: self._sums}))
+                self._splat_key = surface_texture
+            groups = -(-self._count // SPLAT_WORKGROUP)
+            limit = self.device.limits.get("max-compute-workgroups-per-dimension", 65535)
+            if groups > limit:
+                raise AquaspecError(f"{self._count} particles in one frame; this device "
+                                    f"splats at most {limit * SPLAT_WORKGROUP}")
+            record_dispatch(encoder, self._splat, self._splat_group, (groups, 1, 1))
+        encoder.copy_buffer_to_texture(
+            {"buffer": self._sums, "offset": 0, "bytes_per_row": self._row * 16,
+             "rows_per_image": self.height},
+            {"texture": self.accum, "mip_level": 0, "origin": (0, 0, 0)},
+            (self.width, self.height, 1))
 
     def encode_compose(self, encoder, rgb_buffer) -> None:
         """Record the composition in place on ``rgb_buffer`` (``vec4<f32>`` per pixel)."""
@@ -145,7 +160,7 @@ class ParticlePass:
         if self._compose_group is None or self._target is not rgb_buffer:
             self._compose_group = self.device.create_bind_group(
                 layout=self._compose_layout, entries=bind_group_entries(
-                    {4: self.accum, 5: rgb_buffer, 6: self.params}))
+                    {1: self.params, 4: self.accum, 5: rgb_buffer}))
             self._target = rgb_buffer
         record_dispatch(encoder, self._compose, self._compose_group,
                         (-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]), 1))
@@ -184,7 +199,6 @@ class ParticlePass:
     def read_accumulated(self) -> np.ndarray:
         """The last splat as :func:`aquaspec.shading.particles.splat_image` gives it
         (H, W, 4): camera RGB (the scales taken off) and coverage."""
-        acc = read_buffer(self.device, self.accum, np.uint32,
-                          (self.height, self.width, 4)).astype(np.float64) / self._fixed
+        acc = read_texture(self.device, self.accum, np.uint32, 4).astype(np.float64) / self._fixed
         acc[..., :3] *= self._inv_scale
         return acc

@@ -1,7 +1,7 @@
 """Marine snow composed over the shaded image and shown, in one pass.
 
 :class:`SnowDisplayPass` reads the shading pass's linear camera RGB
-(``vec4<f32>`` per pixel) and the particles' accumulation buffer of
+(``vec4<f32>`` per pixel) and the particles' accumulation texture of
 :class:`aquaspec.gpu.passes.particles.ParticlePass`, composes them
 (:func:`aquaspec.shading.particles.composite`) and applies the display
 transform of :mod:`aquaspec.gpu.passes.display` (the folded matrix, the tone
@@ -30,7 +30,7 @@ WORKGROUP = (8, 8)
 
 class SnowDisplayPass:
     """Compose and show ``width`` x ``height`` pixels: the particles of
-    ``accum`` (its accumulation buffer) with the scales of ``params`` (the
+    ``accum`` (its accumulation texture) with the scales of ``params`` (the
     particle pass's uniform buffer, of :class:`aquaspec.gpu.layout.UniformLayout`
     ``params_layout``) over a linear image."""
 
@@ -42,7 +42,7 @@ class SnowDisplayPass:
         self._first = create_storage_buffer(device, np.array([0xFFFFFFFF], np.uint32),
                                             label="snow display first pixel")
         self._layout = bind_group_layout(device, {0: "uniform", 1: "read", 2: "write",
-                                                  3: "write", 4: "read", 5: "uniform"})
+                                                  3: "write", 4: "uint", 5: "uniform"})
         #: ``display_buffer``: the image as packed RGBA8 (the display pass's layout).
         self.output = SimpleNamespace(display_buffer=create_storage_buffer(
             device, self.width * self.height * 4, label="snow display rgba8"))

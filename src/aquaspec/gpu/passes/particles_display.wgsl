@@ -13,7 +13,7 @@ const TONEMAP: u32 = {{ tonemap_id }}u;
 @group(0) @binding(1) var<storage, read> rgb_in: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> rgba_out: array<u32>;
 @group(0) @binding(3) var<storage, read_write> status: array<atomic<u32>>;
-@group(0) @binding(4) var<storage, read> snow_in: array<u32>;
+@group(0) @binding(4) var snow_tex: texture_2d<u32>;
 @group(0) @binding(5) var<uniform> snow_prm: {{ params_name }};
 
 #include "tonemap.wgsl"
@@ -25,7 +25,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let p = gid.y * display.width + gid.x;
-    let acc = snow_accumulated(p);
+    let acc = snow_accumulated(gid.x, gid.y);
     let lin = rgb_in[p].xyz * max(1.0 - acc.w, 0.0) + acc.xyz / max(acc.w, 1.0);
     let c = max(lin, vec3<f32>(0.0));
     let x = vec3<f32>(dot(display.m0, c), dot(display.m1, c), dot(display.m2, c));

@@ -2,25 +2,26 @@
 // fused display transform (lightfield.wgsl with
 // aquaspec.gpu.passes.lightfield.LightfieldPass.set_snow): the particle
 // pass's accumulated discs (aquaspec.gpu.passes.particles, snow_accum.wgsl:
-// camera RGB S and coverage alpha) over the linear image,
+// camera RGB S and coverage alpha, one texel per pixel) over the linear image,
 // L' = L max(1 - alpha, 0) + S / max(alpha, 1)
 // (aquaspec.shading.particles.composite).
 
 {{ snow_struct }}
 
-@group(0) @binding(27) var<storage, read> snow_in: array<u32>;
+@group(0) @binding(27) var snow_tex: texture_2d<u32>;
 @group(0) @binding(28) var<uniform> snow_prm: {{ snow_params }};
 
 #include "snow_accum.wgsl"
 
-fn snow_compose(px: vec4<u32>, row: u32, c: Rgb4) -> Rgb4 {
+// The four pixels of a row from column j0.
+fn snow_compose(j0: u32, row: u32, c: Rgb4) -> Rgb4 {
     var a: vec4<f32>;
     var sr: vec4<f32>;
     var sg: vec4<f32>;
     var sb: vec4<f32>;
-    let row_start = row * u32(snow_prm.width);
+    let last = u32(snow_prm.width) - 1u;
     for (var k = 0u; k < 4u; k = k + 1u) {
-        let t = snow_accumulated(row_start + px[k]);
+        let t = snow_accumulated(min(j0 + k, last), row);
         sr[k] = t.x;
         sg[k] = t.y;
         sb[k] = t.z;
