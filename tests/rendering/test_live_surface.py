@@ -62,7 +62,8 @@ def test_where_the_surface_is_drawn():
     assert surface_drawn(_setup(), cam)
     assert surface_drawn(_setup(sea=None), cam)                  # the sun's disc alone
     assert not surface_drawn(_setup(sea=None, sun=False), cam)   # nothing to add (waves need a sun)
-    assert not surface_drawn(_setup(), above) and not surface_drawn(_setup(), waterline)
+    assert not surface_drawn(_setup(), above)
+    assert surface_drawn(_setup(sea=None, sun=False), waterline)     # the sky's half
     assert not surface_drawn(_setup(surface="index-matched"), cam)
     assert not surface_drawn(_setup(sea=None, ms_model="seeds", surface="index-matched"), cam)
 

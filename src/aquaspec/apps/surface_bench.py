@@ -11,9 +11,9 @@ clock: a software adapter's timestamps do not bracket a pass's work):
 - ``looking_up_flat``: the built-in scene's camera turned 60 degrees up, under
   the flat surface (the window in view);
 - ``waterline``: the half-and-half view, a camera on the surface looking 8
-  degrees down: its GPU frame is the water's half rendered from depth 0 (the
-  sky's half is filled in after the read-back by
-  :func:`aquaspec.rendering.above.waterline_sky`, not timed here);
+  degrees down: the water's half rendered from depth 0, the sky over the
+  rays going up (:mod:`aquaspec.rendering.live_surface`'s sky pass, the
+  display after it);
 - ``above``: a camera 5 m above the sea looking 30 degrees down
   (:class:`aquaspec.gpu.passes.above.AbovePass`) + the display pass; the
   light field's table below the surface is uploaded once, as the medium is;

@@ -10,7 +10,11 @@ its camera-RGB change to the shading's linear image on the GPU
 (:class:`aquaspec.gpu.passes.add_rgb.AddRgbPass`): :class:`LiveSurface`.
 It is drawn where the still render draws it (:func:`surface_drawn`): a
 camera under the water (not at the waterline), the light-field model with
-the flat surface's light field, and a wind sea or a sun.
+the flat surface's light field, and a wind sea or a sun. A camera at the
+waterline gets the still render's sky over the rays going up instead
+(:func:`aquaspec.rendering.above.waterline_sky`, on the GPU
+:class:`aquaspec.gpu.passes.waterline_sky.WaterlineSkyPass`): the
+half-and-half frame.
 
 The sea is the one whose caustics the frame shows: with the renderer's wave
 time (:meth:`~aquaspec.rendering.renderer.Renderer.set_wave_time`) the
@@ -28,22 +32,28 @@ from dataclasses import replace
 import numpy as np
 import scipy.fft as sfft
 
+from aquaspec.errors import AquaspecError
 from aquaspec.gpu.buffers import upload_buffer
 from aquaspec.gpu.passes.add_rgb import AddRgbPass
 from aquaspec.gpu.passes.below_waves import BelowWavesPass
+from aquaspec.gpu.passes.waterline_sky import WaterlineSkyPass
 from aquaspec.light.wave_facets import SurfaceFacets, surface_facets, unresolved_variance
 from aquaspec.light.waves import Waves, _amplitudes, angular_frequency, looping, wavenumbers
 from aquaspec.parallel import workers
 from aquaspec.rendering.above import above_water, at_waterline
 from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.shading.above_water import sky_radiance_above
 
 
 def surface_drawn(setup: SpectralSetup, camera) -> bool:
-    """Whether a frame of ``camera`` under ``setup`` gets the surface's pass:
-    the camera under the water, the light-field model under the flat
-    surface, and waves or a sun (as :func:`aquaspec.rendering.surface_view.surface_seen_from_water`)."""
-    return (not above_water(camera) and not at_waterline(camera)
-            and setup.ms_model == "lightfield" and setup.surface == "flat"
+    """Whether a frame of ``camera`` under ``setup`` gets a surface pass, as
+    :func:`aquaspec.rendering.surface_view.surface_seen_from_water` adds one:
+    a camera at the waterline (the sky's half), or under the water with the
+    light-field model under the flat surface and waves or a sun."""
+    if at_waterline(camera):
+        return True
+    return (not above_water(camera) and setup.ms_model == "lightfield"
+            and setup.surface == "flat"
             and (setup.waves is not None or setup.light.sun is not None))
 
 
@@ -78,6 +88,7 @@ class LiveSurface:
         self.below = BelowWavesPass(device, width, height)
         self.add = AddRgbPass(device, width, height)
         self._setup = self._moving = self._time = None
+        self._sky = self._sky_rgb = None
 
     def encode(self, encoder, setup: SpectralSetup, camera, surface_texture, rgb_buffer,
                wave_time_s: float | None) -> None:
@@ -85,7 +96,11 @@ class LiveSurface:
         ``surface_texture``, and add its change into ``rgb_buffer`` (the
         shading's linear camera RGB); the sea at ``wave_time_s`` (None: the
         setup's instant). The medium is uploaded when the setup changed, the
-        tile's slopes when the sea or its time did."""
+        tile's slopes when the sea or its time did. At the waterline the
+        rays going up get the sky instead (:class:`WaterlineSkyPass`)."""
+        if at_waterline(camera):
+            self._encode_sky(encoder, setup, camera, rgb_buffer)
+            return
         sea = setup.waves
         moving = sea is not None and wave_time_s is not None
         if self._setup is not setup or self._moving != moving:
@@ -106,3 +121,16 @@ class LiveSurface:
             self._time = wave_time_s
         self.below.encode(encoder, camera, surface_texture)
         self.add.encode(encoder, self.below.rgb_buffer, rgb_buffer)
+
+    def _encode_sky(self, encoder, setup: SpectralSetup, camera, rgb_buffer) -> None:
+        """The half-and-half frame's sky (:func:`aquaspec.rendering.above.waterline_sky`)."""
+        if setup.surface != "flat":
+            raise AquaspecError("a camera at the waterline sees the sea through the real "
+                                f"surface: surface 'flat' (got {setup.surface!r})")
+        if self._sky is None:
+            self._sky = WaterlineSkyPass(self.add.device, self.add.width, self.add.height)
+        if self._sky_rgb is None or self._sky_rgb[0] is not setup:
+            med = setup.medium([])
+            self._sky_rgb = (setup, sky_radiance_above(setup.lightfield_tables(), med["e0"])
+                             @ np.asarray(med["response_weights"], dtype=np.float64))
+        self._sky.encode(encoder, camera, self._sky_rgb[1], rgb_buffer)

@@ -29,6 +29,8 @@ from aquaspec.gpu.passes.caustics import CausticLoopPass
 from aquaspec.gpu.passes.sun import SunPass
 from aquaspec.light.caustics import DEFAULT_LOOP_FRAMES, caustic_loop
 from aquaspec.rendering.lamps import lamps_before_shading, lamps_shaded
+from aquaspec.rendering.above import above_water
+from aquaspec.rendering.live_above import LiveAbove, check_live_above
 from aquaspec.rendering.live_camera import LiveCamera
 from aquaspec.rendering.live_surface import LiveSurface, surface_drawn
 from aquaspec.rendering.marine_snow import LiveSnow, parse_marine_snow
@@ -97,6 +99,7 @@ class Renderer:
         self._display = None        # DisplayPass of frames with the sun (set_display)
         self._last_display = None
         self._surface = None        # LiveSurface, made when a frame first sees the surface
+        self._above = None          # LiveAbove, made for a first camera above the sea
         #: Live frames draw the surface seen from below where render() does
         #: (:mod:`aquaspec.rendering.live_surface`); False leaves it out.
         self.surface_from_below = True
@@ -431,8 +434,9 @@ class Renderer:
         """Render one linear frame and take the display settings from it
         (automatic exposure and grey-world gains), as a live view starts."""
         live = self.live_camera
-        rgb = self.render_scene(scene, camera if live is None else live.shading_camera(
-            camera, setup), setup)
+        rgb = (self._above_pass(scene, setup).render(setup, camera, self.wave_time_s)
+               if above_water(camera) else self.render_scene(
+                   scene, camera if live is None else live.shading_camera(camera, setup), setup))
         if live is not None:
             live.meter(rgb)
         settings = display_settings(rgb)
@@ -460,11 +464,12 @@ class Renderer:
         composes them in its fused display; with a camera model the shading
         unfused, then ``"particles"`` and ``"camera+display"``; where a still render adds the
         surface seen from below (:mod:`aquaspec.rendering.live_surface`: the
-        waves' window and the sun's disc) the shading unfused, then ``"surface"``
-        (added to the linear image), then ``"display"`` or the passes above) and returns
-        the encoder for the next one: a benchmark submits and times each pass
-        with it. Returns the encoder last returned by ``split`` (``encoder``
-        itself without it).
+        waves' window and the sun's disc; at the waterline the sky) the shading
+        unfused, then ``"surface"``, then ``"display"`` or the passes above; with
+        a camera above the sea ``"above"``, ``"display"``: :mod:`aquaspec.rendering.live_above`)
+        and returns the encoder for the next one: a benchmark submits and times
+        each pass with it. Returns the encoder last returned by ``split``
+        (``encoder`` itself without it).
 
         ``scene`` may instead be a :class:`~aquaspec.scene.gbuffer.GBuffer`
         made elsewhere (an RGB-D photograph): it is uploaded once and shaded
@@ -474,6 +479,10 @@ class Renderer:
         """
         split = split or (lambda name, enc: enc)
         self._check_camera(camera)
+        if above_water(camera):
+            above = self._above_pass(scene, setup, display=True)
+            above.encode(encoder, setup, camera, self.wave_time_s)
+            return self._encode_display(split("above", encoder), above.rgb_buffer, split)
         live, sensor_camera = self.live_camera, camera
         if live is not None:
             camera = live.shading_camera(camera, setup)
@@ -538,10 +547,20 @@ class Renderer:
         self._last_display = self._display
         return split("display", encoder)
 
+    def _above_pass(self, scene, setup: SpectralSetup, display=False) -> LiveAbove:
+        """The view from above (made when first needed), checked
+        (:func:`~aquaspec.rendering.live_above.check_live_above`, ``display``: its settings)."""
+        check_live_above(setup, scene, camera_model=self.live_camera, marine_snow=self.snow)
+        if display and self._display is None:
+            raise AquaspecError("no display settings: call set_display() or auto_display() "
+                                "before encode_frame()")
+        if self._above is None:
+            self._above = LiveAbove(self.deferred.device, self.width, self.height)
+        return self._above
+
     def _surface_pass(self, setup: SpectralSetup, camera: Camera):
-        """The surface seen from below for this frame (:class:`LiveSurface`,
-        made when first needed), or None where it is not drawn
-        (:func:`aquaspec.rendering.live_surface.surface_drawn`)."""
+        """The frame's :class:`LiveSurface` (made when first needed), or None where
+        none is drawn (:func:`aquaspec.rendering.live_surface.surface_drawn`)."""
         if not (self.surface_from_below and surface_drawn(setup, camera)):
             return None
         if self._surface is None:

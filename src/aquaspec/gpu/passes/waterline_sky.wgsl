@@ -1,0 +1,24 @@
+// The half-and-half frame's sky: twin of aquaspec.rendering.above.waterline_sky
+// in camera RGB. A camera on the surface (its lens half in water) sees the
+// sky in air along every ray going up (v.y > 0): those pixels of the frame's
+// linear image (rendered as from depth 0) become the sky's camera RGB; the
+// others are kept.
+
+{{ params_struct }}
+
+@group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
+@group(0) @binding(1) var<storage, read_write> rgb: array<vec4<f32>>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= prm.width || gid.y >= prm.height) {
+        return;
+    }
+    let xc = (f32(gid.x) + 0.5 - prm.cx) / prm.fx;
+    let yc = (f32(gid.y) + 0.5 - prm.cy) / prm.fy;
+    let v = prm.right * xc - prm.up * yc + prm.forward;
+    if (v.y > 0.0) {
+        let p = gid.y * prm.width + gid.x;
+        rgb[p] = vec4<f32>(prm.sky_rgb, rgb[p].w);
+    }
+}

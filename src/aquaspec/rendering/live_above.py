@@ -1,0 +1,100 @@
+"""Live frames of a camera above the sea (issue 30): the view from above of
+:func:`aquaspec.rendering.api.render` on a renderer's frames.
+
+:meth:`aquaspec.rendering.renderer.Renderer.encode_frame` with a camera above
+``y = 0`` records :class:`LiveAbove`: the still render's GPU pass
+(:class:`aquaspec.gpu.passes.above.AbovePass`, :mod:`aquaspec.rendering.above`:
+the sky mirrored, the water's light field through the surface down to its
+seabed, with a sun its beam's single scattering and glint, with waves the
+tile's facets and the glitter), then the display transform. Its tables are
+uploaded once per setup; a moving sea (the renderer's wave time) uploads the
+tile's slopes at that time alone (:func:`aquaspec.rendering.live_surface.facets_at`),
+so the glitter moves with the caustics' sea. What the still render leaves out
+from above it leaves out too (:data:`aquaspec.rendering.above.NOT_DRAWN`:
+the scene's meshes are not drawn, only the light field's seabed), and what
+it refuses is refused (:func:`check_live_above`). (A camera at the
+waterline is drawn as under the water, the sky filled in over its upper
+half: :mod:`aquaspec.rendering.live_surface`.)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aquaspec.errors import AquaspecError
+from aquaspec.gpu.buffers import read_buffer
+from aquaspec.gpu.passes.above import AbovePass
+from aquaspec.light.wave_facets import surface_facets
+from aquaspec.rendering.live_surface import facets_at
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.gbuffer import GBuffer
+
+
+def check_live_above(setup: SpectralSetup, scene, *, camera_model=None,
+                     marine_snow=None) -> None:
+    """Refuse a live frame from above that the still render would refuse or
+    that live frames do not draw, naming it."""
+    if setup.ms_model != "lightfield":
+        raise AquaspecError(f"a camera above the sea needs the light-field model (ms_model "
+                            f"{setup.ms_model!r}): the water's colour from above is its "
+                            "radiance looking down from the surface")
+    if setup.surface != "flat":
+        raise AquaspecError("a camera above the sea sees it through the real surface: "
+                            f"surface 'flat' (got {setup.surface!r})")
+    if isinstance(scene, GBuffer):
+        raise AquaspecError("an RGB-D photograph is taken under water; a camera above the sea "
+                            "needs a scene (or the built-in one)")
+    if setup.lamps:
+        raise AquaspecError("lamps light the water around a camera under water; a camera "
+                            "above the sea takes none (accepted: lamps=())")
+    if camera_model is not None:
+        raise AquaspecError("a camera model's port looks into water; a camera above the sea "
+                            "takes none yet (accepted: set_camera_model(None))")
+    if marine_snow is not None:
+        raise AquaspecError("marine snow is drawn around a camera in the water; live frames "
+                            "from above take none (accepted: set_marine_snow(None))")
+
+
+class LiveAbove:
+    """The view from above for frames of ``width`` x ``height`` on ``device``
+    (module docstring)."""
+
+    def __init__(self, device, width: int, height: int):
+        self.gpu = AbovePass(device, width, height)
+        self._setup = self._moving = self._time = None
+
+    def encode(self, encoder, setup: SpectralSetup, camera, wave_time_s: float | None,
+               timestamp_writes=None) -> None:
+        """Record the pass for ``camera`` (linear camera RGB into
+        :attr:`rgb_buffer`), the sea at ``wave_time_s`` (None: the setup's instant)."""
+        sea = setup.waves
+        moving = sea is not None and wave_time_s is not None
+        if self._setup is not setup or self._moving != moving:
+            facets = None if sea is None else (facets_at(sea, wave_time_s) if moving
+                                               else surface_facets(sea))
+            med = setup.medium([])
+            self.gpu.set_medium(setup.lightfield_tables(), a=med["a"], b=med["b"],
+                                e0=med["e0"], response_weights=med["response_weights"],
+                                sun=setup.sun_inputs(caustics=False), facets=facets)
+            self._setup, self._moving, self._time = setup, moving, wave_time_s
+        elif moving and wave_time_s != self._time:
+            # Only the slopes move: set_medium would make the water's and the
+            # sun's tables again (a quarter of a second on a loaded host).
+            self.gpu._upload("_slopes", facets_at(sea, wave_time_s).slopes.reshape(-1, 2))
+            self._time = wave_time_s
+        self.gpu.encode(encoder, camera, timestamp_writes)
+
+    @property
+    def rgb_buffer(self):
+        """Linear camera RGB of the last frame ((H, W) vec4)."""
+        return self.gpu.rgb_buffer
+
+    def render(self, setup: SpectralSetup, camera, wave_time_s: float | None) -> np.ndarray:
+        """One frame's linear camera RGB (H, W, 3) float32, read back (to meter it)."""
+        device = self.gpu.device
+        encoder = device.create_command_encoder()
+        self.encode(encoder, setup, camera, wave_time_s)
+        device.queue.submit([encoder.finish()])
+        out = read_buffer(device, self.gpu.rgb_buffer, np.float32,
+                          (self.gpu.height, self.gpu.width, 4))
+        return out[..., :3]

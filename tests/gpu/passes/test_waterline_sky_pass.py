@@ -1,0 +1,45 @@
+"""The half-and-half frame's sky on the GPU (aquaspec.gpu.passes.waterline_sky)
+against its NumPy twin (aquaspec.rendering.above.waterline_sky)."""
+
+import numpy as np
+import pytest
+
+from aquaspec.colour.bands import Bands
+from aquaspec.colour.sensors import get_sensor
+from aquaspec.gpu.buffers import create_storage_buffer, read_buffer
+from aquaspec.gpu.passes.waterline_sky import WaterlineSkyPass
+from aquaspec.light.sky import surface_light
+from aquaspec.medium.water import load_water
+from aquaspec.rendering.above import waterline_sky
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.camera import Camera
+from aquaspec.shading.above_water import sky_radiance_above
+
+pytestmark = pytest.mark.gpu
+
+
+@pytest.mark.parametrize("pitch_deg", [-8.0, 20.0])
+def test_sky_over_the_rays_going_up(device, pitch_deg):
+    """The rays going up get the sky's camera RGB, the others keep the frame
+    (w too), as waterline_sky does it in NumPy; a turned camera (roll) too."""
+    w, h = 37, 21
+    setup = SpectralSetup(load_water("IB"), get_sensor("human"), surface_light("overcast"),
+                          Bands(5), ms_model="lightfield", surface="flat")
+    a = np.radians(pitch_deg)
+    cam = Camera.look_at([0.3, 0.0, 0.0], [0.3 + np.sin(0.4), np.sin(a), -np.cos(a)],
+                         up=[0.2, 1.0, 0.0], width=w, height=h, fov_y_deg=60.0)
+    rng = np.random.default_rng(0)
+    frame = rng.uniform(0.0, 5.0, size=(h, w, 4)).astype(np.float32)
+    buf = create_storage_buffer(device, frame)
+    med = setup.medium([])
+    sky = sky_radiance_above(setup.lightfield_tables(), med["e0"]) @ med["response_weights"]
+    p = WaterlineSkyPass(device, w, h)
+    enc = device.create_command_encoder()
+    p.encode(enc, cam, sky, buf)
+    device.queue.submit([enc.finish()])
+    got = read_buffer(device, buf, np.float32, (h, w, 4))
+    want, _ = waterline_sky(setup, cam, frame[..., :3].astype(np.float64))
+    np.testing.assert_allclose(got[..., :3], want, rtol=1e-6)
+    np.testing.assert_array_equal(got[..., 3], frame[..., 3])
+    up = cam.ray_directions()[..., 1] > 0
+    assert 0 < up.sum() < up.size                   # both halves in view
