@@ -220,8 +220,11 @@ class SnowField:
 
     def _moved(self, index, cam, time_s):
         side = 2.0 * self.snow.range_m
-        moved = self.origin[index] + np.asarray(self.snow.current_m_s) * float(time_s)
-        pos = cam + np.mod(moved - cam + 0.5 * side, side) - 0.5 * side
+        # (The shift first, one vector: the same sums as origin + drift - cam + side / 2.)
+        shift = np.asarray(self.snow.current_m_s) * float(time_s) - cam + 0.5 * side
+        pos = self.origin[index] + shift
+        np.mod(pos, side, out=pos)
+        pos += cam - 0.5 * side
         under = pos[:, 1] < 0.0
         return pos[under], self.diameter_m[index][under]
 

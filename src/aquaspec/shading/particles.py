@@ -55,12 +55,13 @@ left in).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from aquaspec.errors import AquaspecError
 from aquaspec.scene.shadowmap import map_visibility
-from aquaspec.transport.lightfield.tables import table_lookup
+from aquaspec.transport.lightfield.tables import band_last_table, table_lookup
 
 #: Nearest particle drawn, m along the camera's axis (a port's glass is about there).
 NEAR_M = 0.1
@@ -151,10 +152,17 @@ class ParticleLight:
         to ``camera_position``."""
         p = np.asarray(positions, dtype=float)
         to_cam = np.asarray(camera_position, float) - p
-        r = np.linalg.norm(to_cam, axis=-1)
+        r = np.sqrt(np.einsum("ij,ij->i", to_cam, to_cam))
         w = to_cam / np.where(r > 0, r, 1.0)[:, None]
         depth = np.clip(-p[:, 1], 0.0, None)
-        lit = table_lookup(self.visible, depth, w[:, 1], self.tables.max_depth_m) * self.e0
+        # (The same texels as table_lookup(self.visible, ...), laid out band last.)
+        lit = table_lookup(self._visible_band_last, depth, w[:, 1], self.tables.max_depth_m,
+                           band_last=True)
+        lit *= self.e0
+        if self.sun is None and not self.lamps:
+            lit *= self.rho / np.pi
+            lit *= np.exp(-self.c_view * r[:, None])
+            return lit
         beam = np.zeros_like(lit)
         if self.sun is not None:
             mu0 = max(float(self.sun.mu0), 1e-6)
@@ -174,6 +182,10 @@ class ParticleLight:
             beam += e * lambert_phase(np.sum(s * w, axis=-1))[:, None]
         out = self.rho / np.pi * (lit + (2.0 / 3.0) * beam)
         return out * np.exp(-self.c_view * r[:, None])
+
+    @cached_property
+    def _visible_band_last(self) -> np.ndarray:
+        return band_last_table(self.visible)
 
     def rgb(self, positions, camera_position) -> np.ndarray:
         """Camera RGB (N, 3) of :meth:`radiance`."""
