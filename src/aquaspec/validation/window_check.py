@@ -28,6 +28,10 @@ per channel, hue difference). Optionally (``meter_spp``) the reference's
 ``E0`` is measured too, with an irradiance meter just below its surface
 (:func:`aquaspec.validation.meters.measure_downwelling`), and compared with
 the ``E0`` aquaspec predicts.
+
+:func:`compare_mirror` checks the scene mirrored in the surface from below
+(:mod:`aquaspec.shading.below_mirror`): a bright box near the surface seen
+by total internal reflection, the same surface and sky.
 """
 
 from __future__ import annotations
@@ -207,4 +211,81 @@ def compare_level(water: str = "IB", *, depth_m: float = DEPTH_M, phase: str = "
             rm = bands_to_rgb(ref[r], sensor, bands).reshape(-1, 3).mean(axis=0)
             am = bands_to_rgb(aq[r], sensor, bands).reshape(-1, 3).mean(axis=0)
             out["rows"][name][sensor.name] = am / rm
+    return out
+
+
+#: The mirror check's box (corners, m) and its reflectance; the camera's depth,
+#: pitch above level and field of view (degrees): the box is seen directly and,
+#: above it, by total internal reflection outside Snell's window.
+MIRROR_BOX = ((-1.2, -1.0, -11.0), (1.2, -0.3, -8.0))
+MIRROR_BOX_RHO = 0.9
+MIRROR_DEPTH_M, MIRROR_PITCH_DEG, MIRROR_FOV_DEG = 3.0, 18.0, 40.0
+
+
+def mirror_scene(camera: Camera) -> Scene:
+    """The bright box of :data:`MIRROR_BOX` (material 0) in open water."""
+    from aquaspec.validation.scenes import cuboid
+    return Scene(meshes=[cuboid(*MIRROR_BOX, 0, "box")],
+                 materials=[Reflectance.constant(MIRROR_BOX_RHO)], camera=camera)
+
+
+def compare_mirror(water: str = "IB", *, phase: str = "isotropic", size=(48, 32),
+                   spp: int = 256, seed: int = 0, bands: Bands = REFERENCE_BANDS) -> dict:
+    """The box mirrored in the flat surface from below against the path
+    tracer: per region the mean band radiance over all bands, aquaspec /
+    reference, with the scene's mirror (``mirrored``) and with the open
+    water's mirror it replaces (``open_water_mirror``). Regions: ``box_mirror``
+    (pixels whose mirrored ray meets the box, eroded by a pixel), ``box``
+    (the box seen directly, eroded), ``water_mirror`` (the rest looking up,
+    open water mirrored)."""
+    from aquaspec.shading.below_mirror import mirror_hits, mirrored_camera, scene_in_mirror
+    if phase not in PHASES:
+        raise AquaspecError(f"phase {phase!r}; accepted: {', '.join(PHASES)}")
+    w, sky = load_water(water), surface_light("overcast")
+    width, height = size
+    p = np.array([0.0, -MIRROR_DEPTH_M, 0.0])
+    t = np.radians(MIRROR_PITCH_DEG)
+    cam = Camera.look_at(p, p + [0.0, np.sin(t), -np.cos(t)], width=width, height=height,
+                         fov_y_deg=MIRROR_FOV_DEG)
+    scene = mirror_scene(cam)
+    t0 = time.perf_counter()
+    ref = render_reference(scene, cam, w, sky, spp=spp, seed=seed, bands=bands, phase=phase,
+                           surface="flat")["band_radiance"]
+    t_ref = time.perf_counter() - t0
+    method, params = lightfield_phase(phase)
+    setup = SpectralSetup(w, get_sensor("human"), sky, bands, surface="flat", phase=method,
+                          phase_params=params)
+    tables = setup.lightfield_tables()
+    gb = raycast_gbuffer(scene, cam)
+    med = setup.medium(gb.materials)
+    med["e0"] = e0_below(tables, sky.on_bands(bands))
+    plain = shade_gbuffer(gb, **med, return_radiance=True, lightfield=tables)["radiance"]
+    v = cam.ray_directions()
+    open_up = (v[..., 1] > 0) & ~np.isfinite(gb.distance)
+    mirror_gb = raycast_gbuffer(scene, mirrored_camera(cam))
+    aq = plain + scene_in_mirror(cam, open_up, mirror_gb, tables,
+                                 **{k: med[k] for k in ("a", "b", "e0", "material_bands",
+                                                        "sigmoid_centers_t")})
+    hits = mirror_hits(cam, open_up, mirror_gb).mask
+    masks = {"box_mirror": _eroded(hits), "box": _eroded(np.isfinite(gb.distance)),
+             "water_mirror": _eroded(open_up & ~hits)}
+    out = {"water": water, "phase": phase, "size": [width, height], "spp": spp,
+           "reference_seconds": t_ref, "bands": bands.describe(), "regions": {},
+           "aquaspec": aq, "reference": ref}
+    for name, m in masks.items():
+        r = float(ref[m].mean())
+        out["regions"][name] = {"pixels": int(m.sum()), "mirrored": float(aq[m].mean()) / r,
+                                "open_water_mirror": float(plain[m].mean()) / r}
+    return out
+
+
+def _eroded(mask) -> np.ndarray:
+    """``mask`` less its pixels with a 4-neighbour outside it (edges mix in a pixel)."""
+    m = np.asarray(mask, dtype=bool)
+    out = m.copy()
+    out[1:] &= m[:-1]
+    out[:-1] &= m[1:]
+    out[:, 1:] &= m[:, :-1]
+    out[:, :-1] &= m[:, 1:]
+    out[0], out[-1], out[:, 0], out[:, -1] = False, False, False, False
     return out
