@@ -481,6 +481,9 @@ class LiveView:
         self._script_t = t
         pose = self.script.pose_at(t)
         self.flight.set_position(pose.position)
+        if pose.position[1] > self.flight.position[1]:
+            self.message = (f"the script's camera at y = {pose.position[1]:g} m flown "
+                            f"{self.flight.surface_margin_m:g} m under the surface (not above it)")
         self.flight.set_view(pose.yaw_deg, pose.pitch_deg)
         self.time_s = t
         if auto:

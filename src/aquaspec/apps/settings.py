@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 
+from aquaspec.apps.flight import SURFACE_MARGIN_M
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG
 from aquaspec.light.waves import WIND_RANGE
@@ -79,6 +80,13 @@ class ViewSettings:
 
     def __post_init__(self):
         check_size(self.width, self.height)
+        d = float(self.depth_m)
+        if not (np.isfinite(d) and d >= SURFACE_MARGIN_M):
+            raise AquaspecError(
+                f"camera depth {self.depth_m!r} m: the live view flies at least "
+                f"{SURFACE_MARGIN_M:g} m under the surface (a camera above the sea or at the "
+                "waterline is not flown live: `aquaspec render --camera-height` draws it); "
+                f"accepted: {SURFACE_MARGIN_M:g} m or deeper")
         if self.surface not in SURFACE_MODELS:
             raise AquaspecError(f"surface {self.surface!r}; accepted: "
                                 f"{', '.join(SURFACE_MODELS)}")
