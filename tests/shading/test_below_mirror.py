@@ -43,7 +43,7 @@ def test_the_mirrored_camera_sees_the_mirrored_rays():
 def test_a_plate_seen_in_the_mirror():
     """A grey plate 3 m under the surface, the camera 2 m deep looking up
     and out: every ray going up sees the plate in the mirror at S2 = 3 / v_y
-    beyond the surface, at the plate's depth; the change is exp(-c S) R
+    beyond the surface, at the plate's depth; the change is T'(S) R
     (L(plate) - L(open water)) from the light field's pixel radiance, largest
     outside Snell's window (total internal reflection, R = 1), and nothing
     changes for rays going down or stopped by a surface before the water's."""
@@ -77,8 +77,8 @@ def test_a_plate_seen_in_the_mirror():
                                   surface_depth=col(3.0), n_y=col(1.0))
     water = tables.pixel_radiance(a=med["a"], b=med["b"], e0=med["e0"], depth_o=col(0.0),
                                   v_y=col(-vy), s=col(np.inf))
-    c = np.asarray(med["a"]) + np.asarray(med["b"])
-    want = np.exp(-c * 2.0 / vy) * (plate - water)[0]
+    c_beam = tables.ray_extinction(med["a"], med["b"])
+    want = np.exp(-c_beam * 2.0 / vy) * (plate - water)[0]
     assert fresnel_transmittance_out(vy) == 0
     np.testing.assert_allclose(d[hits.mask][i], want, rtol=1e-5)     # float32 distances
     assert np.all(want > 0)                          # a bright plate brightens the mirror
@@ -103,11 +103,10 @@ def test_the_sun_lights_the_mirrored_scene():
     lit = scene_in_mirror(cam, open_up, gb, tables, sun=sun, **kw)
     dark = scene_in_mirror(cam, open_up, gb, tables, **kw)
     hits = mirror_hits(cam, open_up, gb)
-    c = np.asarray(med["a"]) + np.asarray(med["b"])
     beam = 0.5 / np.pi * sun.beam0 * np.exp(-sun.c_sun * 2.0 / sun.mu0) * sun.to_sun[1]
-    want = (np.exp(-c * hits.s_top[:, None] - tables.ray_extinction(med["a"], med["b"])
-                   * hits.s2[:, None]) * (1.0 - fresnel_transmittance_out(hits.v_y))[:, None]
-            * beam)
+    want = (np.exp(-tables.ray_extinction(med["a"], med["b"])
+                   * (hits.s_top + hits.s2)[:, None])
+            * (1.0 - fresnel_transmittance_out(hits.v_y))[:, None] * beam)
     np.testing.assert_allclose((lit - dark)[hits.mask], want, rtol=1e-6)   # float32 distances
 
 

@@ -14,14 +14,16 @@ along ``r`` from depth 0
 with ``depth_o = 0``, ``v_y = r_y``, ``s = S2``, the hit's reflectance, depth
 and normal) replaces the open water's, so the image gains
 
-    Delta = exp(-c S) R(v_y) (L(0, r; S2, hit) - L(0, r; open water))
-          = exp(-c S) R(v_y) T'(S2) (L_hit - L_bg(d_2, r))
+    Delta = T'(S) R(v_y) (L(0, r; S2, hit) - L(0, r; open water))
+          = T'(S) R(v_y) T'(S2) (L_hit - L_bg(d_2, r))
 
-(the second line is the light field's two-point form: ``T'`` the beam's
-transmittance ``exp(-(c - f b) S2)``, ``L_hit`` the hit's Lambertian
-radiance, ``L_bg(d_2, r)`` the open water's radiance at the hit's depth
-``d_2`` looking along ``r``; :func:`mirror_background_table` tabulates it for
-the GPU). With a sun, ``L_hit`` gains the refracted beam on the hit,
+with ``T'(x) = exp(-(c - f b) x)`` the beam's transmittance (the forward
+cone counted as unscattered, as the light field carries a target's light
+against the background it hides: the mirror's change is such a target, seen
+at ``S``); the second line is the light field's two-point form, with
+``L_hit`` the hit's Lambertian radiance and ``L_bg(d_2, r)`` the open
+water's radiance at the hit's depth ``d_2`` looking along ``r``
+(:func:`mirror_background_table` tabulates it for the GPU). With a sun, ``L_hit`` gains the refracted beam on the hit,
 ``rho E_b(d_2) max(0, n . to_sun) / pi``, unshadowed and without caustics.
 
 The mirrored rays are those of the *mirrored camera*
@@ -130,7 +132,7 @@ def scene_in_mirror(camera: Camera, open_up, mirror_gbuffer, tables, *, a, b, e0
                                                sun.to_sun)
         seen = seen + np.exp(-tables.ray_extinction(a, b) * col(hits.s2)) * lit
     reflectance = 1.0 - fresnel_transmittance_out(hits.v_y, n_water)
-    out[hits.mask] = (np.exp(-(a + b) * col(hits.s_top)) * col(reflectance)
+    out[hits.mask] = (np.exp(-tables.ray_extinction(a, b) * col(hits.s_top)) * col(reflectance)
                       * (seen - open_water))
     return out
 

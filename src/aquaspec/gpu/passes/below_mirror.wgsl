@@ -5,7 +5,8 @@
 // mirrored at the flat surface; the mirrored camera's G-buffer (its image
 // flipped left to right) gives the hit at S + S2 along the mirrored ray, and
 // the pixel gains
-//   sum_i w_i exp(-c_i S) R(v_y) exp(-c'_i S2) (L_hit,i - L_bg,i(d_2, r_y)),
+//   sum_i w_i R(v_y) exp(-c'_i (S + S2)) (L_hit,i - L_bg,i(d_2, r_y)),
+// c' = c - f b the beam's extinction,
 // L_hit = rho (E(d_2, n_y) + [sun] E_b(d_2) max(0, n . to_sun)) / pi, the
 // irradiance and background tables read bilinearly as the NumPy reference's
 // (transport.lightfield.tables.table_lookup; below_mirror.mirror_background_table).
@@ -23,7 +24,7 @@ const SIGMOID_X_MAX: f32 = 1.0e6;
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var mirror_surface: texture_2d<u32>;
 @group(0) @binding(3) var mirror_sigmoid: texture_2d<f32>;
-// Per band three vec4: (c, c - f b, t, e0), (w_r, w_g, w_b, 0), (beam0, c_sun, 0, 0).
+// Per band three vec4: (c, c - f b, t, e0) (c unused here), (w_r, w_g, w_b, 0), (beam0, c_sun, 0, 0).
 @group(0) @binding(4) var<storage, read> bands: array<vec4<f32>>;
 // Material m's band i at [m * n_bands + i].
 @group(0) @binding(5) var<storage, read> materials: array<f32>;
@@ -109,7 +110,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     let sb = bands[3u * i + 2u];
                     e = e + sb.x * exp(-sb.y * depth / prm.mu0) * sun_cos;
                 }
-                let delta = exp(-cb.x * s - cb.y * s2) * gain
+                let delta = exp(-cb.y * (s + s2)) * gain
                     * (rho * e / PI - background_at(db, ba, i));
                 rgb = rgb + bands[3u * i + 1u].xyz * delta;
             }
