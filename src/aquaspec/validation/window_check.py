@@ -230,23 +230,25 @@ def mirror_scene(camera: Camera) -> Scene:
 
 
 def compare_mirror(water: str = "IB", *, phase: str = "isotropic", size=(48, 32),
-                   spp: int = 256, seed: int = 0, bands: Bands = REFERENCE_BANDS) -> dict:
+                   spp: int = 256, seed: int = 0, bands: Bands = REFERENCE_BANDS,
+                   pitch_deg: float = MIRROR_PITCH_DEG, fov_deg: float = MIRROR_FOV_DEG) -> dict:
     """The box mirrored in the flat surface from below against the path
     tracer: per region the mean band radiance over all bands, aquaspec /
     reference, with the scene's mirror (``mirrored``) and with the open
     water's mirror it replaces (``open_water_mirror``). Regions: ``box_mirror``
     (pixels whose mirrored ray meets the box, eroded by a pixel), ``box``
     (the box seen directly, eroded), ``water_mirror`` (the rest looking up,
-    open water mirrored)."""
+    open water mirrored); a region with no pixels is left out. ``pitch_deg``,
+    ``fov_deg``: the camera's pitch above level and vertical field of view."""
     from aquaspec.shading.below_mirror import mirror_hits, mirrored_camera, scene_in_mirror
     if phase not in PHASES:
         raise AquaspecError(f"phase {phase!r}; accepted: {', '.join(PHASES)}")
     w, sky = load_water(water), surface_light("overcast")
     width, height = size
     p = np.array([0.0, -MIRROR_DEPTH_M, 0.0])
-    t = np.radians(MIRROR_PITCH_DEG)
+    t = np.radians(pitch_deg)
     cam = Camera.look_at(p, p + [0.0, np.sin(t), -np.cos(t)], width=width, height=height,
-                         fov_y_deg=MIRROR_FOV_DEG)
+                         fov_y_deg=fov_deg)
     scene = mirror_scene(cam)
     t0 = time.perf_counter()
     ref = render_reference(scene, cam, w, sky, spp=spp, seed=seed, bands=bands, phase=phase,
@@ -273,6 +275,8 @@ def compare_mirror(water: str = "IB", *, phase: str = "isotropic", size=(48, 32)
            "reference_seconds": t_ref, "bands": bands.describe(), "regions": {},
            "aquaspec": aq, "reference": ref}
     for name, m in masks.items():
+        if not m.any():
+            continue
         r = float(ref[m].mean())
         out["regions"][name] = {"pixels": int(m.sum()), "mirrored": float(aq[m].mean()) / r,
                                 "open_water_mirror": float(plain[m].mean()) / r}
