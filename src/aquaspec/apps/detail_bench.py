@@ -10,9 +10,9 @@ display, submitted and waited for; what a live view draws):
   into the shading pass);
 - ``particles``: the same with marine snow (:mod:`aquaspec.rendering.marine_snow`;
   the particles drifting 1/30 s per frame, so the host's part, their
-  positions, light and discs, is redone every frame as in a live view, and
-  the shading unfused from the display, followed by the splat, the
-  composition and the display pass);
+  positions, light and discs, is redone every frame as in a live view; the
+  splat after the geometry, composed by the light field's shading pass in
+  its fused display, :meth:`aquaspec.gpu.passes.lightfield.LightfieldPass.set_snow`);
 - ``detailed`` / ``detailed_particles``: a detailed scene's frames, without
   and with the particles, when given (a callable making ``(scene, camera)``;
   ``bench --detail`` gives :func:`detailed_builtin`, the textured,

@@ -18,17 +18,18 @@ ATOL_FRACTION = 1e-5
 
 def _surface(device, dist):
     from aquaspec.gpu.gbuffer import GBufferTextures
-    cam = Camera.look_at([0, -5, 0], [0, -5, -1], width=W, height=H)
-    gb = GBufferTextures(device, W, H)
-    gb.upload(GBuffer(cam, dist, np.tile([0.0, 0.0, 1.0], (H, W, 1)),
-                      np.full((H, W), PER_PIXEL, np.uint32), np.zeros((H, W, 3))))
+    h, w = dist.shape
+    cam = Camera.look_at([0, -5, 0], [0, -5, -1], width=w, height=h)
+    gb = GBufferTextures(device, w, h)
+    gb.upload(GBuffer(cam, dist, np.tile([0.0, 0.0, 1.0], (h, w, 1)),
+                      np.full((h, w), PER_PIXEL, np.uint32), np.zeros((h, w, 3))))
     return gb.textures["surface"]
 
 
-def _records(n, seed=2):
+def _records(n, seed=2, w=W, h=H):
     rng = np.random.default_rng(seed)
     rec = np.zeros((n, 8), np.float32)
-    rec[:, 0], rec[:, 1] = rng.uniform(-5, W + 5, n), rng.uniform(-5, H + 5, n)
+    rec[:, 0], rec[:, 1] = rng.uniform(-5, w + 5, n), rng.uniform(-5, h + 5, n)
     rec[:, 2] = rng.uniform(0.5, 12.0, n)
     rec[:, 3] = rng.uniform(0.2, 4.0, n)
     rec[:, 4:7] = rng.uniform(0.0, 3.0, (n, 3)) * 1e-3     # small camera RGB: the scale matters
@@ -37,13 +38,15 @@ def _records(n, seed=2):
 
 
 class TestParticlePass:
-    def test_splat_and_compose_match_numpy(self, device):
+    # (150: rows of the splat's buffer padded to 160 pixels before the copy into a texture.)
+    @pytest.mark.parametrize("W", [W, 150])
+    def test_splat_and_compose_match_numpy(self, device, W):
         from aquaspec.gpu.buffers import create_storage_buffer, read_buffer
         from aquaspec.gpu.passes.particles import ParticlePass
         dist = np.full((H, W), np.inf, np.float32)
         dist[:, :80] = 2.0                  # half the image a wall 2 m away
         dist[60:, 80:] = 0.5
-        rec = _records(300)
+        rec = _records(300, w=W)
         image = np.random.default_rng(5).uniform(0, 2e-3, (H, W, 4)).astype(np.float32)
         buf = create_storage_buffer(device, image)
         p = ParticlePass(device, W, H)

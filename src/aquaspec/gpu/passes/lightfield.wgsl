@@ -46,6 +46,12 @@
 // the display transform stays fused and the G-buffer and the image are read
 // once.
 //
+// With marine snow (the fused display of a live frame,
+// aquaspec.gpu.passes.lightfield.LightfieldPass.set_snow) the template name
+// SNOW_COMPOSE is snow_compose (snow_compose.wgsl: the particles' discs
+// composed over the four pixels before the display transform), else
+// no_snow_compose.
+//
 // Written for lavapipe (SIMD over 8 invocations on the CPU), as
 // deferred.wgsl (see its header): per-band constants in a uniform array
 // with a compile-time band count, per-pixel work (table coordinates)
