@@ -63,6 +63,12 @@ def test_where_the_surface_is_drawn():
     assert surface_drawn(_setup(sea=None), cam)                  # the sun's disc alone
     assert not surface_drawn(_setup(sea=None, sun=False), cam)   # nothing to add (waves need a sun)
     assert not surface_drawn(_setup(), above)
+    down = Camera.look_at([0.0, -2.0, 0.0], [0.0, -3.0, -0.2], width=W, height=H, fov_y_deg=60.0)
+    assert not surface_drawn(_setup(), down)                     # no ray goes up
+    rolled = Camera.look_at([0.0, -2.0, 0.0], [0.0, -2.6, -1.0], up=[1.0, 0.2, 0.0], width=W,
+                            height=H, fov_y_deg=60.0)
+    assert (rolled.ray_directions()[..., 1] > 0).any() == surface_drawn(_setup(), rolled)
+    assert (down.ray_directions()[..., 1] > 0).sum() == 0
     assert surface_drawn(_setup(sea=None, sun=False), waterline)     # the sky's half
     assert not surface_drawn(_setup(surface="index-matched"), cam)
     assert not surface_drawn(_setup(sea=None, ms_model="seeds", surface="index-matched"), cam)

@@ -47,14 +47,28 @@ from aquaspec.shading.above_water import sky_radiance_above
 
 def surface_drawn(setup: SpectralSetup, camera) -> bool:
     """Whether a frame of ``camera`` under ``setup`` gets a surface pass, as
-    :func:`aquaspec.rendering.surface_view.surface_seen_from_water` adds one:
-    a camera at the waterline (the sky's half), or under the water with the
-    light-field model under the flat surface and waves or a sun."""
+    :func:`aquaspec.rendering.surface_view.surface_seen_from_water` adds one,
+    and some ray goes up: a camera at the waterline (the sky's half), or under
+    the water with the light-field model under the flat surface and waves or a sun."""
+    if not _sees_up(camera):
+        return False            # (no ray meets the surface: the frame keeps its fused display)
     if at_waterline(camera):
         return True
     return (not above_water(camera) and setup.ms_model == "lightfield"
             and setup.surface == "flat"
             and (setup.waves is not None or setup.light.sun is not None))
+
+
+def _sees_up(camera) -> bool:
+    """Whether any of ``camera``'s rays goes up: ``d_y`` is linear over the
+    image plane, so it is positive somewhere iff at one of its corners (the
+    image's corners, half a pixel beyond the outer pixels' centres: a ray
+    going up there alone draws a pass that changes nothing)."""
+    x = (np.array([0.0, camera.width]) - camera.cx) / camera.fx
+    y = (np.array([0.0, camera.height]) - camera.cy) / camera.fy
+    dy = (camera.right[1] * x[:, None] - camera.true_up[1] * y[None, :]
+          + camera.forward[1])
+    return bool(np.any(dy > 0))
 
 
 @functools.lru_cache(maxsize=2)
