@@ -20,6 +20,10 @@ clock: a software adapter's timestamps do not bracket a pass's work):
 - ``above_sun_waves``: the same camera with the sun (SPECTRL2, 35 degrees,
   ahead) over a 6 m/s wind sea: the beam's scattering table, each ray
   through its wave facet, the glitter;
+- ``below_sun``: the ``looking_up_flat`` view under that sun over the flat
+  sea, as a live view draws it: the sun's disc through the surface
+  (:mod:`aquaspec.rendering.live_surface`) added between the shading and
+  the display transform; ``below_sun_plain``: the same without it;
 - ``below_sun_waves``: the ``looking_up_flat`` view under that sun and sea
   as a live view draws it (:meth:`~aquaspec.rendering.renderer.Renderer.encode_frame`),
   the waves moving 1/30 s a frame: the caustics mixed from their loop (of
@@ -60,7 +64,7 @@ from aquaspec.scene.camera import Camera, camera_above
 
 #: The frames compared (module docstring), in the order they are run.
 FRAMES = ("below", "below_flat", "looking_up_flat", "waterline", "above", "above_sun_waves",
-          "below_sun_waves", "below_sun_waves_plain")
+          "below_sun", "below_sun_plain", "below_sun_waves", "below_sun_waves_plain")
 #: Frames of the caustics' loop under the live frames with waves.
 LOOP_FRAMES = 2
 #: Wave seconds per frame of the live frames with waves.
@@ -102,9 +106,9 @@ def _above_frame(below: Renderer, camera, setup, **extra):
 
 
 def _live_waves_frame(scene, camera, setup, *, plain: bool):
-    """A live frame of ``camera`` under ``setup``'s sun and moving sea
-    (``plain``: without the surface seen from below), as a function that
-    draws the next one (the waves :data:`WAVE_STEP_S` on) and waits."""
+    """A live frame of ``camera`` under ``setup``'s sun and moving sea, if it
+    has one (``plain``: without the surface seen from below), as a function
+    that draws the next one (the waves :data:`WAVE_STEP_S` on) and waits."""
     r = Renderer(camera.width, camera.height, setup.bands.n)
     r.surface_from_below = not plain
     clock = {"t": 0.0}
@@ -153,8 +157,9 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
     run["above_sun_waves"] = draw_above_sun
     sea = dataclasses.replace(sunny, waves=Waves(6.0))
     say("the caustic loop of a 6 m/s sea under the sun (seconds the first time, then cached)")
-    for name in ("below_sun_waves", "below_sun_waves_plain"):
-        run[name] = _live_waves_frame(scene, up, sea, plain=name.endswith("plain"))
+    for name in ("below_sun", "below_sun_plain", "below_sun_waves", "below_sun_waves_plain"):
+        run[name] = _live_waves_frame(scene, up, sea if "waves" in name else sunny,
+                                      plain=name.endswith("plain"))
     times = {k: [] for k in FRAMES}
     for i in range(warmup + frames):
         for name in FRAMES:
@@ -166,7 +171,9 @@ def run_surface_bench(*, width: int = 1280, height: int = 720, n_bands: int = 8,
     return {"size": [width, height], "bands": n_bands, "water": w.name, "depth_m": depth_m,
             "frames": frames, "frame_wall_ms": ms,
             "ratio_to_below": {k: ms[k] / ms["below"] for k in FRAMES},
-            "surface_from_below_ratio": ms["below_sun_waves"] / ms["below_sun_waves_plain"],
+            "surface_from_below_ratio": {
+                "sun": ms["below_sun"] / ms["below_sun_plain"],
+                "sun_waves": ms["below_sun_waves"] / ms["below_sun_waves_plain"]},
             "adapter": adapter_info()}
 
 
@@ -178,6 +185,7 @@ def format_surface(result: dict) -> str:
     for k in FRAMES:
         lines.append(f"  {k:21s} {result['frame_wall_ms'][k]:8.1f} ms   "
                      f"{result['ratio_to_below'][k]:.2f}")
-    lines.append("  the surface seen from below in the live frame (below_sun_waves / "
-                 f"below_sun_waves_plain): {result['surface_from_below_ratio']:.2f}")
+    r = result["surface_from_below_ratio"]
+    lines.append("  the surface seen from below in the live frame, over the frame without it: "
+                 f"the sun's disc {r['sun']:.2f}, with waves {r['sun_waves']:.2f}")
     return "\n".join(lines)
