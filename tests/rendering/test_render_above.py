@@ -18,16 +18,20 @@ W, H = 24, 16
 
 def test_render_from_above_is_the_sea_from_above_model():
     """The image is sea_from_above's radiance on the setup's flat-surface
-    tables (the built-in scene's sand as the seabed), the surface is made
-    flat, and the metadata say what is not drawn."""
+    tables with the scene's meshes seen through the surface (water_to_hits:
+    the built-in scene's rocks, chart and sand), the surface is made flat,
+    and the metadata say what is not drawn."""
     from aquaspec.rendering.setup import SpectralSetup
+    from aquaspec.scene.builtin import scene_for_render
+    from aquaspec.shading.above_meshes import water_to_hits
     from aquaspec.shading.above_water import sea_from_above
     cam = camera_above(4.0, 40.0, width=W, height=H)
     res = aquaspec.render(water="II", camera=cam, size=(W, H), bands=4, backend="numpy",
                           seabed=Seabed(6.0, 0.3), return_radiance=True)
     assert res.params["surface"] == "flat"
     above = res.params["above_water"]
-    assert above["height_m"] == 4.0 and any("meshes" in x for x in above["not_drawn"])
+    assert above["height_m"] == 4.0 and any("above the water" in x for x in above["not_drawn"])
+    assert "ray cast" in above["meshes"]
     setup = res.params  # the setup is rebuilt below from the same inputs
     from aquaspec.colour.bands import Bands
     from aquaspec.colour.sensors import get_sensor
@@ -35,8 +39,14 @@ def test_render_from_above_is_the_sea_from_above_model():
     from aquaspec.medium.water import get_water
     s = SpectralSetup(get_water("II"), get_sensor("human"), surface_light("overcast"),
                       Bands(4), surface="flat", seabed=Seabed(6.0, 0.3))
-    med = s.medium([])
-    expect = sea_from_above(cam, s.lightfield_tables(), a=med["a"], b=med["b"], e0=med["e0"])
+    scene, _ = scene_for_render(None, 5.0, W, H, None, None)
+    med = s.medium(scene.materials)
+    tables = s.lightfield_tables()
+    under = water_to_hits(scene, cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
+                          material_bands=med["material_bands"],
+                          sigmoid_centers_t=med["sigmoid_centers_t"])
+    assert under[0].sum() > 10
+    expect = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"], under=under)
     np.testing.assert_allclose(res.radiance, expect, rtol=1e-6)
     assert setup["seabed"]["depth_m"] == 6.0
 
@@ -52,14 +62,9 @@ def test_looking_straight_down_sees_no_sky_but_its_reflection():
     ({"ms_model": "monzon2022"}, "surface .flat. is the light field.s top boundary"),
     ({"lamps": ["rov-pair"]}, "lamps"),
     ({"camera_model": "dslr-flat-port"}, "camera model's port looks into water"),
-    ({"mesh": "x"}, None),
 ])
 def test_what_from_above_refuses(kw, match, tmp_path):
     cam = camera_above(3.0, width=W, height=H)
-    if "mesh" in kw:
-        obj = tmp_path / "tri.obj"
-        obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
-        kw, match = {"mesh": obj}, "meshes under the water are not drawn from above"
     with pytest.raises(AquaspecError, match=match):
         aquaspec.render(camera=cam, size=(W, H), bands=4, backend="numpy", **kw)
 
@@ -106,3 +111,28 @@ def test_a_camera_at_the_waterline_sees_sky_above_and_water_below():
                             surface="flat")
     np.testing.assert_allclose(res.linear_rgb[~up], water.linear_rgb[~up], rtol=2e-3)
     assert res.linear_rgb[up].sum(axis=-1).min() > 3 * res.linear_rgb[~up].sum(axis=-1).max()
+
+
+def test_a_camera_at_the_waterline_that_sees_no_water_is_refused():
+    """Half-and-half needs water in the view: a camera on the surface looking
+    up is refused before any shading, naming what is accepted."""
+    from aquaspec.scene.camera import Camera
+    cam = Camera.look_at([0.0, 0.0, 0.0], [0.0, 1.0, -0.2], width=W, height=H, fov_y_deg=40.0)
+    with pytest.raises(AquaspecError, match="at the waterline sees no water.*accepted: a view "
+                                            "with rays below the horizon"):
+        aquaspec.render(water="IB", camera=cam, size=(W, H), bands=4, backend="numpy")
+
+
+def test_a_mesh_under_the_water_is_seen_from_above(tmp_path):
+    """`--mesh` with `--camera-height`: the mesh, placed in front of the
+    under-water camera, is ray cast through the surface (the metadata say so)."""
+    obj = tmp_path / "box.obj"
+    obj.write_text("v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\n"
+                   "v 1 1 1\nv -1 1 1\nf 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\n"
+                   "f 4 7 3\nf 4 8 7\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n")
+    out = tmp_path / "above.png"
+    assert main(["render", "--mesh", str(obj), "--camera-height", "2", "--look-down", "50",
+                 "--depth", "3", "--size", f"{W}x{H}", "--bands", "4", "--backend", "numpy",
+                 "-o", str(out)]) == 0
+    meta = json.loads((tmp_path / "above.png.json").read_text())
+    assert "ray cast" in meta["above_water"]["meshes"]

@@ -25,7 +25,8 @@ from aquaspec.light.lamp import PRESETS, SPEC_KEYS, parse_lamps
 from aquaspec.optics.presets import CAMERA_MODELS, get_camera_model
 from aquaspec.scene.particles import parse_marine_snow
 from aquaspec.scene.camera import DEFAULT_LOOK_DOWN_DEG, camera_above, parse_size
-from aquaspec.scene.builtin import BUILTIN_VARIANTS, RENDER_DEFAULT_VARIANT
+from aquaspec.scene.bathymetry import bathymetry_from_text, bathymetry_scene, check_camera_over
+from aquaspec.scene.builtin import BUILTIN_VARIANTS, RENDER_DEFAULT_VARIANT, default_camera
 from aquaspec.scene.seabed import Seabed
 
 
@@ -90,6 +91,12 @@ def register(sub):
                         "a --mesh also stands on that seabed, a plane the camera sees out to "
                         "where the water hides it (the built-in scene keeps its sand, an "
                         "RGB-D photograph its own surfaces)")
+    p.add_argument("--bathymetry", metavar="FILE[,SPACING_M]",
+                   help="a seabed from a bathymetry grid instead of the built-in scene: an "
+                        "ESRI ASCII grid (.asc, elevations, its cellsize the spacing), or "
+                        "depths in metres (.npy, .csv) or millimetres (16-bit .png) with "
+                        "SPACING_M; centred below the camera, drawn from below and from "
+                        "above (--camera-height); the light field's seabed its mean depth")
     p.add_argument("--lamp", action="append", default=[], metavar="SPEC",
                    help="a lamp (repeatable): a preset ("
                         + "; ".join(f"{k}: {v[0]}" for k, v in PRESETS.items())
@@ -106,8 +113,9 @@ def register(sub):
                    help="put the camera M metres above the sea: the flat surface mirrors the "
                         "sky (Fresnel) and shows the water's colour and the seabed (--seabed; "
                         "the built-in scene's sand by default) through it (light-field model; "
-                        "with the sun its glint, with --wind the waves' facets and glitter; "
-                        "meshes under the water are not drawn from above yet); 0: the camera "
+                        "with the sun its glint, with --wind the waves' facets and glitter and "
+                        "the caustics on the seabed; the scene's meshes under the water are "
+                        "ray cast through the surface in NumPy); 0: the camera "
                         "at the waterline, half in water (the "
                         "half-and-half view: the sky above the line, the built-in scene "
                         "below it)")
@@ -160,11 +168,14 @@ def run(args):
     marine_snow = parse_marine_snow(args.marine_snow)
     camera = None
     if args.camera_height is not None:
-        if rgbd is not None or (args.mesh and args.camera_height > 0):
-            raise AquaspecError("--camera-height shows the sea from above; --mesh and --rgbd "
-                                "are under-water views (not drawn from above yet)")
+        if rgbd is not None:
+            raise AquaspecError("--camera-height shows the sea from above; --rgbd is an "
+                                "under-water photograph")
         camera = camera_above(args.camera_height, args.look_down, width=size[0],
                               height=size[1])
+    scene = _bathymetry_scene(args, camera, size)
+    if scene is not None:
+        camera = scene.camera
 
     def progress(msg):
         print(f"aquaspec render: {msg}", file=sys.stderr, flush=True)
@@ -172,6 +183,7 @@ def run(args):
     res = render(water=args.water, source=args.source, depth_m=args.depth, sensor=args.sensor,
                  camspec=args.camspec, bands=args.bands, wavelength_range=parse_range(args.range),
                  size=size, mesh=args.mesh, albedo=albedo, builtin=args.scene, rgbd=rgbd,
+                 scene=scene,
                  light=args.light,
                  irradiance_w_m2=args.irradiance, sun_elevation_deg=sun_elevation,
                  sun_azimuth_deg=sun_azimuth, sun_shadow_map=shadow_map,
@@ -220,6 +232,20 @@ def _max_texture(backend, shadow_map):
     # deferred: loads wgpu; only a GPU render with --sun-shadow-map needs the limit
     from aquaspec.gpu.device import max_texture_size
     return max_texture_size()
+
+
+def _bathymetry_scene(args, camera, size):
+    """--bathymetry: the grid's scene with its camera (``camera``, or the
+    built-in scenes' at --depth over the grid's centre), or None."""
+    if not args.bathymetry:
+        return None
+    if args.mesh or args.rgbd or args.scene:
+        raise AquaspecError("--bathymetry is the scene; it cannot be combined with --mesh, "
+                            "--rgbd or --scene")
+    bathy = bathymetry_from_text(args.bathymetry)
+    camera = camera or default_camera(args.depth, size[0], size[1], 60.0)
+    check_camera_over(bathy, camera)
+    return bathymetry_scene(bathy, camera)
 
 
 def _seabed(text):

@@ -11,9 +11,14 @@ and refracted by the wave tile's facet where it meets the sea and the sun's
 glitter over the slopes the tile does not resolve
 (:mod:`aquaspec.light.wave_facets`). It needs the light-field model and the
 flat surface's light field, which a camera above the water makes the
-default. What is not drawn yet, and said in the render's metadata
-(:func:`above_params`): meshes under the water, the sun's caustics on the
-seabed, the sky's radiance distribution (it is uniform) and lamps.
+default. A scene's meshes under the water (the built-in scene's, a mesh, a
+scene of yours) are seen through the surface, with the sun's caustics on
+them and on the light field's seabed under waves
+(:mod:`aquaspec.shading.above_meshes`): the refracted rays are ray cast in
+NumPy, so such a frame is shaded in NumPy whichever the backend (seconds to
+a minute at 1280x720; said in the metadata). What is not drawn yet, and said
+in the render's metadata (:func:`above_params`): the parts of meshes above
+the water, the sky's radiance distribution (it is uniform) and lamps.
 """
 
 from __future__ import annotations
@@ -24,13 +29,16 @@ import numpy as np
 
 from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.errors import AquaspecError
+from aquaspec.medium.interface import N_WATER
 from aquaspec.light.wave_facets import surface_facets
+from aquaspec.scene.shadowmap import numpy_shadow_map
+from aquaspec.shading.above_meshes import seabed_caustics, surface_reflectance, water_to_hits
 from aquaspec.shading.above_water import sea_from_above, sky_radiance_above
 
 #: What the view from above leaves out (in its metadata).
-NOT_DRAWN = ("meshes under the water (only the light field's seabed is seen)",
-             "the sun's caustics on the seabed (the waves' facets are drawn, the seabed "
-             "is lit evenly)",
+NOT_DRAWN = ("the parts of meshes above the water",
+             "the scene's occlusion of the ambient light and its shadow in the water "
+             "(seen from above)",
              "the sky's radiance distribution (uniform, of the light's diffuse irradiance)",
              "lamps")
 
@@ -51,8 +59,24 @@ def at_waterline(camera) -> bool:
 
 def in_air_view(camera) -> bool:
     """Whether ``camera`` sees through the air at all (above the sea or at the
-    waterline): its render takes the flat surface."""
-    return camera is not None and (above_water(camera) or at_waterline(camera))
+    waterline): its render takes the flat surface. A camera at the waterline
+    that sees no water is refused here (:func:`check_waterline_view`), before
+    any work."""
+    if camera is not None and at_waterline(camera):
+        check_waterline_view(camera)
+        return True
+    return camera is not None and above_water(camera)
+
+
+def check_waterline_view(camera) -> np.ndarray:
+    """The rays going up (H, W) of ``camera`` at the waterline, or an error
+    if that is all of them (the half-and-half view needs water)."""
+    up = camera.ray_directions()[..., 1] > 0
+    if up.all():
+        raise AquaspecError("the camera at the waterline sees no water: every ray of its view "
+                            "goes up; accepted: a view with rays below the horizon (look down "
+                            "or widen the field of view), or a camera above the sea (y > 0)")
+    return up
 
 
 def waterline_sky(setup, camera, linear, radiance=None):
@@ -66,9 +90,9 @@ def waterline_sky(setup, camera, linear, radiance=None):
     if setup.surface != "flat":
         raise AquaspecError("a camera at the waterline sees the sea through the real surface: "
                             f"surface 'flat' (got {setup.surface!r})")
+    up = check_waterline_view(camera)
     med = setup.medium([])
     sky = sky_radiance_above(setup.lightfield_tables(), med["e0"])
-    up = camera.ray_directions()[..., 1] > 0
     linear = np.array(linear, dtype=np.float64, copy=True)
     linear[up] = sky @ np.asarray(med["response_weights"], dtype=np.float64)
     if radiance is not None:
@@ -92,10 +116,6 @@ def check_above(setup, view, backend: str, optics=None) -> None:
     if view.from_rgbd:
         raise AquaspecError("an RGB-D photograph is taken under water; a camera above the sea "
                             "needs a scene (or the built-in one)")
-    if view.description["kind"] in ("mesh", "user"):
-        raise AquaspecError("meshes under the water are not drawn from above yet (only the "
-                            "light field's seabed is seen); accepted with a camera above the "
-                            "sea: the built-in scene, whose sand is the seabed, and seabed=")
     if setup.lamps:
         raise AquaspecError("lamps light the water around a camera under water; a camera "
                             "above the sea takes none (accepted: lamps=())")
@@ -107,10 +127,12 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
     """``(linear camera RGB (H, W, 3), band radiance or None)`` of the sea seen
     from ``view.camera`` above it (:func:`check_above` first, with the
     camera model ``optics``): on the GPU (:class:`aquaspec.gpu.passes.above.AbovePass`)
-    or in NumPy (``backend="numpy"``, or when the band radiance is asked for)."""
+    or in NumPy (``backend="numpy"``, when the band radiance is asked for,
+    or when :func:`shaded_in_numpy` says the frame needs it)."""
     check_above(setup, view, backend, optics)
     cam = view.camera
-    where = "NumPy" if backend == "numpy" or return_radiance else "GPU"
+    numpy = backend == "numpy" or return_radiance or shaded_in_numpy(setup, view)
+    where = "NumPy" if numpy else "GPU"
     say(f"the sea seen from {float(cam.position[1]):g} m above it, {cam.width}x{cam.height} "
         f"pixels x {setup.bands.n} bands ({where})")
     med = setup.medium([])
@@ -122,10 +144,44 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
                        response_weights=med["response_weights"],
                        sun=setup.sun_inputs(caustics=False), facets=facets)
         return gpu.render(cam).astype(np.float64), None
+    caustics = setup.light.sun is not None and setup.waves is not None
+    sun = setup.sun_inputs(caustics=caustics)
+    under = None
+    if _has_meshes(view):
+        say("ray casting the refracted rays into the scene (NumPy)")
+        shadow = None if sun is None else numpy_shadow_map(view.scene, cam,
+                                                           setup.light.sun.to_sun)
+        under = water_to_hits(view.scene, cam, tables, **_water_kw(setup, view.scene), sun=sun,
+                              sun_shadow=shadow, facets=facets)
     radiance = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
-                              sun=setup.sun_inputs(caustics=False), facets=facets)
+                              sun=sun, facets=facets, under=under)
+    if caustics:
+        radiance = radiance + (1.0 - surface_reflectance(cam, facets))[..., None] / N_WATER ** 2 \
+            * seabed_caustics(cam, tables, sun, facets=facets,
+                              skip=None if under is None else under[0])
     linear = radiance_to_rgb(radiance, med["response_weights"])
     return linear, (radiance if return_radiance else None)
+
+
+def _water_kw(setup, scene) -> dict:
+    """The water's and the scene's materials' band inputs of :func:`water_to_hits`."""
+    med = setup.medium(scene.materials)
+    return {k: med[k] for k in ("a", "b", "e0", "material_bands", "sigmoid_centers_t")}
+
+
+def _has_meshes(view) -> bool:
+    """Whether the view has a scene whose meshes may lie under the water."""
+    scene = getattr(view, "scene", None)
+    return scene is not None and bool(getattr(scene, "meshes", None))
+
+
+def shaded_in_numpy(setup, view) -> bool:
+    """Whether the view from above needs the NumPy path whatever the backend:
+    meshes under the water (ray cast), or the sun's caustics under waves on
+    the light field's seabed (the GPU pass draws neither yet)."""
+    caustics = (setup.light.sun is not None and setup.waves is not None
+                and bool(np.isfinite(setup.lightfield_tables().seabed_depth_m)))
+    return _has_meshes(view) or caustics
 
 
 @functools.lru_cache(maxsize=2)
@@ -155,4 +211,8 @@ def above_params(view) -> dict:
                  " (with a sun: plus its beam scattered once along t, and its glint; with "
                  "waves: each ray through the wave tile's facet, the glint as Cox & Munk's "
                  "glitter over the unresolved slopes)",
+        **({"meshes": "the scene's meshes under the water: the refracted rays ray cast into "
+                      "the scene and shaded in NumPy (aquaspec.shading.above_meshes), with the "
+                      "sun's shadow map and, under waves, its caustics"}
+           if _has_meshes(view) else {}),
         "not_drawn": list(NOT_DRAWN)}}

@@ -356,7 +356,8 @@ def _view(*, scene, camera, mesh, albedo, rgbd, depth_m, width, height, say,
     camera = camera or scene.camera
     if camera is None:
         raise AquaspecError("a user scene needs a camera (scene.camera or camera=)")
-    return _View(scene, camera, None, False, {"kind": "user", "meshes": len(scene.meshes)})
+    return _View(scene, camera, None, False,
+                 {"kind": "user", "meshes": len(scene.meshes), **getattr(scene, "info", {})})
 
 
 def _with_seabed(setup: SpectralSetup, seabed, view: _View) -> SpectralSetup:

@@ -50,8 +50,9 @@ seabed the beam's light on it):
   :mod:`aquaspec.light.sky`).
 
 The sky stays uniform (overcast-shaped, of the light's diffuse irradiance).
-Not in this model yet: clear-sky radiance distributions, waves, and meshes
-under the water (only the seabed of the tables is seen).
+Meshes under the water and the sun's caustics on them and on the seabed
+are :mod:`aquaspec.shading.above_meshes`' (``under=``). Not in this model
+yet: clear-sky radiance distributions.
 """
 
 from __future__ import annotations
@@ -96,7 +97,7 @@ def sky_radiance_above(tables, e0) -> np.ndarray:
 
 def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
                    exact: bool = False, sun=None, glint: bool = True,
-                   facets=None) -> np.ndarray:
+                   facets=None, under=None) -> np.ndarray:
     """Band radiance (H, W, n) reaching a camera above the sea (module
     docstring). ``tables``: the flat surface's light-field tables (with the
     seabed, if any, as their lower boundary; with ``sun``, the sky's and the
@@ -108,7 +109,11 @@ def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
     ``facets``: a wind sea (:class:`aquaspec.light.wave_facets.SurfaceFacets`):
     each ray is mirrored and refracted by the tile's facet where it meets the
     mean plane, and the sun's glint becomes Cox & Munk's glitter over the
-    slopes the tile does not resolve; None: the flat surface."""
+    slopes the tile does not resolve; None: the flat surface. ``under``:
+    ``(hit (H, W), L_w (P, n))``, the pixels whose refracted rays meet a mesh
+    and the radiance just below the surface along them
+    (:func:`aquaspec.shading.above_meshes.water_to_hits`), in place of the
+    light field's (and the beam's scattering to the seabed)."""
     if tables.surface != "fresnel":
         raise AquaspecError("the sea seen from above needs the flat surface's light field "
                             f"(surface 'flat'); these tables have surface {tables.surface!r}")
@@ -141,6 +146,9 @@ def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
                               for i in range(table.shape[1])], axis=-1)
         if sun is not None:
             water = water + sun_scattering_below(tables, sun, t)
+        if under is not None:
+            hit, l_hit = under
+            water[np.asarray(hit).reshape(-1)[down]] = l_hit
         out[down] = r[:, None] * sky + ((1.0 - r) / n_water ** 2)[:, None] * water
         if sun is not None and glint:
             if facets is not None and facets.s2 > 0:

@@ -1,0 +1,116 @@
+"""Meshes under the water seen from above, and the sun's caustics on them
+and on the seabed (aquaspec.shading.above_meshes)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aquaspec.colour.bands import Bands
+from aquaspec.colour.reflectance import Reflectance
+from aquaspec.colour.sensors import get_sensor
+from aquaspec.light.sky import surface_light
+from aquaspec.light.wave_facets import surface_facets
+from aquaspec.light.waves import Waves
+from aquaspec.medium.interface import N_WATER
+from aquaspec.medium.water import get_water
+from aquaspec.rendering.setup import SpectralSetup
+from aquaspec.scene.camera import camera_above
+from aquaspec.scene.mesh import Mesh, Scene
+from aquaspec.scene.seabed import Seabed
+from aquaspec.shading.above_meshes import (seabed_caustics, surface_reflectance,
+                                           water_to_hits)
+from aquaspec.shading.above_water import sea_from_above
+
+W, H = 40, 24
+DEPTH = 4.0
+
+
+def _square(depth, half, albedo=0.3, x0=0.0, z0=0.0):
+    """A horizontal square facing up at ``depth``, side ``2 half``, grey ``albedo``."""
+    v = np.array([[x0 - half, -depth, z0 - half], [x0 + half, -depth, z0 - half],
+                  [x0 + half, -depth, z0 + half], [x0 - half, -depth, z0 + half]])
+    faces = np.array([[0, 2, 1], [0, 3, 2]])
+    mesh = Mesh(v, faces, np.tile([0.0, 1.0, 0.0], (4, 1)), 0, name="square")
+    return Scene([mesh], [Reflectance.constant(albedo, name="grey")])
+
+
+def _setup(light="overcast", waves=None, **kw):
+    return SpectralSetup(get_water("IB"), get_sensor("human"), surface_light(light, **kw),
+                         Bands(6), surface="flat", seabed=Seabed(DEPTH + 1e-6, 0.3),
+                         waves=waves)
+
+
+def _pair(setup, cam, caustics=False):
+    """The sea from above with a grey square just above the light field's
+    (equally grey) seabed, and without it."""
+    scene = _square(DEPTH, 60.0)
+    tables = setup.lightfield_tables()
+    med = setup.medium(scene.materials)
+    facets = None if setup.waves is None else surface_facets(setup.waves)
+    sun = setup.sun_inputs(caustics=caustics)
+    kw = dict(a=med["a"], b=med["b"], e0=med["e0"], sun=sun, facets=facets)
+    hit, l_hit = water_to_hits(scene, cam, tables, **kw, material_bands=med["material_bands"],
+                               sigmoid_centers_t=med["sigmoid_centers_t"])
+    with_mesh = sea_from_above(cam, tables, **kw, under=(hit, l_hit))
+    without = sea_from_above(cam, tables, **kw)
+    return hit, with_mesh, without, tables, sun, facets
+
+
+def test_a_mesh_on_the_seabed_looks_like_the_light_fields_seabed():
+    """Overcast: a grey plane just above the light field's grey seabed is
+    shaded (lit by the irradiance table, seen through the water over S) as
+    the seabed boundary itself is, within 0.1 %."""
+    cam = camera_above(3.0, 40.0, width=W, height=H)
+    hit, a, b, *_ = _pair(_setup(), cam)
+    down = cam.ray_directions()[..., 1] < 0
+    assert hit[down].mean() > 0.9
+    np.testing.assert_allclose(a[hit], b[hit], rtol=1e-3)
+
+
+def test_with_the_sun_the_beam_on_the_mesh_is_the_seabeds():
+    """With the sun: the beam on the plane, its single scattering over S and
+    the tables' diffuse light give what the tables' seabed (lit by the beam)
+    and the beam's scattering down to it give."""
+    cam = camera_above(3.0, 40.0, width=W, height=H)
+    setup = _setup("sun-sky", sun_elevation_deg=50.0, sun_azimuth_deg=180.0)
+    hit, a, b, *_ = _pair(setup, cam)
+    np.testing.assert_allclose(a[hit], b[hit], rtol=2e-3)
+
+
+def test_under_waves_the_caustics_on_mesh_and_seabed_agree():
+    """Under waves with the sun, the caustics on the plane and on the light
+    field's seabed (seabed_caustics) are the same pattern: the mesh's image
+    equals the seabed's plus its caustics, and the caustics are there (the
+    seabed's radiance varies by over 10 % where the flat-lit one does not)."""
+    cam = camera_above(3.0, 60.0, width=W, height=H)
+    setup = _setup("sun-sky", waves=Waves(5.0), sun_elevation_deg=60.0,
+                   sun_azimuth_deg=180.0)
+    hit, a, b, tables, sun, facets = _pair(setup, cam, caustics=True)
+    extra = (1.0 - surface_reflectance(cam, facets))[..., None] / N_WATER ** 2 \
+        * seabed_caustics(cam, tables, sun, facets=facets)
+    np.testing.assert_allclose(a[hit], (b + extra)[hit], rtol=2e-3,
+                               atol=2e-3 * float(np.abs(b[hit]).max()))
+    assert np.abs(extra[hit]).max() > 0.1 * np.abs(b[hit]).max()
+    skipped = seabed_caustics(cam, tables, sun, facets=facets, skip=hit)
+    assert np.all(skipped[hit] == 0.0)
+
+
+def test_a_square_under_water_looks_larger_by_refraction():
+    """Looking straight down from h at a white square of side 2a at depth D,
+    the square's apparent half-angle is a / (h + D / n) (paraxial, the
+    square small): its width in pixels, within one pixel."""
+    h, d, a = 2.0, 2.0, 0.2
+    cam = camera_above(h, 90.0, width=161, height=161, fov_y_deg=20.0)
+    setup = SpectralSetup(get_water("IB"), get_sensor("human"), surface_light("overcast"),
+                          Bands(4), surface="flat")
+    scene = _square(d, a, albedo=0.9)
+    med = setup.medium(scene.materials)
+    hit, _ = water_to_hits(scene, cam, setup.lightfield_tables(), a=med["a"], b=med["b"],
+                           e0=med["e0"], material_bands=med["material_bands"],
+                           sigmoid_centers_t=med["sigmoid_centers_t"])
+    width = hit[80].sum()
+    expect = 2.0 * cam.fx * np.tan(a / (h + d / N_WATER))
+    assert width == pytest.approx(expect, abs=1.0)
+    in_air = 2.0 * cam.fx * a / (h + d)                  # without refraction: smaller
+    assert width > in_air + 5
