@@ -33,7 +33,7 @@ from aquaspec.transport.lightfield.tables import band_last_table
 PARAMS_LAYOUT = UniformLayout("BelowMirrorParams", CAMERA_FIELDS + [
     ("to_sun", "vec3<f32>"), ("mu0", "f32"),
     ("n_water", "f32"), ("max_depth", "f32"), ("width", "u32"), ("height", "u32"),
-    ("n_bands", "u32"), ("bg_depth", "u32"), ("bg_mu", "u32"), ("e_depth", "u32"),
+    ("groups", "u32"), ("bg_depth", "u32"), ("bg_mu", "u32"), ("e_depth", "u32"),
     ("e_mu", "u32"), ("sun_on", "u32"), ("pad0", "u32"), ("pad1", "u32"),
 ])
 WORKGROUP = (8, 8)
@@ -51,9 +51,7 @@ class BelowMirrorPass:
         self._layout = bind_group_layout(device, {0: "uniform", 1: "uint", 2: "uint",
                                                   3: "float", 4: "read", 5: "read", 6: "read",
                                                   7: "read", 8: "write"})
-        code = load_wgsl("below_mirror.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
-                         params_struct_name=PARAMS_LAYOUT.name)
-        self._pipeline = compute_pipeline(device, self._layout, code, "below_mirror.wgsl")
+        self._pipelines = {}
         self._buffers = {}
         self._medium = None
 
@@ -65,24 +63,26 @@ class BelowMirrorPass:
         :class:`aquaspec.transport.sun_scattering.SunInputs` or None)."""
         a = np.asarray(a, dtype=float)
         n = a.size
-        bands = np.zeros((n, 3, 4), dtype=np.float32)
-        bands[:, 0, 0] = a + np.asarray(b, dtype=float)
-        bands[:, 0, 1] = tables.ray_extinction(a, b)
-        bands[:, 0, 2] = np.asarray(sigmoid_centers_t, dtype=float)
-        bands[:, 0, 3] = np.asarray(e0, dtype=float)
-        bands[:, 1, :3] = np.asarray(response_weights, dtype=float)
+        groups = -(-n // 4)
+        rows = np.zeros((8, 4 * groups))
+        rows[0, :n] = tables.ray_extinction(a, b)
+        rows[1, :n] = np.asarray(sigmoid_centers_t, dtype=float)
+        rows[2, :n] = np.asarray(e0, dtype=float)
+        rows[3:6, :n] = np.asarray(response_weights, dtype=float).T
         to_sun, mu0 = np.array([0.0, 1.0, 0.0]), 1.0
         if sun is not None:
-            bands[:, 2, 0] = sun.beam0
-            bands[:, 2, 1] = sun.c_sun
+            rows[6, :n] = sun.beam0
+            rows[7, :n] = sun.c_sun
             to_sun, mu0 = np.asarray(sun.to_sun, dtype=float), float(sun.mu0)
         background = mirror_background_table(tables, a=a, b=b, e0=e0)
         irradiance = band_last_table(tables.irradiance_per_e0)
-        mats = np.asarray(material_bands, dtype=np.float32).reshape(-1, n)
-        data = {"bands": bands.reshape(-1, 4),
-                "materials": mats.ravel() if mats.size else np.zeros(n, np.float32),
-                "background": background.astype(np.float32).ravel(),
-                "irradiance": irradiance.astype(np.float32).ravel()}
+        mats = np.asarray(material_bands, dtype=float).reshape(-1, n)
+        data = {"bands": _grouped(rows, groups).reshape(8, groups, 4).transpose(1, 0, 2),
+                "materials": _grouped(mats if mats.size else np.zeros((1, n)), groups),
+                "background": _grouped(background, groups),
+                "irradiance": _grouped(irradiance, groups)}
+        data = {k: np.ascontiguousarray(v, dtype=np.float32).reshape(-1, 4)
+                for k, v in data.items()}
         for name, arr in data.items():
             buf = self._buffers.get(name)
             if buf is None or buf.size != arr.nbytes:
@@ -90,10 +90,20 @@ class BelowMirrorPass:
             else:
                 upload_buffer(self.device, buf, arr)
         self._medium = {"n_water": N_WATER, "max_depth": float(tables.max_depth_m),
-                        "n_bands": int(n), "bg_depth": background.shape[0],
+                        "groups": int(groups), "bg_depth": background.shape[0],
                         "bg_mu": background.shape[1], "e_depth": irradiance.shape[0],
                         "e_mu": irradiance.shape[1], "sun_on": int(sun is not None),
                         "to_sun": to_sun, "mu0": mu0, "pad0": 0, "pad1": 0}
+
+    def _pipeline(self, groups: int):
+        """The pipeline for ``groups`` vec4s of bands (a constant: the loop
+        over them unrolled), compiled on first use."""
+        if groups not in self._pipelines:
+            code = load_wgsl("below_mirror.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
+                             params_struct_name=PARAMS_LAYOUT.name, groups=groups)
+            self._pipelines[groups] = compute_pipeline(self.device, self._layout, code,
+                                                       "below_mirror.wgsl")
+        return self._pipelines[groups]
 
     @staticmethod
     def mirror_gbuffer(encoder, raster, scene, camera) -> dict:
@@ -116,7 +126,7 @@ class BelowMirrorPass:
              5: self._buffers["materials"], 6: self._buffers["background"],
              7: self._buffers["irradiance"], 8: self.rgb_buffer}))
         groups = (-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]), 1)
-        record_dispatch(encoder, self._pipeline, group, groups)
+        record_dispatch(encoder, self._pipeline(self._medium["groups"]), group, groups)
 
     def render(self, camera, surface_texture, mirror_textures) -> np.ndarray:
         """Run the pass and read back the camera-RGB change, (H, W, 3) float32."""
@@ -125,3 +135,12 @@ class BelowMirrorPass:
         self.device.queue.submit([encoder.finish()])
         out = read_buffer(self.device, self.rgb_buffer, np.float32, (self.height, self.width, 4))
         return out[..., :3]
+
+
+def _grouped(values, groups: int) -> np.ndarray:
+    """``values`` (..., n) padded with zeros to ``4 groups`` bands, as
+    (..., groups, 4): four bands to a vec4, as the WGSL reads them."""
+    v = np.asarray(values, dtype=float)
+    out = np.zeros(v.shape[:-1] + (4 * groups,))
+    out[..., :v.shape[-1]] = v
+    return out.reshape(v.shape[:-1] + (groups, 4))

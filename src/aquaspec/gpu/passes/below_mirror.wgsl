@@ -19,18 +19,21 @@
 const PI: f32 = 3.14159265358979;
 const PER_PIXEL: u32 = 0xffffffffu;
 const SIGMOID_X_MAX: f32 = 1.0e6;
+// Groups of four bands: a constant, so that the band loop unrolls.
+const GROUPS: u32 = {{ groups }}u;
 
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 @group(0) @binding(1) var gb_surface: texture_2d<u32>;
 @group(0) @binding(2) var mirror_surface: texture_2d<u32>;
 @group(0) @binding(3) var mirror_sigmoid: texture_2d<f32>;
-// Per band three vec4: (c, c - f b, t, e0) (c unused here), (w_r, w_g, w_b, 0), (beam0, c_sun, 0, 0).
+// Per group of four bands eight vec4: c - f b, t, e0, w_r, w_g, w_b, beam0,
+// c_sun (the bands past the last zero).
 @group(0) @binding(4) var<storage, read> bands: array<vec4<f32>>;
-// Material m's band i at [m * n_bands + i].
-@group(0) @binding(5) var<storage, read> materials: array<f32>;
-// L_bg at [(k * bg_mu + j) * n_bands + i]; E / e0 at [(k * e_mu + j) * n_bands + i].
-@group(0) @binding(6) var<storage, read> background: array<f32>;
-@group(0) @binding(7) var<storage, read> irradiance: array<f32>;
+// Material m's group g at [m * groups + g].
+@group(0) @binding(5) var<storage, read> materials: array<vec4<f32>>;
+// L_bg at [(k * bg_mu + j) * groups + g]; E / e0 at [(k * e_mu + j) * groups + g].
+@group(0) @binding(6) var<storage, read> background: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> irradiance: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> rgb_out: array<vec4<f32>>;
 
 // (lower node, weight) on a table's depth axis: sqrt(d / D) (nodes - 1).
@@ -46,24 +49,20 @@ fn node_axis(x: f32, nodes: u32) -> vec2<f32> {
     return vec2<f32>(k, x - k);
 }
 
-fn background_at(d: vec2<f32>, m: vec2<f32>, i: u32) -> f32 {
-    let n = prm.n_bands;
-    let k = u32(d.x);
-    let j = u32(m.x);
-    let a = mix(background[(k * prm.bg_mu + j) * n + i], background[(k * prm.bg_mu + j + 1u) * n + i], m.y);
-    let b = mix(background[((k + 1u) * prm.bg_mu + j) * n + i],
-                background[((k + 1u) * prm.bg_mu + j + 1u) * n + i], m.y);
-    return mix(a, b, d.y);
+fn background_at(d: vec2<f32>, m: vec2<f32>, g: u32) -> vec4<f32> {
+    let n = GROUPS;
+    let r0 = (u32(d.x) * prm.bg_mu + u32(m.x)) * n + g;
+    let r1 = r0 + prm.bg_mu * n;
+    return mix(mix(background[r0], background[r0 + n], m.y),
+               mix(background[r1], background[r1 + n], m.y), d.y);
 }
 
-fn irradiance_at(d: vec2<f32>, m: vec2<f32>, i: u32) -> f32 {
-    let n = prm.n_bands;
-    let k = u32(d.x);
-    let j = u32(m.x);
-    let a = mix(irradiance[(k * prm.e_mu + j) * n + i], irradiance[(k * prm.e_mu + j + 1u) * n + i], m.y);
-    let b = mix(irradiance[((k + 1u) * prm.e_mu + j) * n + i],
-                irradiance[((k + 1u) * prm.e_mu + j + 1u) * n + i], m.y);
-    return mix(a, b, d.y);
+fn irradiance_at(d: vec2<f32>, m: vec2<f32>, g: u32) -> vec4<f32> {
+    let n = GROUPS;
+    let r0 = (u32(d.x) * prm.e_mu + u32(m.x)) * n + g;
+    let r1 = r0 + prm.e_mu * n;
+    return mix(mix(irradiance[r0], irradiance[r0 + n], m.y),
+               mix(irradiance[r1], irradiance[r1 + n], m.y), d.y);
 }
 
 @compute @workgroup_size(8, 8)
@@ -95,24 +94,26 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                                prm.bg_mu);
             let sun_cos = max(dot(normal, prm.to_sun), 0.0);
             let coeffs = textureLoad(mirror_sigmoid, mp, 0).xyz;
-            for (var i = 0u; i < prm.n_bands; i = i + 1u) {
-                let cb = bands[3u * i];
-                var rho: f32;
+            let scale = vec4<f32>(gain / PI);
+            for (var g = 0u; g < GROUPS; g = g + 1u) {
+                let b0 = 8u * g;
+                let t = bands[b0 + 1u];
+                var rho: vec4<f32>;
                 if (m.w == PER_PIXEL) {
-                    let x = clamp((coeffs.x * cb.z + coeffs.y) * cb.z + coeffs.z,
-                                  -SIGMOID_X_MAX, SIGMOID_X_MAX);
+                    let x = clamp((coeffs.x * t + coeffs.y) * t + coeffs.z,
+                                  vec4<f32>(-SIGMOID_X_MAX), vec4<f32>(SIGMOID_X_MAX));
                     rho = 0.5 + 0.5 * x * inverseSqrt(1.0 + x * x);
                 } else {
-                    rho = materials[m.w * prm.n_bands + i];
+                    rho = materials[m.w * GROUPS + g];
                 }
-                var e = irradiance_at(da, ea, i) * cb.w;
+                var e = irradiance_at(da, ea, g) * bands[b0 + 2u];
                 if (prm.sun_on == 1u) {
-                    let sb = bands[3u * i + 2u];
-                    e = e + sb.x * exp(-sb.y * depth / prm.mu0) * sun_cos;
+                    e = e + bands[b0 + 6u] * exp(-bands[b0 + 7u] * depth / prm.mu0) * sun_cos;
                 }
-                let delta = exp(-cb.y * (s + s2)) * gain
-                    * (rho * e / PI - background_at(db, ba, i));
-                rgb = rgb + bands[3u * i + 1u].xyz * delta;
+                let delta = exp(-bands[b0] * (s + s2))
+                    * (scale * rho * e - gain * background_at(db, ba, g));
+                rgb = rgb + vec3<f32>(dot(bands[b0 + 3u], delta), dot(bands[b0 + 4u], delta),
+                                      dot(bands[b0 + 5u], delta));
             }
         }
     }
