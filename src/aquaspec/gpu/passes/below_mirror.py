@@ -49,7 +49,7 @@ class BelowMirrorPass:
         self.rgb_buffer = create_storage_buffer(device, self.width * self.height * 16,
                                                 label="below mirror rgb")
         self._layout = bind_group_layout(device, {0: "uniform", 1: "uint", 2: "uint",
-                                                  3: "float", 4: "read", 5: "read", 6: "read",
+                                                  3: "float", 4: "uniform", 5: "read", 6: "read",
                                                   7: "read", 8: "write"})
         self._pipelines = {}
         self._buffers = {}
@@ -86,8 +86,13 @@ class BelowMirrorPass:
         for name, arr in data.items():
             buf = self._buffers.get(name)
             if buf is None or buf.size != arr.nbytes:
-                self._buffers[name] = create_storage_buffer(self.device, arr, label=name)
-            else:
+                # (The bands' constants in a uniform array: on lavapipe a uniform
+                # read costs a quarter of a storage read, aquaspec.gpu.materials.)
+                buf = (create_uniform_buffer(self.device, arr.nbytes, label=name)
+                       if name == "bands" else create_storage_buffer(self.device, arr,
+                                                                     label=name))
+                self._buffers[name] = buf
+            if name == "bands" or buf.size == arr.nbytes:
                 upload_buffer(self.device, buf, arr)
         self._medium = {"n_water": N_WATER, "max_depth": float(tables.max_depth_m),
                         "groups": int(groups), "bg_depth": background.shape[0],
@@ -100,7 +105,8 @@ class BelowMirrorPass:
         over them unrolled), compiled on first use."""
         if groups not in self._pipelines:
             code = load_wgsl("below_mirror.wgsl", params_struct=PARAMS_LAYOUT.wgsl(),
-                             params_struct_name=PARAMS_LAYOUT.name, groups=groups)
+                             params_struct_name=PARAMS_LAYOUT.name, groups=groups,
+                             groups_x8=8 * groups)
             self._pipelines[groups] = compute_pipeline(self.device, self._layout, code,
                                                        "below_mirror.wgsl")
         return self._pipelines[groups]

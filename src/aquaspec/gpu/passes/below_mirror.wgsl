@@ -28,7 +28,7 @@ const GROUPS: u32 = {{ groups }}u;
 @group(0) @binding(3) var mirror_sigmoid: texture_2d<f32>;
 // Per group of four bands eight vec4: c - f b, t, e0, w_r, w_g, w_b, beam0,
 // c_sun (the bands past the last zero).
-@group(0) @binding(4) var<storage, read> bands: array<vec4<f32>>;
+@group(0) @binding(4) var<uniform> bands: array<vec4<f32>, {{ groups_x8 }}>;
 // Material m's group g at [m * groups + g].
 @group(0) @binding(5) var<storage, read> materials: array<vec4<f32>>;
 // L_bg at [(k * bg_mu + j) * groups + g]; E / e0 at [(k * e_mu + j) * groups + g].
