@@ -21,7 +21,7 @@ from aquaspec.rendering.api import _View
 from aquaspec.rendering.live_above import check_live_above
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.builtin import builtin_scene
-from aquaspec.scene.camera import camera_above
+from aquaspec.scene.camera import Camera, camera_above
 
 pytestmark = pytest.mark.gpu
 
@@ -105,6 +105,10 @@ def test_the_half_and_half_frame():
     assert np.abs(shown.astype(int) - want.astype(int)).max() <= 1
     up = cam.ray_directions()[..., 1] > 0
     assert np.abs(flat[up] - want_linear[up]).max() > 0.1 * scale   # the sky replaced them
+    sky_only = Camera.look_at([0.0, 0.0, 0.0], [0.0, 0.5, -0.866], width=W, height=H,
+                              fov_y_deg=20.0)
+    with pytest.raises(AquaspecError, match="sees no water"):
+        live.draw_frame(scene, sky_only, setup)
 
 
 def test_what_a_live_frame_from_above_refuses():

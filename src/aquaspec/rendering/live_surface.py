@@ -40,7 +40,7 @@ from aquaspec.gpu.passes.waterline_sky import WaterlineSkyPass
 from aquaspec.light.wave_facets import SurfaceFacets, surface_facets, unresolved_variance
 from aquaspec.light.waves import Waves, _amplitudes, angular_frequency, looping, wavenumbers
 from aquaspec.parallel import workers
-from aquaspec.rendering.above import above_water, at_waterline
+from aquaspec.rendering.above import above_water, at_waterline, check_waterline_view
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.shading.above_water import sky_radiance_above
 
@@ -50,7 +50,7 @@ def surface_drawn(setup: SpectralSetup, camera) -> bool:
     :func:`aquaspec.rendering.surface_view.surface_seen_from_water` adds one,
     and some ray goes up: a camera at the waterline (the sky's half), or under
     the water with the light-field model under the flat surface and waves or a sun."""
-    if not _sees_up(camera):
+    if not np.any(_corner_rays_y(camera) > 0):
         return False            # (no ray meets the surface: the frame keeps its fused display)
     if at_waterline(camera):
         return True
@@ -59,16 +59,16 @@ def surface_drawn(setup: SpectralSetup, camera) -> bool:
             and (setup.waves is not None or setup.light.sun is not None))
 
 
-def _sees_up(camera) -> bool:
-    """Whether any of ``camera``'s rays goes up: ``d_y`` is linear over the
-    image plane, so it is positive somewhere iff at one of its corners (the
-    image's corners, half a pixel beyond the outer pixels' centres: a ray
-    going up there alone draws a pass that changes nothing)."""
+def _corner_rays_y(camera) -> np.ndarray:
+    """The upward parts ``d_y`` (4,) of ``camera``'s rays through its image's
+    corners (unnormalised): ``d_y`` is linear over the image plane, so some
+    ray goes up iff one of these is positive, and all do iff all are (the
+    corners lie half a pixel beyond the outer pixels' centres: a ray going
+    up there alone draws a pass that changes nothing)."""
     x = (np.array([0.0, camera.width]) - camera.cx) / camera.fx
     y = (np.array([0.0, camera.height]) - camera.cy) / camera.fy
-    dy = (camera.right[1] * x[:, None] - camera.true_up[1] * y[None, :]
-          + camera.forward[1])
-    return bool(np.any(dy > 0))
+    return (camera.right[1] * x[:, None] - camera.true_up[1] * y[None, :]
+            + camera.forward[1]).ravel()
 
 
 @functools.lru_cache(maxsize=2)
@@ -141,6 +141,8 @@ class LiveSurface:
         if setup.surface != "flat":
             raise AquaspecError("a camera at the waterline sees the sea through the real "
                                 f"surface: surface 'flat' (got {setup.surface!r})")
+        if np.all(_corner_rays_y(camera) > 0):
+            check_waterline_view(camera)        # (refuses a view without water, as render())
         if self._sky is None:
             self._sky = WaterlineSkyPass(self.add.device, self.add.width, self.add.height)
         if self._sky_rgb is None or self._sky_rgb[0] is not setup:
