@@ -129,3 +129,31 @@ def test_the_background_table_is_the_open_water_s_radiance():
                                    v_y=r_y[:, None], s=np.full((4, 1), np.inf))
     np.testing.assert_allclose(lerp, direct, rtol=0.01)
     assert table_depths(tables.max_depth_m, 2)[-1] == tables.max_depth_m
+
+
+def test_waves_move_the_scene_in_the_mirror():
+    """Under a 6 m/s sea each ray is mirrored by the tile's facet: an upright
+    tile gives the flat surface's mirror exactly; the waves' facets move
+    where the plate is seen (still at its depth) and change the image."""
+    from aquaspec.light.wave_facets import SurfaceFacets, surface_facets
+    from aquaspec.light.waves import Waves
+    setup = _setup()
+    tables, med = setup.lightfield_tables(), setup.medium([Reflectance.constant(0.6)])
+    scene = Scene([_plate(3.0)], [Reflectance.constant(0.6)])
+    p = np.array([0.0, -2.0, 0.0])
+    cam = Camera.look_at(p, p + [0.0, 0.5, -0.866], width=40, height=30, fov_y_deg=100.0)
+    gb = raycast_gbuffer(scene, mirrored_camera(cam))
+    open_up = np.ones((30, 40), bool)
+    kw = {k: med[k] for k in ("a", "b", "e0", "material_bands", "sigmoid_centers_t")}
+    flat = scene_in_mirror(cam, open_up, gb, tables, **kw)
+    upright = SurfaceFacets(np.zeros((8, 8, 2), np.float32), 4.0, 0.0)
+    np.testing.assert_allclose(scene_in_mirror(cam, open_up, gb, tables, facets=upright, **kw),
+                               flat, rtol=1e-12)
+    facets = surface_facets(Waves(6.0, grid=64))
+    wavy = scene_in_mirror(cam, open_up, gb, tables, facets=facets, **kw)
+    hits = mirror_hits(cam, open_up, gb, facets)
+    np.testing.assert_allclose(hits.depth, 3.0, atol=1e-3)
+    assert np.all(hits.r_y < 0) and hits.mask.sum() > 300
+    assert not np.allclose(hits.r_y, -hits.v_y, atol=1e-3)
+    assert np.abs(wavy - flat).max() > 0.1 * np.abs(flat).max()
+    assert np.all(np.isfinite(wavy))

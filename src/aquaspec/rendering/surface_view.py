@@ -23,7 +23,8 @@ touch in :func:`aquaspec.rendering.api.render`.
   mirrored in ``y = 0``, ray cast in NumPy, rasterised on the GPU by the
   frame's raster pass into its own targets, shaded by
   :class:`aquaspec.gpu.passes.below_mirror.BelowMirrorPass`); under waves
-  the flat surface's mirror is kept for the scene.
+  each ray is mirrored by the tile's facet and looked up in the mirrored
+  camera's image along its mirrored direction.
 """
 
 from __future__ import annotations
@@ -74,7 +75,7 @@ def surface_seen_from_water(setup, view, shaded, backend: str):
                            response_weights=med["response_weights"], sun=sun)
             change = gpu.render(cam, surface).astype(np.float64)
         if mirror:
-            change = change + _mirror_on_gpu(r, view, setup, med, tables, sun, surface)
+            change = change + _mirror_on_gpu(r, view, med, tables, sun, facets, surface)
     else:
         open_up = _open_up(v, s_top, shaded.gbuffer.distance)
         bands = 0.0
@@ -88,7 +89,7 @@ def surface_seen_from_water(setup, view, shaded, backend: str):
         if mirror:
             bands = bands + scene_in_mirror(
                 cam, open_up, raycast_gbuffer(view.scene, mirrored_camera(cam)), tables,
-                **{k: med[k] for k in MIRROR_KEYS}, sun=sun)
+                **{k: med[k] for k in MIRROR_KEYS}, sun=sun, facets=facets)
         change = radiance_to_rgb(bands, med["response_weights"])
         if radiance is not None:
             radiance = radiance + bands
@@ -105,7 +106,7 @@ def _open_up(v, s_top, distance):
     return (v[..., 1] > 0) & (~np.isfinite(distance) | (distance > s_top))
 
 
-def _mirror_on_gpu(r, view, setup, med, tables, sun, surface):
+def _mirror_on_gpu(r, view, med, tables, sun, facets, surface):
     """The scene mirrored in the surface on the GPU (camera RGB, float64):
     the mirrored camera's G-buffer drawn by the frame's raster pass into its
     own targets, then :class:`~aquaspec.gpu.passes.below_mirror.BelowMirrorPass`."""
@@ -113,7 +114,7 @@ def _mirror_on_gpu(r, view, setup, med, tables, sun, surface):
     gpu = _mirror_pass(r.deferred.device, cam.width, cam.height)
     gpu.set_medium(tables, **{k: med[k] for k in MIRROR_KEYS if k not in ("a", "b", "e0")},
                    a=med["a"], b=med["b"], e0=med["e0"],
-                   response_weights=med["response_weights"], sun=sun)
+                   response_weights=med["response_weights"], sun=sun, facets=facets)
     encoder = r.deferred.device.create_command_encoder()
     targets = gpu.mirror_gbuffer(encoder, r.raster, view.scene, cam)
     r.deferred.device.queue.submit([encoder.finish()])

@@ -32,10 +32,16 @@ left to right), so the hits are one G-buffer of the scene seen from it
 (:func:`aquaspec.scene.raycast.raycast_gbuffer` here, the raster pass on
 the GPU), its distance ``S + S2``. A first hit closer than ``S`` is above the
 water (a rock sticking out): the scene below it is not seen there and the
-open water's mirror stays. Under a wind sea the same flat-surface mirror is
-kept for the hits (an approximation: the waves' facets tilt the mirrored
-rays, :mod:`aquaspec.shading.below_waves` tilts the open water's mirror
-but not the scene's).
+open water's mirror stays. Under a wind sea the ray is mirrored by the
+wave tile's facet where it meets the mean plane, ``r = v - 2 (v . n) n``,
+with ``R(v . n)``, and the hit is the mirrored camera's along ``r`` (its
+pixel whose ray is along ``r``): the scene in the surface wobbles with the
+waves as the open water's mirror does (:mod:`aquaspec.shading.below_waves`,
+whose change this one adds to). The approximation: the mirrored camera's
+ray along ``r`` leaves the surface where the flat mirror's would, not at the
+point the camera's ray meets it (off by ``S`` times the facet's tilt
+sideways, small against the distances to the scene for gentle slopes);
+``S2`` is the length along ``r`` from the surface down to the hit's depth.
 """
 
 from __future__ import annotations
@@ -45,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aquaspec.light.sun import surface_irradiance
-from aquaspec.medium.interface import N_WATER, fresnel_transmittance_out
+from aquaspec.medium.interface import FLAT_NORMAL, N_WATER, fresnel_transmittance_out
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.gbuffer import hit_reflectance
 
@@ -71,12 +77,16 @@ def mirrored_camera(camera: Camera) -> Camera:
 class MirrorHits:
     """The pixels whose mirrored ray meets the scene below the surface:
     ``mask`` (H, W), and per such pixel (P,) ``v_y``, the distance ``s_top``
-    to the surface, ``s2`` beyond it, the hit's depth ``depth`` and unit
-    normal ``normal`` (P, 3), its ``material`` and ``sigmoid`` (P, 3)."""
+    to the surface, the ray's cosine ``cos_i`` to the facet it is mirrored
+    by, the mirrored ray's ``r_y``, ``s2`` beyond the surface to the hit, the
+    hit's depth ``depth`` and unit normal ``normal`` (P, 3), its
+    ``material`` and ``sigmoid`` (P, 3)."""
 
     mask: np.ndarray
     v_y: np.ndarray
     s_top: np.ndarray
+    cos_i: np.ndarray
+    r_y: np.ndarray
     s2: np.ndarray
     depth: np.ndarray
     normal: np.ndarray
@@ -84,27 +94,63 @@ class MirrorHits:
     sigmoid: np.ndarray
 
 
-def mirror_hits(camera: Camera, open_up, mirror_gbuffer) -> MirrorHits:
+def mirror_hits(camera: Camera, open_up, mirror_gbuffer, facets=None) -> MirrorHits:
     """The hits of ``mirror_gbuffer`` (a G-buffer of the scene from
     :func:`mirrored_camera` of ``camera``) that the rays of ``camera`` going
-    up through open water (``open_up`` (H, W)) see in the surface."""
+    up through open water (``open_up`` (H, W)) see in the surface.
+
+    Each ray is mirrored at the mean plane by the facet there (``facets``:
+    :class:`aquaspec.light.wave_facets.SurfaceFacets`, or None for the flat
+    surface; a facet facing away from the ray is taken upright, as
+    :mod:`aquaspec.shading.below_waves` takes it); the mirrored ray ``r`` is
+    looked up in the mirrored camera's pixel whose ray is along ``r`` (its
+    own pixel for the flat surface), and the hit is that pixel's, so under
+    waves the scene seen in a tilted facet is the one the mirrored camera
+    sees along ``r`` (exact for the flat surface; under waves the point the
+    ray leaves the surface from moves by the facet's tilt, which is left
+    out). No hit where ``r`` leaves the image, goes up, or its hit is above
+    the water."""
     v = camera.ray_directions()
-    dist = mirror_gbuffer.distance[:, ::-1].astype(float)
-    d_o = -float(camera.position[1])
+    h, w = v.shape[:2]
+    o = np.asarray(camera.position, dtype=float)
     up = v[..., 1] > 0
-    s_top = np.where(up, d_o / np.where(up, v[..., 1], 1.0), np.inf)
-    mask = np.asarray(open_up, dtype=bool) & up & np.isfinite(dist) & (dist > s_top)
-    s2 = dist[mask] - s_top[mask]
-    vv = v[mask]
-    hit = camera.position + vv * s_top[mask, None] + (vv * _MIRROR) * s2[:, None]
-    return MirrorHits(mask, vv[:, 1], s_top[mask], s2, np.maximum(-hit[:, 1], 0.0),
-                      mirror_gbuffer.normal[:, ::-1][mask].astype(float),
-                      mirror_gbuffer.material[:, ::-1][mask],
-                      mirror_gbuffer.sigmoid[:, ::-1][mask].astype(float))
+    cand = np.asarray(open_up, dtype=bool) & up
+    vv = v[cand]
+    s_top = -o[1] / vv[:, 1]
+    p = o + vv * s_top[:, None]
+    n = (np.broadcast_to(FLAT_NORMAL, vv.shape) if facets is None
+         else facets.normals(p[:, 0], p[:, 2]))
+    cos_i = np.sum(vv * n, axis=1)
+    n = np.where((cos_i > 0)[:, None], n, FLAT_NORMAL)
+    cos_i = np.where(cos_i > 0, cos_i, vv[:, 1])
+    r = vv - 2.0 * cos_i[:, None] * n
+    m = r * _MIRROR
+    fwd = m @ camera.forward
+    safe = np.where(fwd > 0, fwd, 1.0)
+    j = np.floor(camera.cx + camera.fx * (m @ camera.right) / safe).astype(np.int64)
+    i = np.floor(camera.cy - camera.fy * (m @ camera.true_up) / safe).astype(np.int64)
+    ok = (r[:, 1] < 0) & (fwd > 0) & (j >= 0) & (j < w) & (i >= 0) & (i < h)
+    j, i = np.where(ok, j, 0), np.where(ok, i, 0)
+    col = w - 1 - j
+    dist = mirror_gbuffer.distance[i, col].astype(float)
+    hit = (o * _MIRROR) + np.where(np.isfinite(dist), dist, 0.0)[:, None] \
+        * (v[i, j] * _MIRROR)
+    ok &= np.isfinite(dist) & (hit[:, 1] < 0)
+    mask = np.zeros((h, w), bool)
+    mask[cand] = ok
+    i, col, hit = i[ok], col[ok], hit[ok]
+    # S2 along r from the surface to the hit's depth: the light field depends on
+    # the path's depths and length only (horizontally uniform water), and so the
+    # path and its end agree under waves too (for the flat surface it is |hit - p|).
+    return MirrorHits(mask, vv[ok, 1], s_top[ok], cos_i[ok], r[ok, 1],
+                      -hit[:, 1] / -r[ok, 1], -hit[:, 1],
+                      mirror_gbuffer.normal[i, col].astype(float),
+                      mirror_gbuffer.material[i, col],
+                      mirror_gbuffer.sigmoid[i, col].astype(float))
 
 
 def scene_in_mirror(camera: Camera, open_up, mirror_gbuffer, tables, *, a, b, e0,
-                    material_bands, sigmoid_centers_t, sun=None,
+                    material_bands, sigmoid_centers_t, sun=None, facets=None,
                     n_water: float = N_WATER) -> np.ndarray:
     """``Delta`` (H, W, n) of the module docstring for ``camera`` under the
     sea: zero but where a ray going up through open water (``open_up``) is
@@ -112,10 +158,11 @@ def scene_in_mirror(camera: Camera, open_up, mirror_gbuffer, tables, *, a, b, e0
     :func:`mirrored_camera`; ``tables``: the flat surface's light field;
     ``material_bands`` (M, n) and ``sigmoid_centers_t`` (n,): the
     reflectances as :func:`aquaspec.shading.shade.shade_gbuffer` takes them;
-    ``sun``: :class:`~aquaspec.transport.sun_scattering.SunInputs` or None."""
+    ``sun``: :class:`~aquaspec.transport.sun_scattering.SunInputs` or None;
+    ``facets``: the wave tile's (:func:`mirror_hits`), or None."""
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
-    hits = mirror_hits(camera, open_up, mirror_gbuffer)
+    hits = mirror_hits(camera, open_up, mirror_gbuffer, facets)
     out = np.zeros(hits.mask.shape + (a.size,))
     if not hits.mask.any():
         return out
@@ -123,7 +170,7 @@ def scene_in_mirror(camera: Camera, open_up, mirror_gbuffer, tables, *, a, b, e0
                           np.asarray(sigmoid_centers_t, dtype=float))
     col = (lambda x: np.asarray(x, dtype=float)[:, None])
     kw = dict(a=a, b=b, e0=np.asarray(e0, dtype=float), depth_o=col(np.zeros_like(hits.s2)),
-              v_y=col(-hits.v_y))
+              v_y=col(hits.r_y))
     seen = tables.pixel_radiance(**kw, s=col(hits.s2), rho=rho, surface_depth=col(hits.depth),
                                  n_y=col(hits.normal[:, 1]))
     open_water = tables.pixel_radiance(**kw, s=col(np.full_like(hits.s2, np.inf)))
@@ -131,7 +178,7 @@ def scene_in_mirror(camera: Camera, open_up, mirror_gbuffer, tables, *, a, b, e0
         lit = rho / np.pi * surface_irradiance(sun.beam0, sun.c_sun, hits.depth, hits.normal,
                                                sun.to_sun)
         seen = seen + np.exp(-tables.ray_extinction(a, b) * col(hits.s2)) * lit
-    reflectance = 1.0 - fresnel_transmittance_out(hits.v_y, n_water)
+    reflectance = 1.0 - fresnel_transmittance_out(hits.cos_i, n_water)
     out[hits.mask] = (np.exp(-tables.ray_extinction(a, b) * col(hits.s_top)) * col(reflectance)
                       * (seen - open_water))
     return out

@@ -9,6 +9,8 @@ from aquaspec.colour.bands import Bands
 from aquaspec.colour.reflectance import Reflectance
 from aquaspec.colour.sensors import get_sensor, radiance_to_rgb
 from aquaspec.light.sky import surface_light
+from aquaspec.light.wave_facets import surface_facets
+from aquaspec.light.waves import Waves
 from aquaspec.medium.water import load_water
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera
@@ -36,8 +38,12 @@ def _scene():
     return Scene([box, plate], mats)
 
 
-@pytest.mark.parametrize("sun", [False, True])
-def test_below_mirror_pass_matches_numpy(device, sun):
+@pytest.mark.parametrize("sun,wind", [(False, None), (True, None), (False, 6.0)])
+def test_below_mirror_pass_matches_numpy(device, sun, wind):
+    """The flat surface's mirror, with the sun, and under a 6 m/s sea (the
+    rays mirrored by the tile's facets: a ray whose mirrored direction falls
+    on a pixel boundary may take the neighbour in float32, so there up to
+    three pixels may differ)."""
     from aquaspec.gpu.gbuffer import GBufferTextures
     from aquaspec.gpu.passes.below_mirror import BelowMirrorPass
     from aquaspec.gpu.passes.raster import RasterPass
@@ -48,6 +54,7 @@ def test_below_mirror_pass_matches_numpy(device, sun):
     scene = _scene()
     med, tables = setup.medium(scene.materials), setup.lightfield_tables()
     sun_in = setup.sun_inputs() if sun else None
+    facets = None if wind is None else surface_facets(Waves(wind, grid=64))
     p = np.array([0.2, -2.0, 1.0])
     cam = Camera.look_at(p, p + [0.0, 0.45, -0.9], width=64, height=40, fov_y_deg=90.0)
     primary = raycast_gbuffer(scene, cam)
@@ -58,7 +65,8 @@ def test_below_mirror_pass_matches_numpy(device, sun):
     gpu_pass.set_medium(tables, a=med["a"], b=med["b"], e0=med["e0"],
                         response_weights=med["response_weights"],
                         material_bands=med["material_bands"],
-                        sigmoid_centers_t=med["sigmoid_centers_t"], sun=sun_in)
+                        sigmoid_centers_t=med["sigmoid_centers_t"], sun=sun_in,
+                        facets=facets)
     enc = device.create_command_encoder()
     targets = gpu_pass.mirror_gbuffer(enc, raster, scene, cam)
     device.queue.submit([enc.finish()])
@@ -73,10 +81,14 @@ def test_below_mirror_pass_matches_numpy(device, sun):
     open_up = ~np.isfinite(dist) | (dist > s_top)
     bands = scene_in_mirror(cam, open_up, mirror, tables, a=med["a"], b=med["b"], e0=med["e0"],
                             material_bands=med["material_bands"],
-                            sigmoid_centers_t=med["sigmoid_centers_t"], sun=sun_in)
+                            sigmoid_centers_t=med["sigmoid_centers_t"], sun=sun_in,
+                            facets=facets)
     ref = radiance_to_rgb(bands, med["response_weights"])
-    hits = mirror_hits(cam, open_up, mirror)
+    hits = mirror_hits(cam, open_up, mirror, facets)
     box = hits.mask & (mirror.material[:, ::-1] == 0) & np.isfinite(mirror.distance[:, ::-1])
     assert box.sum() > 20 and (hits.mask & ~box).sum() > 100     # the box and the plate
-    assert np.all(gpu[~hits.mask] == 0)
-    np.testing.assert_allclose(gpu, ref, rtol=RTOL, atol=1e-3 * np.abs(ref).max())
+    close = np.all(np.isclose(gpu, ref, rtol=RTOL, atol=1e-3 * np.abs(ref).max()), axis=-1)
+    if wind is None:
+        assert np.all(gpu[~hits.mask] == 0) and np.all(close)
+    else:
+        assert (~close).sum() <= 3, (~close).sum()       # (measured: none)

@@ -34,7 +34,8 @@ PARAMS_LAYOUT = UniformLayout("BelowMirrorParams", CAMERA_FIELDS + [
     ("to_sun", "vec3<f32>"), ("mu0", "f32"),
     ("n_water", "f32"), ("max_depth", "f32"), ("width", "u32"), ("height", "u32"),
     ("groups", "u32"), ("bg_depth", "u32"), ("bg_mu", "u32"), ("e_depth", "u32"),
-    ("e_mu", "u32"), ("sun_on", "u32"), ("pad0", "u32"), ("pad1", "u32"),
+    ("e_mu", "u32"), ("sun_on", "u32"), ("waves_on", "u32"), ("tile_grid", "u32"),
+    ("tile_m", "f32"), ("pad0", "u32"), ("pad1", "u32"), ("pad2", "u32"),
 ])
 WORKGROUP = (8, 8)
 
@@ -50,17 +51,20 @@ class BelowMirrorPass:
                                                 label="below mirror rgb")
         self._layout = bind_group_layout(device, {0: "uniform", 1: "uint", 2: "uint",
                                                   3: "float", 4: "uniform", 5: "read", 6: "read",
-                                                  7: "read", 8: "write"})
+                                                  7: "read", 8: "write", 9: "read"})
         self._pipelines = {}
         self._buffers = {}
         self._medium = None
 
     def set_medium(self, tables, *, a, b, e0, response_weights, material_bands,
-                   sigmoid_centers_t, sun=None) -> None:
+                   sigmoid_centers_t, sun=None, facets=None) -> None:
         """Upload the light field's irradiance table, the open water's
         background, the materials' band reflectances (M, n), the bands'
-        constants and the sun (``sun``:
-        :class:`aquaspec.transport.sun_scattering.SunInputs` or None)."""
+        constants, the sun (``sun``:
+        :class:`aquaspec.transport.sun_scattering.SunInputs` or None) and the
+        wave tile's slopes (``facets``:
+        :class:`aquaspec.light.wave_facets.SurfaceFacets`, None: the flat
+        surface)."""
         a = np.asarray(a, dtype=float)
         n = a.size
         groups = -(-n // 4)
@@ -83,6 +87,8 @@ class BelowMirrorPass:
                 "irradiance": _grouped(irradiance, groups)}
         data = {k: np.ascontiguousarray(v, dtype=np.float32).reshape(-1, 4)
                 for k, v in data.items()}
+        data["slopes"] = (np.zeros((2, 2), np.float32) if facets is None
+                          else np.ascontiguousarray(facets.slopes, dtype=np.float32).reshape(-1, 2))
         for name, arr in data.items():
             buf = self._buffers.get(name)
             if buf is None or buf.size != arr.nbytes:
@@ -98,7 +104,11 @@ class BelowMirrorPass:
                         "groups": int(groups), "bg_depth": background.shape[0],
                         "bg_mu": background.shape[1], "e_depth": irradiance.shape[0],
                         "e_mu": irradiance.shape[1], "sun_on": int(sun is not None),
-                        "to_sun": to_sun, "mu0": mu0, "pad0": 0, "pad1": 0}
+                        "to_sun": to_sun, "mu0": mu0,
+                        "waves_on": int(facets is not None),
+                        "tile_grid": 2 if facets is None else int(facets.slopes.shape[0]),
+                        "tile_m": 1.0 if facets is None else float(facets.tile_m),
+                        "pad0": 0, "pad1": 0, "pad2": 0}
 
     def _pipeline(self, groups: int):
         """The pipeline for ``groups`` vec4s of bands (a constant: the loop
@@ -130,7 +140,7 @@ class BelowMirrorPass:
             {0: self._params, 1: surface_texture, 2: mirror_textures["surface"],
              3: mirror_textures["sigmoid"], 4: self._buffers["bands"],
              5: self._buffers["materials"], 6: self._buffers["background"],
-             7: self._buffers["irradiance"], 8: self.rgb_buffer}))
+             7: self._buffers["irradiance"], 8: self.rgb_buffer, 9: self._buffers["slopes"]}))
         groups = (-(-self.width // WORKGROUP[0]), -(-self.height // WORKGROUP[1]), 1)
         record_dispatch(encoder, self._pipeline(self._medium["groups"]), group, groups)
 

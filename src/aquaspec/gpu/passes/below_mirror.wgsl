@@ -2,10 +2,11 @@
 // aquaspec.shading.below_mirror.scene_in_mirror, in camera RGB. One
 // invocation per pixel: its ray v going up through open water (the frame's
 // G-buffer distance negative, or beyond the surface at S = d_o / v_y) is
-// mirrored at the flat surface; the mirrored camera's G-buffer (its image
-// flipped left to right) gives the hit at S + S2 along the mirrored ray, and
-// the pixel gains
-//   sum_i w_i R(v_y) exp(-c'_i (S + S2)) (L_hit,i - L_bg,i(d_2, r_y)),
+// mirrored at the surface (by the wave tile's facet with waves_on = 1:
+// r = v - 2 (v.n) n); the mirrored camera's G-buffer (its image flipped left
+// to right), at its pixel whose ray is along r, gives the hit at S2 beyond
+// the surface, and the pixel gains
+//   sum_i w_i R(v.n) exp(-c'_i (S + S2)) (L_hit,i - L_bg,i(d_2, r_y)),
 // c' = c - f b the beam's extinction,
 // L_hit = rho (E(d_2, n_y) + [sun] E_b(d_2) max(0, n . to_sun)) / pi, the
 // irradiance and background tables read bilinearly as the NumPy reference's
@@ -35,6 +36,10 @@ const GROUPS: u32 = {{ groups }}u;
 @group(0) @binding(6) var<storage, read> background: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read> irradiance: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read_write> rgb_out: array<vec4<f32>>;
+// The wave tile's slopes (wave_facets.wgsl; read when waves_on is 1).
+@group(0) @binding(9) var<storage, read> slopes: array<vec2<f32>>;
+
+#include "wave_facets.wgsl"
 
 // (lower node, weight) on a table's depth axis: sqrt(d / D) (nodes - 1).
 fn depth_axis(d: f32, nodes: u32) -> vec2<f32> {
@@ -75,22 +80,60 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let v = normalize(prm.right * xc - prm.up * yc + prm.forward);
     var rgb = vec3<f32>(0.0);
     let s_hit = bitcast<f32>(textureLoad(gb_surface, vec2<i32>(gid.xy), 0).x);
-    let mp = vec2<i32>(i32(prm.width - 1u - gid.x), i32(gid.y));
-    let m = textureLoad(mirror_surface, mp, 0);
-    let dist = bitcast<f32>(m.x);
+    var found = false;
+    var mp = vec2<i32>(0);
+    var m = vec4<u32>(0u);
+    var s = 0.0;
+    var s2 = 0.0;
+    var depth = 0.0;
+    var cos_i = 0.0;
+    var r = vec3<f32>(0.0);
     if (v.y > 0.0) {
-        let s = -prm.position.y / v.y;
-        if ((s_hit < 0.0 || s_hit > s) && dist > s) {
-            let s2 = dist - s;
-            let r = vec3<f32>(v.x, -v.y, v.z);
-            let depth = max(-(prm.position.y + v.y * s + r.y * s2), 0.0);
+        s = -prm.position.y / v.y;
+        if (s_hit < 0.0 || s_hit > s) {
+            let p = prm.position + v * s;
+            var n = vec3<f32>(0.0, 1.0, 0.0);
+            if (prm.waves_on == 1u) {
+                n = wave_facet(p.x, p.z);
+            }
+            cos_i = dot(v, n);
+            if (cos_i <= 0.0) {
+                n = vec3<f32>(0.0, 1.0, 0.0);
+                cos_i = v.y;
+            }
+            r = v - 2.0 * cos_i * n;
+            // The mirrored camera's pixel whose ray is along r.
+            let mr = vec3<f32>(r.x, -r.y, r.z);
+            let f = dot(mr, prm.forward);
+            if (r.y < 0.0 && f > 0.0) {
+                let jf = floor(prm.cx + prm.fx * dot(mr, prm.right) / f);
+                let i_f = floor(prm.cy - prm.fy * dot(mr, prm.up) / f);
+                if (jf >= 0.0 && jf < f32(prm.width) && i_f >= 0.0 && i_f < f32(prm.height)) {
+                    mp = vec2<i32>(i32(prm.width) - 1 - i32(jf), i32(i_f));
+                    m = textureLoad(mirror_surface, mp, 0);
+                    let dist = bitcast<f32>(m.x);
+                    let ray = normalize(prm.right * ((jf + 0.5 - prm.cx) / prm.fx)
+                                        - prm.up * ((i_f + 0.5 - prm.cy) / prm.fy) + prm.forward);
+                    let o_m = vec3<f32>(prm.position.x, -prm.position.y, prm.position.z);
+                    let hit = o_m + dist * vec3<f32>(ray.x, -ray.y, ray.z);
+                    if (dist >= 0.0 && hit.y < 0.0) {
+                        found = true;
+                        depth = -hit.y;
+                        s2 = depth / -r.y;          // along r to the hit's depth
+                    }
+                }
+            }
+        }
+    }
+    if (found) {
+        {
             let normal = decode_normal(m.z, m.y);
-            let gain = 1.0 - fresnel_transmittance_out(v.y, prm.n_water);
+            let gain = 1.0 - fresnel_transmittance_out(cos_i, prm.n_water);
             let da = depth_axis(depth, prm.e_depth);
             let ea = node_axis((1.0 - acos(clamp(normal.y, -1.0, 1.0)) / PI) * f32(prm.e_mu - 1u),
                                prm.e_mu);
             let db = depth_axis(depth, prm.bg_depth);
-            let ba = node_axis(acos(clamp(v.y, 0.0, 1.0)) * 2.0 / PI * f32(prm.bg_mu - 1u),
+            let ba = node_axis(acos(clamp(-r.y, 0.0, 1.0)) * 2.0 / PI * f32(prm.bg_mu - 1u),
                                prm.bg_mu);
             let sun_cos = max(dot(normal, prm.to_sun), 0.0);
             let coeffs = textureLoad(mirror_sigmoid, mp, 0).xyz;
