@@ -48,7 +48,10 @@ class TestRender:
         assert off.mean() < 1e-3
         assert np.abs(d_gpu - d_cpu).mean() < 1e-3 * np.abs(d_cpu).max()
 
-    def test_live_frame_matches_numpy(self, device):
+    # sun-sky: the particles' light on the host; overcast: all of it on the GPU
+    # (aquaspec.gpu.passes.snow_field).
+    @pytest.mark.parametrize("light, sun_elevation", [("sun-sky", 60.0), ("overcast", None)])
+    def test_live_frame_matches_numpy(self, device, light, sun_elevation):
         from aquaspec.gpu.passes.display import DisplayPass
         from aquaspec.rendering.api import _spectral_setup
         from aquaspec.rendering.marine_snow import frame_splats, particle_light
@@ -60,8 +63,8 @@ class TestRender:
         scene, cam = builtin_scene(5.0, width=w, height=h)
         setup, _ = _spectral_setup(
             water="IB", source="solonenko2015", sensor="human", camspec=None,
-            bands=8, wavelength_range=(400.0, 700.0), light="sun-sky", irradiance_w_m2=None,
-            sun_elevation_deg=60.0, sun_azimuth_deg=None, sun_shadow_map=None, waves=None,
+            bands=8, wavelength_range=(400.0, 700.0), light=light, irradiance_w_m2=None,
+            sun_elevation_deg=sun_elevation, sun_azimuth_deg=None, sun_shadow_map=None, waves=None,
             ambient="cosine", outside="error", ms_model="lightfield", phase="petzold",
             forward_cone_deg=None, cone_spread=None, spread_scattering="single",
             ambient_shadow=False, say=lambda m: None, surface="flat")
@@ -74,6 +77,7 @@ class TestRender:
         got = r.read_display().astype(int)
         gbuffer = r.raster.read_gbuffer(scene, cam, r.deferred.gbuffer.textures)
         records = frame_splats(snow, particle_light(setup, cam, snow), cam, 2.0)
+        assert r.snow.drawn == len(records)
         want = composite(plain, splat_image(records, gbuffer.distance))
         assert np.abs(want - plain).max() > 0.02 * plain.max()
         # The composed frame's display against the display pass of NumPy's composition:

@@ -29,6 +29,7 @@ import numpy as np
 
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.passes.particles import ParticlePass
+from aquaspec.gpu.passes.snow_field import SnowFieldPass
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.particles import MarineSnow, SnowField, parse_marine_snow  # noqa: F401
 from aquaspec.shading.particles import (MAX_RADIUS_PX, ParticleLight, composite, in_view,
@@ -131,19 +132,30 @@ def _sun_shadow(shaded, backend):
 class LiveSnow:
     """Marine snow on a :class:`aquaspec.rendering.renderer.Renderer`'s live
     frames: the particles at :attr:`time_s` composed over the shading pass's
-    image before the display (:meth:`encode`)."""
+    image before the display (:meth:`encode`).
+
+    Lit by the light field alone (no sun, no lamps), the particles are moved,
+    culled, lit and splatted on the GPU
+    (:class:`aquaspec.gpu.passes.snow_field.SnowFieldPass`); with the sun or
+    lamps their light is computed on the host (:func:`frame_splats`) and
+    their discs splatted by :class:`aquaspec.gpu.passes.particles.ParticlePass`."""
 
     def __init__(self, snow, device, width: int, height: int):
         self.snow = parse_marine_snow(snow)
         if self.snow is None:
             raise AquaspecError("LiveSnow needs marine snow; accepted: a MarineSnow or a spec")
         self.gpu = ParticlePass(device, width, height)
+        self.field = SnowFieldPass(self.gpu)
         #: The instant of the particles' drift, s.
         self.time_s = 0.0
         self._light_key = None
         self._light = None
-        #: Particles drawn in the last frame.
-        self.drawn = 0
+        self._drawn = 0
+
+    @property
+    def drawn(self) -> int:
+        """Particles drawn in the last frame (waits for the GPU when it drew them)."""
+        return self.field.read_drawn() if self._drawn is None else self._drawn
 
     def light(self, setup: SpectralSetup, camera) -> ParticleLight:
         """The frame's :class:`ParticleLight` (the light field's part kept per setup)."""
@@ -159,17 +171,24 @@ class LiveSnow:
         """Record the particles for ``camera`` over ``rgb_buffer`` (in place), or
         with ``display`` composed and shown into ``self.gpu.output`` (the
         display settings given to ``self.gpu.set_display``)."""
-        self._upload(camera, setup)
-        self.gpu.encode(encoder, surface_texture, rgb_buffer, display=display)
+        self.encode_splat(encoder, surface_texture, camera, setup)
+        if display:
+            self.gpu.encode_display(encoder, rgb_buffer)
+        else:
+            self.gpu.encode_compose(encoder, rgb_buffer)
 
     def encode_splat(self, encoder, surface_texture, camera, setup: SpectralSetup):
         """Record the splat alone (into ``self.gpu.accum``), for a shading pass
         that composes it itself
         (:meth:`aquaspec.gpu.passes.lightfield.LightfieldPass.set_snow`)."""
-        self._upload(camera, setup)
-        self.gpu.encode_splat(encoder, surface_texture)
-
-    def _upload(self, camera, setup: SpectralSetup) -> None:
-        records = frame_splats(self.snow, self.light(setup, camera), camera, self.time_s)
-        self.drawn = len(records)
+        light = self.light(setup, camera)
+        if light.sun is None and not light.lamps:
+            self.field.set_field(snow_field(self.snow))
+            self.field.set_light(light)
+            self.field.encode(encoder, surface_texture, camera, self.time_s)
+            self._drawn = None
+            return
+        records = frame_splats(self.snow, light, camera, self.time_s)
+        self._drawn = len(records)
         self.gpu.set_splats(records)
+        self.gpu.encode_splat(encoder, surface_texture)

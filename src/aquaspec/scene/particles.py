@@ -240,12 +240,17 @@ class SnowField:
         cam = np.asarray(camera_position, dtype=float)
         if camera is None:
             return self._moved(slice(None), cam, time_s)
+        return self._moved(self.indices_in_view(cam, time_s, camera, margin_px), cam, time_s)
+
+    def indices_in_view(self, camera_position, time_s, camera, margin_px) -> np.ndarray:
+        """Indices into :attr:`origin` of the particles of the cells :meth:`at`
+        keeps for ``camera`` (at ``camera_position``) at ``time_s``."""
+        cam = np.asarray(camera_position, dtype=float)
         keep = self._cells_in_view(cam, time_s, camera, margin_px)
         lo, hi = self._starts[:-1][keep], self._starts[1:][keep]
         sizes = hi - lo
-        index = (np.repeat(lo - np.cumsum(sizes) + sizes, sizes)
-                 + np.arange(int(sizes.sum())))
-        return self._moved(index, cam, time_s)
+        return (np.repeat(lo - np.cumsum(sizes) + sizes, sizes)
+                + np.arange(int(sizes.sum())))
 
     def _cells_in_view(self, cam, time_s, camera, margin_px) -> np.ndarray:
         """Which cells (flat index) may hold particles ``camera`` sees."""

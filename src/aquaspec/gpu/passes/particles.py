@@ -7,20 +7,17 @@ this pass draws their discs. WGSL: ``particles.wgsl`` beside this module.
 
 1. Splat (a compute pass, one invocation per particle): each disc's pixels,
    weighted by the anti-aliased disc and dropped behind the G-buffer's
-   surface, added into a buffer (four ``u32`` per pixel, fixed point,
-   ``atomicAdd``) copied into the ``rgba32uint`` texture
+   surface, added into a buffer (four ``f32`` per pixel held as ``u32``:
+   WGSL has no float atomics, so a compare-exchange loop adds them;
+   ``gpu/wgsl/snow_splat.wgsl``) copied into the ``rgba32uint`` texture
    :attr:`ParticlePass.accum`, as :func:`aquaspec.shading.particles.splat_image`
    (a texel load cost a fifth of a storage buffer's on lavapipe, for the
-   shaders that compose). Camera RGB is multiplied
-   on the host by ``scale = 1 / max(RGB)`` of the frame's particles, and the
-   fixed-point factor (:data:`FIXED_MAX`, less when the frame's discs could
-   sum past ``2^31`` on a pixel) keeps every pixel's sum in range; a
-   contribution is rounded to ``1 / fixed`` of the brightest particle's.
-   (An instanced-quad render pass into an ``rgba16float`` target did this
-   before; on lavapipe it cost about 3 us per particle, triangle set-up,
-   whatever the discs' size: 34 ms for the 10.9k of ``bench --detail``.)
-   The records are sorted by disc size, so that the invocations of a SIMD
-   group loop over about as many pixels.
+   shaders that compose). (An instanced-quad render pass into an
+   ``rgba16float`` target did this before; on lavapipe it cost about 3 us
+   per particle, triangle set-up, whatever the discs' size: 34 ms for the
+   10.9k of ``bench --detail``. Fixed-point sums with ``atomicAdd`` lost
+   small and negative camera RGB.) The records are sorted by disc size, so
+   that the invocations of a SIMD group loop over about as many pixels.
 2. Compose (a compute pass, in place on a ``vec4<f32>`` image buffer, e.g.
    the shading pass's ``rgb_buffer``), as :func:`aquaspec.shading.particles.composite`;
    or, with display settings (:meth:`ParticlePass.set_display`), composed and
@@ -45,13 +42,7 @@ from aquaspec.gpu.shaders import load_wgsl
 from aquaspec.shading.particles import SPLAT_FIELDS
 
 PARAMS = UniformLayout("ParticleParams", [("width", "f32"), ("height", "f32"),
-                                          ("inv_scale", "f32"), ("count", "f32"),
-                                          ("fixed", "f32")])
-#: The accumulation's fixed-point factor (units per unit coverage) when the
-#: frame's discs cannot sum past 2^31 on a pixel at it.
-FIXED_MAX = float(2 ** 24)
-#: Largest fixed-point sum per pixel and channel the factor is chosen for.
-SUM_LIMIT = float(2 ** 31)
+                                          ("count", "f32")])
 WORKGROUP = (8, 8)
 #: Invocations per workgroup of the splat (one per particle).
 SPLAT_WORKGROUP = 64
@@ -62,8 +53,8 @@ class ParticlePass:
 
     def __init__(self, device, width: int, height: int):
         self.device, self.width, self.height = device, int(width), int(height)
-        # The splat's buffer: four u32 per pixel (camera RGB x scale, coverage;
-        # fixed point), rows of the width rounded up to 16 pixels (256 bytes,
+        # The splat's buffer: four f32 per pixel as u32 (camera RGB, coverage),
+        # rows of the width rounded up to 16 pixels (256 bytes,
         # as a copy into a texture needs; gpu/wgsl/snow_accum.wgsl).
         self._row = 16 * -(-self.width // 16)
         self._sums = create_storage_buffer(device, self.height * self._row * 16,
@@ -85,8 +76,6 @@ class ParticlePass:
                                          entry_point="cs_compose")
         self._instances = None
         self._count = 0
-        self._inv_scale = 1.0
-        self._fixed = FIXED_MAX
         self._splat_group = None
         self._splat_key = None
         self._compose_group = None
@@ -105,17 +94,8 @@ class ParticlePass:
         if not np.all(np.isfinite(rec)):
             raise AquaspecError("splat records hold non-finite values; accepted: finite "
                                 "records as aquaspec.shading.particles.splats gives them")
-        peak = float(np.abs(rec[:, 4:7]).max()) if len(rec) else 0.0
-        scale = 1.0 / peak if peak > 0 else 1.0
         # Sorted by disc size: a SIMD group's invocations loop over as many pixels.
         rec = rec[np.argsort(rec[:, 2], kind="stable")]
-        rec[:, 4:7] *= scale
-        # A disc adds at most a / (pi (R^2 + 1/12)) of coverage to a pixel, and
-        # its light (scaled to at most 1) at most as much: their sum bounds any
-        # pixel's.
-        r = rec[:, 2].astype(np.float64)
-        bound = float(np.sum(np.abs(rec[:, 7]) / (np.pi * (r * r + 1.0 / 12.0))))
-        self._fixed = min(FIXED_MAX, SUM_LIMIT / max(bound, 1.0))
         if len(rec) and (self._instances is None or self._instances.size < rec.nbytes):
             self._instances = create_storage_buffer(self.device, max(rec.nbytes, 4096) * 2,
                                                     label="snow records")
@@ -123,16 +103,31 @@ class ParticlePass:
         if len(rec):
             upload_buffer(self.device, self._instances, rec)
         self._count = len(rec)
-        self._inv_scale = peak if peak > 0 else 1.0
         u = np.zeros((), PARAMS.dtype)
-        u["width"], u["height"] = self.width, self.height
-        u["inv_scale"], u["count"], u["fixed"] = self._inv_scale, self._count, self._fixed
+        u["width"], u["height"], u["count"] = self.width, self.height, self._count
         upload_buffer(self.device, self.params, u)
+
+    @property
+    def sums(self):
+        """The splat's buffer (four u32 per pixel, ``gpu/wgsl/snow_splat.wgsl``'s layout)."""
+        return self._sums
+
+    def encode_clear(self, encoder) -> None:
+        """Record the clearing of :attr:`sums`."""
+        encoder.clear_buffer(self._sums, 0, self._sums.size)
+
+    def encode_copy(self, encoder) -> None:
+        """Record the copy of :attr:`sums` into :attr:`accum`."""
+        encoder.copy_buffer_to_texture(
+            {"buffer": self._sums, "offset": 0, "bytes_per_row": self._row * 16,
+             "rows_per_image": self.height},
+            {"texture": self.accum, "mip_level": 0, "origin": (0, 0, 0)},
+            (self.width, self.height, 1))
 
     def encode_splat(self, encoder, surface_texture) -> None:
         """Record the splat against the G-buffer's ``surface`` texture into
         :attr:`accum` (cleared first, also with no particles)."""
-        encoder.clear_buffer(self._sums, 0, self._sums.size)
+        self.encode_clear(encoder)
         if self._count:
             if self._splat_group is None or self._splat_key is not surface_texture:
                 self._splat_group = self.device.create_bind_group(
@@ -146,11 +141,7 @@ class ParticlePass:
                 raise AquaspecError(f"{self._count} particles in one frame; this device "
                                     f"splats at most {limit * SPLAT_WORKGROUP}")
             record_dispatch(encoder, self._splat, self._splat_group, (groups, 1, 1))
-        encoder.copy_buffer_to_texture(
-            {"buffer": self._sums, "offset": 0, "bytes_per_row": self._row * 16,
-             "rows_per_image": self.height},
-            {"texture": self.accum, "mip_level": 0, "origin": (0, 0, 0)},
-            (self.width, self.height, 1))
+        self.encode_copy(encoder)
 
     def encode_compose(self, encoder, rgb_buffer) -> None:
         """Record the composition in place on ``rgb_buffer`` (``vec4<f32>`` per pixel)."""
@@ -198,7 +189,6 @@ class ParticlePass:
 
     def read_accumulated(self) -> np.ndarray:
         """The last splat as :func:`aquaspec.shading.particles.splat_image` gives it
-        (H, W, 4): camera RGB (the scales taken off) and coverage."""
-        acc = read_texture(self.device, self.accum, np.uint32, 4).astype(np.float64) / self._fixed
-        acc[..., :3] *= self._inv_scale
-        return acc
+        (H, W, 4): camera RGB and coverage."""
+        return read_texture(self.device, self.accum, np.uint32, 4).view(np.float32).astype(
+            np.float64)

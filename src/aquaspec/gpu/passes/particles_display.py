@@ -30,7 +30,7 @@ WORKGROUP = (8, 8)
 
 class SnowDisplayPass:
     """Compose and show ``width`` x ``height`` pixels: the particles of
-    ``accum`` (its accumulation texture) with the scales of ``params`` (the
+    ``accum`` (its accumulation texture) with ``params`` (the
     particle pass's uniform buffer, of :class:`aquaspec.gpu.layout.UniformLayout`
     ``params_layout``) over a linear image."""
 
