@@ -9,18 +9,20 @@ display, submitted and waited for; what a live view draws):
 - ``plain``: the classic built-in scene, no particles (the display fused
   into the shading pass);
 - ``particles``: the same with marine snow (:mod:`aquaspec.rendering.marine_snow`;
-  the particles drifting 1/30 s per frame, so the host's part, their
-  positions, light and discs, is redone every frame as in a live view; the
-  splat after the geometry, composed by the light field's shading pass in
-  its fused display, :meth:`aquaspec.gpu.passes.lightfield.LightfieldPass.set_snow`);
+  the particles drifting 1/30 s per frame, so their positions, light and
+  discs are redone every frame as in a live view: lit by the light field
+  alone, on the GPU, :mod:`aquaspec.gpu.passes.snow_field`; the splat after
+  the geometry, composed by the light field's shading pass in its fused
+  display, :meth:`aquaspec.gpu.passes.lightfield.LightfieldPass.set_snow`);
 - ``detailed`` / ``detailed_particles``: a detailed scene's frames, without
   and with the particles, when given (a callable making ``(scene, camera)``;
   ``bench --detail`` gives :func:`detailed_builtin`, the textured,
   normal-mapped built-in scene).
 
 The frames are alternated, their wall-clock medians compared (the machine
-may be shared: compare ratios from one run). The host's part of the
-particles' frame is timed alone beside (``particles_host_ms``).
+may be shared: compare ratios from one run). The host's path of the
+particles (positions, light and discs in NumPy, what a frame with the sun
+or lamps computes) is timed alone beside (``particles_host_ms``).
 """
 
 from __future__ import annotations
@@ -133,8 +135,8 @@ def format_detail(row: dict) -> str:
              for k in row if k.endswith("_ratio")]
     return (f"{row['width']}x{row['height']} n={row['bands']}: plain frame "
             f"{row['plain_ms']:.1f} ms; " + "; ".join(parts)
-            + f"; {row['particles_drawn']} particles drawn, their host part "
-            f"{row['particles_host_ms']:.1f} ms"
+            + f"; {row['particles_drawn']} particles drawn, their host path (with a sun "
+            f"or lamps) {row['particles_host_ms']:.1f} ms"
             + ("" if row["detailed_scene"] else " (no detailed scene timed)")
             + "; passes (ms, each waited for): " + "; ".join(
                 f"{frame}: " + ", ".join(f"{k} {v:.0f}" for k, v in p.items())
