@@ -28,3 +28,18 @@ def test_a_script_above_the_water_is_flown_under_it_and_said(canvas_and_view):
     canvas.draw()
     assert view.flight.depth_m == pytest.approx(SURFACE_MARGIN_M)
     assert "flown 0.3 m under the surface" in view.message
+
+
+@pytest.mark.gpu
+def test_the_panel_turns_the_surface_from_below_off_and_on(canvas_and_view):
+    """The control reaches the renderer of the next frame (where a frame looking
+    up under the sun would draw the sun's disc: bench --surface times both)."""
+    from aquaspec.apps.controls import ViewControls
+    canvas, view = canvas_and_view
+    c = ViewControls(view)
+    c.set_surface_from_below(False)
+    canvas.draw()
+    assert view.renderer.surface_from_below is False
+    c.set_surface_from_below(True)
+    canvas.draw()
+    assert view.renderer.surface_from_below is True

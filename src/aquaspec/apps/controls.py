@@ -5,7 +5,8 @@
 tests call the same methods. Two kinds of change:
 
 - *cheap* ones apply at once, on the frame thread: the camera's depth,
-  exposure offset, tone map, wave play/pause and speed, render scale;
+  exposure offset, tone map, wave play/pause and speed, the surface seen from
+  below on or off, render scale;
 - *expensive* ones make a new :class:`~aquaspec.rendering.setup.SpectralSetup`
   (a water's data and light field, bands, sensor, the multiple-scattering
   model and phase function, the sun, the wind's caustics): they go through
@@ -213,6 +214,11 @@ class ViewControls:
     @property
     def wave_speed(self) -> float:
         return self._speed
+
+    def set_surface_from_below(self, on: bool) -> None:
+        """Draw the surface seen from below (the waves' window, the sun's disc) or
+        leave it out (faster frames looking up: ``aquaspec bench --surface``)."""
+        self.view.surface_from_below = bool(on)
 
     def set_marine_snow(self, spec) -> bool:
         """Marine snow over the frames (a density per m^3, a ``--marine-snow`` spec,

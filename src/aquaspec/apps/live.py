@@ -140,6 +140,9 @@ class LiveView:
         self._metered_green = None  # its exposure, metered by auto_exposure()
         #: Marine snow drifting on the view's clock (``--marine-snow``), or None.
         self.marine_snow = None
+        #: Draw the surface seen from below where render() does (the waves' window,
+        #: the sun's disc: :mod:`aquaspec.rendering.live_surface`); False: leave it out.
+        self.surface_from_below = True
         #: A line of news for the status text (a water loading, an error), or None.
         self.message = None
         #: Where the P key saves frames.
@@ -209,6 +212,7 @@ class LiveView:
         renderer.set_display(display)
         renderer.set_camera_model(self.camera_model, metered_green=self._metered_green)
         renderer.set_marine_snow(self.marine_snow, self.time_s)
+        renderer.surface_from_below = self.surface_from_below
         if setup.waves is not None:     # (the moving sea's pass compiled here too)
             renderer.set_wave_time(self.time_s, progressive=self.progressive_waves)
         encoder = renderer.encode_frame(self.device.create_command_encoder(), self.shown(camera),
@@ -542,6 +546,7 @@ class LiveView:
         camera = self.camera()
         self.renderer.set_camera_model(self.camera_model, metered_green=self._metered_green)
         self.renderer.set_marine_snow(self.marine_snow, self.time_s)
+        self.renderer.surface_from_below = self.surface_from_below
         encoder = self.device.create_command_encoder()
         if profile:
             self.pass_ms = {}

@@ -127,6 +127,9 @@ class ControlsPanel:
                          lambda v: imgui.slider_float("wind", v, 0.0, c.wind_range[1],
                                                       "%.1f m/s"),
                          lambda v: c.set_wind(0.0 if v < c.wind_range[0] else v))
+        changed, on = imgui.checkbox("surface from below (window, sun)", view.surface_from_below)
+        if changed:
+            c.set_surface_from_below(on)
         playing = view.wave_speed > 0
         if imgui.button("pause waves" if playing else "play waves"):
             c.set_waves_playing(not playing)
