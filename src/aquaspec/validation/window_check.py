@@ -52,11 +52,13 @@ from aquaspec.scene.camera import Camera
 from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.scene.raycast import raycast_gbuffer
 from aquaspec.shading.above_water import e0_below
+from aquaspec.shading.below_mirror import mirror_hits, mirrored_camera, scene_in_mirror
 from aquaspec.shading.shade import shade_gbuffer
 from aquaspec.validation import metrics
 from aquaspec.validation.meters import measure_downwelling
 from aquaspec.validation.reference import (REFERENCE_BANDS, bands_to_rgb, lightfield_phase,
                                            render_reference)
+from aquaspec.validation.scenes import cuboid
 
 #: The camera's depth (m) and field of view (degrees, square image).
 DEPTH_M = 5.0
@@ -224,7 +226,6 @@ MIRROR_DEPTH_M, MIRROR_PITCH_DEG, MIRROR_FOV_DEG = 3.0, 18.0, 40.0
 
 def mirror_scene(camera: Camera) -> Scene:
     """The bright box of :data:`MIRROR_BOX` (material 0) in open water."""
-    from aquaspec.validation.scenes import cuboid
     return Scene(meshes=[cuboid(*MIRROR_BOX, 0, "box")],
                  materials=[Reflectance.constant(MIRROR_BOX_RHO)], camera=camera)
 
@@ -240,7 +241,6 @@ def compare_mirror(water: str = "IB", *, phase: str = "isotropic", size=(48, 32)
     (the box seen directly, eroded), ``water_mirror`` (the rest looking up,
     open water mirrored); a region with no pixels is left out. ``pitch_deg``,
     ``fov_deg``: the camera's pitch above level and vertical field of view."""
-    from aquaspec.shading.below_mirror import mirror_hits, mirrored_camera, scene_in_mirror
     if phase not in PHASES:
         raise AquaspecError(f"phase {phase!r}; accepted: {', '.join(PHASES)}")
     w, sky = load_water(water), surface_light("overcast")
