@@ -50,11 +50,24 @@ def _pair(setup, cam, caustics=False):
     facets = None if setup.waves is None else surface_facets(setup.waves)
     sun = setup.sun_inputs(caustics=caustics)
     kw = dict(a=med["a"], b=med["b"], e0=med["e0"], sun=sun, facets=facets)
-    hit, l_hit = water_to_hits(scene, cam, tables, **kw, material_bands=med["material_bands"],
-                               sigmoid_centers_t=med["sigmoid_centers_t"])
-    with_mesh = sea_from_above(cam, tables, **kw, under=(hit, l_hit))
+    hit, l_hit, spread = water_to_hits(scene, cam, tables, **kw,
+                                       material_bands=med["material_bands"],
+                                       sigmoid_centers_t=med["sigmoid_centers_t"])
+    with_mesh = sea_from_above(cam, tables, **kw, under=(hit, l_hit, spread))
     without = sea_from_above(cam, tables, **kw)
     return hit, with_mesh, without, tables, sun, facets
+
+
+def _inside(hit, margin=3):
+    """``hit`` less ``margin`` pixels at its edges and the image's: where the
+    forward cone's spread light (the mesh's, and the tables' seabed's kept in
+    its pixel) is the same on both sides."""
+    out = hit.copy()
+    for _ in range(margin):
+        out[1:-1, 1:-1] &= out[:-2, 1:-1] & out[2:, 1:-1] & out[1:-1, :-2] & out[1:-1, 2:]
+        out[[0, -1], :] = False
+        out[:, [0, -1]] = False
+    return out
 
 
 def test_a_mesh_on_the_seabed_looks_like_the_light_fields_seabed():
@@ -65,7 +78,7 @@ def test_a_mesh_on_the_seabed_looks_like_the_light_fields_seabed():
     hit, a, b, *_ = _pair(_setup(), cam)
     down = cam.ray_directions()[..., 1] < 0
     assert hit[down].mean() > 0.9
-    np.testing.assert_allclose(a[hit], b[hit], rtol=1e-3)
+    np.testing.assert_allclose(a[_inside(hit)], b[_inside(hit)], rtol=1e-3)
 
 
 def test_with_the_sun_the_beam_on_the_mesh_is_the_seabeds():
@@ -75,7 +88,7 @@ def test_with_the_sun_the_beam_on_the_mesh_is_the_seabeds():
     cam = camera_above(3.0, 40.0, width=W, height=H)
     setup = _setup("sun-sky", sun_elevation_deg=50.0, sun_azimuth_deg=180.0)
     hit, a, b, *_ = _pair(setup, cam)
-    np.testing.assert_allclose(a[hit], b[hit], rtol=2e-3)
+    np.testing.assert_allclose(a[_inside(hit)], b[_inside(hit)], rtol=2e-3)
 
 
 def test_under_waves_the_caustics_on_mesh_and_seabed_agree():
@@ -89,7 +102,8 @@ def test_under_waves_the_caustics_on_mesh_and_seabed_agree():
     hit, a, b, tables, sun, facets = _pair(setup, cam, caustics=True)
     extra = (1.0 - surface_reflectance(cam, facets))[..., None] / N_WATER ** 2 \
         * seabed_caustics(cam, tables, sun, facets=facets)
-    np.testing.assert_allclose(a[hit], (b + extra)[hit], rtol=2e-3,
+    core = _inside(hit)
+    np.testing.assert_allclose(a[core], (b + extra)[core], rtol=2e-3,
                                atol=2e-3 * float(np.abs(b[hit]).max()))
     assert np.abs(extra[hit]).max() > 0.1 * np.abs(b[hit]).max()
     skipped = seabed_caustics(cam, tables, sun, facets=facets, skip=hit)
@@ -106,7 +120,7 @@ def test_a_square_under_water_looks_larger_by_refraction():
                           Bands(4), surface="flat")
     scene = _square(d, a, albedo=0.9)
     med = setup.medium(scene.materials)
-    hit, _ = water_to_hits(scene, cam, setup.lightfield_tables(), a=med["a"], b=med["b"],
+    hit, *_ = water_to_hits(scene, cam, setup.lightfield_tables(), a=med["a"], b=med["b"],
                            e0=med["e0"], material_bands=med["material_bands"],
                            sigmoid_centers_t=med["sigmoid_centers_t"])
     width = hit[80].sum()

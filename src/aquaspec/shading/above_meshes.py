@@ -16,6 +16,10 @@ surface (:func:`water_to_hits`):
   radiance over ``S``
   (:meth:`~aquaspec.transport.lightfield.tables.LightfieldTables.pixel_radiance`
   with ``depth_o = 0``), as a camera under water sees a surface;
+- with the light field's forward cone (``cone_spread``), the cone's share
+  of the light carried from each hit surface is spread over the image as
+  under water, its kernel scaled for the view through the surface
+  (:func:`_spread_cone`);
 - with a sun, its beam on the surface, ``rho / pi E_b(d) max(0, n . s) V
   exp(-c_view S)`` (:func:`aquaspec.light.sun.surface_irradiance`), ``V``
   the sun's shadow map's visibility times, under waves, each band's caustic
@@ -41,6 +45,9 @@ from aquaspec.scene.gbuffer import hit_reflectance
 from aquaspec.scene.raycast import raycast_rays
 from aquaspec.scene.shadowmap import NORMAL_OFFSET_TEXELS, map_visibility
 from aquaspec.shading.above_water import WAVE_T_TOP, facet_normals
+from aquaspec.transport.lightfield.conespread import (node_pyramid_weights, pyramid_weights,
+                                                      spread_by_lambda)
+from aquaspec.transport.lightfield.conespread import spread as pyramid_spread
 from aquaspec.transport.sun_scattering import (phase_from_log_table, scattering_cosine,
                                                single_scattering_open)
 
@@ -71,10 +78,12 @@ def rays_into_water(camera, facets=None, n_water: float = N_WATER):
 
 def water_to_hits(scene, camera, tables, *, a, b, e0, material_bands, sigmoid_centers_t,
                   sun=None, sun_shadow=None, facets=None, n_water: float = N_WATER):
-    """``(hit (H, W), L_w (P, n))``: the pixels of ``camera`` (above the sea)
-    whose refracted rays meet a surface of ``scene`` under the water before
-    the tables' seabed, and the radiance arriving just below the surface
-    along those rays (module docstring). ``material_bands``,
+    """``(hit (H, W), L_w (P, n), spread (H, W, n) or None)``: the pixels of
+    ``camera`` (above the sea) whose refracted rays meet a surface of
+    ``scene`` under the water before the tables' seabed, the radiance
+    arriving just below the surface along those rays (module docstring),
+    and, with the light field's forward cone, that cone's light spread over
+    the image (to add below the surface at every pixel; :func:`_spread_cone`). ``material_bands``,
     ``sigmoid_centers_t``: the scene's materials on the bands
     (:meth:`aquaspec.rendering.setup.SpectralSetup.medium`); ``sun``: the
     sun's :class:`~aquaspec.transport.sun_scattering.SunInputs` (with its
@@ -90,7 +99,7 @@ def water_to_hits(scene, camera, tables, *, a, b, e0, material_bands, sigmoid_ce
     b = np.asarray(b, dtype=float)
     e0 = np.asarray(e0, dtype=float)
     if not np.any(hit):
-        return hit, np.zeros((0, a.size))
+        return hit, np.zeros((0, a.size)), None
     s_h, t_h, d_h = s[hit], t[hit], depth[hit]
     normal = hits.normal[hit].astype(float)
     rho = hit_reflectance(hits.material[hit], hits.sigmoid[hit],
@@ -98,7 +107,14 @@ def water_to_hits(scene, camera, tables, *, a, b, e0, material_bands, sigmoid_ce
                           np.asarray(sigmoid_centers_t, dtype=float))
     out = tables.pixel_radiance(a=a, b=b, e0=e0, depth_o=np.zeros((s_h.size, 1)),
                                 v_y=t_h[:, 1:2], s=s_h[:, None], rho=rho,
-                                surface_depth=d_h[:, None], n_y=normal[:, 1:2])
+                                surface_depth=d_h[:, None], n_y=normal[:, 1:2],
+                                split_cone=tables.cone is not None)
+    spread = None
+    if tables.cone is not None:
+        out, cone = out
+        air = np.linalg.norm(origins[hit] - camera.position, axis=1)
+        spread = _spread_cone(camera, tables, hit, cone, s_h,
+                              float(np.median(s_h / (air + s_h / n_water))))
     out = np.asarray(out, dtype=float)
     if sun is not None:
         pos = origins[hit] + t_h * s_h[:, None]
@@ -115,7 +131,30 @@ def water_to_hits(scene, camera, tables, *, a, b, e0, material_bands, sigmoid_ce
                 sun.log_phase, scattering_cosine(-np.asarray(sun.to_sun, float), t_h)),
             beam0=sun.beam0, c_sun=sun.c_sun, c_view=sun.c_view, depth_o=np.zeros(s_h.size),
             v_y=t_h[:, 1], s=s_h, mu0=sun.mu0)
-    return hit, out
+    return hit, out, spread
+
+
+def _spread_cone(camera, tables, hit, cone, s, scale: float) -> np.ndarray:
+    """The forward cone's light of the hits (``cone`` (P, n), the part the
+    cone adds to the light carried from each surface, at distances ``s``
+    (P,)) spread over the image (H, W, n) with the light field's kernel, as
+    under water (:mod:`aquaspec.transport.lightfield.conespread`), its
+    angles times ``scale``. Under water the kernel's angle is the cone's
+    lateral offset over the distance to the camera; seen through the
+    surface from ``L`` m of air that offset, ``S`` m down the water, appears
+    under the angle offset / (L + S / n) (the apparent depth), so the
+    caller's ``scale`` is the hits' median ``S / (L + S / n)``: ``n`` for a
+    camera at the surface, smaller higher up."""
+    h, w = hit.shape
+    image = np.zeros((h, w, cone.shape[-1]))
+    image[hit] = cone
+    fy = float(camera.fy) * scale
+    c = tables.cone
+    if c.multiple:
+        lam = np.zeros_like(image)
+        lam[hit] = np.asarray(c.weight, dtype=float) * s[:, None]
+        return spread_by_lambda(image, lam, c.lambda_nodes, node_pyramid_weights(c, fy, h, w))
+    return pyramid_spread(image, pyramid_weights(c, fy, h, w))
 
 
 def _caustic_factor(cmap, camera, origins, pos, s):

@@ -147,8 +147,10 @@ def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
         if sun is not None:
             water = water + sun_scattering_below(tables, sun, t)
         if under is not None:
-            hit, l_hit = under
+            hit, l_hit, *spread = under
             water[np.asarray(hit).reshape(-1)[down]] = l_hit
+            if spread and spread[0] is not None:
+                water = water + spread[0].reshape(-1, sky.size)[down]
         out[down] = r[:, None] * sky + ((1.0 - r) / n_water ** 2)[:, None] * water
         if sun is not None and glint:
             if facets is not None and facets.s2 > 0:

@@ -223,14 +223,17 @@ def box_scene(depth_m: float, camera) -> tuple[Scene, np.ndarray]:
 
 def compare_box_above(water: str = "IB", *, seabed_depth_m: float = 3.0,
                       phase: str = "isotropic", size: int = 48, spp: int = 256, seed: int = 0,
-                      bands: Bands = REFERENCE_BANDS, sensor: str = "human") -> dict:
+                      bands: Bands = REFERENCE_BANDS, sensor: str = "human",
+                      spread_scattering: str = "single") -> dict:
     """A mesh under the water seen from above against the path tracer: a grey
     box on the grey seabed (:func:`box_scene`) under an overcast sky, the
     camera as in :func:`compare_above`; aquaspec's meshes seen through the
     surface (:func:`aquaspec.shading.above_meshes.water_to_hits`) against
     Mitsuba with the box and the seabed square as geometry. Per region
     (the pixels that see the box, the rest): the mean camera RGB's ratio,
-    relative error and hue difference."""
+    relative error and hue difference. ``spread_scattering``: the forward
+    cone's light spread as scattered once or many times (the light field's
+    setting, :class:`aquaspec.rendering.setup.SpectralSetup`)."""
     from aquaspec.shading.above_meshes import water_to_hits
     if phase not in PHASES:
         raise AquaspecError(f"phase {phase!r}; accepted: {', '.join(PHASES)}")
@@ -253,8 +256,8 @@ def compare_box_above(water: str = "IB", *, seabed_depth_m: float = 3.0,
     ref = ref.reshape(cam.height, cam.width, bands.n)
     method, params = lightfield_phase(phase)
     setup = SpectralSetup(w, get_sensor("human"), sky, bands, surface="flat", phase=method,
-                          phase_params=params, seabed=Seabed(float(seabed_depth_m),
-                                                             SEABED_ALBEDO))
+                          phase_params=params, spread_scattering=spread_scattering,
+                          seabed=Seabed(float(seabed_depth_m), SEABED_ALBEDO))
     tables = setup.lightfield_tables()
     e0 = e0_below(tables, sky.on_bands(bands))
     med = setup.medium(box.materials)
@@ -264,6 +267,7 @@ def compare_box_above(water: str = "IB", *, seabed_depth_m: float = 3.0,
     aq = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=e0, under=under)
     s = get_sensor(sensor)
     out = {"water": water, "phase": phase, "seabed_depth_m": seabed_depth_m, "size": size,
+           "spread_scattering": spread_scattering,
            "spp": spp, "reference_seconds": seconds, "box_centre_m": centre.tolist(),
            "box_pixels": int(under[0].sum()), "aquaspec": aq, "reference_image": ref}
     rgb_ref, rgb_aq = bands_to_rgb(ref, s, bands), bands_to_rgb(aq, s, bands)
