@@ -80,7 +80,7 @@ class LiveAbove:
         elif moving and wave_time_s != self._time:
             # Only the slopes move: set_medium would make the water's and the
             # sun's tables again (a quarter of a second on a loaded host).
-            self.gpu._upload("_slopes", facets_at(sea, wave_time_s).slopes.reshape(-1, 2))
+            self.gpu.set_slopes(facets_at(sea, wave_time_s))
             self._time = wave_time_s
         self.gpu.encode(encoder, camera, timestamp_writes)
 

@@ -106,3 +106,28 @@ def test_above_pass_with_waves_matches_numpy(device):
                                           sun=sun), med["response_weights"])
     assert np.abs(ref - flat).max() > 0.1 * np.abs(flat).max()     # the waves show
     np.testing.assert_allclose(gpu, ref, rtol=5e-3, atol=1e-4 * np.abs(ref).max())
+
+
+def test_set_slopes_moves_the_sea_without_new_tables(device):
+    """set_slopes with the same sea at another instant gives the frame a
+    fresh set_medium at that instant gives; a tile of another size is refused."""
+    from aquaspec.errors import AquaspecError
+    from aquaspec.gpu.passes.above import AbovePass
+    from aquaspec.light.wave_facets import surface_facets
+    from aquaspec.light.waves import Waves
+    setup = SpectralSetup(load_water("IB"), get_sensor("human"), surface_light("overcast"),
+                          Bands(4), surface="flat")
+    med, tables = setup.medium([]), setup.lightfield_tables()
+    cam = camera_above(3.0, 45.0, width=48, height=32)
+    kw = dict(a=med["a"], b=med["b"], e0=med["e0"], response_weights=med["response_weights"])
+    early, late = (surface_facets(Waves(5.0, time_s=t)) for t in (0.0, 1.3))
+    moved = AbovePass(device, cam.width, cam.height)
+    moved.set_medium(tables, **kw, facets=early)
+    first = moved.render(cam)
+    moved.set_slopes(late)
+    fresh = AbovePass(device, cam.width, cam.height)
+    fresh.set_medium(tables, **kw, facets=late)
+    np.testing.assert_array_equal(moved.render(cam), fresh.render(cam))
+    assert np.abs(first - fresh.render(cam)).max() > 0
+    with pytest.raises(AquaspecError, match="this pass has the sea of a"):
+        moved.set_slopes(surface_facets(Waves(5.0, grid=64)))

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from aquaspec.errors import AquaspecError
+
 from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
 from aquaspec.gpu.buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
                                   upload_buffer)
@@ -116,6 +118,21 @@ class AbovePass:
             self._medium.update(waves_on=1, tile_grid=facets.slopes.shape[0],
                                 tile_m=float(facets.tile_m), s2=float(facets.s2))
         self._upload("_slopes", slopes)
+
+    def set_slopes(self, facets) -> None:
+        """Replace the wave tile's slopes by ``facets``' (the same sea at
+        another instant: its tile, grid and unresolved variance unchanged),
+        without making the water's and the sun's tables again (a moving sea
+        in the live view)."""
+        if not getattr(self, "_medium", {}).get("waves_on"):
+            raise RuntimeError("AbovePass.set_medium with facets first")
+        slopes = np.ascontiguousarray(facets.slopes, dtype=np.float32)
+        if slopes.shape[0] != self._medium["tile_grid"] \
+                or float(facets.tile_m) != self._medium["tile_m"]:
+            raise AquaspecError(f"facets of a {slopes.shape[0]}-sample, {facets.tile_m:g} m tile; "
+                                f"this pass has the sea of a {self._medium['tile_grid']}-sample, "
+                                f"{self._medium['tile_m']:g} m tile (set_medium for another sea)")
+        self._upload("_slopes", slopes.reshape(-1, 2))
 
     def encode(self, encoder, camera, timestamp_writes=None) -> None:
         """Record the pass for ``camera`` (after :meth:`set_medium`)."""
