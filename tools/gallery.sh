@@ -27,6 +27,8 @@ export XDG_RUNTIME_DIR
 "$A" render --camera-height 0 --look-down 8 --water IB -o "$TMP/surface_half.png"
 "$A" render --camera-height 5 --look-down 25 --water IB --light sun-sky --sun-elevation 35 \
     --sun-azimuth 0 --wind 6 -o "$TMP/surface_glitter.png"
+"$A" render --camera-height 2.5 --look-down 55 --water IB --light sun-sky --sun-elevation 55 \
+    --sun-azimuth 150 --wind 4 -o "$TMP/surface_above_scene.png"
 "$PY" - "$TMP/surface_window.png" <<'PYEOF'
 import sys
 import numpy as np
@@ -58,4 +60,5 @@ PYEOF
 cp "$TMP/overcast.png" "$TMP/sun_caustics.png" "$TMP/turbid.png" "$TMP/lamps_deep.png" \
    "$TMP/rgbd_photo.png" "$TMP/rgbd_underwater.png" "$TMP/surface_above_ib.png" \
    "$TMP/surface_above_3c.png" "$TMP/surface_half.png" "$TMP/surface_window.png" \
-   "$TMP/surface_glitter.png" "$TMP/surface_window_waves.png" "$OUT/"
+   "$TMP/surface_glitter.png" "$TMP/surface_window_waves.png" "$TMP/surface_above_scene.png" \
+   "$OUT/"
