@@ -46,7 +46,7 @@ def test_every_format_reads_the_same_grid(tmp_path):
     ("nodata.asc", "1 samples are NaN or infinite .*row 0, column 1"),
     ("land.npy", "row 2, column 0 is -1 m deep, at or above the surface"),
     ("nospacing.csv", "has no sample spacing"),
-    ("x.tif", "unknown format '.tif'; accepted: .asc, .npy"),
+    ("x.tif", r"has suffix .\.tif.; accepted: \.asc, \.npy"),
     ("missing.npy", "does not exist"),
     ("short.asc", "the header says 6 x 5 samples, the file holds 5 x 5"),
 ])

@@ -42,6 +42,7 @@ MAX_FILE_BYTES = {
     "image": 512 * _MB,     # the colour image of an RGB-D pair
     "depth": 1024 * _MB,    # its depth map (PNG, NPY, EXR)
     "script": 10 * _MB,     # a flight script (JSON keyframes; a real one is a few KB)
+    "bathymetry": 512 * _MB,  # a depth grid (ASC, NPY, CSV, PNG; 4096^2 as ASC is ~150 MB)
 }
 
 #: Share of the available memory a job's estimate may take.
@@ -90,6 +91,21 @@ def check_file_size(path, kind: str, what: str) -> int:
             f"{format_bytes(limit)} for {kind} files; is it the right file? (set "
             f"{_FILE_ENV} to raise the limit)")
     return size
+
+
+def check_input_file(path, formats, what: str, kind: str):
+    """``(path, suffix)`` of an input file that exists, has one of the
+    suffixes ``formats`` (lower case, with the dot) and is within the size
+    ceiling of ``kind``; else an error naming the file and what is accepted."""
+    path = os.fspath(path)
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix not in formats:
+        raise AquaspecError(f"{what} {path!r} has suffix {suffix!r}; accepted: "
+                            f"{', '.join(formats)}")
+    if not os.path.isfile(path):
+        raise AquaspecError(f"{what} {path!r} does not exist")
+    check_file_size(path, kind, what)
+    return path, suffix
 
 
 def read_text(path, kind: str, what: str, *, errors: str = "strict") -> str:

@@ -106,6 +106,14 @@ def check_above(setup, view, backend: str, optics=None) -> None:
     if optics is not None:
         raise AquaspecError("a camera model's port looks into water; a camera above the sea "
                             "takes none yet (accepted: camera_model=None)")
+    check_above_setup(setup, from_rgbd=view.from_rgbd)
+    if backend not in ("numpy", "gpu"):
+        raise AquaspecError(f"backend {backend!r}; accepted: gpu, numpy")
+
+
+def check_above_setup(setup, *, from_rgbd: bool) -> None:
+    """Refuse a setup (or an RGB-D photograph) the view from above cannot
+    take, naming it; shared with the live view's (:mod:`aquaspec.rendering.live_above`)."""
     if setup.ms_model != "lightfield":
         raise AquaspecError(f"a camera above the sea needs the light-field model (ms_model "
                             f"{setup.ms_model!r}): the water's colour from above is its "
@@ -113,14 +121,12 @@ def check_above(setup, view, backend: str, optics=None) -> None:
     if setup.surface != "flat":
         raise AquaspecError("a camera above the sea sees it through the real surface: "
                             f"surface 'flat' (got {setup.surface!r})")
-    if view.from_rgbd:
+    if from_rgbd:
         raise AquaspecError("an RGB-D photograph is taken under water; a camera above the sea "
                             "needs a scene (or the built-in one)")
     if setup.lamps:
         raise AquaspecError("lamps light the water around a camera under water; a camera "
                             "above the sea takes none (accepted: lamps=())")
-    if backend not in ("numpy", "gpu"):
-        raise AquaspecError(f"backend {backend!r}; accepted: gpu, numpy")
 
 
 def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=None):

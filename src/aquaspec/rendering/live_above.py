@@ -10,9 +10,11 @@ tile's facets and the glitter), then the display transform. Its tables are
 uploaded once per setup; a moving sea (the renderer's wave time) uploads the
 tile's slopes at that time alone (:func:`aquaspec.rendering.live_surface.facets_at`),
 so the glitter moves with the caustics' sea. What the still render leaves out
-from above it leaves out too (:data:`aquaspec.rendering.above.NOT_DRAWN`:
-the scene's meshes are not drawn, only the light field's seabed), and what
-it refuses is refused (:func:`check_live_above`). (A camera at the
+from above it leaves out too (:data:`aquaspec.rendering.above.NOT_DRAWN`),
+and more: the scene's meshes and the seabed's caustics, which the still
+render ray casts in NumPy (:mod:`aquaspec.shading.above_meshes`), are not
+drawn live, only the light field's seabed; what the still render refuses is
+refused (:func:`check_live_above`). (A camera at the
 waterline is drawn as under the water, the sky filled in over its upper
 half: :mod:`aquaspec.rendering.live_surface`.)
 """
@@ -25,6 +27,7 @@ from aquaspec.errors import AquaspecError
 from aquaspec.gpu.buffers import read_buffer
 from aquaspec.gpu.passes.above import AbovePass
 from aquaspec.light.wave_facets import surface_facets
+from aquaspec.rendering.above import check_above_setup
 from aquaspec.rendering.live_surface import facets_at
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.gbuffer import GBuffer
@@ -34,19 +37,7 @@ def check_live_above(setup: SpectralSetup, scene, *, camera_model=None,
                      marine_snow=None) -> None:
     """Refuse a live frame from above that the still render would refuse or
     that live frames do not draw, naming it."""
-    if setup.ms_model != "lightfield":
-        raise AquaspecError(f"a camera above the sea needs the light-field model (ms_model "
-                            f"{setup.ms_model!r}): the water's colour from above is its "
-                            "radiance looking down from the surface")
-    if setup.surface != "flat":
-        raise AquaspecError("a camera above the sea sees it through the real surface: "
-                            f"surface 'flat' (got {setup.surface!r})")
-    if isinstance(scene, GBuffer):
-        raise AquaspecError("an RGB-D photograph is taken under water; a camera above the sea "
-                            "needs a scene (or the built-in one)")
-    if setup.lamps:
-        raise AquaspecError("lamps light the water around a camera under water; a camera "
-                            "above the sea takes none (accepted: lamps=())")
+    check_above_setup(setup, from_rgbd=isinstance(scene, GBuffer))
     if camera_model is not None:
         raise AquaspecError("a camera model's port looks into water; a camera above the sea "
                             "takes none yet (accepted: set_camera_model(None))")

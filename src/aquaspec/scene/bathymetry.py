@@ -32,13 +32,13 @@ and what is seen beyond the grid.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from aquaspec.colour.benthic import benthic_reflectance
 from aquaspec.errors import AquaspecError
+from aquaspec.io.limits import check_input_file
 from aquaspec.scene.mesh import Mesh, Scene, vertex_normals
 from aquaspec.scene.seabed import Seabed
 
@@ -173,13 +173,7 @@ def load_bathymetry(path, *, spacing_m: float | None = None, origin_xz=None,
     """Read a bathymetry grid (module docstring for the formats). ``spacing_m``
     is needed for the formats without one (all but ``.asc``) and overrides
     the ``.asc`` header's ``cellsize`` when given."""
-    path = os.fspath(path)
-    suffix = os.path.splitext(path)[1].lower()
-    if suffix not in BATHYMETRY_FORMATS:
-        raise AquaspecError(f"bathymetry file {path!r}: unknown format {suffix or '(none)'!r}; "
-                            f"accepted: {', '.join(BATHYMETRY_FORMATS)}")
-    if not os.path.isfile(path):
-        raise AquaspecError(f"bathymetry file {path!r} does not exist")
+    path, suffix = check_input_file(path, BATHYMETRY_FORMATS, "bathymetry file", "bathymetry")
     if suffix == ".asc":
         depth, cellsize = _read_asc(path)
         spacing_m = cellsize if spacing_m is None else spacing_m

@@ -27,7 +27,6 @@ colour-corrected or in-air image for physically meaningful results.
 
 from __future__ import annotations
 
-import os
 
 import numpy as np
 from PIL import Image
@@ -35,7 +34,7 @@ from PIL import Image
 from aquaspec.colour.reflectance import fit_sigmoid_image
 from aquaspec.errors import AquaspecError
 from aquaspec.io.exr import openexr
-from aquaspec.io.limits import check_file_size
+from aquaspec.io.limits import check_input_file
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.gbuffer import PER_PIXEL, GBuffer
 from aquaspec.scene.mesh import image_to_linear_rgb
@@ -186,18 +185,6 @@ def gbuffer_from_rgbd(rgb, depth_m, intrinsics, *, camera_depth_m: float,
                    np.full((h, w), PER_PIXEL, dtype=np.uint32), sigmoid, [])
 
 
-def _check_file(path, formats, what, kind):
-    path = os.fspath(path)
-    suffix = os.path.splitext(path)[1].lower()
-    if suffix not in formats:
-        raise AquaspecError(f"{what} {path!r} has suffix {suffix!r}; accepted: "
-                            f"{', '.join(formats)}")
-    if not os.path.isfile(path):
-        raise AquaspecError(f"{what} {path!r} does not exist")
-    check_file_size(path, kind, what)
-    return path, suffix
-
-
 def _read_depth(path, suffix):
     if suffix == ".npy":
         try:
@@ -259,8 +246,8 @@ def load_rgbd(image_path, depth_path, *, allow_holes: bool = False):
         Checked: same size as the image, every value finite and > 0 (or NaN
         with ``allow_holes``).
     """
-    image_path, _ = _check_file(image_path, IMAGE_FORMATS, "image file", "image")
-    depth_path, suffix = _check_file(depth_path, DEPTH_FORMATS, "depth file", "depth")
+    image_path, _ = check_input_file(image_path, IMAGE_FORMATS, "image file", "image")
+    depth_path, suffix = check_input_file(depth_path, DEPTH_FORMATS, "depth file", "depth")
     try:
         with Image.open(image_path) as im:
             rgb = np.array(im.convert("RGB") if im.mode not in ("RGB", "I;16") else im)

@@ -43,12 +43,14 @@ from aquaspec.colour.reflectance import Reflectance
 from aquaspec.colour.sensors import get_sensor
 from aquaspec.errors import AquaspecError
 from aquaspec.light.sky import surface_light
+from aquaspec.medium.interface import refract
 from aquaspec.medium.water import load_water
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera, camera_above
 from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.scene.seabed import Seabed
 from aquaspec.light.sky import SKY_TRANSMITTANCE
+from aquaspec.shading.above_meshes import water_to_hits
 from aquaspec.shading.above_water import e0_below, sea_from_above, sun_in_air
 from aquaspec.validation import metrics
 from aquaspec.validation.reference import (REFERENCE_BANDS, bands_to_rgb, lightfield_phase,
@@ -199,7 +201,6 @@ def box_scene(depth_m: float, camera) -> tuple[Scene, np.ndarray]:
     """A grey box (:data:`BOX_HALF_M`, :data:`BOX_ALBEDO`) standing on the
     seabed at ``depth_m`` where ``camera``'s centre ray, refracted by the flat
     surface, meets it; ``(the box alone, its centre)``."""
-    from aquaspec.medium.interface import refract
     v = camera.forward / np.linalg.norm(camera.forward)
     entry = camera.position + v * (camera.position[1] / -v[1])
     t, _ = refract(v[None], np.array([[0.0, 1.0, 0.0]]))
@@ -234,7 +235,6 @@ def compare_box_above(water: str = "IB", *, seabed_depth_m: float = 3.0,
     relative error and hue difference. ``spread_scattering``: the forward
     cone's light spread as scattered once or many times (the light field's
     setting, :class:`aquaspec.rendering.setup.SpectralSetup`)."""
-    from aquaspec.shading.above_meshes import water_to_hits
     if phase not in PHASES:
         raise AquaspecError(f"phase {phase!r}; accepted: {', '.join(PHASES)}")
     w = load_water(water)
