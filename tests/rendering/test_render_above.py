@@ -136,3 +136,10 @@ def test_a_mesh_under_the_water_is_seen_from_above(tmp_path):
                  "-o", str(out)]) == 0
     meta = json.loads((tmp_path / "above.png.json").read_text())
     assert "ray cast" in meta["above_water"]["meshes"]
+
+
+def test_layers_from_above_are_refused_naming_the_reason():
+    cam = camera_above(3.0, 40.0, width=W, height=H)
+    with pytest.raises(AquaspecError, match="layers .* are of a camera under water.*accepted: "
+                                            "layers=False"):
+        aquaspec.render(camera=cam, size=(W, H), bands=4, backend="numpy", layers=True)

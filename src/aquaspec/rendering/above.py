@@ -68,6 +68,15 @@ def in_air_view(camera) -> bool:
     return camera is not None and above_water(camera)
 
 
+def check_layers_view(camera) -> None:
+    """Refuse image-formation layers (:mod:`aquaspec.rendering.layers`) for a
+    camera above the sea: they are of rays through water from the camera."""
+    if camera is not None and above_water(camera):
+        raise AquaspecError("image-formation layers (backscatter, transmission, range) are "
+                            "of a camera under water; a camera above the sea has none yet "
+                            "(accepted: layers=False, or a camera under the surface)")
+
+
 def check_waterline_view(camera) -> np.ndarray:
     """The rays going up (H, W) of ``camera`` at the waterline, or an error
     if that is all of them (the half-and-half view needs water)."""

@@ -47,7 +47,8 @@ from aquaspec.light.lamp import parse_lamps
 from aquaspec.light.sky import DEFAULT_SUN_AZIMUTH_DEG, SurfaceLight, surface_light
 from aquaspec.light.waves import Waves
 from aquaspec.medium.water import DEFAULT_SOURCE, Water, get_water
-from aquaspec.rendering.above import above_params, above_water, in_air_view, shade_above
+from aquaspec.rendering.above import (above_params, above_water, check_layers_view,
+                                      in_air_view, shade_above)
 from aquaspec.rendering.appearance import (WHITE_CARD_DISTANCE_M, check_depth,  # noqa: F401
                                            colour_of_setup, white_card)
 from aquaspec.rendering.camera_model import camera_view, through_camera
@@ -406,10 +407,9 @@ def _with_seabed_plane(view: _View, seabed, setup: SpectralSetup) -> _View:
 
 
 def _white_patch_reference(setup: SpectralSetup, camera: Camera, white_balance):
-    """``(reference_rgb, white_card_info)`` of ``white_balance="white-patch"``
-    (the grey card of :func:`white_card`, lit as the scene is), else
-    ``(None, None)``; before any shading, so a card the balance cannot use
-    fails now."""
+    """``(reference_rgb, white_card_info)`` of ``white_balance="white-patch"`` (the grey
+    card of :func:`white_card`, lit as the scene is), else ``(None, None)``; before any
+    shading, so a card the balance cannot use fails now."""
     if white_balance != "white-patch":
         return None, None
     card = white_card(camera)
@@ -533,9 +533,9 @@ def _check_finite_image(linear) -> None:
 
 
 def _layers(setup: SpectralSetup, view: _View, shaded: _Shaded, backend, say) -> dict:
-    """Step 4: the image-formation layers of the shaded image. The backscatter
-    is the image shaded again with every surface black; on the GPU the
-    frame's G-buffer is read back (and kept in ``shaded``)."""
+    """Step 4: the image-formation layers: the backscatter is the image shaded again with
+    every surface black (on the GPU from the frame's G-buffer, read back and kept)."""
+    check_layers_view(view.camera)
     say("image-formation layers: the image again with every surface black")
     r = shaded.renderer
     if backend == "gpu":
