@@ -3,6 +3,8 @@ and on the seabed (aquaspec.shading.above_meshes)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -128,3 +130,42 @@ def test_a_square_under_water_looks_larger_by_refraction():
     assert width == pytest.approx(expect, abs=1.0)
     in_air = 2.0 * cam.fx * a / (h + d)                  # without refraction: smaller
     assert width > in_air + 5
+
+
+def test_occlusion_darkens_the_seabed_beside_a_box_seen_from_above():
+    """With the scene's occlusion maps the hits get the light of the
+    directions they see: the seabed hugging a box's side loses ambient light
+    (over 3 %), the box's top and the open seabed far from it keep theirs
+    (within 0.5 %)."""
+    from aquaspec.scene.occlusion import occlusion_maps
+    from aquaspec.validation.above_check import above_camera, box_scene
+    cam = above_camera(64)
+    box, centre = box_scene(3.0, cam)
+    floor = _square(3.0, 30.0)
+    scene = Scene(list(box.meshes) + [dataclasses.replace(m, material=1) for m in floor.meshes],
+                  list(box.materials) + list(floor.materials))
+    setup = SpectralSetup(get_water("IB"), get_sensor("human"), surface_light("overcast"),
+                          Bands(4), surface="flat", seabed=Seabed(3.0 + 1e-6, 0.3))
+    tables, med = setup.lightfield_tables(), setup.medium(scene.materials)
+    kw = dict(a=med["a"], b=med["b"], e0=med["e0"], material_bands=med["material_bands"],
+              sigmoid_centers_t=med["sigmoid_centers_t"])
+    hit, plain, _ = water_to_hits(scene, cam, tables, **kw)
+    hit2, shaded, _ = water_to_hits(scene, cam, tables, **kw,
+                                    occlusion=occlusion_maps(scene, cam, directions=64))
+    np.testing.assert_array_equal(hit, hit2)
+    from aquaspec.shading.above_meshes import rays_into_water
+    from aquaspec.scene.raycast import raycast_rays
+    _, o, t = rays_into_water(cam)
+    p = (o + t * raycast_rays(scene, o, t).distance[..., None])[hit]
+    change = shaded.sum(axis=1) / plain.sum(axis=1) - 1.0
+    half = np.array([0.5, 0.4, 0.5])
+    rel = np.abs(p - centre) - half
+    top = (np.abs(p[:, 1] - (centre[1] + half[1])) < 1e-6) & np.all(rel[:, [0, 2]] < -0.05, 1)
+    on_floor = np.abs(p[:, 1] + 3.0) < 1e-6
+    gap = np.max(rel[:, [0, 2]], axis=1)          # distance outside the box's footprint
+    beside = on_floor & (gap > 0) & (gap < 0.1)
+    far = on_floor & (np.hypot(p[:, 0] - centre[0], p[:, 2] - centre[2]) > 3.0)
+    assert top.sum() > 20 and beside.sum() > 5 and far.sum() > 20
+    assert np.abs(change[top]).max() < 5e-3
+    assert np.abs(change[far]).max() < 5e-3
+    assert change[beside].max() < -0.03

@@ -31,14 +31,15 @@ from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.errors import AquaspecError
 from aquaspec.medium.interface import N_WATER
 from aquaspec.light.wave_facets import surface_facets
+from aquaspec.scene.occlusion import occlusion_maps
 from aquaspec.scene.shadowmap import numpy_shadow_map
 from aquaspec.shading.above_meshes import seabed_caustics, surface_reflectance, water_to_hits
 from aquaspec.shading.above_water import sea_from_above, sky_radiance_above
 
 #: What the view from above leaves out (in its metadata).
 NOT_DRAWN = ("the parts of meshes above the water",
-             "the scene's occlusion of the ambient light and its shadow in the water "
-             "(seen from above)",
+             "the scene's shadow in the water's light (seen from above; with occlusion the "
+             "surfaces' own occlusion is drawn)",
              "the sky's radiance distribution (uniform, of the light's diffuse irradiance)",
              "lamps")
 
@@ -166,8 +167,12 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
         say("ray casting the refracted rays into the scene (NumPy)")
         shadow = None if sun is None else numpy_shadow_map(view.scene, cam,
                                                            setup.light.sun.to_sun)
+        occlusion = None
+        if setup.occlusion:
+            say("the scene's occlusion maps (NumPy)")
+            occlusion = occlusion_maps(view.scene, cam)
         under = water_to_hits(view.scene, cam, tables, **_water_kw(setup, view.scene), sun=sun,
-                              sun_shadow=shadow, facets=facets)
+                              sun_shadow=shadow, facets=facets, occlusion=occlusion)
     radiance = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
                               sun=sun, facets=facets, under=under)
     if caustics:

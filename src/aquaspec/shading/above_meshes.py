@@ -29,9 +29,11 @@ surface (:func:`water_to_hits`):
   shadowed by the scene).
 
 Rays that miss keep the light field's seabed; under waves with a sun its
-directly lit share gets the caustics too (:func:`seabed_caustics`). The
-parts of meshes above the water are not drawn (their hits are skipped), nor
-is the scene's occlusion of the ambient light.
+directly lit share gets the caustics too (:func:`seabed_caustics`). With
+the scene's occlusion maps (``render(occlusion=True)``) the hits get the
+light of the directions they see, as under water; the water's own shadow
+is left out. The parts of meshes above the water are not drawn (their hits
+are skipped).
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from aquaspec.scene.gbuffer import hit_reflectance
 from aquaspec.scene.raycast import raycast_rays
 from aquaspec.scene.shadowmap import NORMAL_OFFSET_TEXELS, map_visibility
 from aquaspec.shading.above_water import WAVE_T_TOP, facet_normals
+from aquaspec.transport.lightfield.occlusion import occlusion_factor, weights_from_tables
 from aquaspec.transport.lightfield.conespread import (node_pyramid_weights, pyramid_weights,
                                                       spread_by_lambda)
 from aquaspec.transport.lightfield.conespread import spread as pyramid_spread
@@ -77,7 +80,8 @@ def rays_into_water(camera, facets=None, n_water: float = N_WATER):
 
 
 def water_to_hits(scene, camera, tables, *, a, b, e0, material_bands, sigmoid_centers_t,
-                  sun=None, sun_shadow=None, facets=None, n_water: float = N_WATER):
+                  sun=None, sun_shadow=None, facets=None, occlusion=None,
+                  n_water: float = N_WATER):
     """``(hit (H, W), L_w (P, n), spread (H, W, n) or None)``: the pixels of
     ``camera`` (above the sea) whose refracted rays meet a surface of
     ``scene`` under the water before the tables' seabed, the radiance
@@ -89,7 +93,11 @@ def water_to_hits(scene, camera, tables, *, a, b, e0, material_bands, sigmoid_ce
     sun's :class:`~aquaspec.transport.sun_scattering.SunInputs` (with its
     caustic map under waves) or None; ``sun_shadow``: the scene's
     ``(height_map, spec)`` (:func:`aquaspec.scene.shadowmap.numpy_shadow_map`)
-    or None."""
+    or None; ``occlusion``: the scene's
+    :class:`~aquaspec.scene.occlusion.OcclusionMaps` (``render(occlusion=True)``):
+    each hit gets the light field's light of the directions it sees
+    (:func:`aquaspec.transport.lightfield.occlusion.occlusion_factor`), as
+    under water, or None."""
     down, origins, t = rays_into_water(camera, facets, n_water)
     hits = raycast_rays(scene, origins, t)
     s = hits.distance
@@ -105,10 +113,18 @@ def water_to_hits(scene, camera, tables, *, a, b, e0, material_bands, sigmoid_ce
     rho = hit_reflectance(hits.material[hit], hits.sigmoid[hit],
                           np.asarray(material_bands, dtype=float),
                           np.asarray(sigmoid_centers_t, dtype=float))
+    occluded = {}
+    if occlusion is not None and not occlusion.empty:
+        weights = weights_from_tables(tables, occlusion.directions, occlusion.solid_angle,
+                                      a=a, b=b)
+        unit = normal / np.linalg.norm(normal, axis=1, keepdims=True)
+        points = origins[hit] + t_h * s_h[:, None]
+        occluded["surface_scale"] = occlusion_factor(weights, d_h, unit,
+                                                     *occlusion.visibility(points, unit))
     out = tables.pixel_radiance(a=a, b=b, e0=e0, depth_o=np.zeros((s_h.size, 1)),
                                 v_y=t_h[:, 1:2], s=s_h[:, None], rho=rho,
                                 surface_depth=d_h[:, None], n_y=normal[:, 1:2],
-                                split_cone=tables.cone is not None)
+                                split_cone=tables.cone is not None, **occluded)
     spread = None
     if tables.cone is not None:
         out, cone = out
