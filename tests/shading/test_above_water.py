@@ -246,3 +246,29 @@ def test_waves_seen_from_above():
     side = np.r_[0:20, 60:80]
     np.testing.assert_allclose(wavy[:, side].mean(axis=(0, 1)), flat[:, side].mean(axis=(0, 1)),
                                rtol=0.15)
+
+
+def test_with_a_sun_the_sky_in_air_is_the_clear_sky():
+    """With a sun, the sky seen above the horizon and mirrored by the flat
+    surface is the CIE clear sky about the sun (sky_shape), overcast it is
+    uniform: the sky rays' radiance is the uniform sky's times the shape."""
+    from aquaspec.colour.bands import Bands
+    from aquaspec.colour.sensors import get_sensor
+    from aquaspec.light.sky import surface_light
+    from aquaspec.medium.water import load_water
+    from aquaspec.rendering.setup import SpectralSetup
+    from aquaspec.scene.camera import camera_above
+    from aquaspec.shading.above_water import sea_from_above, sky_radiance_above, sky_shape
+    cam = camera_above(3.0, 0.0, width=40, height=24, fov_y_deg=60.0)
+    v = cam.ray_directions()
+    up = v[..., 1] > 0
+    for light in ("overcast", "sun-sky"):
+        setup = SpectralSetup(load_water("IB"), get_sensor("human"),
+                              surface_light(light, sun_elevation_deg=30.0, sun_azimuth_deg=0.0),
+                              Bands(4), surface="flat")
+        med, sun, tables = setup.medium([]), setup.sun_inputs(), setup.lightfield_tables()
+        out = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"], sun=sun)
+        sky = sky_radiance_above(tables, med["e0"])
+        shape = sky_shape(sun)(v[up])
+        np.testing.assert_allclose(out[up], sky[None] * shape[:, None], rtol=1e-12)
+        assert (np.ptp(shape) > 0.5) == (light == "sun-sky")

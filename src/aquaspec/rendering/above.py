@@ -18,7 +18,7 @@ them and on the light field's seabed under waves
 NumPy, so such a frame is shaded in NumPy whichever the backend (seconds to
 a minute at 1280x720; said in the metadata). What is not drawn yet, and said
 in the render's metadata (:func:`above_params`): the parts of meshes above
-the water, the sky's radiance distribution (it is uniform) and lamps.
+the water, the sky's colour changing across it and lamps.
 """
 
 from __future__ import annotations
@@ -34,13 +34,14 @@ from aquaspec.light.wave_facets import surface_facets
 from aquaspec.scene.occlusion import occlusion_maps
 from aquaspec.scene.shadowmap import numpy_shadow_map
 from aquaspec.shading.above_meshes import seabed_caustics, surface_reflectance, water_to_hits
-from aquaspec.shading.above_water import sea_from_above, sky_radiance_above
+from aquaspec.shading.above_water import sea_from_above, sky_radiance_above, sky_shape
 
 #: What the view from above leaves out (in its metadata).
 NOT_DRAWN = ("the parts of meshes above the water",
              "the scene's shadow in the water's light (seen from above; with occlusion the "
              "surfaces' own occlusion is drawn)",
-             "the sky's radiance distribution (uniform, of the light's diffuse irradiance)",
+             "the sky's colour changing across it (the clear sky's distribution with a sun "
+             "is of luminance, the same at every wavelength)",
              "lamps")
 
 
@@ -93,7 +94,9 @@ def waterline_sky(setup, camera, linear, radiance=None):
     """The half-and-half frame of a camera on the surface (its lens half in
     water, as behind a dome port at the waterline): rays going up leave from
     the surface straight into the air and see the sky
-    (:func:`aquaspec.shading.above_water.sky_radiance_above`, uniform), rays
+    (:func:`aquaspec.shading.above_water.sky_radiance_above` times
+    :func:`~aquaspec.shading.above_water.sky_shape`: uniform overcast, the
+    CIE clear sky about the sun with one), rays
     going down see the water as rendered from depth 0. Returns ``(linear,
     radiance)`` with the upper rays replaced (``radiance`` None stays None).
     Needs the flat surface (the light field the water's half is lit by)."""
@@ -102,7 +105,9 @@ def waterline_sky(setup, camera, linear, radiance=None):
                             f"surface 'flat' (got {setup.surface!r})")
     up = check_waterline_view(camera)
     med = setup.medium([])
-    sky = sky_radiance_above(setup.lightfield_tables(), med["e0"])
+    shape = sky_shape(setup.sun_inputs(caustics=False))
+    sky = (sky_radiance_above(setup.lightfield_tables(), med["e0"])[None, :]
+           * shape(camera.ray_directions()[up])[:, None])
     linear = np.array(linear, dtype=np.float64, copy=True)
     linear[up] = sky @ np.asarray(med["response_weights"], dtype=np.float64)
     if radiance is not None:

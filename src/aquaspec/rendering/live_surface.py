@@ -42,7 +42,7 @@ from aquaspec.light.waves import Waves, _amplitudes, angular_frequency, looping,
 from aquaspec.parallel import workers
 from aquaspec.rendering.above import above_water, at_waterline, check_waterline_view
 from aquaspec.rendering.setup import SpectralSetup
-from aquaspec.shading.above_water import sky_radiance_above
+from aquaspec.shading.above_water import sky_radiance_above, sun_in_air
 
 
 def surface_drawn(setup: SpectralSetup, camera) -> bool:
@@ -149,4 +149,6 @@ class LiveSurface:
             med = setup.medium([])
             self._sky_rgb = (setup, sky_radiance_above(setup.lightfield_tables(), med["e0"])
                              @ np.asarray(med["response_weights"], dtype=np.float64))
-        self._sky.encode(encoder, camera, self._sky_rgb[1], rgb_buffer)
+        sun = setup.sun_inputs(caustics=False)
+        self._sky.encode(encoder, camera, self._sky_rgb[1], rgb_buffer,
+                         sun_air=None if sun is None else sun_in_air(sun)[0])

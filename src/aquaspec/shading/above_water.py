@@ -18,7 +18,9 @@ second-order scattering):
   (:func:`aquaspec.medium.interface.diffuse_transmittance`, 0.934) and ``s``
   the sky's share of ``E0`` (the rest is the water's light mirrored back
   down: :meth:`~aquaspec.transport.lightfield.tables.LightfieldTables.sky_share`);
-  so ``L_sky = E_sky / pi``;
+  so ``L_sky = E_sky / pi``, and with a sun ``E_sky / pi`` times the CIE
+  standard clear sky's distribution about it, of unit mean on a horizontal
+  plane (:func:`sky_shape`; the light field below keeps the uniform sky);
 - ``t``: the refracted ray (Snell, n = 1.33), and ``L_w(0, t)`` the radiance
   in the water just below the surface looking along it: the light field's
   path radiance along ``t`` down to the seabed it sees, if the tables have
@@ -49,10 +51,8 @@ seabed the beam's light on it):
   angle; the beam under water is ``E_sun cos z T(cos z) / mu0``,
   :mod:`aquaspec.light.sky`).
 
-The sky stays uniform (overcast-shaped, of the light's diffuse irradiance).
 Meshes under the water and the sun's caustics on them and on the seabed
-are :mod:`aquaspec.shading.above_meshes`' (``under=``). Not in this model
-yet: clear-sky radiance distributions.
+are :mod:`aquaspec.shading.above_meshes`' (``under=``).
 """
 
 from __future__ import annotations
@@ -60,6 +60,7 @@ from __future__ import annotations
 import numpy as np
 
 from aquaspec.errors import AquaspecError
+from aquaspec.light.sky import clear_sky_norm, clear_sky_shape
 from aquaspec.light.wave_facets import glitter
 from aquaspec.medium.interface import (FLAT_NORMAL, N_WATER, diffuse_transmittance,
                                        fresnel_transmittance, refract)
@@ -126,7 +127,8 @@ def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
     v = v.reshape(-1, 3)
     down = v[:, 1] < 0
     sky = sky_radiance_above(tables, e0)
-    out = np.broadcast_to(sky, (v.shape[0], sky.size)).copy()
+    sky_at = sky_shape(sun, n_water)
+    out = sky[None, :] * sky_at(v)[:, None]
     if np.any(down):
         vd = v[down]
         normal = facet_normals(camera, vd, facets)
@@ -151,7 +153,9 @@ def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
             water[np.asarray(hit).reshape(-1)[down]] = l_hit
             if spread and spread[0] is not None:
                 water = water + spread[0].reshape(-1, sky.size)[down]
-        out[down] = r[:, None] * sky + ((1.0 - r) / n_water ** 2)[:, None] * water
+        mirrored = vd + 2.0 * cos_i[:, None] * normal
+        out[down] = (r * sky_at(mirrored))[:, None] * sky \
+            + ((1.0 - r) / n_water ** 2)[:, None] * water
         if sun is not None and glint:
             if facets is not None and facets.s2 > 0:
                 to_air, e_air = sun_in_air(sun, n_water)
@@ -159,6 +163,19 @@ def sea_from_above(camera, tables, *, a, b, e0, n_water: float = N_WATER,
             else:
                 out[down] += sun_glint(vd, sun, n_water, glint_radius(camera), normal)
     return out.reshape(shape + (sky.size,))
+
+
+def sky_shape(sun, n_water: float = N_WATER):
+    """The sky's radiance distribution in air, as a function of unit
+    directions (R, 3) -> (R,) relative to the uniform sky of the same
+    irradiance (:func:`sky_radiance_above` times it): uniform (ones) without
+    a sun (overcast), the CIE standard clear sky around the sun's direction
+    in air with one (:func:`aquaspec.light.sky.clear_sky_shape`)."""
+    if sun is None:
+        return lambda d: np.ones(np.shape(d)[:-1])
+    to_air, _ = sun_in_air(sun, n_water)
+    norm = clear_sky_norm(to_air)
+    return lambda d: clear_sky_shape(d, to_air, norm)
 
 
 def facet_normals(camera, v, facets=None) -> np.ndarray:

@@ -51,7 +51,7 @@ from aquaspec.scene.mesh import Mesh, Scene
 from aquaspec.scene.seabed import Seabed
 from aquaspec.light.sky import SKY_TRANSMITTANCE
 from aquaspec.shading.above_meshes import water_to_hits
-from aquaspec.shading.above_water import e0_below, sea_from_above, sun_in_air
+from aquaspec.shading.above_water import e0_below, sea_from_above, sky_shape, sun_in_air
 from aquaspec.validation import metrics
 from aquaspec.validation.reference import (REFERENCE_BANDS, bands_to_rgb, lightfield_phase,
                                            phase_function, require_mitsuba, scene_dict)
@@ -143,7 +143,8 @@ def sun_from_above(camera, water, light, *, seabed_depth_m, phase, bands: Bands 
                           sky_radiance=light.sky_on(bands) / (SKY_TRANSMITTANCE * np.pi),
                           sun_to_air=to_air, sun_beam_air=beam_air,
                           seabed_depth_m=seabed_depth_m, seabed_albedo=SEABED_ALBEDO,
-                          paths=paths, seed=seed, truncate_deg=truncate_deg)
+                          paths=paths, seed=seed, truncate_deg=truncate_deg,
+                          sky_shape=sky_shape(sun))
     return {"aquaspec": aq, "e0": med["e0"], "reference_mean": ref["mean"],
             "reference_standard_error": ref["standard_error"],
             "seconds": time.perf_counter() - t0}

@@ -199,7 +199,8 @@ def water_radiance(t, *, c, b, sampler: PhaseSampler, sky_radiance: float,
 
 def sea_radiance_mc(view, *, a, b, phase, sky_radiance, sun_to_air=None, sun_beam_air=None,
                     seabed_depth_m=None, seabed_albedo: float = 0.0, n_water: float = N_WATER,
-                    paths: int = 100_000, seed: int = 0, truncate_deg: float = 0.0) -> dict:
+                    paths: int = 100_000, seed: int = 0, truncate_deg: float = 0.0,
+                    sky_shape=None) -> dict:
     """The mean band radiance over camera rays ``view`` (R, 3) going down
     (e.g. every pixel of a camera above the sea), by the module's estimator.
 
@@ -207,7 +208,10 @@ def sea_radiance_mc(view, *, a, b, phase, sky_radiance, sun_to_air=None, sun_bea
     ``phase``: a :class:`aquaspec.medium.phase.PhaseFunction` for every band;
     ``sun_to_air``: unit vector towards the sun in air (None: no sun) and
     ``sun_beam_air`` its normal irradiance in air; ``truncate_deg``: see
-    :class:`PhaseSampler`. Each path takes a ray of
+    :class:`PhaseSampler`; ``sky_shape``: the sky's radiance along unit
+    directions (R, 3) relative to ``sky_radiance`` (None: uniform), for the
+    sky the surface mirrors into the camera (the light entering the water
+    stays the uniform sky's, as the light field takes it). Each path takes a ray of
     ``view`` at random. Returns ``{"mean": (n,), "standard_error": (n,),
     "sky_reflected": (n,)}`` (the last: the ``R L_sky`` part of the mean).
     """
@@ -231,6 +235,8 @@ def sea_radiance_mc(view, *, a, b, phase, sky_radiance, sun_to_air=None, sun_bea
     pick = view[rng.integers(0, view.shape[0], paths)]
     mu_i = -pick[:, 1]
     r = 1.0 - fresnel_transmittance(mu_i, n_water)
+    r_sky = r if sky_shape is None else r * np.asarray(
+        sky_shape(pick * np.array([1.0, -1.0, 1.0])), dtype=float)
     t, _ = refract(pick, FLAT_NORMAL, n_water)
     mean, se, refl = (np.zeros(a.size) for _ in range(3))
     for i in range(a.size):
@@ -239,8 +245,8 @@ def sea_radiance_mc(view, *, a, b, phase, sky_radiance, sun_to_air=None, sun_bea
                             sun_beam=0.0 if beam is None else float(beam[i]),
                             seabed_depth_m=seabed_depth_m, seabed_albedo=seabed_albedo,
                             n_water=n_water, rng=rng)
-        sample = r * sky[i] + (1.0 - r) / n_water ** 2 * lw
+        sample = r_sky * sky[i] + (1.0 - r) / n_water ** 2 * lw
         mean[i] = sample.mean()
         se[i] = sample.std(ddof=1) / np.sqrt(paths)
-        refl[i] = float(np.mean(r)) * sky[i]
+        refl[i] = float(np.mean(r_sky)) * sky[i]
     return {"mean": mean, "standard_error": se, "sky_reflected": refl}

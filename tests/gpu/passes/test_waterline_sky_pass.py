@@ -13,17 +13,20 @@ from aquaspec.medium.water import load_water
 from aquaspec.rendering.above import waterline_sky
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.camera import Camera
-from aquaspec.shading.above_water import sky_radiance_above
+from aquaspec.shading.above_water import sky_radiance_above, sun_in_air
 
 pytestmark = pytest.mark.gpu
 
 
-@pytest.mark.parametrize("pitch_deg", [-8.0, 20.0])
-def test_sky_over_the_rays_going_up(device, pitch_deg):
+@pytest.mark.parametrize("pitch_deg,light", [(-8.0, "overcast"), (20.0, "overcast"),
+                                             (20.0, "sun-sky")])
+def test_sky_over_the_rays_going_up(device, pitch_deg, light):
     """The rays going up get the sky's camera RGB, the others keep the frame
-    (w too), as waterline_sky does it in NumPy; a turned camera (roll) too."""
+    (w too), as waterline_sky does it in NumPy; a turned camera (roll) too;
+    with a sun the sky is the CIE clear sky about it (not uniform)."""
     w, h = 37, 21
-    setup = SpectralSetup(load_water("IB"), get_sensor("human"), surface_light("overcast"),
+    setup = SpectralSetup(load_water("IB"), get_sensor("human"),
+                          surface_light(light, sun_elevation_deg=40.0, sun_azimuth_deg=0.0),
                           Bands(5), ms_model="lightfield", surface="flat")
     a = np.radians(pitch_deg)
     cam = Camera.look_at([0.3, 0.0, 0.0], [0.3 + np.sin(0.4), np.sin(a), -np.cos(a)],
@@ -35,11 +38,14 @@ def test_sky_over_the_rays_going_up(device, pitch_deg):
     sky = sky_radiance_above(setup.lightfield_tables(), med["e0"]) @ med["response_weights"]
     p = WaterlineSkyPass(device, w, h)
     enc = device.create_command_encoder()
-    p.encode(enc, cam, sky, buf)
+    sun = setup.sun_inputs(caustics=False)
+    p.encode(enc, cam, sky, buf, sun_air=None if sun is None else sun_in_air(sun)[0])
     device.queue.submit([enc.finish()])
     got = read_buffer(device, buf, np.float32, (h, w, 4))
     want, _ = waterline_sky(setup, cam, frame[..., :3].astype(np.float64))
-    np.testing.assert_allclose(got[..., :3], want, rtol=1e-6)
+    np.testing.assert_allclose(got[..., :3], want, rtol=1e-4)     # the shape in float32
     np.testing.assert_array_equal(got[..., 3], frame[..., 3])
     up = cam.ray_directions()[..., 1] > 0
     assert 0 < up.sum() < up.size                   # both halves in view
+    spread = want[up].sum(axis=-1).max() / want[up].sum(axis=-1).min()
+    assert (spread > 1.1) == (light == "sun-sky")

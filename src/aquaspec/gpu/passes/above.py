@@ -27,6 +27,7 @@ from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
 from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.shaders import load_wgsl
+from aquaspec.light.sky import clear_sky_norm
 from aquaspec.medium.interface import N_WATER
 from aquaspec.shading.above_water import (MIN_FACET_COS, WAVE_T_TOP, glint_radius,
                                           sky_radiance_above, sun_in_air, sun_scattering_table,
@@ -41,6 +42,7 @@ PARAMS_LAYOUT = UniformLayout("AboveParams", CAMERA_FIELDS + [
     ("sun_rgb", "vec3<f32>"), ("s2", "f32"),
     ("sun_on", "u32"), ("sun_nodes_y", "u32"), ("sun_nodes_cos", "u32"),
     ("waves_on", "u32"), ("tile_grid", "u32"), ("tile_m", "f32"), ("min_facet_cos", "f32"),
+    ("sky_norm", "f32"),
 ])
 #: Compute workgroup size (x, y) of above.wgsl: one pixel per invocation.
 WORKGROUP = (8, 8)
@@ -99,7 +101,7 @@ class AbovePass:
                         "to_sun": np.zeros(3), "sun_cos_lo": 0.0, "sun_cos_hi": 1.0,
                         "sun_air": np.zeros(3), "glint_rgb": np.zeros(3), "sun_cos_radius": 2.0,
                         "sun_rgb": np.zeros(3), "s2": 0.0, "waves_on": 0, "tile_grid": 2,
-                        "tile_m": 1.0, "min_facet_cos": MIN_FACET_COS}
+                        "tile_m": 1.0, "min_facet_cos": MIN_FACET_COS, "sky_norm": 1.0}
         sun_table = np.zeros((4, 4), dtype=np.float32)
         if sun is not None:
             _, cos, ss = sun_scattering_table(tables, sun, t_top=top)
@@ -108,7 +110,7 @@ class AbovePass:
             to_air, beam_air = sun_in_air(sun)
             self._sun_radiance = beam_air @ w
             self._medium.update(
-                sun_on=1, sun_nodes_y=ss.shape[0], sun_nodes_cos=ss.shape[1], to_sun=np.asarray(sun.to_sun, dtype=float),
+                sky_norm=clear_sky_norm(to_air), sun_on=1, sun_nodes_y=ss.shape[0], sun_nodes_cos=ss.shape[1], to_sun=np.asarray(sun.to_sun, dtype=float),
                 sun_cos_lo=float(cos[0]), sun_cos_hi=float(cos[-1]), sun_air=to_air,
                 glint_rgb=np.zeros(3), sun_cos_radius=2.0, sun_rgb=beam_air @ w)
         self._upload("_sun", sun_table.reshape(-1, 4))

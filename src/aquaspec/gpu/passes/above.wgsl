@@ -33,6 +33,7 @@ const WAVES_ON: bool = {{ waves_on }};
 @group(0) @binding(4) var<storage, read> slopes: array<vec2<f32>>;
 
 #include "wave_facets.wgsl"
+#include "clear_sky.wgsl"
 
 // The sun's single scattering along t (camera RGB), bilinear in (t_y, cos).
 fn sun_scattering(t_y: f32, cos_s: f32) -> vec3<f32> {
@@ -83,6 +84,15 @@ fn glitter(v: vec3<f32>, n: vec3<f32>) -> f32 {
     return r * p / (4.0 * mu_v * cos_b * cos_b * cos_b * cos_b);
 }
 
+// The sky in air along d: uniform (overcast), or the CIE clear sky about
+// the sun (aquaspec.shading.above_water.sky_shape).
+fn sky_along(d: vec3<f32>) -> vec3<f32> {
+    if (SUN_ON) {
+        return prm.sky_rgb * clear_sky(d, prm.sun_air, prm.sky_norm);
+    }
+    return prm.sky_rgb;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= prm.width || gid.y >= prm.height) {
@@ -91,7 +101,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let xc = (f32(gid.x) + 0.5 - prm.cx) / prm.fx;
     let yc = (f32(gid.y) + 0.5 - prm.cy) / prm.fy;
     let v = normalize(prm.right * xc - prm.up * yc + prm.forward);
-    var rgb = prm.sky_rgb;
+    var rgb = sky_along(v);
     if (v.y < 0.0) {
         let n = prm.n_water;
         let nf = facet_normal(v);
@@ -108,7 +118,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (SUN_ON) {
             w = w + sun_scattering(t_y, dot(prm.to_sun, vec3<f32>(tv.x, t_y, tv.z)));
         }
-        rgb = (1.0 - t) * prm.sky_rgb + t / (n * n) * w;
+        rgb = (1.0 - t) * sky_along(v + 2.0 * cos_i * nf) + t / (n * n) * w;
         if (SUN_ON) {
             if (WAVES_ON && prm.s2 > 0.0) {
                 rgb = rgb + glitter(v, nf) * prm.sun_rgb;

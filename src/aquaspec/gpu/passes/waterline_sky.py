@@ -20,9 +20,11 @@ from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
 from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.shaders import load_wgsl
+from aquaspec.light.sky import clear_sky_norm
 
 PARAMS_LAYOUT = UniformLayout("WaterlineSkyParams", CAMERA_FIELDS + [
     ("sky_rgb", "vec3<f32>"), ("width", "u32"), ("height", "u32"),
+    ("sun_air", "vec3<f32>"), ("sky_norm", "f32"), ("sun_on", "u32"),
 ])
 #: Compute workgroup size (x, y) of waterline_sky.wgsl: one pixel per invocation.
 WORKGROUP = (8, 8)
@@ -40,12 +42,18 @@ class WaterlineSkyPass:
         self._pipeline = compute_pipeline(device, self._layout, code, "waterline_sky.wgsl")
         self._group = None
 
-    def encode(self, encoder, camera, sky_rgb, rgb_buffer, timestamp_writes=None) -> None:
-        """Record the sky ``sky_rgb`` (camera RGB, 3) over ``camera``'s rays going
-        up in ``rgb_buffer``."""
+    def encode(self, encoder, camera, sky_rgb, rgb_buffer, timestamp_writes=None,
+               sun_air=None) -> None:
+        """Record the sky ``sky_rgb`` (camera RGB, 3; the uniform sky's) over
+        ``camera``'s rays going up in ``rgb_buffer``; with ``sun_air`` (the
+        unit vector towards the sun in air) shaped as the CIE clear sky
+        about it (:func:`aquaspec.shading.above_water.sky_shape`)."""
+        sun = sun_air is not None
         upload_buffer(self.device, self._params, PARAMS_LAYOUT.pack(
             **camera_fields(camera), sky_rgb=np.asarray(sky_rgb, dtype=np.float64),
-            width=self.width, height=self.height))
+            width=self.width, height=self.height,
+            sun_air=np.asarray(sun_air if sun else np.zeros(3), dtype=np.float64),
+            sky_norm=clear_sky_norm(sun_air) if sun else 1.0, sun_on=int(sun)))
         if self._group is None or self._group[1] is not rgb_buffer:
             self._group = (self.device.create_bind_group(
                 layout=self._layout, entries=bind_group_entries({0: self._params,
