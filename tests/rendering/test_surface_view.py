@@ -11,12 +11,14 @@ from aquaspec.colour.sensors import get_sensor, radiance_to_rgb
 from aquaspec.light.sky import surface_light
 from aquaspec.light.wave_facets import surface_facets
 from aquaspec.light.waves import Waves
+from aquaspec.medium.interface import N_WATER
 from aquaspec.medium.water import load_water
 from aquaspec.rendering.api import _Shaded, _View
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.rendering.surface_view import surface_seen_from_water
 from aquaspec.scene.camera import Camera
 from aquaspec.scene.gbuffer import GBuffer
+from aquaspec.shading.above_water import sky_shape
 from aquaspec.shading.below_waves import window_correction
 
 
@@ -47,7 +49,8 @@ def test_waves_change_the_open_water_looking_up_and_nothing_else():
     v = view.camera.ray_directions()
     open_up = (v[..., 1] > 0) & ~np.isfinite(shaded.gbuffer.distance)
     bands = window_correction(view.camera, open_up, setup.lightfield_tables(),
-                              surface_facets(waves), a=med["a"], b=med["b"], e0=med["e0"])
+                              surface_facets(waves), a=med["a"], b=med["b"], e0=med["e0"],
+                              sky_at=sky_shape(setup.sun_inputs()))
     rgb = radiance_to_rgb(bands, med["response_weights"])
     np.testing.assert_allclose(out.linear, 1.0 + rgb, rtol=1e-12)
     np.testing.assert_allclose(out.radiance, 1.0 + bands, rtol=1e-12)
@@ -62,14 +65,25 @@ def test_a_flat_sea_under_an_overcast_sky_is_left_alone():
 
 def test_the_sun_s_disc_seen_from_below():
     """The sun ahead of a camera looking up through the flat surface: a few
-    pixels gain its disc, very bright; nothing else changes."""
+    pixels gain its disc, very bright; the rest of the window gains the
+    clear sky's shape against the uniform sky (window_correction), and the
+    pixels outside the window do not change."""
     light = surface_light("sun-sky", sun_elevation_deg=60.0, sun_azimuth_deg=0.0)
     setup, view, shaded = _case(None, light)
     out = surface_seen_from_water(setup, view, shaded, "numpy")
-    lit = np.any(out.surface_change != 0, axis=-1)
+    med = setup.medium([])
+    v = view.camera.ray_directions()
+    open_up = (v[..., 1] > 0) & ~np.isfinite(shaded.gbuffer.distance)
+    sky = radiance_to_rgb(window_correction(
+        view.camera, open_up, setup.lightfield_tables(), None, a=med["a"], b=med["b"],
+        e0=med["e0"], sky_at=sky_shape(setup.sun_inputs())), med["response_weights"])
+    disc = out.surface_change - sky
+    lit = np.any(np.abs(disc) > 1e-9, axis=-1)
     assert 1 <= lit.sum() <= 12
-    assert out.surface_change[lit].min() > 100.0
-    np.testing.assert_array_equal(out.linear[~lit], shaded.linear[~lit])
+    assert disc[lit].min() > 100.0
+    window = v[..., 1] > np.sqrt(1.0 - 1.0 / N_WATER ** 2)
+    assert np.abs(sky[window & ~lit]).max() > 0.01 * np.abs(shaded.linear).max()
+    np.testing.assert_array_equal(out.linear[~window & ~lit], shaded.linear[~window & ~lit])
 
 
 def _box_scene():

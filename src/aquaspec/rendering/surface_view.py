@@ -38,7 +38,7 @@ from aquaspec.colour.sensors import radiance_to_rgb
 from aquaspec.light.wave_facets import surface_facets
 from aquaspec.rendering.above import above_water, at_waterline, waterline_sky
 from aquaspec.scene.raycast import raycast_gbuffer
-from aquaspec.shading.above_water import sun_in_air
+from aquaspec.shading.above_water import sky_shape, sun_in_air
 from aquaspec.shading.below_mirror import mirrored_camera, scene_in_mirror
 from aquaspec.shading.below_waves import sun_disc_below, window_correction
 
@@ -79,9 +79,9 @@ def surface_seen_from_water(setup, view, shaded, backend: str):
     else:
         open_up = _open_up(v, s_top, shaded.gbuffer.distance)
         bands = 0.0
-        if facets is not None:
+        if facets is not None or sun is not None:
             bands = window_correction(cam, open_up, tables, facets, a=med["a"], b=med["b"],
-                                      e0=med["e0"])
+                                      e0=med["e0"], sky_at=None if sun is None else sky_shape(sun))
         if sun is not None:
             to_air, e_air = sun_in_air(sun)
             bands = bands + sun_disc_below(cam, open_up, facets, to_air, e_air, a=med["a"],

@@ -61,9 +61,12 @@ from aquaspec.shading.above_water import (SUN_RADIUS_DEG, WAVE_T_TOP, sky_radian
                                           water_below_table)
 
 
-def surface_from_below(v, normals, sky, water_nodes, water_table, n_water: float = N_WATER):
+def surface_from_below(v, normals, sky, water_nodes, water_table, n_water: float = N_WATER,
+                       sky_at=None):
     """``L_surface(v, n)`` (R, n) for rays ``v`` (R, 3) going up meeting
-    facets of unit ``normals`` (R, 3) (module docstring); ``sky`` (n,);
+    facets of unit ``normals`` (R, 3) (module docstring); ``sky`` (n,) the
+    uniform sky's radiance, times ``sky_at(t)`` (R,) along the ray refracted
+    into the air when given (:func:`aquaspec.shading.above_water.sky_shape`);
     ``water_nodes`` (K,), ``water_table`` (K, n): :func:`water_below_table`."""
     v = np.asarray(v, dtype=float)
     n = np.asarray(normals, dtype=float)
@@ -75,8 +78,20 @@ def surface_from_below(v, normals, sky, water_nodes, water_table, n_water: float
     r_y = np.minimum(v[:, 1] - 2.0 * cos_i * n[:, 1], -WAVE_T_TOP)
     water = np.stack([np.interp(r_y, water_nodes, water_table[:, i])
                       for i in range(water_table.shape[1])], axis=-1)
-    return (t_out * n_water ** 2)[:, None] * np.asarray(sky)[None, :] \
-        + (1.0 - t_out)[:, None] * water
+    gain = t_out * n_water ** 2
+    if sky_at is not None:
+        gain = gain * sky_at(_into_air(v, n, cos_i, n_water))
+    return gain[:, None] * np.asarray(sky)[None, :] + (1.0 - t_out)[:, None] * water
+
+
+def _into_air(v, n, cos_i, n_water: float) -> np.ndarray:
+    """Rays ``v`` (R, 3) going up refracted into the air through facets
+    ``n`` (R, 3) at cosines ``cos_i`` (R,); beyond the critical angle (no
+    ray leaves) the direction where the refracted ray grazes the facet."""
+    sin2_t = n_water ** 2 * (1.0 - cos_i ** 2)
+    cos_t = np.sqrt(np.clip(1.0 - sin2_t, 0.0, 1.0))
+    t = n_water * v + (cos_t - n_water * cos_i)[:, None] * n
+    return t / np.linalg.norm(t, axis=1, keepdims=True)
 
 
 def _rays_to_surface(camera, open_up, facets, a, b):
@@ -99,18 +114,21 @@ def _rays_to_surface(camera, open_up, facets, a, b):
 
 
 def window_correction(camera, open_up, tables, facets, *, a, b, e0,
-                      n_water: float = N_WATER) -> np.ndarray:
+                      n_water: float = N_WATER, sky_at=None) -> np.ndarray:
     """``Delta`` (H, W, n) for ``camera`` under the sea (module docstring):
     zero but where ``open_up`` (H, W) (rays going up that reach the surface,
     no surface before it). ``tables``: the flat surface's light field;
-    ``facets``: :class:`aquaspec.light.wave_facets.SurfaceFacets`."""
+    ``facets``: :class:`aquaspec.light.wave_facets.SurfaceFacets` or None
+    (the flat surface); ``sky_at``: the sky's distribution in air
+    (:func:`aquaspec.shading.above_water.sky_shape`), against the uniform
+    sky the light field's top boundary shows."""
     c, out, mask, vv, s, normals = _rays_to_surface(camera, open_up, facets, a, b)
     if vv is None:
         return out
     sky = sky_radiance_above(tables, e0)
     nodes, table = water_below_table(tables, a=a, b=b, e0=e0, n_water=n_water,
                                      t_top=WAVE_T_TOP)
-    wavy = surface_from_below(vv, normals, sky, nodes, table, n_water)
+    wavy = surface_from_below(vv, normals, sky, nodes, table, n_water, sky_at)
     flat = surface_from_below(vv, np.broadcast_to(FLAT_NORMAL, vv.shape), sky, nodes, table,
                               n_water)
     out[mask] = np.exp(-c[None, :] * s[:, None]) * (wavy - flat)
@@ -144,8 +162,7 @@ def sun_through_surface(v, normals, to_sun_air, sun_irradiance_air, radius_rad: 
     n = np.where((cos_i > 0)[:, None], n, FLAT_NORMAL)
     cos_i = np.where(cos_i > 0, cos_i, v[:, 1])
     sin2_t = n_water ** 2 * (1.0 - cos_i ** 2)
-    cos_t = np.sqrt(np.clip(1.0 - sin2_t, 0.0, 1.0))
-    t = n_water * v + (cos_t - n_water * cos_i)[:, None] * n
+    t = _into_air(v, n, cos_i, n_water)
     cos_r = np.cos(radius_rad)
     inside = (sin2_t < 1.0) & ((t @ np.asarray(to_sun_air, dtype=float)) >= cos_r)
     omega = 2.0 * np.pi * (1.0 - cos_r)

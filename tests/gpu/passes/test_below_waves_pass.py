@@ -59,7 +59,7 @@ def test_the_sun_through_the_surface_matches_numpy(device, waves):
     where a float32 ray may fall either side)."""
     from aquaspec.gpu.gbuffer import GBufferTextures
     from aquaspec.gpu.passes.below_waves import BelowWavesPass
-    from aquaspec.shading.above_water import sun_in_air
+    from aquaspec.shading.above_water import sky_shape, sun_in_air
     from aquaspec.shading.below_waves import sun_disc_below
     light = surface_light("sun-sky", sun_elevation_deg=70.0, sun_azimuth_deg=0.0)
     setup = SpectralSetup(load_water("IB"), get_sensor("nikon-5100-npl"), light, Bands(6),
@@ -81,9 +81,9 @@ def test_the_sun_through_the_surface_matches_numpy(device, waves):
     to_air, e_air = sun_in_air(sun)
     open_up = np.ones((h, w), bool)
     bands = sun_disc_below(cam, open_up, facets, to_air, e_air, a=med["a"], b=med["b"])
-    if facets is not None:
-        bands = bands + window_correction(cam, open_up, tables, facets, a=med["a"],
-                                          b=med["b"], e0=med["e0"])
+    # The sky through the surface is the clear sky about the sun, flat or not.
+    bands = bands + window_correction(cam, open_up, tables, facets, a=med["a"], b=med["b"],
+                                      e0=med["e0"], sky_at=sky_shape(sun))
     ref = radiance_to_rgb(bands, med["response_weights"])
     lit = sun_disc_below(cam, open_up, facets, to_air, e_air, a=med["a"], b=med["b"])[..., 0] > 0
     assert lit.any()

@@ -23,6 +23,7 @@ from aquaspec.gpu.camera import CAMERA_FIELDS, camera_fields
 from aquaspec.gpu.dispatch import compute_pipeline, record_dispatch
 from aquaspec.gpu.layout import UniformLayout
 from aquaspec.gpu.shaders import load_wgsl
+from aquaspec.light.sky import clear_sky_norm
 from aquaspec.medium.interface import N_WATER
 from aquaspec.shading.above_water import (WAVE_T_TOP, sky_radiance_above, sun_in_air,
                                           water_below_table)
@@ -33,6 +34,7 @@ PARAMS_LAYOUT = UniformLayout("BelowWavesParams", CAMERA_FIELDS + [
     ("width", "u32"), ("height", "u32"), ("nodes", "u32"), ("n_bands", "u32"),
     ("sun_air", "vec3<f32>"), ("sun_cos_radius", "f32"),
     ("omega", "f32"), ("sun_on", "u32"), ("waves_on", "u32"), ("s2", "f32"),
+    ("sky_norm", "f32"),
 ])
 WORKGROUP = (8, 8)
 
@@ -89,7 +91,8 @@ class BelowWavesPass:
                         "tile_grid": 2 if facets is None else int(facets.slopes.shape[0]),
                         "nodes": int(nodes.size), "n_bands": int(n), "sun_air": to_air,
                         "sun_on": int(sun is not None), "waves_on": int(facets is not None),
-                        "s2": 0.0 if facets is None else float(facets.s2)}
+                        "s2": 0.0 if facets is None else float(facets.s2),
+                        "sky_norm": 1.0 if sun is None else clear_sky_norm(to_air)}
 
     def encode(self, encoder, camera, surface_texture) -> None:
         """Record the pass for ``camera`` reading the G-buffer's ``surface_texture``."""

@@ -11,9 +11,13 @@
 // sun (sun_on = 1) its disc seen through the facet: where the ray refracted
 // into the air is within the disc, sum_i w_i exp(-c_i S) T_out n^2 E_i / omega
 // (below_waves.sun_through_surface); under waves with unresolved slopes
-// (s2 > 0) the sun's glitter instead (below_waves.glitter_below).
+// (s2 > 0) the sun's glitter instead (below_waves.glitter_below). With a sun
+// the sky through the surface is the CIE clear sky about it (above_water.
+// sky_shape) against the uniform sky of the frame: the band loop then runs
+// for a flat sea too (its water terms cancel).
 
 #include "fresnel.wgsl"
+#include "clear_sky.wgsl"
 
 {{ params_struct }}
 
@@ -59,7 +63,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let tw = fresnel_transmittance_out(cos_i, prm.n_water);
             let nn = prm.n_water * prm.n_water;
-            if (prm.waves_on == 1u) {
+            let sin2_t = nn * (1.0 - cos_i * cos_i);
+            // The ray refracted into the air (grazing the facet beyond the critical angle).
+            let t = normalize(prm.n_water * v + (sqrt(max(1.0 - sin2_t, 0.0)) - prm.n_water * cos_i) * n);
+            var sky_gain = 1.0;
+            if (prm.sun_on == 1u) {
+                sky_gain = clear_sky(t, prm.sun_air, prm.sky_norm);
+            }
+            if (prm.waves_on == 1u || prm.sun_on == 1u) {
                 let tf = fresnel_transmittance_out(v.y, prm.n_water);
                 let aw = table_at(v.y - 2.0 * cos_i * n.y);
                 let af = table_at(-v.y);
@@ -70,7 +81,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     let w = bands[2u * i + 1u].xyz;
                     let ww = mix(water[kw * prm.n_bands + i], water[(kw + 1u) * prm.n_bands + i], aw.y);
                     let wf = mix(water[kf * prm.n_bands + i], water[(kf + 1u) * prm.n_bands + i], af.y);
-                    let wavy = tw * nn * cs.y + (1.0 - tw) * ww;
+                    let wavy = tw * nn * cs.y * sky_gain + (1.0 - tw) * ww;
                     let flat = tf * nn * cs.y + (1.0 - tf) * wf;
                     rgb = rgb + w * (exp(-cs.x * s) * (wavy - flat));
                 }
@@ -94,8 +105,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     }
                 }
             } else if (prm.sun_on == 1u) {
-                let sin2_t = nn * (1.0 - cos_i * cos_i);
-                let t = prm.n_water * v + (sqrt(max(1.0 - sin2_t, 0.0)) - prm.n_water * cos_i) * n;
                 if (sin2_t < 1.0 && dot(t, prm.sun_air) >= prm.sun_cos_radius) {
                     let gain = tw * nn / prm.omega;
                     for (var i = 0u; i < prm.n_bands; i = i + 1u) {
