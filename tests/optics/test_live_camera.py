@@ -44,10 +44,15 @@ def test_live_frames_match_render(model):
                  camera_model=model, backend="gpu").linear_rgb
     live, want = _blocks(0.5 * (first + second)), _blocks(ref)
     # Block means of 100 pixels: the noise is a few percent per pixel; the
-    # port's resampling is the same maths in float32.
+    # port's resampling is the same maths in float32. The blocks looking up
+    # are left out: render() draws the scene mirrored in the surface there,
+    # which live frames do not (docs/live-view.md); a port narrows the
+    # field, so the pinhole's blocks looking down look down through it too.
+    down = _blocks(np.repeat(cam.ray_directions()[..., 1:2] < 0, 3, axis=-1))[..., 0] == 1
+    assert down.sum() > 0.5 * down.size
     scale = want.mean(axis=(0, 1))
     # (measured 2026-11-28: 0.65 % at the 95th percentile, 1.5 % at most)
-    assert np.percentile(np.abs(live - want) / scale, 95) < 0.015
+    assert np.percentile((np.abs(live - want) / scale)[down], 95) < 0.015
     if model.startswith("dslr"):
         # The port is applied: the pinhole's own frame differs in the corners.
         plain = render(scene=scene, camera=cam, bands=N, sensor="nikon5100-npl",
