@@ -26,9 +26,8 @@ import numpy as np
 from aquaspec.errors import AquaspecError
 from aquaspec.gpu.buffers import read_buffer
 from aquaspec.gpu.passes.above import AbovePass
-from aquaspec.light.wave_facets import surface_facets
 from aquaspec.rendering.above import check_above_setup
-from aquaspec.rendering.live_surface import facets_at
+from aquaspec.rendering.live_surface import SeaUploads
 from aquaspec.rendering.setup import SpectralSetup
 from aquaspec.scene.gbuffer import GBuffer
 
@@ -52,27 +51,19 @@ class LiveAbove:
 
     def __init__(self, device, width: int, height: int):
         self.gpu = AbovePass(device, width, height)
-        self._setup = self._moving = self._time = None
+        self._uploads = SeaUploads()
 
     def encode(self, encoder, setup: SpectralSetup, camera, wave_time_s: float | None,
                timestamp_writes=None) -> None:
         """Record the pass for ``camera`` (linear camera RGB into
         :attr:`rgb_buffer`), the sea at ``wave_time_s`` (None: the setup's instant)."""
-        sea = setup.waves
-        moving = sea is not None and wave_time_s is not None
-        if self._setup is not setup or self._moving != moving:
-            facets = None if sea is None else (facets_at(sea, wave_time_s) if moving
-                                               else surface_facets(sea))
+        def set_medium(facets):
             med = setup.medium([])
             self.gpu.set_medium(setup.lightfield_tables(), a=med["a"], b=med["b"],
                                 e0=med["e0"], response_weights=med["response_weights"],
                                 sun=setup.sun_inputs(caustics=False), facets=facets)
-            self._setup, self._moving, self._time = setup, moving, wave_time_s
-        elif moving and wave_time_s != self._time:
-            # Only the slopes move: set_medium would make the water's and the
-            # sun's tables again (a quarter of a second on a loaded host).
-            self.gpu.set_slopes(facets_at(sea, wave_time_s))
-            self._time = wave_time_s
+
+        self._uploads.update(setup, wave_time_s, set_medium, self.gpu.set_slopes)
         self.gpu.encode(encoder, camera, timestamp_writes)
 
     @property

@@ -33,7 +33,6 @@ import numpy as np
 import scipy.fft as sfft
 
 from aquaspec.errors import AquaspecError
-from aquaspec.gpu.buffers import upload_buffer
 from aquaspec.gpu.passes.add_rgb import AddRgbPass
 from aquaspec.gpu.passes.below_waves import BelowWavesPass
 from aquaspec.gpu.passes.waterline_sky import WaterlineSkyPass
@@ -94,6 +93,32 @@ def facets_at(waves: Waves, time_s: float) -> SurfaceFacets:
     return SurfaceFacets(np.stack([hx, hz], axis=-1).astype(np.float32), float(sea.tile_m), s2)
 
 
+class SeaUploads:
+    """What a live pass of the sea's surface must upload for a frame: its
+    whole medium when the setup changed (or whether its sea moves), only the
+    wave tile's slopes when the sea's time did (the tables would take a
+    quarter of a second on a loaded host); shared by :class:`LiveSurface`
+    and :class:`aquaspec.rendering.live_above.LiveAbove`."""
+
+    def __init__(self):
+        self._setup = self._moving = self._time = None
+
+    def update(self, setup: SpectralSetup, wave_time_s: float | None, set_medium,
+               set_slopes) -> None:
+        """Call ``set_medium(facets)`` (the facets None for a flat sea) or
+        ``set_slopes(facets)`` as the frame of ``setup`` at ``wave_time_s``
+        (None: the setup's instant) needs, or neither."""
+        sea = setup.waves
+        moving = sea is not None and wave_time_s is not None
+        if self._setup is not setup or self._moving != moving:
+            set_medium(None if sea is None else (facets_at(sea, wave_time_s) if moving
+                                                 else surface_facets(sea)))
+            self._setup, self._moving, self._time = setup, moving, wave_time_s
+        elif moving and wave_time_s != self._time:
+            set_slopes(facets_at(sea, wave_time_s))
+            self._time = wave_time_s
+
+
 class LiveSurface:
     """The surface seen from below for frames of ``width`` x ``height`` on
     ``device`` (module docstring)."""
@@ -101,7 +126,7 @@ class LiveSurface:
     def __init__(self, device, width: int, height: int):
         self.below = BelowWavesPass(device, width, height)
         self.add = AddRgbPass(device, width, height)
-        self._setup = self._moving = self._time = None
+        self._uploads = SeaUploads()
         self._sky = self._sky_rgb = None
 
     def encode(self, encoder, setup: SpectralSetup, camera, surface_texture, rgb_buffer,
@@ -115,24 +140,13 @@ class LiveSurface:
         if at_waterline(camera):
             self._encode_sky(encoder, setup, camera, rgb_buffer)
             return
-        sea = setup.waves
-        moving = sea is not None and wave_time_s is not None
-        if self._setup is not setup or self._moving != moving:
-            facets = None if sea is None else (facets_at(sea, wave_time_s) if moving
-                                               else surface_facets(sea))
+        def set_medium(facets):
             med = setup.medium([])
             self.below.set_medium(setup.lightfield_tables(), facets, a=med["a"], b=med["b"],
                                   e0=med["e0"], response_weights=med["response_weights"],
-                                  sun=setup.sun_inputs() if setup.light.sun is not None
-                                  else None)
-            self._setup, self._moving, self._time = setup, moving, wave_time_s
-        elif moving and wave_time_s != self._time:
-            # Only the slopes move: set_medium would make the sky's and the
-            # water's tables again (60 ms a frame on a loaded lavapipe host).
-            # The tile's size, grid and s2 are the sea's, uploaded with them.
-            upload_buffer(self.below.device, self.below._buffers["slopes"],
-                          facets_at(sea, wave_time_s).slopes.reshape(-1, 2))
-            self._time = wave_time_s
+                                  sun=setup.sun_inputs())
+
+        self._uploads.update(setup, wave_time_s, set_medium, self.below.set_slopes)
         self.below.encode(encoder, camera, surface_texture)
         self.add.encode(encoder, self.below.rgb_buffer, rgb_buffer)
 

@@ -93,3 +93,35 @@ def test_the_sun_through_the_surface_matches_numpy(device, waves):
             rim |= np.roll(np.roll(lit, dy, 0), dx, 1) != lit
     keep = ~rim
     np.testing.assert_allclose(gpu[keep], ref[keep], rtol=3e-3, atol=2e-4 * np.abs(ref).max())
+
+
+def test_set_slopes_moves_the_sea_without_new_tables(device):
+    """set_slopes with the same sea at another instant gives the frame that a
+    fresh set_medium at that instant gives; a tile of another size is refused."""
+    from aquaspec.errors import AquaspecError
+    from aquaspec.gpu.gbuffer import GBufferTextures
+    from aquaspec.gpu.passes.below_waves import BelowWavesPass
+    setup = SpectralSetup(load_water("IB"), get_sensor("human"), surface_light("overcast"),
+                          Bands(4), surface="flat")
+    med, tables = setup.medium([]), setup.lightfield_tables()
+    p = np.array([0.0, -3.0, 0.0])
+    cam = Camera.look_at(p, p + [0.0, 1.0, -0.6], width=48, height=32, fov_y_deg=70.0)
+    h, w = cam.height, cam.width
+    gb = GBuffer(cam, np.full((h, w), np.inf, np.float32),
+                 np.tile(np.float32([0, 0, 1]), (h, w, 1)), np.zeros((h, w), np.uint32),
+                 np.zeros((h, w, 3), np.float32), materials=[Reflectance.constant(0.3)])
+    tex = GBufferTextures(device, w, h)
+    tex.upload(gb)
+    kw = dict(a=med["a"], b=med["b"], e0=med["e0"], response_weights=med["response_weights"])
+    early, late = (surface_facets(Waves(6.0, grid=32, time_s=t)) for t in (0.0, 1.1))
+    moved = BelowWavesPass(device, w, h)
+    moved.set_medium(tables, early, **kw)
+    first = moved.render(cam, tex.textures["surface"])
+    moved.set_slopes(late)
+    fresh = BelowWavesPass(device, w, h)
+    fresh.set_medium(tables, late, **kw)
+    want = fresh.render(cam, tex.textures["surface"])
+    np.testing.assert_array_equal(moved.render(cam, tex.textures["surface"]), want)
+    assert np.abs(first - want).max() > 0
+    with pytest.raises(AquaspecError, match="this pass has the sea of a"):
+        moved.set_slopes(surface_facets(Waves(6.0, grid=64)))

@@ -33,6 +33,7 @@ const WAVES_ON: bool = {{ waves_on }};
 @group(0) @binding(4) var<storage, read> slopes: array<vec2<f32>>;
 
 #include "wave_facets.wgsl"
+#include "camera_ray.wgsl"
 #include "clear_sky.wgsl"
 
 // The sun's single scattering along t (camera RGB), bilinear in (t_y, cos).
@@ -98,9 +99,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= prm.width || gid.y >= prm.height) {
         return;
     }
-    let xc = (f32(gid.x) + 0.5 - prm.cx) / prm.fx;
-    let yc = (f32(gid.y) + 0.5 - prm.cy) / prm.fy;
-    let v = normalize(prm.right * xc - prm.up * yc + prm.forward);
+    let v = camera_ray(f32(gid.x), f32(gid.y));
     var rgb = sky_along(v);
     if (v.y < 0.0) {
         let n = prm.n_water;

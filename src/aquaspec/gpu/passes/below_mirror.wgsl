@@ -40,6 +40,7 @@ const GROUPS: u32 = {{ groups }}u;
 @group(0) @binding(9) var<storage, read> slopes: array<vec2<f32>>;
 
 #include "wave_facets.wgsl"
+#include "camera_ray.wgsl"
 
 // (lower node, weight) on a table's depth axis: sqrt(d / D) (nodes - 1).
 fn depth_axis(d: f32, nodes: u32) -> vec2<f32> {
@@ -75,9 +76,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= prm.width || gid.y >= prm.height) {
         return;
     }
-    let xc = (f32(gid.x) + 0.5 - prm.cx) / prm.fx;
-    let yc = (f32(gid.y) + 0.5 - prm.cy) / prm.fy;
-    let v = normalize(prm.right * xc - prm.up * yc + prm.forward);
+    let v = camera_ray(f32(gid.x), f32(gid.y));
     var rgb = vec3<f32>(0.0);
     let s_hit = bitcast<f32>(textureLoad(gb_surface, vec2<i32>(gid.xy), 0).x);
     var found = false;
@@ -112,8 +111,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     mp = vec2<i32>(i32(prm.width) - 1 - i32(jf), i32(i_f));
                     m = textureLoad(mirror_surface, mp, 0);
                     let dist = bitcast<f32>(m.x);
-                    let ray = normalize(prm.right * ((jf + 0.5 - prm.cx) / prm.fx)
-                                        - prm.up * ((i_f + 0.5 - prm.cy) / prm.fy) + prm.forward);
+                    let ray = camera_ray(jf, i_f);
                     let o_m = vec3<f32>(prm.position.x, -prm.position.y, prm.position.z);
                     let hit = o_m + dist * vec3<f32>(ray.x, -ray.y, ray.z);
                     if (dist >= 0.0 && hit.y < 0.0) {

@@ -30,6 +30,7 @@
 @group(0) @binding(5) var<storage, read_write> rgb_out: array<vec4<f32>>;
 
 #include "wave_facets.wgsl"
+#include "camera_ray.wgsl"
 
 // Where r_y falls in the water table: (node, fraction).
 fn table_at(r_y: f32) -> vec2<f32> {
@@ -44,9 +45,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= prm.width || gid.y >= prm.height) {
         return;
     }
-    let xc = (f32(gid.x) + 0.5 - prm.cx) / prm.fx;
-    let yc = (f32(gid.y) + 0.5 - prm.cy) / prm.fy;
-    let v = normalize(prm.right * xc - prm.up * yc + prm.forward);
+    let v = camera_ray(f32(gid.x), f32(gid.y));
     var rgb = vec3<f32>(0.0);
     let s_hit = bitcast<f32>(textureLoad(gb_surface, vec2<i32>(gid.xy), 0).x);
     if (v.y > 0.0) {

@@ -48,6 +48,8 @@ struct Direction {
 // Nearest, clamp to edge: the four texels of a gather.
 @group(0) @binding(7) var map_sampler: sampler;
 
+#include "camera_ray.wgsl"
+
 
 // Lower depth node and weight (tables.table_depth_index).
 fn depth_index(d: f32) -> vec2<f32> {
@@ -107,9 +109,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let py = min(gid.y * SCALE + SCALE / 2u, prm.height - 1u);
     let surf = textureLoad(gb_surface, vec2<u32>(px, py), 0);
     let s_hit = bitcast<f32>(surf.x);
-    let x = (f32(px) + 0.5 - prm.cx) / prm.fx;
-    let y = (f32(py) + 0.5 - prm.cy) / prm.fy;
-    let v = normalize(prm.right * x - prm.up * y + prm.forward);
+    let v = camera_ray(f32(px), f32(py));
     let d_o = -prm.position.y;
     let up_ray = v.y > 0.0;
     let hit = s_hit >= 0.0 && (!up_ray || s_hit <= d_o / select(1.0, v.y, up_ray));

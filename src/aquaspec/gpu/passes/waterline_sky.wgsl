@@ -11,19 +11,19 @@
 @group(0) @binding(0) var<uniform> prm: {{ params_struct_name }};
 @group(0) @binding(1) var<storage, read_write> rgb: array<vec4<f32>>;
 
+#include "camera_ray.wgsl"
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x >= prm.width || gid.y >= prm.height) {
         return;
     }
-    let xc = (f32(gid.x) + 0.5 - prm.cx) / prm.fx;
-    let yc = (f32(gid.y) + 0.5 - prm.cy) / prm.fy;
-    let v = prm.right * xc - prm.up * yc + prm.forward;
+    let v = camera_ray(f32(gid.x), f32(gid.y));
     if (v.y > 0.0) {
         let p = gid.y * prm.width + gid.x;
         var sky = prm.sky_rgb;
         if (prm.sun_on != 0u) {
-            sky = sky * clear_sky(normalize(v), prm.sun_air, prm.sky_norm);
+            sky = sky * clear_sky(v, prm.sun_air, prm.sky_norm);
         }
         rgb[p] = vec4<f32>(sky, rgb[p].w);
     }
