@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aquaspec.errors import AquaspecError
 from aquaspec.light.waves import (Waves, long_wave_slope_variance, surface,
                                   unresolved_slope_variance)
 from aquaspec.medium.interface import N_WATER, fresnel_transmittance
@@ -69,6 +70,17 @@ class SurfaceFacets:
         top = (1 - fu) * s[i0, j0] + fu * s[i0, j1]
         bottom = (1 - fu) * s[i1, j0] + fu * s[i1, j1]
         return (1 - fw) * top + fw * bottom
+
+    def slopes_for(self, grid: int, tile_m: float) -> np.ndarray:
+        """The slopes as a GPU buffer takes them, ``(M * M, 2)`` float32, for a
+        pass that holds a sea of ``grid`` samples over ``tile_m`` m (the same
+        sea at another instant); an error naming both tiles otherwise."""
+        m = self.slopes.shape[0]
+        if m != int(grid) or float(self.tile_m) != float(tile_m):
+            raise AquaspecError(f"facets of a {m}-sample, {self.tile_m:g} m tile; this pass has "
+                                f"the sea of a {int(grid)}-sample, {float(tile_m):g} m tile "
+                                "(set_medium for another sea)")
+        return np.ascontiguousarray(self.slopes, dtype=np.float32).reshape(-1, 2)
 
     def normals(self, x, z) -> np.ndarray:
         """Unit facet normals ``(..., 3)`` at points ``(x, z)``."""

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from aquaspec.errors import AquaspecError
 
 from aquaspec.gpu.bindings import bind_group_entries, bind_group_layout
 from aquaspec.gpu.buffers import (create_storage_buffer, create_uniform_buffer, read_buffer,
@@ -128,13 +127,8 @@ class AbovePass:
         in the live view)."""
         if not getattr(self, "_medium", {}).get("waves_on"):
             raise RuntimeError("AbovePass.set_medium with facets first")
-        slopes = np.ascontiguousarray(facets.slopes, dtype=np.float32)
-        if slopes.shape[0] != self._medium["tile_grid"] \
-                or float(facets.tile_m) != self._medium["tile_m"]:
-            raise AquaspecError(f"facets of a {slopes.shape[0]}-sample, {facets.tile_m:g} m tile; "
-                                f"this pass has the sea of a {self._medium['tile_grid']}-sample, "
-                                f"{self._medium['tile_m']:g} m tile (set_medium for another sea)")
-        self._upload("_slopes", slopes.reshape(-1, 2))
+        self._upload("_slopes", facets.slopes_for(self._medium["tile_grid"],
+                                                  self._medium["tile_m"]))
 
     def encode(self, encoder, camera, timestamp_writes=None) -> None:
         """Record the pass for ``camera`` (after :meth:`set_medium`)."""
