@@ -29,6 +29,7 @@ the camera; :attr:`SurfaceLight.values` stays the whole ``E0``, sky and sun
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -198,6 +199,13 @@ def _cie_clear(directions, to_sun) -> np.ndarray:
 
 
 def clear_sky_norm(to_sun, nodes: int = 256) -> float:
+    """``pi / int phi f cos(Z) d omega`` for the sun towards ``to_sun``
+    (:func:`_clear_sky_norm`, kept per sun: live frames ask every frame)."""
+    return _clear_sky_norm(tuple(float(x) for x in np.asarray(to_sun, dtype=float)), int(nodes))
+
+
+@functools.lru_cache(maxsize=16)
+def _clear_sky_norm(to_sun: tuple, nodes: int) -> float:
     """``pi / int phi f cos(Z) d omega`` over the sky for the sun towards
     ``to_sun`` (unit, in air): the factor that makes :func:`clear_sky_shape`
     a shape of unit mean on a horizontal plane. Midpoint rule in

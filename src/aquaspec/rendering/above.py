@@ -33,7 +33,8 @@ from aquaspec.medium.interface import N_WATER
 from aquaspec.light.wave_facets import surface_facets
 from aquaspec.scene.occlusion import occlusion_maps
 from aquaspec.scene.shadowmap import numpy_shadow_map
-from aquaspec.shading.above_meshes import seabed_caustics, surface_reflectance, water_to_hits
+from aquaspec.shading.above_meshes import (rays_into_water, seabed_caustics,
+                                           surface_reflectance, water_to_hits)
 from aquaspec.shading.above_water import sea_from_above, sky_radiance_above, sky_shape
 
 #: What the view from above leaves out (in its metadata).
@@ -168,6 +169,8 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
     caustics = setup.light.sun is not None and setup.waves is not None
     sun = setup.sun_inputs(caustics=caustics)
     under = None
+    # The refracted rays, once for the meshes and the seabed's caustics.
+    rays = rays_into_water(cam, facets) if _has_meshes(view) or caustics else None
     if _has_meshes(view):
         say("ray casting the refracted rays into the scene (NumPy)")
         shadow = None if sun is None else numpy_shadow_map(view.scene, cam,
@@ -177,13 +180,14 @@ def shade_above(setup, view, backend: str, return_radiance: bool, say, optics=No
             say("the scene's occlusion maps (NumPy)")
             occlusion = occlusion_maps(view.scene, cam)
         under = water_to_hits(view.scene, cam, tables, **_water_kw(setup, view.scene), sun=sun,
-                              sun_shadow=shadow, facets=facets, occlusion=occlusion)
+                              sun_shadow=shadow, facets=facets, occlusion=occlusion,
+                              rays=rays)
     radiance = sea_from_above(cam, tables, a=med["a"], b=med["b"], e0=med["e0"],
                               sun=sun, facets=facets, under=under)
     if caustics:
         radiance = radiance + (1.0 - surface_reflectance(cam, facets))[..., None] / N_WATER ** 2 \
             * seabed_caustics(cam, tables, sun, facets=facets,
-                              skip=None if under is None else under[0])
+                              skip=None if under is None else under[0], rays=rays)
     linear = radiance_to_rgb(radiance, med["response_weights"])
     return linear, (radiance if return_radiance else None)
 

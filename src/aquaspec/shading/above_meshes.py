@@ -81,7 +81,7 @@ def rays_into_water(camera, facets=None, n_water: float = N_WATER):
 
 def water_to_hits(scene, camera, tables, *, a, b, e0, material_bands, sigmoid_centers_t,
                   sun=None, sun_shadow=None, facets=None, occlusion=None,
-                  n_water: float = N_WATER):
+                  n_water: float = N_WATER, rays=None):
     """``(hit (H, W), L_w (P, n), spread (H, W, n) or None)``: the pixels of
     ``camera`` (above the sea) whose refracted rays meet a surface of
     ``scene`` under the water before the tables' seabed, the radiance
@@ -97,8 +97,9 @@ def water_to_hits(scene, camera, tables, *, a, b, e0, material_bands, sigmoid_ce
     :class:`~aquaspec.scene.occlusion.OcclusionMaps` (``render(occlusion=True)``):
     each hit gets the light field's light of the directions it sees
     (:func:`aquaspec.transport.lightfield.occlusion.occlusion_factor`), as
-    under water, or None."""
-    down, origins, t = rays_into_water(camera, facets, n_water)
+    under water, or None. ``rays``: :func:`rays_into_water`'s result, when
+    the caller has it."""
+    down, origins, t = rays_into_water(camera, facets, n_water) if rays is None else rays
     hits = raycast_rays(scene, origins, t)
     s = hits.distance
     depth = -(origins[..., 1] + s * t[..., 1])
@@ -183,15 +184,16 @@ def _caustic_factor(cmap, camera, origins, pos, s):
 
 
 def seabed_caustics(camera, tables, sun, *, facets=None, skip=None,
-                    n_water: float = N_WATER) -> np.ndarray:
+                    n_water: float = N_WATER, rays=None) -> np.ndarray:
     """The caustics on the light field's flat seabed seen from above, (H, W,
     n): what the focused beam adds to (or takes from) the seabed's evenly
     lit share, ``albedo / pi E_b(H) mu0 (C_i - 1) exp(-c_view S)`` along
     each refracted ray that reaches the seabed at distance ``S`` (zero
     elsewhere, and where ``skip`` (H, W) is set, e.g. the pixels that see a
     mesh), with the tables' seabed albedo; zero without a caustic map in
-    ``sun`` (no waves) or a seabed in ``tables``."""
-    down, origins, t = rays_into_water(camera, facets, n_water)
+    ``sun`` (no waves) or a seabed in ``tables``. ``rays``: as
+    :func:`water_to_hits`'."""
+    down, origins, t = rays_into_water(camera, facets, n_water) if rays is None else rays
     bed = float(tables.seabed_depth_m)
     n = np.asarray(sun.b).size
     out = np.zeros(down.shape + (n,))

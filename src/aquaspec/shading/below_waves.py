@@ -126,8 +126,12 @@ def window_correction(camera, open_up, tables, facets, *, a, b, e0,
     if vv is None:
         return out
     sky = sky_radiance_above(tables, e0)
-    nodes, table = water_below_table(tables, a=a, b=b, e0=e0, n_water=n_water,
-                                     t_top=WAVE_T_TOP)
+    if facets is None:
+        # The flat surface: the mirrored water is the same on both sides and cancels.
+        nodes, table = np.array([-1.0, -WAVE_T_TOP]), np.zeros((2, sky.size))
+    else:
+        nodes, table = water_below_table(tables, a=a, b=b, e0=e0, n_water=n_water,
+                                         t_top=WAVE_T_TOP)
     wavy = surface_from_below(vv, normals, sky, nodes, table, n_water, sky_at)
     flat = surface_from_below(vv, np.broadcast_to(FLAT_NORMAL, vv.shape), sky, nodes, table,
                               n_water)

@@ -57,7 +57,6 @@ def test_the_sun_through_the_surface_matches_numpy(device, waves):
     """The sun's disc seen from below through the flat surface and through
     the waves' facets, on the GPU against NumPy (away from the disc's rim,
     where a float32 ray may fall either side)."""
-    from aquaspec.gpu.gbuffer import GBufferTextures
     from aquaspec.gpu.passes.below_waves import BelowWavesPass
     from aquaspec.shading.above_water import sky_shape, sun_in_air
     from aquaspec.shading.below_waves import sun_disc_below
@@ -69,11 +68,7 @@ def test_the_sun_through_the_surface_matches_numpy(device, waves):
     p = np.array([0.0, -2.0, 0.0])
     cam = Camera.look_at(p, p + sun.to_sun, width=96, height=64, fov_y_deg=30.0)
     h, w = cam.height, cam.width
-    gb = GBuffer(cam, np.full((h, w), np.inf, np.float32),
-                 np.tile(np.float32([0, 0, 1]), (h, w, 1)), np.zeros((h, w), np.uint32),
-                 np.zeros((h, w, 3), np.float32), materials=[Reflectance.constant(0.3)])
-    tex = GBufferTextures(device, w, h)
-    tex.upload(gb)
+    tex = _open_water_textures(device, cam)
     gpu_pass = BelowWavesPass(device, w, h)
     gpu_pass.set_medium(tables, facets, a=med["a"], b=med["b"], e0=med["e0"],
                         response_weights=med["response_weights"], sun=sun)
@@ -99,7 +94,6 @@ def test_set_slopes_moves_the_sea_without_new_tables(device):
     """set_slopes with the same sea at another instant gives the frame that a
     fresh set_medium at that instant gives; a tile of another size is refused."""
     from aquaspec.errors import AquaspecError
-    from aquaspec.gpu.gbuffer import GBufferTextures
     from aquaspec.gpu.passes.below_waves import BelowWavesPass
     setup = SpectralSetup(load_water("IB"), get_sensor("human"), surface_light("overcast"),
                           Bands(4), surface="flat")
@@ -107,11 +101,7 @@ def test_set_slopes_moves_the_sea_without_new_tables(device):
     p = np.array([0.0, -3.0, 0.0])
     cam = Camera.look_at(p, p + [0.0, 1.0, -0.6], width=48, height=32, fov_y_deg=70.0)
     h, w = cam.height, cam.width
-    gb = GBuffer(cam, np.full((h, w), np.inf, np.float32),
-                 np.tile(np.float32([0, 0, 1]), (h, w, 1)), np.zeros((h, w), np.uint32),
-                 np.zeros((h, w, 3), np.float32), materials=[Reflectance.constant(0.3)])
-    tex = GBufferTextures(device, w, h)
-    tex.upload(gb)
+    tex = _open_water_textures(device, cam)
     kw = dict(a=med["a"], b=med["b"], e0=med["e0"], response_weights=med["response_weights"])
     early, late = (surface_facets(Waves(6.0, grid=32, time_s=t)) for t in (0.0, 1.1))
     moved = BelowWavesPass(device, w, h)
@@ -125,3 +115,15 @@ def test_set_slopes_moves_the_sea_without_new_tables(device):
     assert np.abs(first - want).max() > 0
     with pytest.raises(AquaspecError, match="this pass has the sea of a"):
         moved.set_slopes(surface_facets(Waves(6.0, grid=64)))
+
+
+def _open_water_textures(device, cam):
+    """The frame's G-buffer textures of a camera that sees only open water."""
+    from aquaspec.gpu.gbuffer import GBufferTextures
+    h, w = cam.height, cam.width
+    gb = GBuffer(cam, np.full((h, w), np.inf, np.float32),
+                 np.tile(np.float32([0, 0, 1]), (h, w, 1)), np.zeros((h, w), np.uint32),
+                 np.zeros((h, w, 3), np.float32), materials=[Reflectance.constant(0.3)])
+    tex = GBufferTextures(device, w, h)
+    tex.upload(gb)
+    return tex

@@ -13,8 +13,7 @@
 // (below_waves.sun_through_surface); under waves with unresolved slopes
 // (s2 > 0) the sun's glitter instead (below_waves.glitter_below). With a sun
 // the sky through the surface is the CIE clear sky about it (above_water.
-// sky_shape) against the uniform sky of the frame: the band loop then runs
-// for a flat sea too (its water terms cancel).
+// sky_shape) against the uniform sky of the frame, for a flat sea too.
 
 #include "fresnel.wgsl"
 #include "clear_sky.wgsl"
@@ -69,7 +68,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if (prm.sun_on == 1u) {
                 sky_gain = clear_sky(t, prm.sun_air, prm.sky_norm);
             }
-            if (prm.waves_on == 1u || prm.sun_on == 1u) {
+            if (prm.waves_on == 1u) {
                 let tf = fresnel_transmittance_out(v.y, prm.n_water);
                 let aw = table_at(v.y - 2.0 * cos_i * n.y);
                 let af = table_at(-v.y);
@@ -83,6 +82,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     let wavy = tw * nn * cs.y * sky_gain + (1.0 - tw) * ww;
                     let flat = tf * nn * cs.y + (1.0 - tf) * wf;
                     rgb = rgb + w * (exp(-cs.x * s) * (wavy - flat));
+                }
+            } else if (prm.sun_on == 1u) {
+                // A flat sea: only the clear sky's shape against the uniform sky.
+                for (var i = 0u; i < prm.n_bands; i = i + 1u) {
+                    let cs = bands[2u * i];
+                    rgb = rgb + bands[2u * i + 1u].xyz
+                        * (exp(-cs.x * s) * tw * nn * cs.y * (sky_gain - 1.0));
                 }
             }
             if (prm.sun_on == 1u && prm.s2 > 0.0) {
